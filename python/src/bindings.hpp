@@ -1,0 +1,11 @@
+// Declarations of the per-area binding functions that make up tubempc._core.
+#pragma once
+
+#include <pybind11/pybind11.h>
+
+namespace tubempc::python {
+
+void bind_core(pybind11::module_& m);
+void bind_so3(pybind11::module_& m);
+
+}  // namespace tubempc::python

@@ -1,0 +1,8 @@
+#include "bindings.hpp"
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "tubempc C++ core: gravity, dynamics, tube MPC (SI units throughout)";
+  m.attr("__version__") = TUBEMPC_PYTHON_MODULE_VERSION;
+  tubempc::python::bind_core(m);
+  tubempc::python::bind_so3(m);
+}

@@ -1,0 +1,17 @@
+"""tubempc: tube-based MPC with online disturbance identification for asteroid proximity operations.
+
+SI units throughout; frames are named in argument names and docstrings (see PAPER_NOTES.md).
+"""
+
+from __future__ import annotations
+
+from . import _core
+from ._core import build_info, so3
+
+__version__: str = _core.__version__
+
+__all__ = [
+    "__version__",
+    "build_info",
+    "so3",
+]

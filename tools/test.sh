@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# The test command (README): installs tubempc with its C++ test suite into .venv, then runs ctest
+# (GoogleTest) and pytest. One build tree serves both: build/test.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if [ ! -f /usr/include/gtest/gtest.h ]; then
+  echo "GoogleTest headers missing: installing Debian's libgtest-dev"
+  if [ "$(id -u)" = 0 ]; then SUDO=""; else SUDO="sudo"; fi
+  $SUDO apt-get update -q && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q libgtest-dev
+fi
+
+PY=${PYTHON:-python3}
+[ -x .venv/bin/python ] || "$PY" -m venv .venv
+.venv/bin/python -m pip install -q --upgrade pip
+export CMAKE_BUILD_PARALLEL_LEVEL=${CMAKE_BUILD_PARALLEL_LEVEL:-$(nproc)}
+.venv/bin/python -m pip install ".[test]" \
+  --config-settings=build-dir=build/test \
+  --config-settings=cmake.define.TUBEMPC_BUILD_TESTS=ON
+
+ctest --test-dir build/test --output-on-failure -j"$(nproc)"
+
+# pytest exit code 5 means "no tests collected": a failure here.
+set +e
+.venv/bin/python -m pytest "$@"
+rc=$?
+set -e
+if [ "$rc" = 5 ]; then echo "pytest collected no tests" >&2; exit 1; fi
+exit "$rc"
