@@ -1,4 +1,4 @@
-"""Command-line interface: ``tubempc --version`` and ``tubempc info``."""
+"""Command-line interface: ``tubempc --version``, ``tubempc info``, ``tubempc bench NAME``."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from . import __version__, build_info, so3
+from . import __version__, benchmarks, build_info, so3
 
 _PYTHON_PACKAGES = ("numpy", "scipy", "cvxpy", "clarabel", "osqp", "piqp")
 
@@ -50,6 +50,13 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     p_info = sub.add_parser("info", help="report the core's build and the Python dependencies")
     p_info.set_defaults(func=_cmd_info)
+    p_bench = sub.add_parser("bench", help="run a benchmark (see 'tubempc bench -h')")
+    bench_sub = p_bench.add_subparsers(dest="benchmark", required=True)
+    for name in benchmarks.available():
+        module = benchmarks.load(name)
+        p = bench_sub.add_parser(name, help=module.DESCRIPTION, description=module.DESCRIPTION)
+        module.add_arguments(p)
+        p.set_defaults(func=module.run)
     return parser
 
 

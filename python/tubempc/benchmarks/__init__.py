@@ -1,0 +1,24 @@
+"""Rerunnable benchmarks behind ``tubempc bench NAME``.
+
+Each module of this package is one benchmark and defines ``DESCRIPTION: str``,
+``add_arguments(parser: argparse.ArgumentParser) -> None`` and ``run(args: argparse.Namespace) -> int``.
+Every benchmark prints the machine it ran on and can write its figures as JSON (``--json PATH``).
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from types import ModuleType
+
+__all__ = ["available", "load"]
+
+
+def available() -> list[str]:
+    """Names of the benchmarks in this package."""
+    return sorted(m.name for m in pkgutil.iter_modules(__path__) if not m.name.startswith("_"))
+
+
+def load(name: str) -> ModuleType:
+    """Imports the benchmark module ``name``."""
+    return importlib.import_module(f"{__name__}.{name}")
