@@ -2,10 +2,9 @@
 
 from typing import Any
 
-import numpy as np
-import numpy.typing as npt
+from . import _so3
 
-from . import _so3 as so3
+so3 = _so3
 
 __version__: str
 
