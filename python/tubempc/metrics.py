@@ -1,0 +1,152 @@
+"""Closed-loop performance metrics (paper Eq. 54-55, Tables 3-4; PAPER_NOTES.md "Metrics").
+
+Arrays follow the state layout x = [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)] and the input
+layout u = [u_p (m/s^2, frame L), T (N m, frame B)]. ``x`` has T + 1 rows (k = 0..T), ``u`` has T rows.
+
+Definitions used throughout (the paper gives no index range; this is the project's reading):
+- J_p = sum_{k=0}^{T-1} ||x_p(k) - zbar_p(k)||^2_Q + ||u_p(k)||^2_R with Q = I, R = I (Eq. 54), and J_r
+  likewise for [phi, omega] and T (Eq. 55).
+- total control effort per group = sum_k ||u_g(k)||_2 (the paper's units m/s^2 and N m);
+  the translational delta-v = sum_k ||u_p(k)|| dt is reported beside it.
+- terminal error per state group = ||x_g(T) - x_f,g||_2; RMS error per state group =
+  sqrt(mean_k ||x_g(k) - zbar_g(k)||^2) over k = 0..T.
+- tube excursion = max_k e_k^T Pe_k^-1 e_k with e_k = x_k - z_k per subsystem (<= 1 inside the tube).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy.optimize import minimize_scalar
+
+__all__ = [
+    "GROUPS",
+    "ConvergenceFit",
+    "control_effort",
+    "fit_exponential_convergence",
+    "performance_index",
+    "rms_error",
+    "summarize",
+    "terminal_error",
+    "tube_excursion",
+]
+
+Array = npt.NDArray[np.float64]
+
+#: State groups (slices of the 12-state x) with their units.
+GROUPS: dict[str, tuple[slice, str]] = {
+    "position": (slice(0, 3), "m"),
+    "velocity": (slice(3, 6), "m/s"),
+    "attitude": (slice(6, 9), "rad"),
+    "angular_velocity": (slice(9, 12), "rad/s"),
+}
+_SUBSYSTEM_STATES = {"translation": slice(0, 6), "rotation": slice(6, 12)}
+_SUBSYSTEM_INPUTS = {"translation": slice(0, 3), "rotation": slice(3, 6)}
+
+
+def _check(x: Array, zbar: Array, u: Array | None = None) -> None:
+    if x.ndim != 2 or x.shape[1] != 12 or x.shape != zbar.shape:
+        raise ValueError(f"x and zbar must both be (T+1, 12), got {x.shape} and {zbar.shape}")
+    if u is not None and (u.ndim != 2 or u.shape != (x.shape[0] - 1, 6)):
+        raise ValueError(f"u must be (T, 6) for x of shape {x.shape}, got {u.shape}")
+    for name, a in (("x", x), ("zbar", zbar), ("u", u)):
+        if a is not None and not np.all(np.isfinite(a)):
+            raise ValueError(f"{name} contains non-finite values")
+
+
+def performance_index(
+    x: Array, zbar: Array, u: Array, subsystem: str, Q: Array | None = None, R: Array | None = None
+) -> float:
+    """J_p (``subsystem="translation"``) or J_r (``"rotation"``) of paper Eq. (54)-(55)."""
+    _check(x, zbar, u)
+    sx, su = _SUBSYSTEM_STATES[subsystem], _SUBSYSTEM_INPUTS[subsystem]
+    e = (x[:-1, sx] - zbar[:-1, sx])
+    uu = u[:, su]
+    Qm = np.eye(6) if Q is None else np.asarray(Q, dtype=float)
+    Rm = np.eye(3) if R is None else np.asarray(R, dtype=float)
+    return float(np.einsum("ki,ij,kj->", e, Qm, e) + np.einsum("ki,ij,kj->", uu, Rm, uu))
+
+
+def control_effort(u: Array, dt: float) -> dict[str, float]:
+    """Sum of input norms per group (m/s^2 and N m) and the translational delta-v (m/s)."""
+    up, tq = np.linalg.norm(u[:, 0:3], axis=1), np.linalg.norm(u[:, 3:6], axis=1)
+    return {"translation": float(up.sum()), "rotation": float(tq.sum()), "delta_v": float(up.sum() * dt)}
+
+
+def terminal_error(x: Array, x_f: Array) -> dict[str, float]:
+    """||x_g(T) - x_f,g|| per state group."""
+    return {g: float(np.linalg.norm(x[-1, s] - x_f[s])) for g, (s, _) in GROUPS.items()}
+
+
+def rms_error(x: Array, zbar: Array) -> dict[str, float]:
+    """sqrt(mean_k ||x_g(k) - zbar_g(k)||^2) per state group."""
+    _check(x, zbar)
+    return {g: float(np.sqrt(np.mean(np.sum((x[:, s] - zbar[:, s]) ** 2, axis=1)))) for g, (s, _) in GROUPS.items()}
+
+
+def tube_excursion(x: Array, z: Array, Pe: Array) -> Array:
+    """e_k^T Pe_k^-1 e_k for each k, with e = x - z (n_k, n) and Pe (n_k, n, n) or one (n, n)."""
+    e = np.asarray(x, dtype=float) - np.asarray(z, dtype=float)
+    P = np.broadcast_to(np.asarray(Pe, dtype=float), (e.shape[0], e.shape[1], e.shape[1]))
+    return np.asarray(np.einsum("ki,ki->k", e, np.linalg.solve(P, e[..., None])[..., 0]), dtype=float)
+
+
+@dataclass(frozen=True)
+class ConvergenceFit:
+    """Envelope ||e_k|| <= C rho^k ||e_0|| + ebar (paper Theorem 2, Eq. 46) fitted to error data."""
+
+    C: float
+    rho: float
+    ebar: float
+    e0: float
+
+    def bound(self, k: npt.ArrayLike) -> Array:
+        return self.C * self.rho ** np.asarray(k, dtype=float) * self.e0 + self.ebar
+
+
+def fit_exponential_convergence(errors: npt.ArrayLike, ebar: float | None = None) -> ConvergenceFit:
+    """Tightest exponential envelope of an error-norm sequence.
+
+    ``ebar`` defaults to the largest error over the last quarter of the run (the bounded residual the
+    disturbance leaves). For each rho in (0, 1) the smallest C with e_k <= C rho^k e_0 + ebar for all k
+    is taken; rho minimises the envelope's area sum_k C rho^k e_0 (bounded scalar search on log rho).
+    """
+    e = np.asarray(errors, dtype=float)
+    if e.ndim != 1 or e.size < 3 or not np.all(np.isfinite(e)) or np.any(e < 0):
+        raise ValueError("errors must be a 1-D sequence of >= 3 finite non-negative norms")
+    eb = float(np.max(e[-max(1, e.size // 4):])) if ebar is None else float(ebar)
+    e0 = float(e[0])
+    if e0 <= 0.0:
+        raise ValueError("the initial error ||e_0|| must be positive")
+    k = np.arange(e.size, dtype=float)
+    excess = e - eb
+    active = excess > 0.0
+    if not np.any(active):
+        return ConvergenceFit(C=0.0, rho=0.0, ebar=eb, e0=e0)
+    log_excess, k_active = np.log(excess[active] / e0), k[active]
+
+    def log_c(log_rho: float) -> float:  # log of the smallest C for this rho (log space: rho^k underflows)
+        return float(np.max(log_excess - k_active * log_rho))
+
+    def log_area(log_rho: float) -> float:
+        rho = np.exp(log_rho)
+        return log_c(log_rho) + float(np.log((1.0 - rho**e.size) / (1.0 - rho)))
+
+    res = minimize_scalar(log_area, bounds=(np.log(1e-6), np.log(1.0 - 1e-9)), method="bounded",
+                          options={"xatol": 1e-12})
+    return ConvergenceFit(C=float(np.exp(log_c(res.x))), rho=float(np.exp(res.x)), ebar=eb, e0=e0)
+
+
+def summarize(
+    x: Array, zbar: Array, u: Array, dt: float, x_f: Array, Q: Array | None = None, R: Array | None = None
+) -> dict[str, object]:
+    """All scalar metrics of one closed-loop run as a JSON-ready dict."""
+    return {
+        "J_p": performance_index(x, zbar, u, "translation", Q, R),
+        "J_r": performance_index(x, zbar, u, "rotation", Q, R),
+        "control_effort": control_effort(u, dt),
+        "terminal_error": terminal_error(x, x_f),
+        "rms_error": rms_error(x, zbar),
+    }
