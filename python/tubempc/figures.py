@@ -1,0 +1,274 @@
+"""Figures equivalent to the paper's Figures 3-18, drawn with matplotlib (Agg) from result arrays.
+
+Every function takes the arrays of a closed-loop result (see :mod:`tubempc.closed_loop`; names and
+shapes: ``t`` (T+1,), ``x``/``zbar`` (T+1, 12), ``z`` (T, 12) nominal initial states, ``z_plan``
+(T, N+1, 12) predicted horizons, ``u``/``v`` (T, 6), ``Pe_p``/``Pe_r`` (T, 6, 6), ``w``/``w_hat``
+(T, 12), ``S_p``/``S_r`` (T, 6, 6), ``g`` (T+1, 2) constraint values) and returns a Figure, which
+:func:`save` writes as PNG. Units are SI and written on every axis.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+from .metrics import ConvergenceFit  # noqa: E402
+
+__all__ = [
+    "constraints",
+    "controls",
+    "convergence",
+    "disturbances",
+    "errors",
+    "lambda_sensitivity",
+    "montecarlo_envelopes",
+    "save",
+    "states",
+    "trajectory_3d",
+    "tube_projections",
+]
+
+Result = Mapping[str, Any]
+_STATE_LABELS = [
+    ("x (m)", "y (m)", "z (m)"),
+    ("vx (m/s)", "vy (m/s)", "vz (m/s)"),
+    ("phi_x (rad)", "phi_y (rad)", "phi_z (rad)"),
+    ("omega_x (rad/s)", "omega_y (rad/s)", "omega_z (rad/s)"),
+]
+_GROUP_TITLES = ["position r_L", "velocity v_L", "attitude phi (Lie algebra)", "angular velocity omega_BL_B"]
+_COLORS = {"tbmpc": "tab:orange", "ffa": "tab:blue", "ref": "k"}
+
+
+def save(fig: Figure, path: str | Path, dpi: int = 110) -> Path:
+    """Writes the figure as PNG and closes it."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(p, dpi=dpi, bbox_inches="tight")
+    plt.close(fig)
+    return p
+
+
+def _cone_surface(ax: Any, half_angle: float, height: float, color: str, label: str) -> None:
+    h = np.linspace(0.0, height, 12)
+    th = np.linspace(0.0, 2 * np.pi, 48)
+    H, TH = np.meshgrid(h, th)
+    R = H * np.tan(half_angle)
+    ax.plot_surface(R * np.cos(TH), R * np.sin(TH), H, color=color, alpha=0.08, linewidth=0)
+    ax.plot([], [], color=color, alpha=0.4, label=label)
+
+
+def trajectory_3d(results: Mapping[str, Result], glide_slope_rad: float, every: int = 25) -> Figure:
+    """Fig. 3: actual trajectories in L with the glide-slope cone and predicted horizons."""
+    fig = plt.figure(figsize=(7.5, 6.5))
+    ax = fig.add_subplot(projection="3d")
+    ref = next(iter(results.values()))["zbar"]
+    _cone_surface(ax, glide_slope_rad, float(np.max(ref[:, 2])) * 1.05, "tab:green", "glide-slope cone")
+    ax.plot(ref[:, 0], ref[:, 1], ref[:, 2], "k--", lw=1, label="reference")
+    for name, r in results.items():
+        x = r["x"]
+        ax.plot(x[:, 0], x[:, 1], x[:, 2], color=_COLORS.get(name), lw=1.5, label=f"{name} actual")
+        for k in range(0, r["z_plan"].shape[0], every):
+            zp = r["z_plan"][k]
+            ax.plot(zp[:, 0], zp[:, 1], zp[:, 2], color=_COLORS.get(name), lw=0.6, alpha=0.5)
+    ax.scatter(*ref[0, :3], color="g", s=30, label="start")
+    ax.scatter(*ref[-1, :3], color="r", s=30, label="landing site")
+    ax.set_xlabel("x_L (m)")
+    ax.set_ylabel("y_L (m)")
+    ax.set_zlabel("z_L (m)")
+    ax.set_title("Trajectory in L, predicted horizons (thin) every %d steps" % every)
+    ax.legend(loc="upper left", fontsize=8)
+    return fig
+
+
+def states(results: Mapping[str, Result]) -> Figure:
+    """Figs. 4-5: the 12 states against the reference."""
+    fig, axes = plt.subplots(4, 3, figsize=(12, 11), sharex=True)
+    for name, r in results.items():
+        t = r["t"]
+        for g in range(4):
+            for i in range(3):
+                axes[g, i].plot(t, r["x"][:, 3 * g + i], color=_COLORS.get(name), lw=1.2, label=name)
+    ref = next(iter(results.values()))
+    for g in range(4):
+        for i in range(3):
+            ax = axes[g, i]
+            ax.plot(ref["t"], ref["zbar"][:, 3 * g + i], "k--", lw=0.8, label="reference")
+            ax.set_ylabel(_STATE_LABELS[g][i])
+            ax.grid(alpha=0.3)
+        axes[g, 1].set_title(_GROUP_TITLES[g])
+    for i in range(3):
+        axes[-1, i].set_xlabel("t (s)")
+    axes[0, 0].legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def errors(results: Mapping[str, Result]) -> Figure:
+    """Figs. 6-7: tracking errors x - zbar per state."""
+    fig, axes = plt.subplots(4, 3, figsize=(12, 11), sharex=True)
+    for name, r in results.items():
+        e = r["x"] - r["zbar"]
+        for g in range(4):
+            for i in range(3):
+                axes[g, i].plot(r["t"], e[:, 3 * g + i], color=_COLORS.get(name), lw=1.0, label=name)
+    for g in range(4):
+        for i in range(3):
+            axes[g, i].set_ylabel("error " + _STATE_LABELS[g][i])
+            axes[g, i].grid(alpha=0.3)
+        axes[g, 1].set_title("tracking error, " + _GROUP_TITLES[g])
+    for i in range(3):
+        axes[-1, i].set_xlabel("t (s)")
+    axes[0, 0].legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def controls(results: Mapping[str, Result], u_max: float, T_max: float) -> Figure:
+    """Fig. 8: commanded acceleration (L) and torque (B) with their limits."""
+    fig, axes = plt.subplots(2, 3, figsize=(12, 6), sharex=True)
+    labels = [("u_x (m/s^2)", "u_y (m/s^2)", "u_z (m/s^2)"), ("T_x (N m)", "T_y (N m)", "T_z (N m)")]
+    for name, r in results.items():
+        t = r["t"][:-1]
+        for g in range(2):
+            for i in range(3):
+                axes[g, i].step(t, r["u"][:, 3 * g + i], where="post", color=_COLORS.get(name), lw=1.0, label=name)
+    for g, lim in enumerate((u_max, T_max)):
+        for i in range(3):
+            ax = axes[g, i]
+            ax.axhline(lim, color="r", ls=":", lw=0.8)
+            ax.axhline(-lim, color="r", ls=":", lw=0.8)
+            ax.set_ylabel(labels[g][i])
+            ax.grid(alpha=0.3)
+    for i in range(3):
+        axes[-1, i].set_xlabel("t (s)")
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle("Inputs (dotted: limits)")
+    fig.tight_layout()
+    return fig
+
+
+def disturbances(results: Mapping[str, Result], pw_scale: float = 9.0) -> Figure:
+    """Figs. 9-11: measured exogenous inputs w with the identified mean and sqrt(scale) sigma bounds."""
+    fig, axes = plt.subplots(4, 3, figsize=(12, 11), sharex=True)
+    k_sigma = float(np.sqrt(pw_scale))
+    for name, r in results.items():
+        t = r["t"][1:]
+        S = np.concatenate([np.diagonal(r["S_p"], axis1=1, axis2=2), np.diagonal(r["S_r"], axis1=1, axis2=2)], axis=1)
+        for j in range(12):
+            ax = axes[j // 3, j % 3]
+            c = _COLORS.get(name)
+            ax.plot(t, r["w"][:, j], color=c, lw=0.6, alpha=0.7, label=f"{name} w")
+            bound = k_sigma * np.sqrt(S[:, j])
+            ax.plot(t, r["w_hat"][:, j] + bound, color=c, lw=1.0, ls="--", label=f"{name} ±{k_sigma:.0f} sigma")
+            ax.plot(t, r["w_hat"][:, j] - bound, color=c, lw=1.0, ls="--")
+    for g in range(4):
+        for i in range(3):
+            axes[g, i].set_ylabel("w " + _STATE_LABELS[g][i])
+            axes[g, i].grid(alpha=0.3)
+    for i in range(3):
+        axes[-1, i].set_xlabel("t (s)")
+    axes[0, 0].legend(fontsize=7)
+    fig.suptitle("Exogenous inputs per step and identified bounds")
+    fig.tight_layout()
+    return fig
+
+
+def tube_projections(results: Mapping[str, Result]) -> Figure:
+    """Fig. 12 (and 10): error x - z against the tube's half-widths sqrt(Pe_ii) per state."""
+    fig, axes = plt.subplots(4, 3, figsize=(12, 11), sharex=True)
+    for name, r in results.items():
+        t = r["t"][:-1]
+        e = r["x"][:-1] - r["z"]
+        half = np.sqrt(np.concatenate([np.diagonal(r["Pe_p"], axis1=1, axis2=2),
+                                       np.diagonal(r["Pe_r"], axis1=1, axis2=2)], axis=1))
+        for j in range(12):
+            ax = axes[j // 3, j % 3]
+            c = _COLORS.get(name)
+            ax.plot(t, e[:, j], color=c, lw=1.0, label=f"{name} x - z")
+            ax.fill_between(t, -half[:, j], half[:, j], color=c, alpha=0.12, label=f"{name} tube")
+    for g in range(4):
+        for i in range(3):
+            axes[g, i].set_ylabel(_STATE_LABELS[g][i])
+            axes[g, i].grid(alpha=0.3)
+    for i in range(3):
+        axes[-1, i].set_xlabel("t (s)")
+    axes[0, 0].legend(fontsize=7)
+    fig.suptitle("Actual minus nominal state inside the tube projections")
+    fig.tight_layout()
+    return fig
+
+
+def constraints(results: Mapping[str, Result]) -> Figure:
+    """Fig. 13: glide-slope and line-of-sight constraint values g (feasible when g <= 0)."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for name, r in results.items():
+        for j, title in enumerate(("glide slope", "line of sight")):
+            axes[j].plot(r["t"], r["g"][:, j], color=_COLORS.get(name), label=name)
+            axes[j].set_title(f"{title}: g(x) <= 0")
+    for ax in axes:
+        ax.axhline(0.0, color="r", ls=":")
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("g (m)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def convergence(t: np.ndarray, err: np.ndarray, fit: ConvergenceFit, label: str) -> Figure:
+    """Fig. 14: error norm with the fitted envelope C rho^k ||e_0|| + ebar (Theorem 2)."""
+    fig, ax = plt.subplots(figsize=(7, 4))
+    k = np.arange(err.size)
+    ax.semilogy(t[: err.size], err, label=f"||{label}||")
+    ax.semilogy(t[: err.size], fit.bound(k), "r--",
+                label=f"C rho^k ||e0|| + ebar (C||e0||={fit.C * fit.e0:.3g}, rho={fit.rho:.4f})")
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel(f"||{label}||")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    return fig
+
+
+def lambda_sensitivity(t: np.ndarray, errors_by_lambda: Mapping[str, np.ndarray],
+                       tube_by_lambda: Mapping[str, np.ndarray], state_label: str) -> Figure:
+    """Figs. 15-16: error of one state and the tube half-width against the forgetting factor."""
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4))
+    for lam, e in errors_by_lambda.items():
+        axes[0].plot(t[: e.size], e, lw=1.0, label=lam)
+    for lam, h in tube_by_lambda.items():
+        axes[1].plot(t[: h.size], h, lw=1.0, label=lam)
+    axes[0].set_title(f"error {state_label}")
+    axes[1].set_title(f"tube half-width sqrt(Pe_ii), {state_label}")
+    for ax in axes:
+        ax.set_xlabel("t (s)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def montecarlo_envelopes(t: np.ndarray, errors: Sequence[np.ndarray], half_width: np.ndarray,
+                         labels: Sequence[str], title: str) -> Figure:
+    """Figs. 17-18: Monte Carlo error trajectories (x - z) against the tube half-widths."""
+    n = len(labels)
+    fig, axes = plt.subplots(1, n, figsize=(4 * n, 3.6), sharex=True)
+    for j, ax in enumerate(np.atleast_1d(axes)):
+        for e in errors:
+            ax.plot(t[: e.shape[0]], e[:, j], color="tab:blue", lw=0.4, alpha=0.35)
+        ax.plot(t[: half_width.shape[0]], half_width[:, j], "r--", lw=1.0, label="largest tube half-width")
+        ax.plot(t[: half_width.shape[0]], -half_width[:, j], "r--", lw=1.0)
+        ax.set_title(labels[j])
+        ax.set_xlabel("t (s)")
+        ax.grid(alpha=0.3)
+    np.atleast_1d(axes)[0].legend(fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    return fig
