@@ -130,6 +130,10 @@ def _as_matrix(name: str, M: ArrayLike, shape: tuple[int, int]) -> FloatArray:
     return out
 
 
+# Cold-start alpha grid, denser towards 1 where slowly contracting subsystems have their optimum.
+_ALPHA_GRID = (0.1, 0.3, 0.5, 0.7, 0.85, 0.93, 0.97, 0.99, 0.997)
+
+
 class TubeDesigner:
     """Tube design (K, Pe, alpha) for one subsystem (paper Eq. 25; PAPER_NOTES "Tube MPC").
 
@@ -142,7 +146,9 @@ class TubeDesigner:
     initial half-width of the warm-start bracket around alpha_prev, in logit units
     s = ln(alpha / (1 - alpha)); s_xtol, obj_rtol: stop when the bracket is narrower than
     s_xtol or the first-order bound on the remaining improvement is below obj_rtol times the
-    objective; max_solves: cap per design; residual_tol: a solution whose recomputed
+    objective; max_solves: cap on the solves of one design (the cold-start grid is always
+    evaluated in full; max_solves = 1 or 2 gives a fixed-cost warm update: alpha_prev
+    only, or alpha_prev and one probe); residual_tol: a solution whose recomputed
     lmi_residual exceeds it gets status INVALID. solver_options are passed to cvxpy's solve.
     """
 
@@ -157,17 +163,7 @@ class TubeDesigner:
         solver: str = "CLARABEL",
         state_scale: ArrayLike | None = None,
         lmi_margin: float = 1e-7,
-        alpha_grid: tuple[float, ...] = (
-            0.1,
-            0.3,
-            0.5,
-            0.7,
-            0.85,
-            0.93,
-            0.97,
-            0.99,
-            0.997,
-        ),
+        alpha_grid: tuple[float, ...] = _ALPHA_GRID,
         warm_halfwidth: float = 0.05,
         s_xtol: float = 2e-3,
         obj_rtol: float = 2e-3,
@@ -204,6 +200,7 @@ class TubeDesigner:
         self.residual_tol = residual_tol
         self.solver_options = dict(solver_options or {})
         self.last_feasible: TubeResult | None = None
+        self._PW_s = np.eye(n_x)  # scaled P_W of the current design
         self._build(lmi_margin)
 
     def _check_scale(self, scale: ArrayLike) -> FloatArray:
