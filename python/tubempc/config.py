@@ -404,6 +404,19 @@ def _angle_power(q: Any) -> int:
     return sum(round(float(p)) for name, p in q.unit_items() if name in _ANGLE_UNITS)
 
 
+def _describe(q: Any) -> str:
+    """Name of q's kind among the quantities of the schema, else its pint dimensionality."""
+    for cls in _SECTIONS.values():
+        for f in fields(cls):
+            spec: _Spec = f.metadata["spec"]
+            if spec.unit:
+                ref = _UREG.Quantity(1.0, spec.unit)
+                same = ref.dimensionality == q.dimensionality
+                if same and _angle_power(ref) == _angle_power(q):
+                    return spec.quantity
+    return "dimensionless" if q.dimensionless else str(q.dimensionality)
+
+
 def _parse_quantity(spec: _Spec, raw: Any, where: str) -> Any:
     if spec.shape == ():
         if not isinstance(raw, str):
@@ -433,8 +446,7 @@ def _parse_quantity(spec: _Spec, raw: Any, where: str) -> Any:
         expected
     ):
         raise ConfigError(
-            f"{where}: expected {spec.quantity} [{spec.unit}], got {raw!r} "
-            f"[{q.dimensionality if not q.dimensionless else 'dimensionless'}]"
+            f"{where}: expected {spec.quantity} [{spec.unit}], got {raw!r} [{_describe(q)}]"
         )
     factor = float(q.to(spec.unit).magnitude)
     if magnitude is None:

@@ -118,7 +118,7 @@ def test_overrides(default: Config) -> None:
             r'^u_max = "0.55 m/s\^2"',
             'u_max = "0.55 m/s"',
             "spacecraft.u_max",
-            "acceleration",
+            "expected acceleration [m/s^2], got '0.55 m/s' [velocity]",
         ),
         (r'^T_max = "3 N m"', 'T_max = "3 N"', "spacecraft.T_max", "torque"),
         (
