@@ -1,0 +1,547 @@
+"""Scenario configuration: one TOML file with units, parsed into SI (PAPER_NOTES "Scenario
+(Tables 1 and 2)" and the sections it cites for each option).
+
+Quantities are written with units: a scalar as a string ("0.55 m/s^2", "70 deg"), a vector
+or matrix as a table {value = [...], unit = "m"}; dimensionless numbers (N, forgetting
+factors, weights) as plain numbers; options as strings. Parsing uses pint; the result is a
+tree of frozen dataclasses holding SI floats and read-only numpy arrays (angles in rad).
+Every problem raises ConfigError naming the file and the dotted field.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.resources
+import json
+import math
+import tomllib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any, TypeVar
+
+import numpy as np
+import pint
+import tomli_w
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+_UREG: Any = pint.UnitRegistry()
+_ANGLE_UNITS = frozenset(
+    {"radian", "degree", "arcminute", "arcsecond", "turn", "revolution", "milliradian"}
+)
+_DEFAULT = "bennu_paper.toml"
+
+
+_Meta = dict[str, Any]
+
+
+class ConfigError(ValueError):
+    """Invalid scenario configuration; the message names the file and the dotted field."""
+
+
+@dataclass(frozen=True)
+class _Spec:
+    """How one field is written in TOML and checked.
+
+    unit: SI unit string of a quantity ("" for a dimensionless number), None for a string
+    option or an integer; quantity: its name in messages; shape: () for a scalar; check: a
+    predicate on the SI value with its description.
+    """
+
+    unit: str | None = ""
+    quantity: str = "dimensionless"
+    shape: tuple[int, ...] = ()
+    check: tuple[Callable[[Any], bool], str] | None = None
+    choices: tuple[str, ...] | None = None
+    integer: bool = False
+
+
+_Check = tuple[Callable[[Any], bool], str] | None
+
+
+def _q(
+    unit: str, quantity: str, shape: tuple[int, ...] = (), check: _Check = None
+) -> _Meta:
+    """Field metadata of a quantity with an SI unit."""
+    return {"spec": _Spec(unit, quantity, shape, check)}
+
+
+def _num(shape: tuple[int, ...] = (), check: _Check = None) -> _Meta:
+    """Field metadata of a dimensionless number or array."""
+    return {"spec": _Spec("", "dimensionless", shape, check)}
+
+
+def _int(check: _Check = None) -> _Meta:
+    """Field metadata of an integer."""
+    return {"spec": _Spec(None, "integer", (), check, integer=True)}
+
+
+def _opt(*choices: str) -> _Meta:
+    """Field metadata of a string option (any non-empty string if no choices)."""
+    return {"spec": _Spec(None, "option", (), None, choices or None)}
+
+
+_POS = (lambda v: bool(np.all(np.asarray(v) > 0.0)), "> 0")
+_NONNEG = (lambda v: bool(np.all(np.asarray(v) >= 0.0)), ">= 0")
+_UNIT_INTERVAL = (lambda v: 0.0 < v < 1.0, "in (0, 1)")
+_FRACTION = (lambda v: 0.0 <= v < 1.0, "in [0, 1)")
+_HALF_TURN = (lambda v: 0.0 < v < math.pi, "in (0, 180) deg")
+_SIGN = (lambda v: v in (-1, 1), "+1 or -1")
+_GE1 = (lambda v: v >= 1, ">= 1")
+_NONZERO = (lambda v: float(np.linalg.norm(v)) > 0.0, "non-zero")
+_SPD = (
+    lambda v: bool(
+        np.allclose(v, np.asarray(v).T) and np.linalg.eigvalsh(v).min() > 0.0
+    ),
+    "symmetric positive definite",
+)
+
+
+@dataclass(frozen=True, eq=False)
+class Environment:
+    """Sun and solar radiation pressure (PAPER_NOTES "Translational dynamics")."""
+
+    mu_sun: float = field(metadata=_q("m^3/s^2", "gravitational parameter", check=_POS))
+    R: float = field(
+        metadata=_q("m", "length", check=_POS)
+    )  # heliocentric distance of the asteroid
+    beta_srp: float = field(
+        metadata=_q("m^3/s^2", "SRP coefficient", check=_POS)
+    )  # a_SRP = beta / R^2
+
+
+@dataclass(frozen=True, eq=False)
+class Asteroid:
+    """Bennu gravity, spin and shape (PAPER_NOTES "Gravity").
+
+    shape: "generated" or a path to a shape file (relative paths are relative to the TOML
+    file); shape_mean_radius is the mean radius of the generated shape. spin_sign: +1 for a
+    spin along +z_L (= z_A), -1 along -z_L.
+    """
+
+    G: float = field(metadata=_q("m^3/(kg*s^2)", "gravitational constant", check=_POS))
+    density: float = field(metadata=_q("kg/m^3", "density", check=_POS))
+    spin_period: float = field(metadata=_q("s", "time", check=_POS))
+    spin_sign: int = field(metadata=_int(check=_SIGN))
+    shape: str = field(metadata=_opt())
+    shape_mean_radius: float = field(metadata=_q("m", "length", check=_POS))
+
+
+@dataclass(frozen=True, eq=False)
+class Spacecraft:
+    """Inertia (B principal axes), input bounds and boresight (PAPER_NOTES "Attitude",
+    "Constraints")."""
+
+    J: FloatArray = field(metadata=_q("kg*m^2", "moment of inertia", (3, 3), _SPD))
+    u_max: float = field(metadata=_q("m/s^2", "acceleration", check=_POS))
+    T_max: float = field(metadata=_q("N*m", "torque", check=_POS))
+    boresight_B: FloatArray = field(metadata=_num((3,), _NONZERO))
+
+
+@dataclass(frozen=True, eq=False)
+class Constraints:
+    """Glide-slope and line-of-sight half-angles (PAPER_NOTES "Constraints")."""
+
+    glide_slope_angle: float = field(metadata=_q("rad", "angle", check=_HALF_TURN))
+    los_angle: float = field(metadata=_q("rad", "angle", check=_HALF_TURN))
+
+
+@dataclass(frozen=True, eq=False)
+class Mpc:
+    """Discretisation, horizon, SCP threshold and weights (PAPER_NOTES "Linearisation",
+    "Tube MPC"). Weights are diagonals, dimensionless as in Table 1. kinematics:
+    "first_order" (the paper's phi' = w) or "exact" (phi' = Jr^-1(phi) w)."""
+
+    dt: float = field(metadata=_q("s", "time", check=_POS))
+    N: int = field(metadata=_int(check=_GE1))
+    t_f: float = field(metadata=_q("s", "time", check=_POS))
+    eps: float = field(metadata=_num(check=_POS))
+    Q_p: FloatArray = field(metadata=_num((6,), _NONNEG))
+    Q_r: FloatArray = field(metadata=_num((6,), _NONNEG))
+    R_p: FloatArray = field(metadata=_num((3,), _POS))
+    R_r: FloatArray = field(metadata=_num((3,), _POS))
+    kinematics: str = field(metadata=_opt("first_order", "exact"))
+
+    @property
+    def n_steps(self) -> int:
+        """T = t_f / dt control steps."""
+        return round(self.t_f / self.dt)
+
+
+@dataclass(frozen=True, eq=False)
+class Boundary:
+    """Initial and terminal states (Table 2; PAPER_NOTES "Scenario"): r, v in L (m, m/s),
+    phi the rotation vector of q_B/L (rad), w = omega_B/L in B (rad/s). terminal: "paper"
+    (rf as given) or "altitude" (rf moved along its direction to terminal_altitude above
+    the surface)."""
+
+    r0: FloatArray = field(metadata=_q("m", "length", (3,)))
+    v0: FloatArray = field(metadata=_q("m/s", "velocity", (3,)))
+    phi0: FloatArray = field(metadata=_q("rad", "angle", (3,)))
+    w0: FloatArray = field(metadata=_q("rad/s", "angular velocity", (3,)))
+    rf: FloatArray = field(metadata=_q("m", "length", (3,)))
+    vf: FloatArray = field(metadata=_q("m/s", "velocity", (3,)))
+    phi_f: FloatArray = field(metadata=_q("rad", "angle", (3,)))
+    wf: FloatArray = field(metadata=_q("rad/s", "angular velocity", (3,)))
+    terminal: str = field(metadata=_opt("paper", "altitude"))
+    terminal_altitude: float = field(metadata=_q("m", "length", check=_POS))
+
+
+@dataclass(frozen=True, eq=False)
+class Identification:
+    """Forgetting-factor identification (PAPER_NOTES "Disturbance identification").
+
+    measured_input: "residual" (default) or "reference_deviation" (literal Eq. 26);
+    prior_weight: zeta(0) (0 = the paper's literal recursion, see identification.py);
+    pw_scale: P_W = pw_scale * S^; eig_floor: see ForgettingFactorIdentifier. Priors per
+    3-axis block: w0_* the mean, S0_* the per-axis variances (Table 1).
+    """
+
+    lambda_p: float = field(metadata=_num(check=_UNIT_INTERVAL))
+    lambda_r: float = field(metadata=_num(check=_UNIT_INTERVAL))
+    measured_input: str = field(metadata=_opt("residual", "reference_deviation"))
+    prior_weight: float = field(metadata=_num(check=_NONNEG))
+    pw_scale: float = field(metadata=_num(check=_POS))
+    eig_floor: float = field(metadata=_num(check=_POS))
+    w0_p_position: FloatArray = field(metadata=_q("m", "length", (3,)))
+    w0_p_velocity: FloatArray = field(metadata=_q("m/s", "velocity", (3,)))
+    w0_r_attitude: FloatArray = field(metadata=_q("rad", "angle", (3,)))
+    w0_r_rate: FloatArray = field(metadata=_q("rad/s", "angular velocity", (3,)))
+    S0_p_position: FloatArray = field(metadata=_q("m^2", "length^2", (3,), _POS))
+    S0_p_velocity: FloatArray = field(metadata=_q("m^2/s^2", "velocity^2", (3,), _POS))
+    S0_r_attitude: FloatArray = field(metadata=_q("rad^2", "angle^2", (3,), _POS))
+    S0_r_rate: FloatArray = field(
+        metadata=_q("rad^2/s^2", "angular velocity^2", (3,), _POS)
+    )
+
+    @property
+    def w0_p(self) -> FloatArray:
+        return np.concatenate([self.w0_p_position, self.w0_p_velocity])
+
+    @property
+    def w0_r(self) -> FloatArray:
+        return np.concatenate([self.w0_r_attitude, self.w0_r_rate])
+
+    @property
+    def S0_p(self) -> FloatArray:
+        return np.diag(np.concatenate([self.S0_p_position, self.S0_p_velocity]))
+
+    @property
+    def S0_r(self) -> FloatArray:
+        return np.diag(np.concatenate([self.S0_r_attitude, self.S0_r_rate]))
+
+
+@dataclass(frozen=True, eq=False)
+class Disturbance:
+    """Simulated disturbance (disturbances.py): additive, uniform in the ellipsoids with the
+    per-axis squared semi-axes S_*, plus actuator mismatch. Project defaults, not the
+    paper's (which does not give its realisation)."""
+
+    model: str = field(metadata=_opt("ellipsoid_uniform"))
+    seed: int = field(metadata=_int(check=(lambda v: v >= 0, ">= 0")))
+    S_p_position: FloatArray = field(metadata=_q("m^2", "length^2", (3,), _NONNEG))
+    S_p_velocity: FloatArray = field(
+        metadata=_q("m^2/s^2", "velocity^2", (3,), _NONNEG)
+    )
+    S_r_attitude: FloatArray = field(metadata=_q("rad^2", "angle^2", (3,), _NONNEG))
+    S_r_rate: FloatArray = field(
+        metadata=_q("rad^2/s^2", "angular velocity^2", (3,), _NONNEG)
+    )
+    scale_error_p: float = field(metadata=_num(check=_FRACTION))
+    misalignment_p: float = field(metadata=_q("rad", "angle", check=_FRACTION))
+    scale_error_r: float = field(metadata=_num(check=_FRACTION))
+    misalignment_r: float = field(metadata=_q("rad", "angle", check=_FRACTION))
+
+    @property
+    def S_p(self) -> FloatArray:
+        return np.diag(np.concatenate([self.S_p_position, self.S_p_velocity]))
+
+    @property
+    def S_r(self) -> FloatArray:
+        return np.diag(np.concatenate([self.S_r_attitude, self.S_r_rate]))
+
+
+_SECTIONS: dict[str, type] = {
+    "environment": Environment,
+    "asteroid": Asteroid,
+    "spacecraft": Spacecraft,
+    "constraints": Constraints,
+    "mpc": Mpc,
+    "boundary": Boundary,
+    "identification": Identification,
+    "disturbance": Disturbance,
+}
+
+
+@dataclass(frozen=True, eq=False)
+class Config:
+    """The whole scenario in SI. `source` (the file it came from) is not part of the content:
+    it is left out of to_dict(), equality and hash()."""
+
+    environment: Environment
+    asteroid: Asteroid
+    spacecraft: Spacecraft
+    constraints: Constraints
+    mpc: Mpc
+    boundary: Boundary
+    identification: Identification
+    disturbance: Disturbance
+    source: str = "<memory>"
+
+    def to_dict(self) -> dict[str, dict[str, Any]]:
+        """TOML-ready content in SI units (load(save(c)) == c exactly)."""
+        return {name: _section_to_dict(getattr(self, name)) for name in _SECTIONS}
+
+    def save(self, path: str | Path) -> None:
+        Path(path).write_bytes(tomli_w.dumps(self.to_dict()).encode())
+
+    def hash(self) -> str:
+        """sha256 of the canonical content (sorted JSON of to_dict())."""
+        text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    def with_overrides(self, overrides: Mapping[str, Any]) -> Config:
+        """Copy with dotted fields replaced, e.g. {"identification.lambda_p": 0.97}.
+
+        A value is SI (number or nested list) or, for a quantity, a string with its unit or
+        a {value, unit} table; the result is validated like a file.
+        """
+        data = self.to_dict()
+        for key, value in overrides.items():
+            section, _, name = key.partition(".")
+            if section not in data or name not in data[section]:
+                raise ConfigError(f"{self.source} (override): {key}: unknown field")
+            spec = _spec_of(_SECTIONS[section], name)
+            data[section][name] = _encode(spec, value) if _is_si(spec, value) else value
+        return _parse(data, f"{self.source} (override)")
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Config) and self.to_dict() == other.to_dict()
+
+    def __hash__(self) -> int:
+        return hash(self.hash())
+
+
+def _spec_of(cls: type, name: str) -> _Spec:
+    for f in fields(cls):
+        if f.name == name:
+            spec: _Spec = f.metadata["spec"]
+            return spec
+    raise KeyError(name)
+
+
+def _is_si(spec: _Spec, value: Any) -> bool:
+    return bool(spec.unit) and not isinstance(value, (str, Mapping))
+
+
+def _encode(spec: _Spec, value: Any) -> Any:
+    """SI value -> its TOML form."""
+    if spec.unit is None:
+        return value
+    if spec.shape == ():
+        v = float(value)
+        return f"{v!r} {spec.unit}" if spec.unit else v
+    lst = np.asarray(value, dtype=np.float64).tolist()
+    return {"value": lst, "unit": spec.unit} if spec.unit else lst
+
+
+def _section_to_dict(section: Any) -> dict[str, Any]:
+    return {
+        f.name: _encode(f.metadata["spec"], getattr(section, f.name))
+        for f in fields(section)
+    }
+
+
+def _parse_field(spec: _Spec, raw: Any, where: str) -> Any:
+    if spec.choices is not None or (spec.unit is None and not spec.integer):
+        if not isinstance(raw, str) or not raw:
+            raise ConfigError(f"{where}: expected a non-empty string, got {raw!r}")
+        if spec.choices is not None and raw not in spec.choices:
+            raise ConfigError(
+                f"{where}: expected one of {list(spec.choices)}, got {raw!r}"
+            )
+        return raw
+    if spec.integer:
+        if isinstance(raw, bool) or not isinstance(raw, int):
+            raise ConfigError(f"{where}: expected an integer, got {raw!r}")
+        value: Any = raw
+    elif spec.unit:
+        value = _parse_quantity(spec, raw, where)
+    else:
+        value = _parse_array(spec, raw, where)
+    if spec.check is not None:
+        predicate, text = spec.check
+        if not predicate(value):
+            raise ConfigError(f"{where}: expected {text}, got {raw!r}")
+    return value
+
+
+def _parse_array(spec: _Spec, raw: Any, where: str) -> Any:
+    if isinstance(raw, (bool, str, Mapping)):
+        raise ConfigError(
+            f"{where}: expected a number or array of numbers, got {raw!r}"
+        )
+    try:
+        arr = np.asarray(raw, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"{where}: expected numbers, got {raw!r}") from exc
+    if arr.shape != spec.shape:
+        raise ConfigError(
+            f"{where}: expected shape {spec.shape}, got {arr.shape} ({raw!r})"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise ConfigError(f"{where}: non-finite value in {raw!r}")
+    if spec.shape == ():
+        return float(arr)
+    arr.setflags(write=False)
+    return arr
+
+
+def _angle_power(q: Any) -> int:
+    """Total exponent of angle units in q (pint treats angles as dimensionless)."""
+    return sum(round(float(p)) for name, p in q.unit_items() if name in _ANGLE_UNITS)
+
+
+def _describe(q: Any) -> str:
+    """Name of q's kind among the quantities of the schema, else its pint dimensionality."""
+    for cls in _SECTIONS.values():
+        for f in fields(cls):
+            spec: _Spec = f.metadata["spec"]
+            if spec.unit:
+                ref = _UREG.Quantity(1.0, spec.unit)
+                same = ref.dimensionality == q.dimensionality
+                if same and _angle_power(ref) == _angle_power(q):
+                    return spec.quantity
+    return "dimensionless" if q.dimensionless else str(q.dimensionality)
+
+
+def _parse_quantity(spec: _Spec, raw: Any, where: str) -> Any:
+    if spec.shape == ():
+        if not isinstance(raw, str):
+            raise ConfigError(
+                f"{where}: expected a string with a unit like '1 {spec.unit}', got {raw!r}"
+            )
+        text, magnitude = raw, None
+    else:
+        if not isinstance(raw, Mapping) or set(raw) != {"value", "unit"}:
+            raise ConfigError(
+                f'{where}: expected a table {{value = [...], unit = "{spec.unit}"}}, got {raw!r}'
+            )
+        if not isinstance(raw["unit"], str):
+            raise ConfigError(f"{where}.unit: expected a string, got {raw['unit']!r}")
+        text, magnitude = (
+            raw["unit"],
+            _parse_array(spec, raw["value"], f"{where}.value"),
+        )
+    try:
+        q: Any = _UREG.Quantity(text)
+    except Exception as exc:  # pint raises several unrelated exception types
+        raise ConfigError(
+            f"{where}: cannot parse {text!r} as a quantity: {exc}"
+        ) from exc
+    expected = _UREG.Quantity(1.0, spec.unit)
+    if q.dimensionality != expected.dimensionality or _angle_power(q) != _angle_power(
+        expected
+    ):
+        raise ConfigError(
+            f"{where}: expected {spec.quantity} [{spec.unit}], got {raw!r} [{_describe(q)}]"
+        )
+    factor = float(q.to(spec.unit).magnitude)
+    if magnitude is None:
+        if not math.isfinite(factor):
+            raise ConfigError(f"{where}: non-finite value {raw!r}")
+        return factor
+    scale = float(_UREG.Quantity(1.0, text).to(spec.unit).magnitude)
+    arr = magnitude * scale
+    arr.setflags(write=False)
+    return arr
+
+
+_S = TypeVar("_S")
+
+
+def _parse_section(cls: type[_S], raw: Any, where: str) -> _S:
+    if not isinstance(raw, Mapping):
+        raise ConfigError(f"{where}: expected a table, got {raw!r}")
+    names = [f.name for f in fields(cls)]  # type: ignore[arg-type]
+    unknown = sorted(set(raw) - set(names))
+    if unknown:
+        raise ConfigError(
+            f"{where}.{unknown[0]}: unknown field (known: {', '.join(names)})"
+        )
+    missing = [n for n in names if n not in raw]
+    if missing:
+        raise ConfigError(f"{where}.{missing[0]}: missing field")
+    values = {
+        f.name: _parse_field(f.metadata["spec"], raw[f.name], f"{where}.{f.name}")
+        for f in fields(cls)  # type: ignore[arg-type]
+    }
+    return cls(**values)
+
+
+def _parse(data: Mapping[str, Any], source: str) -> Config:
+    unknown = sorted(set(data) - set(_SECTIONS))
+    if unknown:
+        raise ConfigError(
+            f"{source}: {unknown[0]}: unknown section (known: {', '.join(_SECTIONS)})"
+        )
+    missing = [s for s in _SECTIONS if s not in data]
+    if missing:
+        raise ConfigError(f"{source}: {missing[0]}: missing section")
+    sections: dict[str, Any] = {
+        name: _parse_section(cls, data[name], f"{source}: {name}")
+        for name, cls in _SECTIONS.items()
+    }
+    config = Config(**sections, source=source)
+    _check_consistency(config)
+    return config
+
+
+def _check_consistency(c: Config) -> None:
+    ratio = c.mpc.t_f / c.mpc.dt
+    if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
+        raise ConfigError(
+            f"{c.source}: mpc.t_f: {c.mpc.t_f} s is not a multiple of mpc.dt = {c.mpc.dt} s"
+        )
+    if c.mpc.N > c.mpc.n_steps:
+        raise ConfigError(
+            f"{c.source}: mpc.N: horizon {c.mpc.N} exceeds t_f / dt = {c.mpc.n_steps} steps"
+        )
+
+
+def load_config(path: str | Path | None = None) -> Config:
+    """Load and validate a scenario TOML (None: the packaged bennu_paper.toml)."""
+    if path is None:
+        resource = importlib.resources.files("tubempc").joinpath("data", _DEFAULT)
+        text, source = (
+            resource.read_text(encoding="utf-8"),
+            f"<package>/data/{_DEFAULT}",
+        )
+    else:
+        source = str(path)
+        try:
+            text = Path(path).read_text(encoding="utf-8")
+        except OSError as exc:
+            raise ConfigError(f"{source}: cannot read: {exc}") from exc
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{source}: invalid TOML: {exc}") from exc
+    return _parse(data, source)
+
+
+__all__ = [
+    "Asteroid",
+    "Boundary",
+    "Config",
+    "ConfigError",
+    "Constraints",
+    "Disturbance",
+    "Environment",
+    "Identification",
+    "Mpc",
+    "Spacecraft",
+    "load_config",
+]

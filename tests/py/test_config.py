@@ -1,0 +1,173 @@
+"""Scenario configuration (PAPER_NOTES "Scenario (Tables 1 and 2)")."""
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tubempc.config import Config, ConfigError, load_config
+
+
+@pytest.fixture(scope="module")
+def default() -> Config:
+    return load_config()
+
+
+def _default_text() -> str:
+    import importlib.resources
+
+    return (
+        importlib.resources.files("tubempc")
+        .joinpath("data", "bennu_paper.toml")
+        .read_text()
+    )
+
+
+def _write(tmp_path: Path, text: str) -> Path:
+    p = tmp_path / "scenario.toml"
+    p.write_text(text)
+    return p
+
+
+def _edit(text: str, pattern: str, repl: str) -> str:
+    new, n = re.subn(pattern, repl, text, count=1, flags=re.MULTILINE)
+    assert n == 1, pattern
+    return new
+
+
+def test_default_matches_the_paper(default: Config) -> None:
+    c = default
+    assert (
+        c.mpc.t_f == 600.0
+        and c.mpc.dt == 2.0
+        and c.mpc.N == 30
+        and c.mpc.n_steps == 300
+    )
+    assert c.mpc.eps == 1e-3 and c.mpc.kinematics == "first_order"
+    assert c.environment.R == 1.685e11 and c.environment.beta_srp == 1.7744e15
+    assert c.environment.mu_sun == 1.32712440018e20
+    assert c.asteroid.density == 1260.0 and c.asteroid.G == 6.6743e-11
+    assert c.asteroid.spin_period == pytest.approx(4.296 * 3600.0, rel=1e-15)
+    assert c.spacecraft.u_max == 0.55 and c.spacecraft.T_max == 3.0
+    np.testing.assert_array_equal(c.spacecraft.J, np.diag([2750.0, 2750.0, 2030.0]))
+    assert c.constraints.glide_slope_angle == pytest.approx(
+        math.radians(70.0), rel=1e-15
+    )
+    assert c.constraints.los_angle == pytest.approx(math.radians(80.0), rel=1e-15)
+    np.testing.assert_array_equal(c.mpc.Q_p, np.ones(6))
+    np.testing.assert_array_equal(c.mpc.R_p, np.full(3, 1e3))
+    np.testing.assert_array_equal(c.mpc.R_r, np.full(3, 1e4))
+    assert c.identification.lambda_p == 0.96 and c.identification.lambda_r == 0.98
+    assert c.identification.pw_scale == 9.0
+    assert c.identification.measured_input == "residual"
+    np.testing.assert_array_equal(
+        np.diag(c.identification.S0_p), [4e-2] * 3 + [2.5e-3] * 3
+    )
+    np.testing.assert_array_equal(
+        np.diag(c.identification.S0_r), [1e-6] * 3 + [1e-8] * 3
+    )
+    np.testing.assert_array_equal(c.identification.w0_p, np.zeros(6))
+    np.testing.assert_array_equal(c.boundary.r0, [959.2404, 162.4966, 752.7547])
+    np.testing.assert_array_equal(c.boundary.v0, [7.7649e-4, 0.0844, -0.0192])
+    np.testing.assert_array_equal(c.boundary.phi0, [0.3142, 2.925, 0.3142])
+    np.testing.assert_array_equal(c.boundary.w0, [1e-3, 0.0, 3e-3])
+    np.testing.assert_array_equal(c.boundary.rf, [0.0, 0.0, 246.5])
+    np.testing.assert_array_equal(c.boundary.phi_f, [0.0, 3.1416, 0.0])
+    assert c.boundary.terminal == "paper"
+    with pytest.raises(ValueError):
+        c.boundary.r0[0] = 0.0  # read-only arrays
+
+
+def test_round_trip_and_hash(default: Config, tmp_path: Path) -> None:
+    p = tmp_path / "saved.toml"
+    default.save(p)
+    again = load_config(p)
+    assert again == default
+    assert again.to_dict() == default.to_dict()
+    assert again.hash() == default.hash() == load_config().hash()
+    assert len(default.hash()) == 64
+    assert again.source == str(p) and default.source != again.source
+    changed = default.with_overrides({"identification.lambda_p": 0.97})
+    assert changed.identification.lambda_p == 0.97 and changed != default
+    assert changed.hash() != default.hash()
+
+
+def test_overrides(default: Config) -> None:
+    c = default.with_overrides(
+        {
+            "spacecraft.u_max": "500 mm/s^2",
+            "mpc.dt": 1.0,
+            "boundary.rf": [0.0, 0.0, 260.0],
+        }
+    )
+    assert c.spacecraft.u_max == pytest.approx(0.5)
+    assert c.mpc.dt == 1.0 and c.mpc.n_steps == 600
+    np.testing.assert_array_equal(c.boundary.rf, [0.0, 0.0, 260.0])
+    with pytest.raises(ConfigError, match=r"identification\.lambda_r"):
+        default.with_overrides({"identification.lambda_r": 1.2})
+    with pytest.raises(ConfigError, match=r"mpc\.nope: unknown"):
+        default.with_overrides({"mpc.nope": 1})
+
+
+@pytest.mark.parametrize(
+    ("pattern", "repl", "field", "message"),
+    [
+        (
+            r'^u_max = "0.55 m/s\^2"',
+            'u_max = "0.55 m/s"',
+            "spacecraft.u_max",
+            "expected acceleration [m/s^2], got '0.55 m/s' [velocity]",
+        ),
+        (r'^T_max = "3 N m"', 'T_max = "3 N"', "spacecraft.T_max", "torque"),
+        (
+            r'^glide_slope_angle = "70 deg"',
+            'glide_slope_angle = "70"',
+            "glide_slope_angle",
+            "angle",
+        ),
+        (r'^dt = "2 s"', 'dt = "2 m"', "mpc.dt", "time"),
+        (r"^u_max = .*$", "", "spacecraft.u_max", "missing field"),
+        (
+            r"^lambda_p = 0.96",
+            "lambda_p = 0.96\nlambda_q = 0.9",
+            "identification.lambda_q",
+            "unknown field",
+        ),
+        (
+            r"^r0 = \{ value = \[959.2404, 162.4966, 752.7547\]",
+            "r0 = { value = [959.2404, 162.4966]",
+            "boundary.r0",
+            "shape",
+        ),
+        (r"^Q_p = \[1.0, ", "Q_p = [", "mpc.Q_p", "shape"),
+        (r"^lambda_p = 0.96", "lambda_p = 1.0", "identification.lambda_p", "(0, 1)"),
+        (r"^N = 30", "N = 0", "mpc.N", ">= 1"),
+        (r'^t_f = "600 s"', 't_f = "601 s"', "mpc.t_f", "multiple"),
+        (r"^eps = 1e-3", "eps = nan", "mpc.eps", "non-finite"),
+        (
+            r'^kinematics = "first_order"',
+            'kinematics = "second"',
+            "mpc.kinematics",
+            "one of",
+        ),
+        (r'^u_max = "0.55 m/s\^2"', "u_max = 0.55", "spacecraft.u_max", "unit"),
+        (r"^\[disturbance\]", "[disturbanc]", "disturbanc", "unknown section"),
+    ],
+)
+def test_errors_name_file_and_field(
+    tmp_path: Path, pattern: str, repl: str, field: str, message: str
+) -> None:
+    p = _write(tmp_path, _edit(_default_text(), pattern, repl))
+    with pytest.raises(ConfigError) as info:
+        load_config(p)
+    text = str(info.value)
+    assert str(p) in text and field in text and message in text, text
+
+
+def test_invalid_toml_and_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="invalid TOML"):
+        load_config(_write(tmp_path, "a = = 1"))
+    with pytest.raises(ConfigError, match="cannot read"):
+        load_config(tmp_path / "missing.toml")

@@ -1,0 +1,195 @@
+"""Tube design (paper Eq. 25; PAPER_NOTES "Tube MPC")."""
+
+import time
+
+import numpy as np
+import pytest
+
+from tubempc.tube import (
+    TubeDesigner,
+    TubeResult,
+    TubeStatus,
+    input_tightening,
+    lmi_residual,
+    sample_invariance,
+    support,
+)
+
+DT = 2.0
+I3, Z3 = np.eye(3), np.zeros((3, 3))
+A_DI = np.block([[I3, DT * I3], [Z3, I3]])  # discrete double integrator, dt = 2 s
+B_TRANS = np.vstack([0.5 * DT**2 * I3, DT * I3])  # input u_p in m/s^2
+J = np.diag([2750.0, 2750.0, 2030.0])  # kg m^2
+B_ROT = np.vstack(
+    [0.5 * DT**2 * np.linalg.inv(J), DT * np.linalg.inv(J)]
+)  # torque in N m
+PW_TRANS = 9.0 * np.diag([4e-2] * 3 + [2.5e-3] * 3)  # Table 1, 3 sigma
+PW_ROT = 9.0 * np.diag([1e-6] * 3 + [1e-8] * 3)  # Table 1, 3 sigma: badly scaled
+U_MAX, T_MAX = 0.55, 3.0
+
+
+def _trans() -> TubeDesigner:
+    return TubeDesigner(Q=np.eye(6), R=1e3 * np.eye(3), u_max=U_MAX)
+
+
+def _rot(**kw: object) -> TubeDesigner:
+    return TubeDesigner(Q=np.eye(6), R=1e4 * np.eye(3), u_max=T_MAX, **kw)  # type: ignore[arg-type]
+
+
+@pytest.fixture(scope="module")
+def trans() -> tuple[TubeDesigner, TubeResult]:
+    d = _trans()
+    return d, d.design(A_DI, B_TRANS, PW_TRANS)
+
+
+@pytest.fixture(scope="module")
+def rot() -> tuple[TubeDesigner, TubeResult]:
+    d = _rot()
+    return d, d.design(A_DI, B_ROT, PW_ROT)
+
+
+def _check_valid(
+    r: TubeResult, A: np.ndarray, B: np.ndarray, PW: np.ndarray, u_max: float
+) -> None:
+    assert r.status is TubeStatus.OPTIMAL and r.feasible
+    assert r.K is not None and r.Pe is not None
+    assert 0.0 < r.alpha < 1.0
+    assert r.lmi_residual <= 1e-7
+    assert lmi_residual(A, B, r.K, r.Pe, PW, r.alpha) == r.lmi_residual
+    assert np.linalg.eigvalsh(r.Pe).min() > 0.0
+    rng = np.random.default_rng(0)
+    assert sample_invariance(A, B, r.K, r.Pe, PW, 4000, rng) <= 1.0 + 1e-6
+    assert np.abs(np.linalg.eigvals(A + B @ r.K)).max() < 1.0
+    assert np.all(input_tightening(r.K, r.Pe) <= u_max * (1.0 + 1e-7))
+
+
+def test_translational_tube_is_invariant(
+    trans: tuple[TubeDesigner, TubeResult],
+) -> None:
+    _check_valid(trans[1], A_DI, B_TRANS, PW_TRANS, U_MAX)
+    assert trans[1].objective > 0.0 and trans[1].n_solves >= 1
+
+
+def test_badly_scaled_rotational_tube_is_valid(
+    rot: tuple[TubeDesigner, TubeResult],
+) -> None:
+    _check_valid(rot[1], A_DI, B_ROT, PW_ROT, T_MAX)
+
+
+def test_scaling_is_what_makes_the_rotational_sdp_solvable() -> None:
+    # The same SDP without the diagonal state scaling (scale = 1) does not give a valid tube.
+    r = _rot(state_scale=np.ones(6)).design(A_DI, B_ROT, PW_ROT)
+    assert r.status is not TubeStatus.OPTIMAL or r.lmi_residual > 1e-6
+
+
+def test_checks_detect_a_non_invariant_tube(
+    trans: tuple[TubeDesigner, TubeResult],
+) -> None:
+    r = trans[1]
+    assert r.K is not None and r.Pe is not None
+    small = 0.5 * r.Pe
+    assert lmi_residual(A_DI, B_TRANS, r.K, small, PW_TRANS, r.alpha) > 0.1
+    rng = np.random.default_rng(1)
+    assert sample_invariance(A_DI, B_TRANS, r.K, small, PW_TRANS, 2000, rng) > 1.1
+
+
+def test_larger_disturbance_gives_larger_tube(
+    trans: tuple[TubeDesigner, TubeResult],
+) -> None:
+    d, r = trans
+    assert r.Pe is not None
+    big = d.design(A_DI, B_TRANS, 2.0 * PW_TRANS)
+    assert big.Pe is not None
+    assert np.trace(big.Pe) > 1.5 * np.trace(r.Pe)
+    assert np.trace(PW_TRANS @ np.linalg.inv(big.Pe)) < np.trace(
+        PW_TRANS @ np.linalg.inv(r.Pe)
+    )
+
+
+def test_alpha_search_beats_fixed_alpha(
+    trans: tuple[TubeDesigner, TubeResult], rot: tuple[TubeDesigner, TubeResult]
+) -> None:
+    for (d, r), A, B, PW in (
+        (trans, A_DI, B_TRANS, PW_TRANS),
+        (rot, A_DI, B_ROT, PW_ROT),
+    ):
+        fixed = d.design_fixed_alpha(A, B, PW, 0.5)
+        assert fixed.status is TubeStatus.OPTIMAL and fixed.n_solves == 1
+        assert r.objective < 0.99 * fixed.objective
+
+
+def test_warm_start_uses_few_solves(trans: tuple[TubeDesigner, TubeResult]) -> None:
+    d, r = trans
+    warm = d.design(A_DI, B_TRANS, 1.1 * PW_TRANS, alpha_prev=r.alpha)
+    cold = d.design(A_DI, B_TRANS, 1.1 * PW_TRANS)
+    assert warm.status is TubeStatus.OPTIMAL and warm.n_solves <= 3 < cold.n_solves
+    assert warm.objective <= cold.objective * (1.0 + 5e-3)
+    # Warm start far from the optimum widens the bracket and still finds it.
+    far = d.design(A_DI, B_TRANS, PW_TRANS, alpha_prev=0.2)
+    assert far.objective <= r.objective * (1.0 + 5e-3)
+
+
+def test_infeasible_is_reported_not_raised(
+    trans: tuple[TubeDesigner, TubeResult],
+) -> None:
+    d = _trans()
+    good = d.design(A_DI, B_TRANS, PW_TRANS)
+    assert d.last_feasible is good
+    tiny = TubeDesigner(Q=np.eye(6), R=1e3 * np.eye(3), u_max=1e-6)
+    bad = tiny.design(A_DI, B_TRANS, 1e4 * PW_TRANS)
+    assert bad.status is TubeStatus.INFEASIBLE and not bad.feasible
+    assert bad.K is None and bad.Pe is None and tiny.last_feasible is None
+    assert bad.n_solves == len(tiny.alpha_grid)
+    # The same designer keeps its last feasible tube when a later design fails.
+    d.u_max = 1e-6
+    assert d.design(A_DI, B_TRANS, 1e4 * PW_TRANS).status is TubeStatus.INFEASIBLE
+    assert d.last_feasible is good
+
+
+def test_problem_is_dpp_and_compiled_once() -> None:
+    d = _rot()
+    assert d.problem.is_dpp()
+    d.design_fixed_alpha(A_DI, B_ROT, PW_ROT, 0.9)
+    prog = d.problem._cache.param_prog
+    assert prog is not None
+    t0 = time.perf_counter()
+    d.design_fixed_alpha(A_DI + 1e-3, B_ROT, 2.0 * PW_ROT, 0.95)
+    elapsed = time.perf_counter() - t0
+    assert d.problem._cache.param_prog is prog  # no re-canonicalisation
+    assert d.problem.compilation_time is not None and d.problem.compilation_time < 0.05
+    assert elapsed < 1.0
+
+
+def test_support_and_input_tightening() -> None:
+    Pe = np.diag([4.0, 9.0, 1.0])
+    assert support(Pe, [1.0, 0.0, 0.0]) == pytest.approx(2.0)
+    assert support(Pe, [0.0, 1.0, 1.0]) == pytest.approx(np.sqrt(10.0))
+    K = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 1.0]])
+    np.testing.assert_allclose(input_tightening(K, Pe), [2.0, np.sqrt(10.0)])
+    rng = np.random.default_rng(5)
+    e = np.linalg.cholesky(Pe) @ rng.standard_normal((3, 5000))
+    e /= np.sqrt(np.einsum("ij,ij->j", e, np.linalg.solve(Pe, e)))  # on the boundary
+    a = np.array([0.3, -0.7, 0.2])
+    assert (a @ e).max() <= support(Pe, a) * (1 + 1e-12)
+    assert (a @ e).max() > 0.98 * support(Pe, a)
+
+
+def test_input_validation() -> None:
+    d = _trans()
+    with pytest.raises(ValueError, match="A"):
+        d.design(np.eye(5), B_TRANS, PW_TRANS)
+    with pytest.raises(ValueError, match="non-finite"):
+        d.design(A_DI, B_TRANS, np.full((6, 6), np.nan))
+    with pytest.raises(ValueError, match="alpha"):
+        d.design_fixed_alpha(A_DI, B_TRANS, PW_TRANS, 1.0)
+
+
+def test_dual_slope_matches_finite_difference() -> None:
+    # The alpha search relies on df/ds from the invariance LMI's dual (envelope theorem).
+    d = _trans()
+    d._set_data(A_DI, B_TRANS, PW_TRANS)
+    for s in (-0.5, 0.4, 1.5):
+        h = 1e-4
+        mid = d._evaluate(s)
+        fd = (d._evaluate(s + h).value - d._evaluate(s - h).value) / (2.0 * h)
+        assert mid.slope == pytest.approx(fd, rel=2e-3, abs=1e-6 * abs(mid.value))
