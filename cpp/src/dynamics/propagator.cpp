@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -17,7 +18,12 @@ struct Rhs {
   int* evaluations;
   TruthState operator()(double t, const TruthState& s) const {
     ++*evaluations;
-    return model.truth_derivative(t, s, u, d(t, s));
+    // A stage built from a non-finite derivative propagates NaN to the step's status check instead
+    // of reaching the gravity model or the quaternion normalisation (which would throw).
+    if (!s.allFinite()) return TruthState::Constant(std::numeric_limits<double>::quiet_NaN());
+    const Disturbance6 w = d(t, s);
+    if (!w.allFinite()) return TruthState::Constant(std::numeric_limits<double>::quiet_NaN());
+    return model.truth_derivative(t, s, u, w);
   }
 };
 
