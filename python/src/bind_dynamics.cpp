@@ -5,6 +5,8 @@
 #include <pybind11/functional.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
+#include <chrono>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -104,6 +106,83 @@ py::tuple discretize_horizon(const std::shared_ptr<ProximityModel>& self, double
     }
   }
   return py::make_tuple(A, B, c);
+}
+
+// Seconds per call of fn, the minimum over `batches` batches of `repeats` calls (one thread).
+template <typename F>
+double time_per_call(const F& fn, int repeats, int batches) {
+  double best = 1e300;
+  for (int b = 0; b < batches; ++b) {
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int i = 0; i < repeats; ++i) fn(i);
+    const std::chrono::duration<double> el = std::chrono::steady_clock::now() - t0;
+    best = std::min(best, el.count() / repeats);
+  }
+  return best;
+}
+
+// Timing of the C++ kernels without Python overhead, for `tubempc bench dynamics`.
+py::dict time_kernels(const std::shared_ptr<ProximityModel>& self, double t0, double dt,
+                      const Eigen::Ref<const RowMatrix>& x_ref, const Eigen::Ref<const RowMatrix>& u_ref, int repeats,
+                      int batches) {
+  if (x_ref.cols() != kNx || u_ref.cols() != kNu || x_ref.rows() != u_ref.rows() || x_ref.rows() < 1 ||
+      repeats < 1 || batches < 1) {
+    throw std::invalid_argument("time_kernels: x_ref (N, 12), u_ref (N, 6), repeats >= 1, batches >= 1");
+  }
+  const int N = static_cast<int>(x_ref.rows());
+  const Eigen::Matrix<double, kNx, Eigen::Dynamic> X = x_ref.transpose();
+  const Eigen::Matrix<double, kNu, Eigen::Dynamic> U = u_ref.transpose();
+  dynamics::DiscreteHorizon h(N);
+  const dynamics::LinearizedProximityModel lin(self);
+  const ProximityModel& m = *self;
+  double sink = 0.0;
+  double t_grav = 0.0, t_f = 0.0, t_lin = 0.0, t_disc = 0.0, t_hor = 0.0;
+  {
+    py::gil_scoped_release release;
+    t_grav = time_per_call(
+        [&](int i) {
+          Eigen::Vector3d a;
+          Eigen::Matrix3d G;
+          m.gravity_L(t0, X.col(i % N).head<3>(), a, G);
+          sink += a(0);
+        },
+        repeats, batches);
+    t_f = time_per_call([&](int i) { sink += m.f(t0, X.col(i % N), U.col(i % N))(3); }, repeats, batches);
+    t_lin = time_per_call(
+        [&](int i) {
+          StateVector fx;
+          StateMatrix A;
+          InputMatrix B;
+          m.linearize(t0, X.col(i % N), U.col(i % N), fx, A, B);
+          sink += A(3, 0);
+        },
+        repeats, batches);
+    t_disc = time_per_call(
+        [&](int i) {
+          StateMatrix Ad;
+          InputMatrix Bd;
+          StateVector cd;
+          m.discretize(t0, dt, X.col(i % N), U.col(i % N), Ad, Bd, cd);
+          sink += Ad(0, 3);
+        },
+        repeats, batches);
+    const int hr = std::max(1, repeats / N);
+    t_hor = time_per_call(
+        [&](int) {
+          lin.discretize_horizon(t0, dt, X, U, h);
+          sink += h.A[0](0, 0);
+        },
+        hr, batches);
+  }
+  py::dict out;
+  out["gravity_s"] = t_grav;
+  out["f_s"] = t_f;
+  out["f_and_jacobians_s"] = t_lin;
+  out["discretize_node_s"] = t_disc;
+  out["horizon_s"] = t_hor;
+  out["nodes"] = N;
+  out["checksum"] = sink;
+  return out;
 }
 
 }  // namespace
@@ -254,6 +333,10 @@ void bind_dynamics(py::module_& m) {
           py::arg("rtol"), py::arg("atol"), py::arg("max_steps"), py::arg("initial_step"), py::arg("disturbance"),
           py::arg("callback"));
 
+  d.def("time_kernels", &time_kernels, py::arg("model"), py::arg("t0"), py::arg("dt"), py::arg("x_ref"),
+        py::arg("u_ref"), py::arg("repeats"), py::arg("batches"),
+        "Seconds per call (min over batches) of gravity_L, f, f + Jacobians, one-node discretisation and the "
+        "horizon discretisation over x_ref (N, 12), u_ref (N, 6); C++ loops, one thread, GIL released.");
   d.def(
       "truth_to_state",
       [](const Eigen::Ref<const Eigen::VectorXd>& s, const Eigen::Ref<const Eigen::VectorXd>& phi_ref) {
