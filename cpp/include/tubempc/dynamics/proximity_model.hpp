@@ -91,7 +91,7 @@ class ExtraAcceleration {
 enum class DiscretizationStatus {
   Ok,
   NonFiniteInput,   ///< t, dt, x or u not finite
-  NonFiniteResult,  ///< the exponential or the gravity field produced a non-finite value
+  NonFiniteResult,  ///< non-finite f, Jacobian or exponential, or Jr^-1 singular (Exact, |phi| ~ 2 pi)
 };
 const char* to_string(DiscretizationStatus s);
 
@@ -131,8 +131,9 @@ class ProximityModel {
   /// Exact zero-order-hold discretisation over [t, t + dt] about (x_ref, u_ref):
   /// x(t + dt) ~= Ad x(t) + Bd u + cd, with A, B, c = f - A x_ref - B u_ref taken at the node's start
   /// time t and held over the step (the frame rotation of A within the step, |omega_A - n| dt
-  /// ~ 8e-4 rad for dt = 2 s, is left to the model residual). One 19x19 exponential; no allocation,
-  /// no exception for non-finite values (status instead).
+  /// ~ 8e-4 rad for dt = 2 s, is left to the model residual). One 19x19 exponential; no allocation.
+  /// Non-finite input or result, and |phi| >= 2 pi - 1e-6 with Kinematics::Exact (Jr^-1 singular),
+  /// give a status, not an exception; the gravity model's own errors (e.g. r = 0) propagate.
   DiscretizationStatus discretize(double t, double dt, const StateVector& x_ref, const InputVector& u_ref,
                                   StateMatrix& Ad, InputMatrix& Bd, StateVector& cd) const;
 
