@@ -61,21 +61,26 @@ void bind_gravity_base(py::module_& m) {
         m, "PointMassGravity", "Point mass at the origin of A: U = GM / |r|.")
         .def(py::init<double>(), py::arg("gm"), "gm: gravitational parameter (m^3/s^2), > 0.")
         .def("__repr__",
-             [](const gravity::PointMassGravity& g) { return "PointMassGravity(gm=" + py::repr(py::float_(g.gm())).cast<std::string>() + ")"; })
+             [](const gravity::PointMassGravity& g) {
+               return "PointMassGravity(gm=" + py::repr(py::float_(g.gm())).cast<std::string>() + ")";
+             })
         .def(py::pickle([](const gravity::PointMassGravity& g) { return py::make_tuple(g.gm()); },
                         [](const py::tuple& t) {
-                          if (t.size() != 1) throw std::invalid_argument("PointMassGravity: bad pickle state");
+                          if (t.size() != 1)
+                            throw std::invalid_argument("PointMassGravity: bad pickle state");
                           return std::make_shared<gravity::PointMassGravity>(t[0].cast<double>());
                         }));
   }
 }
 
 py::tuple discretize_horizon(const std::shared_ptr<ProximityModel>& self, double t0, double dt,
-                             const Eigen::Ref<const RowMatrix>& x_ref, const Eigen::Ref<const RowMatrix>& u_ref) {
+                             const Eigen::Ref<const RowMatrix>& x_ref,
+                             const Eigen::Ref<const RowMatrix>& u_ref) {
   if (x_ref.cols() != kNx || u_ref.cols() != kNu || x_ref.rows() != u_ref.rows() || x_ref.rows() < 1) {
     throw std::invalid_argument("discretize: x_ref must be (N, 12) and u_ref (N, 6) with N >= 1, got (" +
-                                std::to_string(x_ref.rows()) + ", " + std::to_string(x_ref.cols()) + ") and (" +
-                                std::to_string(u_ref.rows()) + ", " + std::to_string(u_ref.cols()) + ")");
+                                std::to_string(x_ref.rows()) + ", " + std::to_string(x_ref.cols()) +
+                                ") and (" + std::to_string(u_ref.rows()) + ", " +
+                                std::to_string(u_ref.cols()) + ")");
   }
   const int N = static_cast<int>(x_ref.rows());
   const Eigen::Matrix<double, kNx, Eigen::Dynamic> X = x_ref.transpose();
@@ -123,8 +128,8 @@ double time_per_call(const F& fn, int repeats, int batches) {
 
 // Timing of the C++ kernels without Python overhead, for `tubempc bench dynamics`.
 py::dict time_kernels(const std::shared_ptr<ProximityModel>& self, double t0, double dt,
-                      const Eigen::Ref<const RowMatrix>& x_ref, const Eigen::Ref<const RowMatrix>& u_ref, int repeats,
-                      int batches) {
+                      const Eigen::Ref<const RowMatrix>& x_ref, const Eigen::Ref<const RowMatrix>& u_ref,
+                      int repeats, int batches) {
   if (x_ref.cols() != kNx || u_ref.cols() != kNu || x_ref.rows() != u_ref.rows() || x_ref.rows() < 1 ||
       repeats < 1 || batches < 1) {
     throw std::invalid_argument("time_kernels: x_ref (N, 12), u_ref (N, 6), repeats >= 1, batches >= 1");
@@ -207,10 +212,12 @@ void bind_dynamics(py::module_& m) {
       .def(py::init<>())
       .def_readwrite("mu_sun", &dynamics::ModelParams::mu_sun, "m^3/s^2")
       .def_readwrite("orbit_radius", &dynamics::ModelParams::orbit_radius, "R (m)")
-      .def_readwrite("beta_srp", &dynamics::ModelParams::beta_srp, "m^3/s^2; SRP acceleration beta/R^2 along +x_L")
+      .def_readwrite("beta_srp", &dynamics::ModelParams::beta_srp,
+                     "m^3/s^2; SRP acceleration beta/R^2 along +x_L")
       .def_readwrite("srp_enabled", &dynamics::ModelParams::srp_enabled)
       .def_readwrite("inertia_B", &dynamics::ModelParams::inertia_B, "J (kg m^2), 3x3")
-      .def_readwrite("spin_rate", &dynamics::ModelParams::spin_rate, "omega_A (rad/s), inertial, about z_A = z_L")
+      .def_readwrite("spin_rate", &dynamics::ModelParams::spin_rate,
+                     "omega_A (rad/s), inertial, about z_A = z_L")
       .def_readwrite("spin_angle0", &dynamics::ModelParams::spin_angle0, "theta_0 (rad)")
       .def_readwrite("kinematics", &dynamics::ModelParams::kinematics)
       .def_readwrite("glide_slope_angle", &dynamics::ModelParams::glide_slope_angle, "phi_gs (rad)")
@@ -221,9 +228,12 @@ void bind_dynamics(py::module_& m) {
 
   py::class_<dynamics::PropagationResult>(d, "PropagationResult")
       .def_property_readonly("status", [](const dynamics::PropagationResult& r) { return r.status; })
-      .def_property_readonly("status_name", [](const dynamics::PropagationResult& r) { return std::string(to_string(r.status)); })
-      .def_property_readonly("state", [](const dynamics::PropagationResult& r) { return r.state; },
-                             "[r_L, v_L, q_B/L, omega_BL_B] (13) at t")
+      .def_property_readonly(
+          "status_name",
+          [](const dynamics::PropagationResult& r) { return std::string(to_string(r.status)); })
+      .def_property_readonly(
+          "state", [](const dynamics::PropagationResult& r) { return r.state; },
+          "[r_L, v_L, q_B/L, omega_BL_B] (13) at t")
       .def_readonly("t", &dynamics::PropagationResult::t, "time reached (s)")
       .def_readonly("steps", &dynamics::PropagationResult::steps)
       .def_readonly("rejected_steps", &dynamics::PropagationResult::rejected_steps)
@@ -233,8 +243,8 @@ void bind_dynamics(py::module_& m) {
                ", steps=" + std::to_string(r.steps) + ")";
       });
 
-  py::class_<ProximityModel, std::shared_ptr<ProximityModel>>(d, "ProximityModel",
-                                                              "6-DOF proximity model (C++); see tubempc.ProximityModel")
+  py::class_<ProximityModel, std::shared_ptr<ProximityModel>>(
+      d, "ProximityModel", "6-DOF proximity model (C++); see tubempc.ProximityModel")
       .def(py::init([](std::shared_ptr<gravity::GravityModel> g, const dynamics::ModelParams& p) {
              return std::make_shared<ProximityModel>(std::move(g), p);
            }),
@@ -256,7 +266,9 @@ void bind_dynamics(py::module_& m) {
       .def(
           "f",
           [](const ProximityModel& s, double t, const Eigen::Ref<const Eigen::VectorXd>& x,
-             const Eigen::Ref<const Eigen::VectorXd>& u) { return s.f(t, vec<kNx>(x, "x"), vec<kNu>(u, "u")); },
+             const Eigen::Ref<const Eigen::VectorXd>& u) {
+            return s.f(t, vec<kNx>(x, "x"), vec<kNu>(u, "u"));
+          },
           py::arg("t"), py::arg("x"), py::arg("u"))
       .def(
           "linearize",
@@ -284,10 +296,12 @@ void bind_dynamics(py::module_& m) {
           },
           py::arg("t"), py::arg("dt"), py::arg("x_ref"), py::arg("u_ref"))
       .def("discretize_horizon", &discretize_horizon, py::arg("t0"), py::arg("dt"), py::arg("x_ref"),
-           py::arg("u_ref"), "Node k about (x_ref[k], u_ref[k]) at t0 + k dt; returns A (N,12,12), B (N,12,6), c (N,12).")
+           py::arg("u_ref"),
+           "Node k about (x_ref[k], u_ref[k]) at t0 + k dt; returns A (N,12,12), B (N,12,6), c (N,12).")
       .def(
           "constraints",
-          [](const std::shared_ptr<ProximityModel>& self, double t, const Eigen::Ref<const Eigen::VectorXd>& x) {
+          [](const std::shared_ptr<ProximityModel>& self, double t,
+             const Eigen::Ref<const Eigen::VectorXd>& x) {
             const dynamics::LinearizedProximityModel lin(self);
             Eigen::MatrixXd G(2, kNx);
             Eigen::VectorXd h(2);
@@ -299,7 +313,8 @@ void bind_dynamics(py::module_& m) {
           "truth_derivative",
           [](const ProximityModel& s, double t, const Eigen::Ref<const Eigen::VectorXd>& state,
              const Eigen::Ref<const Eigen::VectorXd>& u, const Eigen::Ref<const Eigen::VectorXd>& w) {
-            return s.truth_derivative(t, vec<dynamics::kNtruth>(state, "state"), vec<kNu>(u, "u"), vec<6>(w, "disturbance"));
+            return s.truth_derivative(t, vec<dynamics::kNtruth>(state, "state"), vec<kNu>(u, "u"),
+                                      vec<6>(w, "disturbance"));
           },
           py::arg("t"), py::arg("state"), py::arg("u"), py::arg("disturbance"))
       .def(
@@ -329,9 +344,9 @@ void bind_dynamics(py::module_& m) {
             py::gil_scoped_release release;
             return dynamics::propagate(s, t0, y0, uu, dt, dist, set);
           },
-          py::arg("t0"), py::arg("state"), py::arg("u"), py::arg("dt"), py::arg("method"), py::arg("substeps"),
-          py::arg("rtol"), py::arg("atol"), py::arg("max_steps"), py::arg("initial_step"), py::arg("disturbance"),
-          py::arg("callback"));
+          py::arg("t0"), py::arg("state"), py::arg("u"), py::arg("dt"), py::arg("method"),
+          py::arg("substeps"), py::arg("rtol"), py::arg("atol"), py::arg("max_steps"),
+          py::arg("initial_step"), py::arg("disturbance"), py::arg("callback"));
 
   d.def("time_kernels", &time_kernels, py::arg("model"), py::arg("t0"), py::arg("dt"), py::arg("x_ref"),
         py::arg("u_ref"), py::arg("repeats"), py::arg("batches"),

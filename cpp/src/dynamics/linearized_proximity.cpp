@@ -56,7 +56,8 @@ void LinearizedProximityModel::discretize(double t, double dt, const Eigen::Ref<
 }
 
 void LinearizedProximityModel::constraints(double /*t*/, const Eigen::Ref<const Eigen::VectorXd>& x_lin,
-                                           Eigen::Ref<Eigen::MatrixXd> G, Eigen::Ref<Eigen::VectorXd> h) const {
+                                           Eigen::Ref<Eigen::MatrixXd> G,
+                                           Eigen::Ref<Eigen::VectorXd> h) const {
   check_size(x_lin.rows(), 1, kNx, 1, "x_lin");
   check_size(G.rows(), G.cols(), 2, kNx, "G");
   check_size(h.rows(), 1, 2, 1, "h");
@@ -77,8 +78,8 @@ DiscretizationStatus LinearizedProximityModel::discretize_horizon(
   const int N = out.size();
   if (x_ref.cols() != N || u_ref.cols() != N) {
     throw std::invalid_argument("LinearizedProximityModel::discretize_horizon: x_ref and u_ref need " +
-                                std::to_string(N) + " columns, got " + std::to_string(x_ref.cols()) + " and " +
-                                std::to_string(u_ref.cols()));
+                                std::to_string(N) + " columns, got " + std::to_string(x_ref.cols()) +
+                                " and " + std::to_string(u_ref.cols()));
   }
   DiscretizationStatus first = DiscretizationStatus::Ok;
   out.first_failed_node = -1;
@@ -86,7 +87,8 @@ DiscretizationStatus LinearizedProximityModel::discretize_horizon(
     const StateVector x = x_ref.col(k);
     const InputVector u = u_ref.col(k);
     const auto ks = static_cast<std::size_t>(k);
-    const DiscretizationStatus st = model_->discretize(t0 + k * dt, dt, x, u, out.A[ks], out.B[ks], out.c[ks]);
+    const DiscretizationStatus st =
+        model_->discretize(t0 + k * dt, dt, x, u, out.A[ks], out.B[ks], out.c[ks]);
     if (st != DiscretizationStatus::Ok && first == DiscretizationStatus::Ok) {
       first = st;
       out.first_failed_node = k;

@@ -52,7 +52,8 @@ PropagationResult rk4(const Rhs& f, double t0, TruthState y, double dt, int subs
 }
 
 // Weighted RMS norm (Hairer, Norsett, Wanner, II.4).
-double error_norm(const TruthState& err, const TruthState& y0, const TruthState& y1, double rtol, double atol) {
+double error_norm(const TruthState& err, const TruthState& y0, const TruthState& y1, double rtol,
+                  double atol) {
   const TruthState scale = (atol + rtol * y0.cwiseAbs().cwiseMax(y1.cwiseAbs()).array()).matrix();
   return std::sqrt((err.cwiseQuotient(scale)).squaredNorm() / kNtruth);
 }
@@ -92,8 +93,8 @@ PropagationResult dopri5(const Rhs& f, double t0, TruthState y, double dt, const
     h0 = std::min(h0, dt);
     const TruthState k_e = f(t + h0, y + h0 * k1);
     const double d2 = std::sqrt((k_e - k1).cwiseQuotient(sc).squaredNorm() / kNtruth) / h0;
-    const double h1 = std::max(d1, d2) <= 1e-15 ? std::max(1e-6, h0 * 1e-3)
-                                                 : std::pow(0.01 / std::max(d1, d2), 1.0 / 5.0);
+    const double h1 =
+        std::max(d1, d2) <= 1e-15 ? std::max(1e-6, h0 * 1e-3) : std::pow(0.01 / std::max(d1, d2), 1.0 / 5.0);
     h = std::min(100.0 * h0, h1);
   }
   h = std::min(h, dt);
@@ -145,7 +146,8 @@ PropagationResult dopri5(const Rhs& f, double t0, TruthState y, double dt, const
       h *= std::max(0.2, 0.9 * std::pow(en, -0.2));
     }
   }
-  if (res.status == PropagationStatus::Success && !res.state.allFinite()) res.status = PropagationStatus::NonFinite;
+  if (res.status == PropagationStatus::Success && !res.state.allFinite())
+    res.status = PropagationStatus::NonFinite;
   return res;
 }
 
@@ -153,18 +155,24 @@ PropagationResult dopri5(const Rhs& f, double t0, TruthState y, double dt, const
 
 const char* to_string(Integrator m) {
   switch (m) {
-    case Integrator::RK4: return "rk4";
-    case Integrator::DOPRI5: return "dopri5";
+    case Integrator::RK4:
+      return "rk4";
+    case Integrator::DOPRI5:
+      return "dopri5";
   }
   return "unknown";
 }
 
 const char* to_string(PropagationStatus s) {
   switch (s) {
-    case PropagationStatus::Success: return "success";
-    case PropagationStatus::MaxStepsReached: return "max_steps_reached";
-    case PropagationStatus::StepTooSmall: return "step_too_small";
-    case PropagationStatus::NonFinite: return "non_finite";
+    case PropagationStatus::Success:
+      return "success";
+    case PropagationStatus::MaxStepsReached:
+      return "max_steps_reached";
+    case PropagationStatus::StepTooSmall:
+      return "step_too_small";
+    case PropagationStatus::NonFinite:
+      return "non_finite";
   }
   return "unknown";
 }
@@ -173,19 +181,26 @@ void PropagatorSettings::validate() const {
   if (method != Integrator::RK4 && method != Integrator::DOPRI5) {
     throw std::invalid_argument("PropagatorSettings.method: unknown value");
   }
-  if (substeps < 1) throw std::invalid_argument("PropagatorSettings.substeps: must be >= 1, got " + std::to_string(substeps));
-  if (!(std::isfinite(rtol) && rtol > 0.0)) throw std::invalid_argument("PropagatorSettings.rtol: must be finite and > 0");
-  if (!(std::isfinite(atol) && atol > 0.0)) throw std::invalid_argument("PropagatorSettings.atol: must be finite and > 0");
-  if (max_steps < 1) throw std::invalid_argument("PropagatorSettings.max_steps: must be >= 1, got " + std::to_string(max_steps));
+  if (substeps < 1)
+    throw std::invalid_argument("PropagatorSettings.substeps: must be >= 1, got " + std::to_string(substeps));
+  if (!(std::isfinite(rtol) && rtol > 0.0))
+    throw std::invalid_argument("PropagatorSettings.rtol: must be finite and > 0");
+  if (!(std::isfinite(atol) && atol > 0.0))
+    throw std::invalid_argument("PropagatorSettings.atol: must be finite and > 0");
+  if (max_steps < 1)
+    throw std::invalid_argument("PropagatorSettings.max_steps: must be >= 1, got " +
+                                std::to_string(max_steps));
   if (!(std::isfinite(initial_step) && initial_step >= 0.0)) {
     throw std::invalid_argument("PropagatorSettings.initial_step: must be finite and >= 0 (s)");
   }
 }
 
-PropagationResult propagate(const ProximityModel& model, double t0, const TruthState& state, const InputVector& u,
-                            double dt, const Disturbance& disturbance, const PropagatorSettings& settings) {
+PropagationResult propagate(const ProximityModel& model, double t0, const TruthState& state,
+                            const InputVector& u, double dt, const Disturbance& disturbance,
+                            const PropagatorSettings& settings) {
   settings.validate();
-  if (!(std::isfinite(dt) && dt >= 0.0)) throw std::invalid_argument("propagate: dt must be finite and >= 0 (s)");
+  if (!(std::isfinite(dt) && dt >= 0.0))
+    throw std::invalid_argument("propagate: dt must be finite and >= 0 (s)");
   PropagationResult res;
   res.state = state;
   res.t = t0;
@@ -195,8 +210,8 @@ PropagationResult propagate(const ProximityModel& model, double t0, const TruthS
   }
   const double qn = state.segment<4>(6).norm();
   if (std::abs(qn - 1.0) > 1e-6) {
-    throw std::invalid_argument("propagate: quaternion q_B/L (state[6:10]) must be unit within 1e-6, norm = " +
-                                std::to_string(qn));
+    throw std::invalid_argument(
+        "propagate: quaternion q_B/L (state[6:10]) must be unit within 1e-6, norm = " + std::to_string(qn));
   }
   TruthState y = state;
   normalize_quaternion(y);
@@ -206,7 +221,8 @@ PropagationResult propagate(const ProximityModel& model, double t0, const TruthS
     res.state = y;
     return res;
   }
-  res = settings.method == Integrator::RK4 ? rk4(f, t0, y, dt, settings.substeps) : dopri5(f, t0, y, dt, settings);
+  res = settings.method == Integrator::RK4 ? rk4(f, t0, y, dt, settings.substeps)
+                                           : dopri5(f, t0, y, dt, settings);
   res.evaluations = evaluations;
   return res;
 }

@@ -43,24 +43,30 @@ Eigen::Vector3d hill_tidal(double n, const Eigen::Vector3d& r) {
 
 const char* to_string(Kinematics k) {
   switch (k) {
-    case Kinematics::Paper: return "paper";
-    case Kinematics::Exact: return "exact";
+    case Kinematics::Paper:
+      return "paper";
+    case Kinematics::Exact:
+      return "exact";
   }
   return "unknown";
 }
 
 const char* to_string(DiscretizationStatus s) {
   switch (s) {
-    case DiscretizationStatus::Ok: return "ok";
-    case DiscretizationStatus::NonFiniteInput: return "non_finite_input";
-    case DiscretizationStatus::NonFiniteResult: return "non_finite_result";
+    case DiscretizationStatus::Ok:
+      return "ok";
+    case DiscretizationStatus::NonFiniteInput:
+      return "non_finite_input";
+    case DiscretizationStatus::NonFiniteResult:
+      return "non_finite_result";
   }
   return "unknown";
 }
 
 void ModelParams::validate() const {
   require(std::isfinite(mu_sun) && mu_sun >= 0.0, "mu_sun", "finite and >= 0 (m^3/s^2)", mu_sun);
-  require(std::isfinite(orbit_radius) && orbit_radius > 0.0, "orbit_radius", "finite and > 0 (m)", orbit_radius);
+  require(std::isfinite(orbit_radius) && orbit_radius > 0.0, "orbit_radius", "finite and > 0 (m)",
+          orbit_radius);
   require(std::isfinite(beta_srp) && beta_srp >= 0.0, "beta_srp", "finite and >= 0 (m^3/s^2)", beta_srp);
   require(std::isfinite(spin_rate), "spin_rate", "finite (rad/s)", spin_rate);
   require(std::isfinite(spin_angle0), "spin_angle0", "finite (rad)", spin_angle0);
@@ -80,10 +86,12 @@ void ModelParams::validate() const {
   }
 }
 
-double ModelParams::mean_motion() const { return std::sqrt(mu_sun / (orbit_radius * orbit_radius * orbit_radius)); }
+double ModelParams::mean_motion() const {
+  return std::sqrt(mu_sun / (orbit_radius * orbit_radius * orbit_radius));
+}
 
-ProximityModel::ProximityModel(std::shared_ptr<const gravity::GravityModel> gravity, const ModelParams& params,
-                               std::shared_ptr<const ExtraAcceleration> extra)
+ProximityModel::ProximityModel(std::shared_ptr<const gravity::GravityModel> gravity,
+                               const ModelParams& params, std::shared_ptr<const ExtraAcceleration> extra)
     : gravity_(std::move(gravity)), params_(params), extra_(std::move(extra)) {
   if (!gravity_) throw std::invalid_argument("ProximityModel: gravity model must not be null");
   params_.validate();
@@ -93,7 +101,9 @@ ProximityModel::ProximityModel(std::shared_ptr<const gravity::GravityModel> grav
   J_inv_ = params_.inertia_B.inverse();
 }
 
-double ProximityModel::spin_angle(double t) const { return params_.spin_angle0 + (params_.spin_rate - n_) * t; }
+double ProximityModel::spin_angle(double t) const {
+  return params_.spin_angle0 + (params_.spin_rate - n_) * t;
+}
 
 Eigen::Matrix3d ProximityModel::C_AL(double t) const {
   const double th = spin_angle(t);
@@ -278,8 +288,8 @@ void right_jacobian_inverse_and_derivative(const Eigen::Vector3d& phi, const Eig
   const double t2 = phi.squaredNorm();
   const double t = std::sqrt(t2);
   if (t >= 2.0 * kPi - 1e-6) {
-    throw std::domain_error("right_jacobian_inverse_and_derivative: singular for |phi| >= 2 pi, got |phi| = " +
-                            num(t));
+    throw std::domain_error(
+        "right_jacobian_inverse_and_derivative: singular for |phi| >= 2 pi, got |phi| = " + num(t));
   }
   double c = 0.0;
   double dc_over_t = 0.0;
@@ -288,12 +298,13 @@ void right_jacobian_inverse_and_derivative(const Eigen::Vector3d& phi, const Eig
     constexpr double kB12 = 691.0 / 2730.0;
     constexpr double kB14 = 7.0 / 6.0;
     c = 1.0 / 12.0 +
-        t2 * (1.0 / 720.0 +
-              t2 * (1.0 / 30240.0 + t2 * (1.0 / 1209600.0 + t2 * (1.0 / 47900160.0 + t2 * kB12 / 479001600.0))));
-    dc_over_t = 1.0 / 360.0 +
-                t2 * (1.0 / 7560.0 +
-                      t2 * (1.0 / 201600.0 + t2 * (8.0 / 47900160.0 + t2 * (10.0 * kB12 / 479001600.0 +
-                                                                            t2 * 12.0 * kB14 / 87178291200.0))));
+        t2 * (1.0 / 720.0 + t2 * (1.0 / 30240.0 + t2 * (1.0 / 1209600.0 +
+                                                        t2 * (1.0 / 47900160.0 + t2 * kB12 / 479001600.0))));
+    dc_over_t =
+        1.0 / 360.0 +
+        t2 * (1.0 / 7560.0 +
+              t2 * (1.0 / 201600.0 + t2 * (8.0 / 47900160.0 + t2 * (10.0 * kB12 / 479001600.0 +
+                                                                    t2 * 12.0 * kB14 / 87178291200.0))));
   } else {
     const double half = 0.5 * t;
     const double s = std::sin(half);
@@ -307,8 +318,8 @@ void right_jacobian_inverse_and_derivative(const Eigen::Vector3d& phi, const Eig
   Jr_inv = Eigen::Matrix3d::Identity() + 0.5 * S + c * S * S;
   const double pw = phi.dot(w);
   const Eigen::Vector3d ppw = phi * pw - w * t2;  // phi x (phi x w)
-  d_Jrinv_w_dphi = -0.5 * math::skew(w) + c * (pw * Eigen::Matrix3d::Identity() + phi * w.transpose() -
-                                               2.0 * w * phi.transpose()) +
+  d_Jrinv_w_dphi = -0.5 * math::skew(w) +
+                   c * (pw * Eigen::Matrix3d::Identity() + phi * w.transpose() - 2.0 * w * phi.transpose()) +
                    dc_over_t * ppw * phi.transpose();
 }
 

@@ -36,7 +36,8 @@ TEST(Constraints, PaperBoundaryStatesSatisfyBothCones) {
               1e-6);
   // The literal reading (boresight +y_B and r_B along +C_BL r) is violated at the terminal state.
   const StateVector xf = table2_terminal();
-  const Eigen::Vector3d r_B_literal = math::rotation_matrix(math::exp_map(xf.segment<3>(6))).transpose() * xf.head<3>();
+  const Eigen::Vector3d r_B_literal =
+      math::rotation_matrix(math::exp_map(xf.segment<3>(6))).transpose() * xf.head<3>();
   EXPECT_LT(r_B_literal.y(), 246.5 * std::cos(80 * kDeg));
 }
 
@@ -62,8 +63,7 @@ TEST(Constraints, GradientsMatchFiniteDifferencesAndLinearisationIsTangent) {
         xp(j) += h;
         xm(j) -= h;
         const double fd = (g(xp, nullptr) - g(xm, nullptr)) / (2 * h);
-        EXPECT_NEAR(fd, grad(j), 1e-7 * std::max(1.0, grad.cwiseAbs().maxCoeff()))
-            << which << " " << j;
+        EXPECT_NEAR(fd, grad(j), 1e-7 * std::max(1.0, grad.cwiseAbs().maxCoeff())) << which << " " << j;
       }
       const double bnd = linearized_bound(g0, grad, x);
       EXPECT_NEAR(grad.dot(x) - bnd, g0, 1e-9 * std::abs(bnd) + 1e-12);

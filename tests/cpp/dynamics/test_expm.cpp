@@ -33,7 +33,8 @@ TEST(Expm, DiagonalAndNilpotentClosedForms) {
   N(0, 1) = N(1, 2) = N(2, 3) = 3.0;
   const double lam = -0.4;
   ASSERT_TRUE(expm<4>((lam * Eigen::Matrix4d::Identity() + N).eval(), E));
-  const Eigen::Matrix4d ref = std::exp(lam) * (Eigen::Matrix4d::Identity() + N + N * N / 2.0 + N * N * N / 6.0);
+  const Eigen::Matrix4d ref =
+      std::exp(lam) * (Eigen::Matrix4d::Identity() + N + N * N / 2.0 + N * N * N / 6.0);
   EXPECT_LE((E - ref).cwiseAbs().maxCoeff(), 1e-14 * ref.cwiseAbs().maxCoeff());
 }
 
@@ -48,7 +49,8 @@ TEST(Expm, InverseIsExponentialOfNegative) {
     ASSERT_TRUE(expm<19>(M, Ep));
     ASSERT_TRUE(expm<19>((-M).eval(), Em));
     const double cond = Ep.norm() * Em.norm();
-    EXPECT_LE(((Ep * Em) - Eigen::Matrix<double, 19, 19>::Identity()).cwiseAbs().maxCoeff(), 1e-14 * cond) << scale;
+    EXPECT_LE(((Ep * Em) - Eigen::Matrix<double, 19, 19>::Identity()).cwiseAbs().maxCoeff(), 1e-14 * cond)
+        << scale;
   }
   Eigen::Matrix<double, 19, 19> M = Eigen::Matrix<double, 19, 19>::Zero();
   M(3, 4) = NAN;

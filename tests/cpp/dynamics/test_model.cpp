@@ -65,8 +65,10 @@ void expect_blocks_close(const M& fd, const M& an, double rel, const std::string
       const Eigen::Matrix3d d = fd.template block<3, 3>(3 * bi, 3 * bj);
       const double scale = a.cwiseAbs().maxCoeff();
       const double err = (a - d).cwiseAbs().maxCoeff();
-      EXPECT_LE(err, rel * scale + 1e-300) << what << " block (" << bi << "," << bj << ") scale " << scale
-                                           << "\nanalytic\n" << a << "\nfd\n" << d;
+      EXPECT_LE(err, rel * scale + 1e-300)
+          << what << " block (" << bi << "," << bj << ") scale " << scale << "\nanalytic\n"
+          << a << "\nfd\n"
+          << d;
     }
   }
 }
@@ -154,7 +156,8 @@ TEST(ProximityModel, RightJacobianInverseDerivativeMatchesFiniteDifferences) {
   }
   Eigen::Matrix3d Ji;
   Eigen::Matrix3d Di;
-  EXPECT_THROW(right_jacobian_inverse_and_derivative(Eigen::Vector3d(0, 0, 6.3), w, Ji, Di), std::domain_error);
+  EXPECT_THROW(right_jacobian_inverse_and_derivative(Eigen::Vector3d(0, 0, 6.3), w, Ji, Di),
+               std::domain_error);
 }
 
 TEST(ProximityModel, ExactKinematicsMatchQuaternionKinematics) {
@@ -167,9 +170,9 @@ TEST(ProximityModel, ExactKinematicsMatchQuaternionKinematics) {
     const Eigen::Vector3d phi = ang * Eigen::Vector3d(0.3, -1.0, 0.4).normalized();
     const Eigen::Vector3d dphi = model.phi_dot(phi, w);
     const double h = 1e-5;
-    const Eigen::Matrix3d dR =
-        (math::rotation_matrix(math::exp_map(phi + h * dphi)) - math::rotation_matrix(math::exp_map(phi - h * dphi))) /
-        (2 * h);
+    const Eigen::Matrix3d dR = (math::rotation_matrix(math::exp_map(phi + h * dphi)) -
+                                math::rotation_matrix(math::exp_map(phi - h * dphi))) /
+                               (2 * h);
     const Eigen::Matrix3d R = math::rotation_matrix(math::exp_map(phi));
     EXPECT_LE((dR - R * math::skew(w)).cwiseAbs().maxCoeff(), 1e-9) << ang;
   }
@@ -259,7 +262,8 @@ TEST(ProximityModel, RejectsBadParametersAndNonFiniteInput) {
   EXPECT_EQ(model.discretize(0.0, 2.0, x, u, Ad, Bd, cd), DiscretizationStatus::NonFiniteInput);
   EXPECT_EQ(model.discretize(0.0, NAN, StateVector::Constant(100.0), u, Ad, Bd, cd),
             DiscretizationStatus::NonFiniteInput);
-  EXPECT_EQ(model.discretize(0.0, 2.0, StateVector::Constant(100.0), u, Ad, Bd, cd), DiscretizationStatus::Ok);
+  EXPECT_EQ(model.discretize(0.0, 2.0, StateVector::Constant(100.0), u, Ad, Bd, cd),
+            DiscretizationStatus::Ok);
 }
 
 TEST(ProximityModel, TruthStateConversionUnwrapsAcrossPi) {

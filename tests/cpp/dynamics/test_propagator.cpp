@@ -24,7 +24,8 @@ PropagationResult run(const ProximityModel& m, const TruthState& s, double dt, P
 
 double state_error(const TruthState& a, const TruthState& b) {
   TruthState d = a - b;
-  if ((a.segment<4>(6) + b.segment<4>(6)).norm() < d.segment<4>(6).norm()) d.segment<4>(6) = a.segment<4>(6) + b.segment<4>(6);
+  if ((a.segment<4>(6) + b.segment<4>(6)).norm() < d.segment<4>(6).norm())
+    d.segment<4>(6) = a.segment<4>(6) + b.segment<4>(6);
   // position in m, velocity scaled by 100 s, quaternion and rate by 1 and 100 s
   d.segment<3>(3) *= 100.0;
   d.segment<3>(10) *= 100.0;
@@ -84,7 +85,8 @@ TEST(Propagator, Dopri5MeetsItsToleranceAgainstFineRk4) {
 // control: dC/dt = v.(-2n z x v) = 0 (the asteroid's rotation does not change a spherical field).
 double jacobi(const TruthState& s, double n, double gm) {
   const Eigen::Vector3d r = s.head<3>();
-  return 0.5 * s.segment<3>(3).squaredNorm() - 0.5 * n * n * (3 * r.x() * r.x() - r.z() * r.z()) - gm / r.norm();
+  return 0.5 * s.segment<3>(3).squaredNorm() - 0.5 * n * n * (3 * r.x() * r.x() - r.z() * r.z()) -
+         gm / r.norm();
 }
 
 TEST(Propagator, JacobiIntegralConservedOver600s) {

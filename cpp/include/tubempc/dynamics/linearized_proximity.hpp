@@ -54,10 +54,9 @@ class LinearizedProximityModel final : public mpc::LinearizedModel {
   /// Discretises out.size() nodes about the columns of x_ref (12 x N) and u_ref (6 x N), node k at
   /// t0 + k dt. Returns the first non-Ok status (and sets out.first_failed_node) after trying all
   /// nodes. Allocation-free.
-  DiscretizationStatus discretize_horizon(double t0, double dt,
-                                          const Eigen::Ref<const Eigen::Matrix<double, kNx, Eigen::Dynamic>>& x_ref,
-                                          const Eigen::Ref<const Eigen::Matrix<double, kNu, Eigen::Dynamic>>& u_ref,
-                                          DiscreteHorizon& out) const;
+  DiscretizationStatus discretize_horizon(
+      double t0, double dt, const Eigen::Ref<const Eigen::Matrix<double, kNx, Eigen::Dynamic>>& x_ref,
+      const Eigen::Ref<const Eigen::Matrix<double, kNu, Eigen::Dynamic>>& u_ref, DiscreteHorizon& out) const;
 
   const ProximityModel& model() const { return *model_; }
 

@@ -12,7 +12,8 @@
 
 namespace tubempc::dynamics {
 
-using Disturbance6 = Eigen::Matrix<double, 6, 1>;  ///< [acceleration in L (m/s^2); angular accel. in B (rad/s^2)]
+using Disturbance6 =
+    Eigen::Matrix<double, 6, 1>;  ///< [acceleration in L (m/s^2); angular accel. in B (rad/s^2)]
 
 /// Additive disturbance on v' and w': constant + function(t, truth state) (function optional).
 struct Disturbance {
@@ -61,7 +62,8 @@ struct PropagationResult {
 
 /// Propagates `state` from t0 over dt >= 0 (s) with input u held constant. Invalid settings or a
 /// non-unit/zero quaternion throw std::invalid_argument; numerical outcomes are statuses.
-PropagationResult propagate(const ProximityModel& model, double t0, const TruthState& state, const InputVector& u,
-                            double dt, const Disturbance& disturbance = {}, const PropagatorSettings& settings = {});
+PropagationResult propagate(const ProximityModel& model, double t0, const TruthState& state,
+                            const InputVector& u, double dt, const Disturbance& disturbance = {},
+                            const PropagatorSettings& settings = {});
 
 }  // namespace tubempc::dynamics

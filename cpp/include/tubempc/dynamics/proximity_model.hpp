@@ -33,8 +33,8 @@
 
 namespace tubempc::dynamics {
 
-inline constexpr int kNx = 12;     ///< state dimension of x = [r, v, phi, w]
-inline constexpr int kNu = 6;      ///< input dimension of u = [u_p, T]
+inline constexpr int kNx = 12;      ///< state dimension of x = [r, v, phi, w]
+inline constexpr int kNu = 6;       ///< input dimension of u = [u_p, T]
 inline constexpr int kNtruth = 13;  ///< truth-state dimension of [r, v, q_B/L, w]
 
 using StateVector = Eigen::Matrix<double, kNx, 1>;
@@ -53,15 +53,15 @@ const char* to_string(Kinematics k);
 /// Model constants; in-class defaults are the paper's scenario (Table 1, PAPER_NOTES.md).
 struct ModelParams {
   double mu_sun{1.32712440018e20};  ///< Sun's gravitational parameter (m^3/s^2), >= 0 (0: L inertial)
-  double orbit_radius{1.685e11};     ///< heliocentric distance R (m), > 0
-  double beta_srp{1.7744e15};        ///< SRP constant (m^3/s^2): acceleration beta/R^2 along +x_L
-  bool srp_enabled{true};            ///< include the SRP acceleration
+  double orbit_radius{1.685e11};    ///< heliocentric distance R (m), > 0
+  double beta_srp{1.7744e15};       ///< SRP constant (m^3/s^2): acceleration beta/R^2 along +x_L
+  bool srp_enabled{true};           ///< include the SRP acceleration
   /// Spacecraft inertia about its centre of mass in B (kg m^2), symmetric positive definite.
   Eigen::Matrix3d inertia_B{Eigen::Vector3d(2750.0, 2750.0, 2030.0).asDiagonal()};
   /// Asteroid spin rate omega_A (rad/s) about z_A = z_L, inertial, signed (+: counter-clockwise
   /// about +z_L). Default 2 pi / 4.296 h (Bennu).
   double spin_rate{2.0 * 3.14159265358979323846 / (4.296 * 3600.0)};
-  double spin_angle0{0.0};  ///< theta_0 (rad): angle from x_L to x_A about z at t = 0
+  double spin_angle0{0.0};                   ///< theta_0 (rad): angle from x_L to x_A about z at t = 0
   Kinematics kinematics{Kinematics::Paper};  ///< rotation-vector kinematics of the model x
   double glide_slope_angle{70.0 * 3.14159265358979323846 / 180.0};  ///< phi_gs (rad), in (0, pi/2)
   double los_angle{80.0 * 3.14159265358979323846 / 180.0};          ///< theta_LOS (rad), in (0, pi/2)
@@ -149,7 +149,8 @@ class ProximityModel {
  private:
   void translational(double t, const Eigen::Vector3d& r, const Eigen::Vector3d& v, const Eigen::Vector3d& u_p,
                      Eigen::Vector3d& a_L, Eigen::Matrix3d* da_dr, Eigen::Matrix3d* da_dv) const;
-  Eigen::Vector3d rotational(const Eigen::Matrix3d& C_BL, const Eigen::Vector3d& w, const Eigen::Vector3d& T) const;
+  Eigen::Vector3d rotational(const Eigen::Matrix3d& C_BL, const Eigen::Vector3d& w,
+                             const Eigen::Vector3d& T) const;
 
   std::shared_ptr<const gravity::GravityModel> gravity_;
   ModelParams params_;
