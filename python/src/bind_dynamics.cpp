@@ -1,6 +1,8 @@
 // Bindings of the 6-DOF proximity dynamics (tubempc::dynamics) as tubempc._core.dynamics, plus the
-// gravity interface and the point-mass field (registered here only if the gravity bindings have
-// not registered them already: bind_gravity must run before bind_dynamics when both exist).
+// gravity interface and the point-mass field as _core.GravityModel and _core.PointMassGravity
+// (std::shared_ptr holders). They are registered here only if the gravity bindings have not
+// registered them already (then they are just made visible under these names): bind_gravity must
+// run before bind_dynamics when both exist.
 #include <pybind11/eigen.h>
 #include <pybind11/functional.h>
 #include <pybind11/stl.h>
@@ -55,6 +57,8 @@ void bind_gravity_base(py::module_& m) {
             },
             py::arg("r_A"), "(U (m^2/s^2), a = grad U (m/s^2), G = Hess U (1/s^2)) at r_A (m) in A.")
         .def_property_readonly("gm", &gravity::GravityModel::gm, "G M (m^3/s^2).");
+  } else if (!py::hasattr(m, "GravityModel")) {
+    m.attr("GravityModel") = py::type::of<gravity::GravityModel>();
   }
   if (!py::detail::get_type_info(typeid(gravity::PointMassGravity))) {
     py::class_<gravity::PointMassGravity, gravity::GravityModel, std::shared_ptr<gravity::PointMassGravity>>(
@@ -70,6 +74,8 @@ void bind_gravity_base(py::module_& m) {
                             throw std::invalid_argument("PointMassGravity: bad pickle state");
                           return std::make_shared<gravity::PointMassGravity>(t[0].cast<double>());
                         }));
+  } else if (!py::hasattr(m, "PointMassGravity")) {
+    m.attr("PointMassGravity") = py::type::of<gravity::PointMassGravity>();
   }
 }
 
