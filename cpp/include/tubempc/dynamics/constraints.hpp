@@ -1,0 +1,38 @@
+/// @file constraints.hpp
+/// State constraints of the approach (PAPER_NOTES.md, "Constraints"), each written g(x) <= 0 with
+/// its gradient and its tangent (first-order) linearisation used by the QP.
+///
+/// - Glide slope (cone about z_L, apex at the asteroid's centre):
+///       g_gs(x) = |r| cos(phi_gs) - r . z_L <= 0.
+///   g_gs is positively homogeneous in r, so its tangent plane passes through the apex and the
+///   linearisation is grad g(x_ref) . x <= 0 (the paper's Eq. 36), an outer approximation of the cone.
+/// - Line of sight (the project's reading): r_B = -C_BL r_L is the vector from the spacecraft to the
+///   asteroid centre in B and b_B the unit boresight (default +z_B):
+///       g_los(x) = |r| cos(theta_LOS) - r_B . b_B = |r| cos(theta_LOS) + r_L . (Exp(phi) b_B) <= 0.
+///   Its gradient in phi uses Exp(phi + d) ~ Exp(phi) Exp(Jr(phi) d):
+///       d g_los / d phi = Jr(phi)^T [b_B]x Exp(phi)^T r_L.
+/// Gradients are undefined at r = 0 (std::domain_error there and for non-finite input).
+#pragma once
+
+#include <Eigen/Dense>
+
+#include "tubempc/dynamics/proximity_model.hpp"
+
+namespace tubempc::dynamics {
+
+/// Glide-slope constraint value g_gs (m) at x; writes d g_gs / d x (12) to grad if non-null.
+/// @param glide_slope_angle phi_gs (rad)
+double glide_slope_constraint(const StateVector& x, double glide_slope_angle, StateVector* grad = nullptr);
+
+/// Line-of-sight constraint value g_los (m) at x; writes d g_los / d x (12) to grad if non-null.
+/// @param los_angle theta_LOS (rad); @param boresight_B boresight in B (normalised here)
+double line_of_sight_constraint(const StateVector& x, double los_angle, const Eigen::Vector3d& boresight_B,
+                                StateVector* grad = nullptr);
+
+/// Tangent linearisation of g(x) <= 0 at x_ref from its value and gradient there:
+/// grad^T x <= b with b = grad . x_ref - g(x_ref). Returns b.
+inline double linearized_bound(double g_ref, const StateVector& grad, const StateVector& x_ref) {
+  return grad.dot(x_ref) - g_ref;
+}
+
+}  // namespace tubempc::dynamics

@@ -1,0 +1,67 @@
+/// @file linearized_proximity.hpp
+/// The 6-DOF proximity model seen by the tube MPC (mpc::LinearizedModel): exact zero-order-hold
+/// discretisation node by node or over a whole horizon, and the two linearised cone constraints
+/// (PAPER_NOTES.md, "Linearisation and discretisation", "Constraints").
+#pragma once
+
+#include <Eigen/Dense>
+#include <Eigen/StdVector>
+#include <memory>
+#include <vector>
+
+#include "tubempc/dynamics/proximity_model.hpp"
+#include "tubempc/mpc/linearized_model.hpp"
+
+namespace tubempc::dynamics {
+
+/// Preallocated storage of a discretised horizon: node k covers [t0 + k dt, t0 + (k+1) dt] with
+/// x_{k+1} ~= A[k] x_k + B[k] u_k + c[k].
+struct DiscreteHorizon {
+  /// Allocates N nodes (N >= 1, std::invalid_argument otherwise).
+  explicit DiscreteHorizon(int N);
+  int size() const { return static_cast<int>(A.size()); }
+
+  std::vector<StateMatrix, Eigen::aligned_allocator<StateMatrix>> A;
+  std::vector<InputMatrix, Eigen::aligned_allocator<InputMatrix>> B;
+  std::vector<StateVector, Eigen::aligned_allocator<StateVector>> c;
+  int first_failed_node{-1};  ///< index of the first node whose discretisation failed, -1 if none
+};
+
+/// mpc::LinearizedModel over a ProximityModel. nx = 12, nu = 6, 2 constraint rows per node:
+/// row 0 the glide slope, row 1 the line of sight, both tangent linearisations g(x_ref) +
+/// grad g(x_ref) (x - x_ref) <= 0 (constraints.hpp).
+class LinearizedProximityModel final : public mpc::LinearizedModel {
+ public:
+  /// @param model non-null (std::invalid_argument otherwise)
+  explicit LinearizedProximityModel(std::shared_ptr<const ProximityModel> model);
+
+  int nx() const override { return kNx; }
+  int nu() const override { return kNu; }
+  int n_constraints() const override { return 2; }
+
+  /// ProximityModel::discretize at the node's start time t. Sizes are checked
+  /// (std::invalid_argument); a non-Ok status (non-finite input or result) throws std::domain_error
+  /// because this interface has no status channel. Allocation-free.
+  void discretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_lin,
+                  const Eigen::Ref<const Eigen::VectorXd>& u_lin, Eigen::Ref<Eigen::MatrixXd> A,
+                  Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const override;
+
+  /// G (2 x 12), h (2): glide slope and line of sight linearised at x_lin (the constraints do not
+  /// depend on t). Allocation-free; std::domain_error at r = 0 or for non-finite x_lin.
+  void constraints(double t, const Eigen::Ref<const Eigen::VectorXd>& x_lin, Eigen::Ref<Eigen::MatrixXd> G,
+                   Eigen::Ref<Eigen::VectorXd> h) const override;
+
+  /// Discretises out.size() nodes about the columns of x_ref (12 x N) and u_ref (6 x N), node k at
+  /// t0 + k dt. Returns the first non-Ok status (and sets out.first_failed_node) after trying all
+  /// nodes. Allocation-free.
+  DiscretizationStatus discretize_horizon(
+      double t0, double dt, const Eigen::Ref<const Eigen::Matrix<double, kNx, Eigen::Dynamic>>& x_ref,
+      const Eigen::Ref<const Eigen::Matrix<double, kNu, Eigen::Dynamic>>& u_ref, DiscreteHorizon& out) const;
+
+  const ProximityModel& model() const { return *model_; }
+
+ private:
+  std::shared_ptr<const ProximityModel> model_;
+};
+
+}  // namespace tubempc::dynamics

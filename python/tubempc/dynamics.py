@@ -1,0 +1,315 @@
+"""6-DOF proximity dynamics around an asteroid (PAPER_NOTES.md, "Frames" to "Linearisation and
+discretisation"), on numpy arrays, over the C++ core (``tubempc._core.dynamics``).
+
+State ``x = [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)]`` (12), input
+``u = [u_p (m/s^2, in L), T (N m, in B)]`` (6); truth state ``[r_L, v_L, q_B/L ([x, y, z, w]),
+omega_BL_B]`` (13). ``phi = log(q_B/L)`` with ``R(q_B/L) = C_LB`` (``tubempc.so3``).
+
+Frames: L turns about z_L at the orbital rate n = sqrt(mu_sun / R^3); the asteroid spins about
+z_A = z_L at the inertial rate ``spin_rate`` (omega_A), i.e. at omega_A - n relative to L:
+``C_AL(t) = Rz(theta(t))^T``, ``theta(t) = spin_angle0 + (omega_A - n) t``.
+
+Discretisation: exact zero-order hold about (x_ref, u_ref) through one 19x19 matrix exponential
+(Pade 13), with the Jacobians taken at the node's start time and held over the step.
+
+Constraints are written g(x) <= 0: glide slope ``g = |r| cos(phi_gs) - r . z_L`` and line of
+sight ``g = |r| cos(theta_LOS) - r_B . b_B`` with ``r_B = -C_BL r_L`` (boresight ``b_B``, default
++z_B).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _core
+
+_dyn = _core.dynamics
+
+if TYPE_CHECKING:
+    from ._core import GravityModel, PointMassGravity
+    from ._dynamics import Kinematics, ModelParams, PropagationResult, PropagationStatus
+else:
+    ModelParams = _dyn.ModelParams
+    Kinematics = _dyn.Kinematics
+    PropagationResult = _dyn.PropagationResult
+    PropagationStatus = _dyn.PropagationStatus
+    GravityModel = _core.GravityModel
+    PointMassGravity = _core.PointMassGravity
+
+__all__ = [
+    "GravityModel",
+    "Kinematics",
+    "ModelParams",
+    "PointMassGravity",
+    "PropagationResult",
+    "PropagationStatus",
+    "ProximityModel",
+    "glide_slope_constraint",
+    "line_of_sight_constraint",
+    "model_params",
+    "params_to_config",
+    "state_to_truth",
+    "truth_to_state",
+]
+
+_Arr = npt.NDArray[np.float64]
+Disturbance = npt.ArrayLike | Callable[[float, _Arr], npt.ArrayLike] | None
+
+_KINEMATICS = {"paper": Kinematics.Paper, "exact": Kinematics.Exact}
+_SCALARS = (
+    "mu_sun",
+    "orbit_radius",
+    "beta_srp",
+    "spin_rate",
+    "spin_angle0",
+    "glide_slope_angle",
+    "los_angle",
+)
+_FIELDS = (*_SCALARS, "srp_enabled", "inertia_B", "kinematics", "boresight_B")
+
+
+def model_params(config: ModelParams | Mapping[str, Any] | None = None) -> ModelParams:
+    """A validated ``ModelParams`` from None (the paper's defaults), a ``ModelParams`` or a dict.
+
+    Dict keys are the field names (SI units, angles in rad); ``kinematics`` is ``"paper"`` or
+    ``"exact"``; ``inertia_B`` a 3x3 matrix or its 3 principal moments. Unknown keys raise ValueError.
+    """
+    if isinstance(config, ModelParams):
+        p = config
+    else:
+        p = ModelParams()
+        for key, value in (config or {}).items():
+            if key not in _FIELDS:
+                raise ValueError(f"unknown model parameter {key!r}; known: {', '.join(_FIELDS)}")
+            if key == "kinematics":
+                if isinstance(value, Kinematics):
+                    p.kinematics = value
+                elif str(value).lower() in _KINEMATICS:
+                    p.kinematics = _KINEMATICS[str(value).lower()]
+                else:
+                    raise ValueError(f"kinematics must be 'paper' or 'exact', got {value!r}")
+            elif key == "inertia_B":
+                J = np.asarray(value, dtype=float)
+                if J.shape == (3,):
+                    J = np.diag(J)
+                if J.shape != (3, 3):
+                    raise ValueError(f"inertia_B must be 3x3 or 3 principal moments, got shape {J.shape}")
+                p.inertia_B = J
+            elif key == "boresight_B":
+                b = np.asarray(value, dtype=float)
+                if b.shape != (3,):
+                    raise ValueError(f"boresight_B must have 3 elements, got shape {b.shape}")
+                p.boresight_B = b
+            elif key == "srp_enabled":
+                p.srp_enabled = bool(value)
+            else:
+                setattr(p, key, float(value))
+    p.validate()
+    return p
+
+
+def params_to_config(p: ModelParams) -> dict[str, Any]:
+    """Plain dict (JSON-friendly) of a ``ModelParams``; ``model_params`` inverts it."""
+    out: dict[str, Any] = {k: float(getattr(p, k)) for k in _SCALARS}
+    out["srp_enabled"] = bool(p.srp_enabled)
+    out["inertia_B"] = np.asarray(p.inertia_B).tolist()
+    out["kinematics"] = "exact" if p.kinematics == Kinematics.Exact else "paper"
+    out["boresight_B"] = np.asarray(p.boresight_B).tolist()
+    return out
+
+
+class ProximityModel:
+    """The 6-DOF proximity model around an asteroid (see the module docstring).
+
+    ``gravity`` is a Python-visible gravity object (``PointMassGravity``, ``PolyhedronGravity``, ...)
+    kept by the model and pickled with it (through the gravity object's own pickling); ``params`` a
+    ``ModelParams``, a config dict or None for the paper's scenario.
+    """
+
+    nx: int = 12
+    nu: int = 6
+
+    def __init__(self, gravity: Any, params: ModelParams | Mapping[str, Any] | None = None) -> None:
+        self._gravity = gravity
+        self._params = model_params(params)
+        self._impl = _dyn.ProximityModel(gravity, self._params)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (ProximityModel, (self._gravity, params_to_config(self._params)))
+
+    def __repr__(self) -> str:
+        return f"ProximityModel(gravity={self._gravity!r}, kinematics={self.config()['kinematics']!r})"
+
+    @property
+    def gravity(self) -> Any:
+        """The gravity object (field in the asteroid frame A)."""
+        return self._gravity
+
+    @property
+    def params(self) -> ModelParams:
+        """A copy of the validated parameters."""
+        return model_params(params_to_config(self._params))
+
+    def config(self) -> dict[str, Any]:
+        """The parameters as a plain dict."""
+        return params_to_config(self._params)
+
+    @property
+    def mean_motion(self) -> float:
+        """Orbital rate n (rad/s)."""
+        return float(self._impl.mean_motion)
+
+    def C_AL(self, t: float) -> _Arr:
+        """C_AL(t) (r_A = C_AL r_L)."""
+        return self._impl.C_AL(t)
+
+    def q_AL(self, t: float) -> _Arr:
+        """q_A/L(t) ([x, y, z, w]) with R(q_A/L) = C_AL."""
+        return self._impl.q_AL(t)
+
+    def gravity_L(self, t: float, r_L: npt.ArrayLike) -> tuple[_Arr, _Arr]:
+        """Gravity acceleration a_L (m/s^2) and gradient G_L (1/s^2) at r_L (m), time t (s)."""
+        return self._impl.gravity_L(t, np.asarray(r_L, dtype=float))
+
+    def f(self, t: float, x: npt.ArrayLike, u: npt.ArrayLike) -> _Arr:
+        """Continuous dynamics x' (12). ValueError for non-finite input."""
+        return self._impl.f(t, _vec(x), _vec(u))
+
+    def jacobians(self, t: float, x: npt.ArrayLike, u: npt.ArrayLike) -> tuple[_Arr, _Arr]:
+        """A = df/dx (12, 12) and B = df/du (12, 6) at (t, x, u)."""
+        _, A, B = self._impl.linearize(t, _vec(x), _vec(u))
+        return A, B
+
+    def linearize(self, t: float, x: npt.ArrayLike, u: npt.ArrayLike) -> tuple[_Arr, _Arr, _Arr]:
+        """(f, A, B) at (t, x, u) with one gravity evaluation."""
+        return self._impl.linearize(t, _vec(x), _vec(u))
+
+    def discretize(
+        self, t: float, x_ref: npt.ArrayLike, u_ref: npt.ArrayLike, dt: float
+    ) -> tuple[_Arr, _Arr, _Arr]:
+        """Exact zero-order hold x+ = Ad x + Bd u + cd about (x_ref, u_ref) over dt (s).
+
+        One node for x_ref (12,), u_ref (6,): Ad (12, 12), Bd (12, 6), cd (12). A horizon for
+        x_ref (N, 12), u_ref (N, 6): node k at t + k dt, arrays (N, 12, 12), (N, 12, 6), (N, 12).
+        ValueError for non-finite input or result.
+        """
+        X = np.asarray(x_ref, dtype=float)
+        U = np.asarray(u_ref, dtype=float)
+        if X.ndim == 2 or U.ndim == 2:
+            return self._impl.discretize_horizon(t, dt, np.atleast_2d(X), np.atleast_2d(U))
+        return self._impl.discretize(t, dt, X, U)
+
+    def constraints(self, t: float, x_lin: npt.ArrayLike) -> tuple[_Arr, _Arr]:
+        """Linearised [glide slope; line of sight] at x_lin: G (2, 12), h (2) with G x <= h."""
+        return self._impl.constraints(t, _vec(x_lin))
+
+    def glide_slope(self, x: npt.ArrayLike) -> tuple[float, _Arr]:
+        """(g, dg/dx) of g = |r| cos(phi_gs) - r . z_L (<= 0 feasible)."""
+        return glide_slope_constraint(x, self._params.glide_slope_angle)
+
+    def line_of_sight(self, x: npt.ArrayLike) -> tuple[float, _Arr]:
+        """(g, dg/dx) of g = |r| cos(theta_LOS) - r_B . b_B, r_B = -C_BL r_L (<= 0 feasible)."""
+        return line_of_sight_constraint(x, self._params.los_angle, self._params.boresight_B)
+
+    def truth_derivative(
+        self, t: float, state: npt.ArrayLike, u: npt.ArrayLike, disturbance: npt.ArrayLike | None = None
+    ) -> _Arr:
+        """Derivative of the 13-state [r, v, q_B/L, w] (quaternion kinematics) with an additive
+        disturbance [acceleration in L; angular acceleration in B]."""
+        w = np.zeros(6) if disturbance is None else _vec(disturbance)
+        return self._impl.truth_derivative(t, _vec(state), _vec(u), w)
+
+    def propagate(
+        self,
+        t0: float,
+        state: npt.ArrayLike,
+        u: npt.ArrayLike,
+        dt: float,
+        method: str = "rk4",
+        *,
+        substeps: int = 20,
+        rtol: float = 1e-10,
+        atol: float = 1e-12,
+        max_steps: int = 100000,
+        initial_step: float = 0.0,
+        disturbance: Disturbance = None,
+    ) -> PropagationResult:
+        """Propagates the 13-state over dt (s) with u held constant (zero-order hold).
+
+        method ``"rk4"`` (``substeps`` equal steps) or ``"dopri"`` (adaptive Dormand-Prince 5(4) with
+        ``rtol``/``atol``, at most ``max_steps`` steps). ``disturbance``: None, a constant 6-vector
+        [acceleration in L (m/s^2); angular acceleration in B (rad/s^2)] or a callable
+        ``(t, state) -> 6-vector``. Numerical failures are reported in ``result.status``.
+        """
+        m = method.lower()
+        if m == "rk4":
+            integrator = _dyn.Integrator.RK4
+        elif m in ("dopri", "dopri5"):
+            integrator = _dyn.Integrator.DOPRI5
+        else:
+            raise ValueError(f"method must be 'rk4' or 'dopri', got {method!r}")
+        constant = np.zeros(6)
+        callback = None
+        if callable(disturbance):
+            callback = disturbance
+        elif disturbance is not None:
+            constant = _vec(disturbance)
+        return self._impl.propagate(
+            t0,
+            _vec(state),
+            _vec(u),
+            dt,
+            integrator,
+            substeps,
+            rtol,
+            atol,
+            max_steps,
+            initial_step,
+            constant,
+            callback,
+        )
+
+    @staticmethod
+    def truth_to_state(state: npt.ArrayLike, phi_ref: npt.ArrayLike | None = None) -> _Arr:
+        """13-state -> 12-state (see ``truth_to_state``)."""
+        return truth_to_state(state, phi_ref)
+
+    @staticmethod
+    def state_to_truth(x: npt.ArrayLike) -> _Arr:
+        """12-state -> 13-state (q_B/L = exp_map(phi))."""
+        return state_to_truth(x)
+
+
+def truth_to_state(state: npt.ArrayLike, phi_ref: npt.ArrayLike | None = None) -> _Arr:
+    """13-state -> 12-state: phi = log_map(q) (|phi| <= pi), then the equivalent rotation vector
+    phi - 2 pi phi/|phi| is taken instead when it is nearer to ``phi_ref`` (default 0). Passing the
+    previous phi keeps a trajectory continuous across |phi| = pi (|phi| may then exceed pi)."""
+    ref = np.zeros(3) if phi_ref is None else _vec(phi_ref)
+    return _dyn.truth_to_state(_vec(state), ref)
+
+
+def state_to_truth(x: npt.ArrayLike) -> _Arr:
+    """12-state -> 13-state (q_B/L = exp_map(phi))."""
+    return _dyn.state_to_truth(_vec(x))
+
+
+def glide_slope_constraint(
+    x: npt.ArrayLike, glide_slope_angle: float = np.deg2rad(70.0)
+) -> tuple[float, _Arr]:
+    """(g, dg/dx) of g = |r| cos(phi_gs) - r . z_L (<= 0 feasible); ValueError at r = 0."""
+    return _dyn.glide_slope_constraint(_vec(x), glide_slope_angle)
+
+
+def line_of_sight_constraint(
+    x: npt.ArrayLike, los_angle: float = np.deg2rad(80.0), boresight_B: npt.ArrayLike = (0.0, 0.0, 1.0)
+) -> tuple[float, _Arr]:
+    """(g, dg/dx) of g = |r| cos(theta_LOS) - r_B . b_B, r_B = -C_BL r_L (<= 0 feasible)."""
+    return _dyn.line_of_sight_constraint(_vec(x), los_angle, _vec(boresight_B))
+
+
+def _vec(a: npt.ArrayLike) -> _Arr:
+    return np.ascontiguousarray(a, dtype=float).reshape(-1)

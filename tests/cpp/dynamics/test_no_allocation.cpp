@@ -1,0 +1,67 @@
+// The MPC calls the discretisation and the constraint linearisation inside its allocation-free
+// step: count global operator new calls around them.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+#include "test_fields.hpp"
+#include "tubempc/dynamics/linearized_proximity.hpp"
+
+namespace {
+std::atomic<long> g_allocations{0};
+}  // namespace
+
+void* operator new(std::size_t n) {
+  ++g_allocations;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+namespace tubempc::dynamics {
+namespace {
+
+TEST(NoAllocation, DiscretizeConstraintsAndHorizon) {
+  ModelParams p;
+  p.kinematics = Kinematics::Exact;
+  const auto model = std::make_shared<const ProximityModel>(testing::cluster(), p);
+  const LinearizedProximityModel lin(model);
+  const int N = 30;
+  DiscreteHorizon horizon(N);
+  Eigen::Matrix<double, kNx, Eigen::Dynamic> X(kNx, N);
+  Eigen::Matrix<double, kNu, Eigen::Dynamic> U(kNu, N);
+  for (int k = 0; k < N; ++k) {
+    X.col(k) << 959.0 - 30.0 * k, 162.0, 752.0, 0.0, 0.08, -0.02, 0.31, 2.9, 0.31, 1e-3, 0.0, 3e-3;
+    U.col(k) << 1e-4, 0.0, -1e-4, 0.01, 0.0, 0.02;
+  }
+  Eigen::MatrixXd A(12, 12);
+  Eigen::MatrixXd B(12, 6);
+  Eigen::VectorXd c(12);
+  Eigen::MatrixXd G(2, 12);
+  Eigen::VectorXd h(2);
+  const Eigen::VectorXd x = X.col(0);
+  const Eigen::VectorXd u = U.col(0);
+
+  const long before = g_allocations.load();
+  lin.discretize(10.0, 2.0, x, u, A, B, c);
+  lin.constraints(10.0, x, G, h);
+  const DiscretizationStatus st = lin.discretize_horizon(0.0, 2.0, X, U, horizon);
+  const long after = g_allocations.load();
+  EXPECT_EQ(after - before, 0);
+  EXPECT_EQ(st, DiscretizationStatus::Ok);
+  EXPECT_EQ(horizon.first_failed_node, -1);
+  // The horizon's node 0 equals the single-node discretisation at t0.
+  StateMatrix Ad;
+  InputMatrix Bd;
+  StateVector cd;
+  ASSERT_EQ(model->discretize(0.0, 2.0, X.col(0), U.col(0), Ad, Bd, cd), DiscretizationStatus::Ok);
+  EXPECT_EQ((Ad - horizon.A[0]).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ((cd - horizon.c[0]).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_GT(g_allocations.load(), 0);  // the counter does count (the horizon allocated)
+}
+
+}  // namespace
+}  // namespace tubempc::dynamics
