@@ -263,6 +263,36 @@ class Disturbance:
         return np.diag(np.concatenate([self.S_r_attitude, self.S_r_rate]))
 
 
+@dataclass(frozen=True, eq=False)
+class Tube:
+    """Tube design (paper Eq. 25; tube.py). weighting: "mpc" takes C = [Q^1/2; 0], B2 = [0; R^1/2]
+    from the MPC weights (the paper's choice); "normalized" weights Tr(Pe) by the inverse prior
+    disturbance variances and Tr(Z) by 1/u_max^2, so the two terms are of one scale (project
+    option). max_solves: cap on LMI solves per subsystem and step when warm-started."""
+
+    weighting: str = field(metadata=_opt("mpc", "normalized"))
+    input_weight: float = field(metadata=_num(check=_POS))
+    max_solves: int = field(metadata=_int(check=_GE1))
+
+
+@dataclass(frozen=True, eq=False)
+class Simulation:
+    """Truth simulation (project options; PAPER_NOTES "Attitude": the truth integrates the
+    quaternion). integrator "rk4" with ``substeps`` per control step or "dopri" (adaptive, rtol).
+    Model mismatch between the controller and the truth: truth density = density_scale *
+    asteroid.density, truth SRP = srp_scale * beta_srp, truth shape resolution
+    ``truth_shape_subdivisions`` (0: the controller's shape). reference_input_fraction: the
+    reference trajectory may use this fraction of u_max and T_max (margin for the tube)."""
+
+    integrator: str = field(metadata=_opt("rk4", "dopri"))
+    substeps: int = field(metadata=_int(check=_GE1))
+    rtol: float = field(metadata=_num(check=_POS))
+    density_scale: float = field(metadata=_num(check=_POS))
+    srp_scale: float = field(metadata=_num(check=_NONNEG))
+    truth_shape_subdivisions: int = field(metadata=_int(check=(lambda v: v >= 0, ">= 0")))
+    reference_input_fraction: float = field(metadata=_num(check=(lambda v: 0.0 < v <= 1.0, "in (0, 1]")))
+
+
 _SECTIONS: dict[str, type] = {
     "environment": Environment,
     "asteroid": Asteroid,
@@ -272,6 +302,8 @@ _SECTIONS: dict[str, type] = {
     "boundary": Boundary,
     "identification": Identification,
     "disturbance": Disturbance,
+    "tube": Tube,
+    "simulation": Simulation,
 }
 
 
@@ -288,6 +320,8 @@ class Config:
     boundary: Boundary
     identification: Identification
     disturbance: Disturbance
+    tube: Tube
+    simulation: Simulation
     source: str = "<memory>"
 
     def to_dict(self) -> dict[str, dict[str, Any]]:

@@ -37,7 +37,8 @@ STATE_SCALE = np.array([10.0] * 3 + [0.01] * 3 + [0.05] * 3 + [1e-3] * 3)
 
 @dataclass(frozen=True)
 class ReferenceSettings:
-    """Settings of the SCP. ``trust_radius`` is in units of STATE_SCALE."""
+    """Settings of the SCP. ``trust_radius`` is in units of STATE_SCALE (from the second iteration
+    on; the first subproblem, about the straight-line guess, has none)."""
 
     max_iterations: int = 40
     tol: float = 1e-3
@@ -150,8 +151,9 @@ def generate_reference(
             Glos @ x <= h_los,
             cp.norm(Um[:, 0:3], 2, axis=1) <= u_max,
             cp.norm(Um[:, 3:6], 2, axis=1) <= T_max,
-            cp.abs(cp.multiply(1.0 / scale, x - X.reshape(-1))) <= radius,
         ]
+        if it > 1:  # the straight-line guess is not dynamically consistent: no trust region about it
+            cons.append(cp.abs(cp.multiply(1.0 / scale, x - X.reshape(-1))) <= radius)
         effort = cp.sum(cp.norm(Um[:, 0:3], 2, axis=1) + cp.norm(Um[:, 3:6], 2, axis=1)) * dt
         prob = cp.Problem(cp.Minimize(effort), cons)
         prob.solve(solver=st.solver)
