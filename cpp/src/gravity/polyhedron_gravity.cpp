@@ -284,14 +284,18 @@ void PolyhedronGravity::accumulate(const Eigen::Vector3d& p, double tol_plane, b
     }
     if (!with_edges) continue;
 
-    // Edges: L = ln((a+b+e)/max(a+b-e, eps (a+b+e))); E r = E v_i - E p; r^T E r = v^T E v - p.(E v + E r).
+    // Edges: L = ln((a+b+e)/max(a+b-e, eps (a+b+e))), E r = E v_i - E p, r^T E r = v^T E v - p.(E v + E r).
     const int eb = cl.e_begin;
     for (int k = 0; k < cl.e_count; k += 4) {
       A4 s;
       for (int q = 0; q < 4; ++q) s[q] = rn[e_i_[eb + k + q]] + rn[e_j_[eb + k + q]];
       const A4 len = CMap4(e_len_.data() + eb + k);
-      const A4 top = s + len;
-      const A4 L = (top / (s - len).max(kEps * top)).log();
+      // L = log1p(x), x = 2e/(a+b-e), with Goldberg's correction log(u) x/(u-1), u = fl(1+x), so
+      // that L keeps full relative accuracy far away (x ~ e/|r| small).
+      const A4 x = 2.0 * len / (s - len).max(kEps * (s + len));
+      const A4 u = 1.0 + x;
+      const A4 um1 = u - 1.0;
+      const A4 L = (um1 == 0.0).select(x, u.log() * (x / um1));
       const A4 exx = CMap4(e_xx_.data() + eb + k), exy = CMap4(e_xy_.data() + eb + k),
                exz = CMap4(e_xz_.data() + eb + k), eyy = CMap4(e_yy_.data() + eb + k),
                eyz = CMap4(e_yz_.data() + eb + k), ezz = CMap4(e_zz_.data() + eb + k);

@@ -15,8 +15,10 @@
 /// Numerics: every quantity is formed from vectors relative to the mesh's centre of mass and from
 /// vertex-relative distances; the numerator of w_f is |N_f| n_f.(v1 - r) and the dot products of its
 /// denominator use the law of cosines with the exact edge lengths, so no triple product of large
-/// vectors is formed. The arc tangent (Cephes, <= 1 ulp) and the logarithm (Eigen) are evaluated
-/// in vectorised blocks.
+/// vectors is formed; L_e is evaluated as log1p(2e/(a+b-e)) (Goldberg's form over Eigen's vectorised
+/// log), which keeps its relative accuracy far from the body where (a+b+e)/(a+b-e) -> 1. The arc
+/// tangent (Cephes, <= 1 ulp) is evaluated in vectorised blocks. What remains is the formula's own
+/// cancellation far away, about eps (|r|/R)^2 relative.
 ///
 /// Points on the surface (limit values; G = Hess U is discontinuous across a face and diverges
 /// logarithmically at edges and vertices):
