@@ -85,6 +85,7 @@ Eigen::Matrix<std::int64_t, Eigen::Dynamic, 4, Eigen::RowMajor> edge_table(const
 
 void bind_gravity(py::module_& m) {
   auto g = m.def_submodule("gravity", "Constant-density polyhedron gravity and validated shapes (SI units)");
+  g.attr("GRAVITATIONAL_CONSTANT") = gravity::kGravitationalConstant;
 
   py::enum_<ShapeRepair>(g, "ShapeRepair", "What Shape may change in the mesh it is given.")
       .value("NONE", ShapeRepair::None, "reject orientation errors")
