@@ -29,15 +29,11 @@ import math
 import re
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from ._core import gravity as _gravity
-
-Shape = _gravity.Shape
-ShapeRepair = _gravity.ShapeRepair
+from ._core.gravity import Shape, ShapeRepair
 
 __all__ = ["FORMATS", "Shape", "ShapeError", "ShapeRepair", "bennu_like_shape", "load_shape", "save_shape"]
 
@@ -70,7 +66,9 @@ def _format_of(path: Path, fmt: str | None) -> str:
         return fmt
     ext = path.suffix.lower()
     if ext not in _EXTENSIONS:
-        raise ShapeError(path, None, f"cannot tell the format from the extension {ext!r}; pass fmt= one of {FORMATS}")
+        raise ShapeError(
+            path, None, f"cannot tell the format from the extension {ext!r}; pass fmt= one of {FORMATS}"
+        )
     return _EXTENSIONS[ext]
 
 
@@ -109,8 +107,8 @@ def _validated(
     faces: npt.NDArray[np.int64],
     vertex_lines: Sequence[int | None],
     face_lines: Sequence[int | None],
-    repair: Any,
-) -> Any:
+    repair: ShapeRepair,
+) -> Shape:
     """Builds the Shape, translating its error into a ShapeError at the offending line."""
     try:
         return Shape(vertices, faces, repair)
@@ -129,7 +127,7 @@ def _validated(
         raise ShapeError(path, line, message + where) from exc
 
 
-def _load_vf(path: Path, scale: float, fmt: str, repair: Any) -> Any:
+def _load_vf(path: Path, scale: float, fmt: str, repair: ShapeRepair) -> Shape:
     vertices: list[list[float]] = []
     faces: list[list[int]] = []
     vertex_lines: list[int] = []
@@ -146,11 +144,15 @@ def _load_vf(path: Path, scale: float, fmt: str, repair: Any) -> Any:
             vertex_lines.append(number)
         elif tag == "f":
             if len(tokens) != 4:
-                raise ShapeError(path, number, f"face with {len(tokens) - 1} vertices: only triangles are supported")
+                raise ShapeError(
+                    path, number, f"face with {len(tokens) - 1} vertices: only triangles are supported"
+                )
             try:
                 faces.append([int(t.split("/", 1)[0]) for t in tokens[1:]])
             except ValueError as exc:
-                raise ShapeError(path, number, f"face: cannot read vertex indices from {line.strip()!r}") from exc
+                raise ShapeError(
+                    path, number, f"face: cannot read vertex indices from {line.strip()!r}"
+                ) from exc
             face_lines.append(number)
         elif fmt == "obj" and tag in _OBJ_IGNORED:
             continue
@@ -168,7 +170,9 @@ def _load_vf(path: Path, scale: float, fmt: str, repair: Any) -> Any:
     if bad.size:
         j = int(bad[0])
         raise ShapeError(
-            path, face_lines[j], f"face refers to a missing vertex (indices {faces[j]}, {base}-based, {n} vertices)"
+            path,
+            face_lines[j],
+            f"face refers to a missing vertex (indices {faces[j]}, {base}-based, {n} vertices)",
         )
     v = np.asarray(vertices, dtype=np.float64) * scale
     return _validated(path, v, f, vertex_lines, face_lines, repair)
@@ -187,14 +191,16 @@ def _icq_faces(q: int) -> npt.NDArray[np.int64]:
     return np.concatenate(out).astype(np.int64)
 
 
-def _load_icq(path: Path, scale: float, repair: Any) -> Any:
+def _load_icq(path: Path, scale: float, repair: ShapeRepair) -> Shape:
     lines = _text_lines(path)
     content = [(n, line.split()) for n, line in enumerate(lines, start=1) if line.strip()]
     if not content:
         raise ShapeError(path, 1, "the file is empty")
     first_line, first = content[0]
     if len(first) != 1 or not first[0].isdigit() or int(first[0]) < 1:
-        raise ShapeError(path, first_line, f"expected the grid size q (a positive integer), got {' '.join(first)!r}")
+        raise ShapeError(
+            path, first_line, f"expected the grid size q (a positive integer), got {' '.join(first)!r}"
+        )
     q = int(first[0])
     expected = 6 * (q + 1) ** 2
     rows = content[1:]
@@ -222,11 +228,13 @@ def _load_icq(path: Path, scale: float, repair: Any) -> Any:
     return _validated(path, unique * scale, faces, vertex_lines, face_lines, orient)
 
 
-def _load_trimesh(path: Path, scale: float, fmt: str, repair: Any) -> Any:
+def _load_trimesh(path: Path, scale: float, fmt: str, repair: ShapeRepair) -> Shape:
     try:
         import trimesh
     except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise ImportError(f"reading {fmt.upper()} files needs the optional package 'trimesh' (pip install trimesh)") from exc
+        raise ImportError(
+            f"reading {fmt.upper()} files needs the optional package 'trimesh' (pip install trimesh)"
+        ) from exc
     try:
         data = path.read_bytes()
     except OSError as exc:
@@ -236,7 +244,9 @@ def _load_trimesh(path: Path, scale: float, fmt: str, repair: Any) -> Any:
     try:
         mesh = trimesh.load(path, file_type=fmt, force="mesh", process=False)
     except Exception as exc:  # trimesh raises many exception types for unreadable files
-        raise ShapeError(path, None, f"not a readable {fmt.upper()} file ({type(exc).__name__}: {exc})") from exc
+        raise ShapeError(
+            path, None, f"not a readable {fmt.upper()} file ({type(exc).__name__}: {exc})"
+        ) from exc
     vertices = np.asarray(getattr(mesh, "vertices", np.empty((0, 3))), dtype=np.float64)
     faces = np.asarray(getattr(mesh, "faces", np.empty((0, 3))), dtype=np.int64)
     if vertices.size == 0 or faces.size == 0:
@@ -251,7 +261,7 @@ def _load_trimesh(path: Path, scale: float, fmt: str, repair: Any) -> Any:
     return _validated(path, vertices * scale, faces, no_lines, no_lines, repair)
 
 
-def load_shape(path: str | Path, unit: str = "km", fmt: str | None = None, repair: bool = False) -> Any:
+def load_shape(path: str | Path, unit: str = "km", fmt: str | None = None, repair: bool = False) -> Shape:
     """Reads a shape model into a validated :class:`tubempc.Shape` in metres.
 
     Args:
@@ -300,7 +310,11 @@ def save_shape(
         f = np.asarray(faces, dtype=np.int64)
     if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3:
         raise ValueError("vertices must be (n, 3) and faces (m, 3)")
-    out = [f"# written by tubempc.save_shape: {len(v)} vertices, {len(f)} faces, unit {unit}\n"] if kind == "obj" else []
+    out = (
+        [f"# written by tubempc.save_shape: {len(v)} vertices, {len(f)} faces, unit {unit}\n"]
+        if kind == "obj"
+        else []
+    )
     out += [f"v {x:.17g} {y:.17g} {z:.17g}\n" for x, y, z in v / scale]
     out += [f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in f]
     p.write_text("".join(out), encoding="utf-8")
@@ -311,14 +325,16 @@ def _geodesic_sphere(frequency: int) -> tuple[npt.NDArray[np.float64], npt.NDArr
     t = (1.0 + math.sqrt(5.0)) / 2.0
     ico_v = np.array(
         [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t],
-         [0, -1, -t], [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]], dtype=np.float64)  # fmt: skip
+         [0, -1, -t], [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]],
+        dtype=np.float64,
+    )  # fmt: skip
     ico_f = np.array(
         [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2],
          [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5],
          [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]], dtype=np.int64)  # fmt: skip
     n = frequency
-    points = []
-    tris = []
+    points: list[npt.NDArray[np.float64]] = []
+    tris: list[list[int]] = []
     for a, b, c in ico_f:
         A, B, C = ico_v[a], ico_v[b], ico_v[c]
         index = {}
@@ -346,14 +362,15 @@ def bennu_like_shape(
     ridge_height: float = 0.03,
     ridge_width: float = 0.15,
     longitude_bulge: float = 0.02,
-) -> Any:
+) -> Shape:
     """The project's default asteroid: a deterministic, watertight "spinning-top" body like Bennu.
 
     A geodesic sphere (each icosahedron edge cut into ``n_subdivisions`` segments: 20 n^2 faces,
     10 n^2 + 2 vertices; the default 12 gives 2880 faces, like the radar model's 2692) whose radius
     in the direction of latitude phi and longitude lam is
 
-        r = s (1 + h exp(-(phi / w)^2)) (1 + b cos(2 lam) cos(phi)^2) / ((cos phi)^p + (|sin phi| / c)^p)^(1/p)
+        r = s (1 + h exp(-(phi / w)^2)) (1 + b cos(2 lam) cos(phi)^2)
+              / ((cos phi)^p + (|sin phi| / c)^p)^(1/p)
 
     (p = ``diamond_exponent``: the double-cone "diamond" profile; c = ``polar_ratio``; h, w =
     ``ridge_height``, ``ridge_width`` (rad): the equatorial ridge; b = ``longitude_bulge``), then
@@ -367,7 +384,9 @@ def bennu_like_shape(
     if not (math.isfinite(volume) and volume > 0):
         raise ValueError(f"volume must be finite and > 0 (m^3), got {volume!r}")
     if not (0 < polar_ratio and 1 <= diamond_exponent and ridge_width > 0 and abs(longitude_bulge) < 0.5):
-        raise ValueError("bennu_like_shape: polar_ratio > 0, diamond_exponent >= 1, ridge_width > 0, |bulge| < 0.5")
+        raise ValueError(
+            "bennu_like_shape: polar_ratio > 0, diamond_exponent >= 1, ridge_width > 0, |bulge| < 0.5"
+        )
     u, faces = _geodesic_sphere(int(n_subdivisions))
     phi = np.arcsin(np.clip(u[:, 2], -1.0, 1.0))
     lam = np.arctan2(u[:, 1], u[:, 0])
