@@ -43,9 +43,10 @@ void atan2_block(const double* y, const double* x, double* out, int n) {
     const double ax = std::fabs(x[k]), ay = std::fabs(y[k]);
     const double hi = ax > ay ? ax : ay;
     const double lo = ax > ay ? ay : ax;
-    const double t = hi > 0.0 ? lo / hi : 0.0;  // in [0, 1]
+    const double t = lo / (hi > 0.0 ? hi : 1.0);  // in [0, 1]
     const bool big = t > 0.66;
-    const double u = big ? (t - 1.0) / (t + 1.0) : t;
+    const double t_big = (t - 1.0) / (t + 1.0);  // both branches computed: no control flow
+    const double u = big ? t_big : t;
     const double z = u * u;
     const double p = (((P0 * z + P1) * z + P2) * z + P3) * z + P4;
     const double q = ((((z + Q0) * z + Q1) * z + Q2) * z + Q3) * z + Q4;
@@ -290,12 +291,13 @@ void PolyhedronGravity::accumulate(const Eigen::Vector3d& p, double tol_plane, b
       A4 s;
       for (int q = 0; q < 4; ++q) s[q] = rn[e_i_[eb + k + q]] + rn[e_j_[eb + k + q]];
       const A4 len = CMap4(e_len_.data() + eb + k);
-      // L = log1p(x), x = 2e/(a+b-e), with Goldberg's correction log(u) x/(u-1), u = fl(1+x), so
-      // that L keeps full relative accuracy far away (x ~ e/|r| small).
+      // L = log1p(x), x = 2e/(a+b-e), as log(u) - c/u with u = fl(1+x) and c = (u-1) - x its exact
+      // rounding error (u <= 2), so that L keeps full relative accuracy far away (x ~ e/|r| small);
+      // c/u is taken as c (1-x) (error <= c x^2) and dropped for x >= 1 (error <= eps/2 against L > 0.69).
       const A4 x = 2.0 * len / (s - len).max(kEps * (s + len));
       const A4 u = 1.0 + x;
-      const A4 um1 = u - 1.0;
-      const A4 L = (um1 == 0.0).select(x, u.log() * (x / um1));
+      const A4 c = (u - 1.0) - x;
+      const A4 L = u.log() - c * (1.0 - x).max(0.0);
       const A4 exx = CMap4(e_xx_.data() + eb + k), exy = CMap4(e_xy_.data() + eb + k),
                exz = CMap4(e_xz_.data() + eb + k), eyy = CMap4(e_yy_.data() + eb + k),
                eyz = CMap4(e_yz_.data() + eb + k), ezz = CMap4(e_zz_.data() + eb + k);
