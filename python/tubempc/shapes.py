@@ -217,9 +217,8 @@ def _load_icq(path: Path, scale: float, repair: ShapeRepair) -> Shape:
     # Merge the copies of the vertices on the cube's edges (written identically by the grids).
     unique, index = np.unique(raw, axis=0, return_inverse=True)
     index = index.reshape(-1)
-    first_of = np.full(len(unique), -1, dtype=np.int64)
-    for k in range(expected - 1, -1, -1):
-        first_of[index[k]] = k
+    first_of = np.full(len(unique), expected, dtype=np.int64)
+    np.minimum.at(first_of, index, np.arange(expected))
     raw_faces = _icq_faces(q)
     faces = index[raw_faces]
     vertex_lines = [raw_lines[k] for k in first_of]

@@ -288,13 +288,13 @@ void PolyhedronGravity::accumulate(const Eigen::Vector3d& p, double tol_plane, b
     // Edges: L = ln((a+b+e)/max(a+b-e, eps (a+b+e))), E r = E v_i - E p, r^T E r = v^T E v - p.(E v + E r).
     const int eb = cl.e_begin;
     for (int k = 0; k < cl.e_count; k += 4) {
-      A4 s;
-      for (int q = 0; q < 4; ++q) s[q] = rn[e_i_[eb + k + q]] + rn[e_j_[eb + k + q]];
+      A4 ab;  // a + b
+      for (int q = 0; q < 4; ++q) ab[q] = rn[e_i_[eb + k + q]] + rn[e_j_[eb + k + q]];
       const A4 len = CMap4(e_len_.data() + eb + k);
       // L = log1p(x), x = 2e/(a+b-e), as log(u) - c/u with u = fl(1+x) and c = (u-1) - x its exact
       // rounding error (u <= 2), so that L keeps full relative accuracy far away (x ~ e/|r| small);
       // c/u is taken as c (1-x) (error <= c x^2) and dropped for x >= 1 (error <= eps/2 against L > 0.69).
-      const A4 x = 2.0 * len / (s - len).max(kEps * (s + len));
+      const A4 x = 2.0 * len / (ab - len).max(kEps * (ab + len));
       const A4 u = 1.0 + x;
       const A4 c = (u - 1.0) - x;
       const A4 L = u.log() - c * (1.0 - x).max(0.0);
