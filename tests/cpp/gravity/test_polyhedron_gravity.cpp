@@ -29,8 +29,12 @@ PolyhedronGravity model(const Mesh& m, double rho = kRho) { return PolyhedronGra
 struct Prism {
   double x0, x1, y0, y1, z0, z1;
   void eval(const Eigen::Vector3d& p, double& U_out, Eigen::Vector3d& a_out) const {
+    Eigen::Matrix3d unused;
+    eval(p, U_out, a_out, unused);
+  }
+  void eval(const Eigen::Vector3d& p, double& U_out, Eigen::Vector3d& a_out, Eigen::Matrix3d& H_out) const {
     using LD = long double;  // the closed form cancels too: evaluate it in extended precision
-    LD U = 0, ax = 0, ay = 0, az = 0;
+    LD U = 0, ax = 0, ay = 0, az = 0, hxx = 0, hyy = 0, hzz = 0, hxy = 0, hxz = 0, hyz = 0;
     for (int i = 0; i < 8; ++i) {
       const LD X = LD((i & 1) ? x1 : x0) - p.x(), Y = LD((i & 2) ? y1 : y0) - p.y(), Z = LD((i & 4) ? z1 : z0) - p.z();
       const int lower = !(i & 1) + !(i & 2) + !(i & 4);
@@ -45,16 +49,27 @@ struct Prism {
       ax -= s * (Y * lz + Z * ly - X * std::atan(Y * Z / (X * R)));
       ay -= s * (Z * lx + X * lz - Y * std::atan(Z * X / (Y * R)));
       az -= s * (X * ly + Y * lx - Z * std::atan(X * Y / (Z * R)));
+      // Hess U: d a_x / d p_x = -G rho sum s atan(YZ/(XR)), d a_x / d p_y = G rho sum s ln(Z+R), ...
+      hxx -= s * std::atan(Y * Z / (X * R));
+      hyy -= s * std::atan(Z * X / (Y * R));
+      hzz -= s * std::atan(X * Y / (Z * R));
+      hxy += s * lz;
+      hxz += s * ly;
+      hyz += s * lx;
     }
     const LD g_rho = LD(kGravitationalConstant) * kRho;
     U_out = static_cast<double>(g_rho * U);
     a_out << static_cast<double>(g_rho * ax), static_cast<double>(g_rho * ay), static_cast<double>(g_rho * az);
+    H_out << static_cast<double>(hxx), static_cast<double>(hxy), static_cast<double>(hxz),  //
+        static_cast<double>(hxy), static_cast<double>(hyy), static_cast<double>(hyz),          //
+        static_cast<double>(hxz), static_cast<double>(hyz), static_cast<double>(hzz);
+    H_out *= static_cast<double>(g_rho);
   }
 };
 
 }  // namespace
 
-TEST(PolyhedronGravity, PrismMatchesClosedFormOutsideAndInside) {
+TEST(PolyhedronGravity, PrismPotentialAccelerationAndHessianMatchClosedForm) {
   const Prism pr{-100.0, 140.0, -60.0, 90.0, -75.0, 55.0};
   const PolyhedronGravity g = model(box(pr.x0, pr.x1, pr.y0, pr.y1, pr.z0, pr.z1));
   const Eigen::Vector3d pts[] = {{300.0, 41.0, -17.0}, {-20.0, 150.0, 230.0}, {1234.0, -987.0, 2345.0},
@@ -62,11 +77,13 @@ TEST(PolyhedronGravity, PrismMatchesClosedFormOutsideAndInside) {
   for (const auto& p : pts) {
     double U = 0.0;
     Eigen::Vector3d a;
-    pr.eval(p, U, a);
+    Eigen::Matrix3d H;
+    pr.eval(p, U, a, H);
     GravitySample s;
     g.evaluate(p, s);
     EXPECT_NEAR(s.potential, U, 1e-12 * U) << p.transpose();
     EXPECT_LT((s.acceleration - a).norm(), 1e-11 * a.norm()) << p.transpose();
+    EXPECT_LT((s.gradient - H).norm(), 1e-10 * H.norm()) << p.transpose();
   }
 }
 
