@@ -8,7 +8,7 @@ from __future__ import annotations
 from . import _core
 from ._core import build_info, so3
 from ._core.gravity import GRAVITATIONAL_CONSTANT, PolyhedronGravity, Shape, ShapeRepair
-from .shapes import ShapeError, bennu_like_shape, load_shape, save_shape
+from .shapes import ShapeError, bennu_like_shape, load_shape, save_icq, save_shape
 
 __version__: str = _core.__version__
 
@@ -22,6 +22,7 @@ __all__ = [
     "bennu_like_shape",
     "build_info",
     "load_shape",
+    "save_icq",
     "save_shape",
     "so3",
 ]

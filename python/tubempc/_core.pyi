@@ -8,6 +8,8 @@ import numpy.typing as npt
 from . import _gravity as gravity
 from . import _so3 as so3
 
+__all__ = ["__version__", "build_info", "gravity", "so3"]
+
 __version__: str
 
 def build_info() -> dict[str, Any]: ...

@@ -35,7 +35,16 @@ import numpy.typing as npt
 
 from ._core.gravity import Shape, ShapeRepair
 
-__all__ = ["FORMATS", "Shape", "ShapeError", "ShapeRepair", "bennu_like_shape", "load_shape", "save_shape"]
+__all__ = [
+    "FORMATS",
+    "Shape",
+    "ShapeError",
+    "ShapeRepair",
+    "bennu_like_shape",
+    "load_shape",
+    "save_icq",
+    "save_shape",
+]
 
 FORMATS = ("obj", "tab", "icq", "ply", "stl")
 _UNITS = {"km": 1000.0, "m": 1.0}
@@ -317,6 +326,22 @@ def save_shape(
     out += [f"v {x:.17g} {y:.17g} {z:.17g}\n" for x, y, z in v / scale]
     out += [f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in f]
     p.write_text("".join(out), encoding="utf-8")
+
+
+def save_icq(path: str | Path, grid: npt.ArrayLike, unit: str = "km") -> None:
+    """Writes Gaskell's ICQ format from a grid (6, q+1, q+1, 3) in metres indexed [face, j, i].
+
+    The grids of neighbouring cube faces must repeat the vertices they share (as ICQ files do);
+    :func:`load_shape` merges them. Coordinates are written with 17 significant digits.
+    """
+    p = Path(path)
+    scale = _unit_scale(p, unit)
+    g = np.asarray(grid, dtype=np.float64)
+    if g.ndim != 4 or g.shape[0] != 6 or g.shape[1] != g.shape[2] or g.shape[1] < 2 or g.shape[3] != 3:
+        raise ValueError(f"grid must have shape (6, q+1, q+1, 3) with q >= 1, got {g.shape}")
+    q = g.shape[1] - 1
+    rows = (g / scale).reshape(-1, 3)
+    p.write_text(f"{q}\n" + "".join(f"{x:.17g} {y:.17g} {z:.17g}\n" for x, y, z in rows), encoding="utf-8")
 
 
 def _geodesic_sphere(frequency: int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tubempc import Shape, ShapeError, ShapeRepair, bennu_like_shape, load_shape, save_shape
+from tubempc import Shape, ShapeError, ShapeRepair, bennu_like_shape, load_shape, save_icq, save_shape
 
 SHARED_DATA = Path(__file__).parents[2].parent / "shared" / "data"
 RADAR = SHARED_DATA / "101955bennu.tab"
@@ -88,6 +88,23 @@ def test_icq_grid_is_merged_into_a_closed_outward_mesh(tmp_path: Path) -> None:
     assert s.volume == pytest.approx(8e9, rel=1e-14)
     np.testing.assert_allclose(s.center_of_mass, 0.0, atol=1e-6)
     np.testing.assert_allclose(s.inertia_per_unit_density, np.eye(3) * 8e9 * (2000.0**2) / 6, rtol=1e-12)
+
+
+def test_icq_round_trip_of_a_cube_sphere(tmp_path: Path) -> None:
+    q = 6
+    path = tmp_path / "ball.icq"
+    path.write_text(_icq_cube_text(q))
+    grid = np.loadtxt(path, skiprows=1).reshape(6, q + 1, q + 1, 3)
+    grid *= (1000.0 * (1.0 + 0.1 * grid[..., :1])) / np.linalg.norm(grid, axis=-1, keepdims=True)  # km -> m
+    save_icq(path, grid)
+    s = load_shape(path)
+    assert s.n_vertices == 6 * q * q + 2 and s.n_faces == 12 * q * q
+    # the saved grid's distinct points are exactly the shape's vertices
+    np.testing.assert_allclose(
+        np.unique(grid.reshape(-1, 3), axis=0), np.unique(s.vertices, axis=0), rtol=1e-15
+    )
+    with pytest.raises(ValueError, match="grid must have shape"):
+        save_icq(path, grid[:5])
 
 
 @pytest.mark.parametrize("fmt", ["ply", "stl"])
