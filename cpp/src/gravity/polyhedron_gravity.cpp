@@ -79,6 +79,9 @@ PolyhedronGravity::PolyhedronGravity(Shape shape, double density)
   const Index nv = V.rows(), nf = F.rows();
   const Vertices vc = V.rowwise() - center_.transpose();
   r_max_ = vc.rowwise().norm().maxCoeff();
+  r_far_ = kFarFieldFactor * r_max_;
+  const Eigen::Matrix3d inertia = shape_.inertia(density_);
+  quadrupole_ = kGravitationalConstant * (inertia.trace() * Eigen::Matrix3d::Identity() - 3.0 * inertia);
 
   // Face adjacency (three neighbours per face on a closed manifold).
   std::vector<std::array<Index, 3>> adjacent(static_cast<size_t>(nf));
@@ -328,11 +331,46 @@ void PolyhedronGravity::accumulate(const Eigen::Vector3d& p, double tol_plane, b
   s.h_face = {hxx_f.sum(), hxy_f.sum(), hxz_f.sum(), hyy_f.sum(), hyz_f.sum(), hzz_f.sum()};
 }
 
+namespace {
+
+bool valid_point(const Eigen::Vector3d& r_A) { return r_A.allFinite() && r_A.cwiseAbs().maxCoeff() < 1e150; }
+
+// r_A - c and its norm; throws for non-finite or absurdly distant points.
+double checked_offset(const Eigen::Vector3d& r_A, const Eigen::Vector3d& center, Eigen::Vector3d& p) {
+  if (!valid_point(r_A)) {
+    throw std::domain_error("PolyhedronGravity: position must be finite with |r| < 1e150 m");
+  }
+  p = r_A - center;
+  return p.norm();
+}
+
+}  // namespace
+
+void PolyhedronGravity::far_field(const Eigen::Vector3d& p, double r, GravitySample& out) const {
+  // U = GM/r + u^T Q u / (2 r^3), Q = G (tr I - 3 I), u = p/r; derivatives in terms of u.
+  const double mu = gm();
+  const Eigen::Vector3d u = p / r;
+  const Eigen::Vector3d qu = quadrupole_ * u;
+  const double s = u.dot(qu);
+  const double r2 = r * r, r3 = r2 * r;
+  out.potential = mu / r + 0.5 * s / r3;
+  out.acceleration = -mu / r2 * u + (qu - 2.5 * s * u) / (r3 * r);
+  const Eigen::Matrix3d uu = u * u.transpose();
+  out.gradient = mu / r3 * (3.0 * uu - Eigen::Matrix3d::Identity()) +
+                 (quadrupole_ - 5.0 * (qu * u.transpose() + u * qu.transpose()) - 2.5 * s * Eigen::Matrix3d::Identity() +
+                  17.5 * s * uu) /
+                     (r3 * r2);
+}
+
 void PolyhedronGravity::evaluate(const Eigen::Vector3d& r_A, GravitySample& out) const {
-  if (!r_A.allFinite()) throw std::domain_error("PolyhedronGravity: position must be finite");
-  const Eigen::Vector3d p = r_A - center_;
+  Eigen::Vector3d p;
+  const double r = checked_offset(r_A, center_, p);
+  if (r > r_far_) {
+    far_field(p, r, out);
+    return;
+  }
   Sums s;
-  accumulate(p, 16.0 * kEps * (p.norm() + r_max_), true, s);
+  accumulate(p, 16.0 * kEps * (r + r_max_), true, s);
   out.potential = 0.5 * g_rho_ * (s.u_edge - s.u_face);
   out.acceleration = -g_rho_ * (s.a_edge - s.a_face);
   const std::array<double, 6> h{s.h_edge[0] - s.h_face[0], s.h_edge[1] - s.h_face[1], s.h_edge[2] - s.h_face[2],
@@ -342,10 +380,11 @@ void PolyhedronGravity::evaluate(const Eigen::Vector3d& r_A, GravitySample& out)
 }
 
 double PolyhedronGravity::laplacian(const Eigen::Vector3d& r_A) const {
-  if (!r_A.allFinite()) throw std::domain_error("PolyhedronGravity: position must be finite");
-  const Eigen::Vector3d p = r_A - center_;
+  Eigen::Vector3d p;
+  const double r = checked_offset(r_A, center_, p);
+  if (r > r_far_) return 0.0;  // far outside the body
   Sums s;
-  accumulate(p, 16.0 * kEps * (p.norm() + r_max_), false, s);
+  accumulate(p, 16.0 * kEps * (r + r_max_), false, s);
   return -g_rho_ * s.w_sum;
 }
 
@@ -391,9 +430,9 @@ void PolyhedronGravity::evaluate_batch(const Eigen::Ref<const Points>& r_A, Eige
                                 " rows");
   }
   for (Index i = 0; i < n; ++i) {
-    if (!r_A.row(i).allFinite()) {
+    if (!valid_point(r_A.row(i).transpose())) {
       throw std::invalid_argument("PolyhedronGravity::evaluate_batch: point " + std::to_string(i) +
-                                  " is not finite");
+                                  " is not finite or has |r| >= 1e150 m");
     }
   }
   parallel_for(n, threads, [&](Index i) {
@@ -414,9 +453,9 @@ void PolyhedronGravity::laplacian_batch(const Eigen::Ref<const Points>& r_A, Eig
     throw std::invalid_argument("PolyhedronGravity::laplacian_batch: output must have " + std::to_string(n) + " rows");
   }
   for (Index i = 0; i < n; ++i) {
-    if (!r_A.row(i).allFinite()) {
+    if (!valid_point(r_A.row(i).transpose())) {
       throw std::invalid_argument("PolyhedronGravity::laplacian_batch: point " + std::to_string(i) +
-                                  " is not finite");
+                                  " is not finite or has |r| >= 1e150 m");
     }
   }
   parallel_for(n, threads, [&](Index i) { laplacian_out(i) = laplacian(r_A.row(i).transpose()); });

@@ -107,6 +107,44 @@ TEST(PolyhedronGravity, FarFieldMatchesPointMassPlusQuadrupole) {
   }
 }
 
+TEST(PolyhedronGravity, FarFieldExpansionTakesOverContinuouslyAndStaysExact) {
+  const Mesh m = gravity_test::lumpy_body(16, 24, 250.0);
+  const PolyhedronGravity g = model(m);
+  const Eigen::Vector3d c = g.shape().center_of_mass();
+  const double r_max = (m.v.rowwise() - c.transpose()).rowwise().norm().maxCoeff();
+  const Eigen::Vector3d u = Eigen::Vector3d(-0.2, 0.6, 0.7).normalized();
+  const double r_switch = tubempc::gravity::kFarFieldFactor * r_max;
+  GravitySample in, out;
+  g.evaluate(c + (1.0 - 1e-9) * r_switch * u, in);  // polyhedron formula
+  g.evaluate(c + (1.0 + 1e-9) * r_switch * u, out);  // expansion
+  // The jump is the polyhedron formula's cancellation at 400 R_max (documented: a few 1e-9).
+  EXPECT_NEAR(out.potential, in.potential, 5e-9 * in.potential);
+  EXPECT_LT((out.acceleration - in.acceleration).norm(), 1e-8 * in.acceleration.norm());
+  EXPECT_LT((out.gradient - in.gradient).norm(), 2e-8 * in.gradient.norm());
+  EXPECT_EQ(g.laplacian(c + 1.1 * r_switch * u), 0.0);
+  // Expansion derivatives against central differences.
+  const Eigen::Vector3d p = c + 2.0 * r_switch * u;
+  GravitySample s, sp, sm;
+  g.evaluate(p, s);
+  const double h = 1.0;
+  for (int i = 0; i < 3; ++i) {
+    g.evaluate(p + h * Eigen::Vector3d::Unit(i), sp);
+    g.evaluate(p - h * Eigen::Vector3d::Unit(i), sm);
+    EXPECT_NEAR((sp.potential - sm.potential) / (2 * h), s.acceleration(i), 1e-8 * s.acceleration.norm());
+    EXPECT_LT(((sp.acceleration - sm.acceleration) / (2 * h) - s.gradient.col(i)).norm(), 1e-7 * s.gradient.norm());
+  }
+  EXPECT_LT((s.gradient - s.gradient.transpose()).norm(), 1e-15 * s.gradient.norm());
+  EXPECT_NEAR(s.gradient.trace(), 0.0, 1e-12 * s.gradient.norm());
+  // Far beyond, the point-mass limit holds to rounding (the polyhedron sums would have lost all
+  // digits to cancellation here).
+  for (double dist : {1e12, 1e20, 1e100}) {
+    g.evaluate(c + dist * u, s);
+    EXPECT_NEAR(s.potential, g.gm() / dist, 1e-12 * g.gm() / dist) << dist;
+    EXPECT_LT((s.acceleration + g.gm() / (dist * dist) * u).norm(), 1e-12 * g.gm() / (dist * dist)) << dist;
+  }
+  EXPECT_THROW(g.evaluate(Eigen::Vector3d(1e151, 0.0, 0.0), s), std::domain_error);
+}
+
 TEST(PolyhedronGravity, LaplacianIsMinusFourPiGRhoInsideAndZeroOutside) {
   const Mesh m = gravity_test::lumpy_body(16, 24, 250.0);
   const PolyhedronGravity g = model(m);
