@@ -130,7 +130,9 @@ or PolyhedronGravity(shape, density). G = 6.67430e-11.
 Sign convention: the potential U is positive (U -> GM/|r| far away) and the acceleration is its
 gradient, a = grad U (pointing towards the body); the gradient tensor is Hess U = d a / d r.
 On a face the Hessian returned is the mean of its inside and outside limits; on an edge or vertex
-it is singular and the value returned is finite but not a limit (see polyhedron_gravity.hpp).)doc")
+it is singular and the value returned is finite but not a limit. Beyond 400 times the largest vertex
+distance from the centre of mass the degree-2 exterior expansion (point mass + quadrupole) replaces
+the polyhedron sums, whose cancellation grows like |r|^2 (see polyhedron_gravity.hpp).)doc")
       .def(py::init([](const Vertices& v, const Faces& f, double density, ShapeRepair repair) {
              return PolyhedronGravity(Shape(v, f, repair), density);
            }),
