@@ -141,6 +141,8 @@ def run(args: argparse.Namespace) -> int:
         )
         print(f"{'ratio (theirs / ours)':24s}{ref['t1'] / t1:13.1f}x{ref['tn'] / tn:13.1f}x")
         print(f"max relative difference: U {rel_u:.2e}, a {rel_a:.2e}, Hess U {rel_h:.2e}")
+        print("(largest at the far points, where polyhedral-gravity's cancellation error dominates: see")
+        print(" cpp/include/tubempc/gravity/polyhedron_gravity.hpp for both against an 80-bit evaluation)")
         result.update(
             {
                 "polyhedral_gravity_version": ref["version"],

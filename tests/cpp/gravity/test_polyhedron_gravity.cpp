@@ -115,12 +115,12 @@ TEST(PolyhedronGravity, FarFieldExpansionTakesOverContinuouslyAndStaysExact) {
   const Eigen::Vector3d u = Eigen::Vector3d(-0.2, 0.6, 0.7).normalized();
   const double r_switch = tubempc::gravity::kFarFieldFactor * r_max;
   GravitySample in, out;
-  g.evaluate(c + (1.0 - 1e-9) * r_switch * u, in);  // polyhedron formula
-  g.evaluate(c + (1.0 + 1e-9) * r_switch * u, out);  // expansion
-  // The jump is the polyhedron formula's cancellation at 400 R_max (documented: a few 1e-9).
-  EXPECT_NEAR(out.potential, in.potential, 5e-9 * in.potential);
-  EXPECT_LT((out.acceleration - in.acceleration).norm(), 1e-8 * in.acceleration.norm());
-  EXPECT_LT((out.gradient - in.gradient).norm(), 2e-8 * in.gradient.norm());
+  g.evaluate(c + (1.0 - 1e-14) * r_switch * u, in);  // polyhedron formula
+  g.evaluate(c + (1.0 + 1e-14) * r_switch * u, out);  // expansion
+  // The jump: cancellation of the polyhedron sums and truncation of the expansion, both ~1e-10.
+  EXPECT_NEAR(out.potential, in.potential, 1e-9 * in.potential);
+  EXPECT_LT((out.acceleration - in.acceleration).norm(), 2e-9 * in.acceleration.norm());
+  EXPECT_LT((out.gradient - in.gradient).norm(), 1e-8 * in.gradient.norm());
   EXPECT_EQ(g.laplacian(c + 1.1 * r_switch * u), 0.0);
   // Expansion derivatives against central differences.
   const Eigen::Vector3d p = c + 2.0 * r_switch * u;
