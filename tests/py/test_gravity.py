@@ -68,6 +68,56 @@ def test_agrees_with_polyhedral_gravity(shape: tubempc.Shape) -> None:
     assert np.all(np.einsum("ij,ij->i", a[far], pts[far]) < 0)
 
 
+def _extended_precision_reference(
+    shape: tubempc.Shape, p: np.ndarray
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """Werner and Scheeres' formulas evaluated directly (vertex-relative vectors, triple product,
+    ln of the ratio) in numpy's 80-bit long double: an independent implementation whose own
+    rounding is ~2000 times smaller than double's."""
+    LD = np.longdouble
+    V = shape.vertices.astype(LD) - p.astype(LD)
+    F, E = shape.faces, shape.edges
+    n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    n /= np.sqrt((n * n).sum(-1, keepdims=True))
+    d = V[E[:, 1]] - V[E[:, 0]]
+    length = np.sqrt((d * d).sum(-1))
+    u = d / length[:, None]
+    na, nb = n[E[:, 2]], n[E[:, 3]]
+    Ee = np.einsum("ki,kj->kij", na, np.cross(u, na)) + np.einsum("ki,kj->kij", nb, np.cross(-u, nb))
+    rn = np.sqrt((V * V).sum(-1))
+    ab = rn[E[:, 0]] + rn[E[:, 1]]
+    L = np.log((ab + length) / (ab - length))
+    r = V[E[:, 0]]
+    Er = np.einsum("kij,kj->ki", Ee, r)
+    r1, r2, r3 = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    a1, a2, a3 = rn[F[:, 0]], rn[F[:, 1]], rn[F[:, 2]]
+    den = a1 * a2 * a3 + a1 * (r2 * r3).sum(-1) + a2 * (r3 * r1).sum(-1) + a3 * (r1 * r2).sum(-1)
+    w = 2 * np.arctan2((r1 * np.cross(r2, r3)).sum(-1), den)
+    h = (n * r1).sum(-1)
+    g_rho = LD(GRAVITATIONAL_CONSTANT) * LD(RHO)
+    U = g_rho / 2 * (((r * Er).sum(-1) * L).sum() - (h * h * w).sum())
+    a = -g_rho * ((Er * L[:, None]).sum(0) - (n * (h * w)[:, None]).sum(0))
+    H = g_rho * ((Ee * L[:, None, None]).sum(0) - np.einsum("ki,kj->ij", n * w[:, None], n))
+    return float(U), a.astype(float), H.astype(float)
+
+
+@pytest.mark.skipif(np.finfo(np.longdouble).eps > 1e-18, reason="long double is not extended precision here")
+def test_accuracy_against_extended_precision_near_and_far(shape: tubempc.Shape) -> None:
+    model = PolyhedronGravity(shape, RHO)
+    R = shape.mean_radius
+    rng = np.random.default_rng(7)
+    for dist in (0.3 * R, 1.2 * R, 4 * R, 20 * R, 80 * R):
+        u = rng.normal(size=3)
+        p = dist * u / np.linalg.norm(u)
+        U, a, H = model.evaluate(p)
+        U_ref, a_ref, H_ref = _extended_precision_reference(shape, p)
+        # the formula's own cancellation grows like (|r|/R)^2 (documented in polyhedron_gravity.hpp)
+        tol = 2e-14 + 2e-15 * (dist / R) ** 2
+        assert abs(U - U_ref) <= tol * U_ref, dist
+        assert np.linalg.norm(a - a_ref) <= tol * np.linalg.norm(a_ref), dist
+        assert np.linalg.norm(H - H_ref) <= 10 * tol * np.linalg.norm(H_ref), dist
+
+
 def test_poisson_inside_laplace_outside_and_trace(shape: tubempc.Shape) -> None:
     model = PolyhedronGravity(shape, RHO)
     pts = _points(shape.mean_radius, seed=2)
