@@ -122,7 +122,8 @@ def _validated(
     try:
         return Shape(vertices, faces, repair)
     except ValueError as exc:
-        message = str(exc)
+        message = str(exc).replace("use ShapeRepair::Orient", "load with repair=True")
+        message += " [vertex and face numbers 0-based, in file order]"
         line: int | None = None
         where = ""
         match = re.search(r"\bface (\d+)", message)
