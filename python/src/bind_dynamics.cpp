@@ -1,8 +1,5 @@
-// Bindings of the 6-DOF proximity dynamics (tubempc::dynamics) as tubempc._core.dynamics, plus the
-// gravity interface and the point-mass field as _core.GravityModel and _core.PointMassGravity
-// (std::shared_ptr holders). They are registered here only if the gravity bindings have not
-// registered them already (then they are just made visible under these names): bind_gravity must
-// run before bind_dynamics when both exist.
+// Bindings of the 6-DOF proximity dynamics (tubempc::dynamics) as tubempc._core.dynamics. Gravity
+// fields (GravityModel and its implementations) are bound by bind_gravity, which must run first.
 #include <pybind11/eigen.h>
 #include <pybind11/functional.h>
 #include <pybind11/stl.h>
@@ -44,40 +41,6 @@ Eigen::Matrix<double, N, 1> vec(const Eigen::Ref<const Eigen::VectorXd>& v, cons
   return v;
 }
 
-void bind_gravity_base(py::module_& m) {
-  if (!py::detail::get_type_info(typeid(gravity::GravityModel))) {
-    py::class_<gravity::GravityModel, std::shared_ptr<gravity::GravityModel>>(
-        m, "GravityModel", "Gravity field in the asteroid frame A (interface).")
-        .def(
-            "evaluate",
-            [](const gravity::GravityModel& g, const Eigen::Vector3d& r_A) {
-              gravity::GravitySample s;
-              g.evaluate(r_A, s);
-              return py::make_tuple(s.potential, s.acceleration, s.gradient);
-            },
-            py::arg("r_A"), "(U (m^2/s^2), a = grad U (m/s^2), G = Hess U (1/s^2)) at r_A (m) in A.")
-        .def_property_readonly("gm", &gravity::GravityModel::gm, "G M (m^3/s^2).");
-  } else if (!py::hasattr(m, "GravityModel")) {
-    m.attr("GravityModel") = py::type::of<gravity::GravityModel>();
-  }
-  if (!py::detail::get_type_info(typeid(gravity::PointMassGravity))) {
-    py::class_<gravity::PointMassGravity, gravity::GravityModel, std::shared_ptr<gravity::PointMassGravity>>(
-        m, "PointMassGravity", "Point mass at the origin of A: U = GM / |r|.")
-        .def(py::init<double>(), py::arg("gm"), "gm: gravitational parameter (m^3/s^2), > 0.")
-        .def("__repr__",
-             [](const gravity::PointMassGravity& g) {
-               return "PointMassGravity(gm=" + py::repr(py::float_(g.gm())).cast<std::string>() + ")";
-             })
-        .def(py::pickle([](const gravity::PointMassGravity& g) { return py::make_tuple(g.gm()); },
-                        [](const py::tuple& t) {
-                          if (t.size() != 1)
-                            throw std::invalid_argument("PointMassGravity: bad pickle state");
-                          return std::make_shared<gravity::PointMassGravity>(t[0].cast<double>());
-                        }));
-  } else if (!py::hasattr(m, "PointMassGravity")) {
-    m.attr("PointMassGravity") = py::type::of<gravity::PointMassGravity>();
-  }
-}
 
 py::tuple discretize_horizon(const std::shared_ptr<ProximityModel>& self, double t0, double dt,
                              const Eigen::Ref<const RowMatrix>& x_ref,
@@ -199,7 +162,6 @@ py::dict time_kernels(const std::shared_ptr<ProximityModel>& self, double t0, do
 }  // namespace
 
 void bind_dynamics(py::module_& m) {
-  bind_gravity_base(m);
   auto d = m.def_submodule("dynamics", "6-DOF proximity dynamics in the orbital frame L (PAPER_NOTES.md)");
 
   py::enum_<dynamics::Kinematics>(d, "Kinematics", "Rotation-vector kinematics of the model state")

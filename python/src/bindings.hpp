@@ -7,6 +7,7 @@ namespace tubempc::python {
 
 void bind_core(pybind11::module_& m);
 void bind_so3(pybind11::module_& m);
+void bind_gravity(pybind11::module_& m);
 void bind_dynamics(pybind11::module_& m);
 
 }  // namespace tubempc::python

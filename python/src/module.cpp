@@ -5,5 +5,6 @@ PYBIND11_MODULE(_core, m) {
   m.attr("__version__") = TUBEMPC_PYTHON_MODULE_VERSION;
   tubempc::python::bind_core(m);
   tubempc::python::bind_so3(m);
+  tubempc::python::bind_gravity(m);
   tubempc::python::bind_dynamics(m);  // after bind_gravity (it reuses its GravityModel types)
 }

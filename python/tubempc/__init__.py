@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from . import _core
 from ._core import build_info, so3
+from ._core.gravity import GRAVITATIONAL_CONSTANT, PolyhedronGravity, Shape, ShapeRepair
 from .dynamics import (
     GravityModel,
     Kinematics,
@@ -18,19 +19,29 @@ from .dynamics import (
     state_to_truth,
     truth_to_state,
 )
+from .shapes import ShapeError, bennu_like_shape, load_shape, save_icq, save_shape
 
 __version__: str = _core.__version__
 
 __all__ = [
+    "GRAVITATIONAL_CONSTANT",
     "GravityModel",
     "Kinematics",
     "ModelParams",
     "PointMassGravity",
+    "PolyhedronGravity",
     "ProximityModel",
+    "Shape",
+    "ShapeError",
+    "ShapeRepair",
     "__version__",
+    "bennu_like_shape",
     "build_info",
     "glide_slope_constraint",
     "line_of_sight_constraint",
+    "load_shape",
+    "save_icq",
+    "save_shape",
     "so3",
     "state_to_truth",
     "truth_to_state",

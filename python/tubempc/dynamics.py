@@ -30,15 +30,15 @@ from . import _core
 _dyn = _core.dynamics
 
 if TYPE_CHECKING:
-    from ._core import GravityModel, PointMassGravity
+    from ._gravity import GravityModel, PointMassGravity
     from ._dynamics import Kinematics, ModelParams, PropagationResult, PropagationStatus
 else:
     ModelParams = _dyn.ModelParams
     Kinematics = _dyn.Kinematics
     PropagationResult = _dyn.PropagationResult
     PropagationStatus = _dyn.PropagationStatus
-    GravityModel = _core.GravityModel
-    PointMassGravity = _core.PointMassGravity
+    GravityModel = _core.gravity.GravityModel
+    PointMassGravity = _core.gravity.PointMassGravity
 
 __all__ = [
     "GravityModel",

@@ -1,0 +1,199 @@
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <optional>
+#include <string>
+
+#include "bindings.hpp"
+#include "tubempc/gravity/gravity_model.hpp"
+#include "tubempc/gravity/polyhedron_gravity.hpp"
+#include "tubempc/gravity/shape.hpp"
+
+namespace py = pybind11;
+
+namespace tubempc::python {
+
+namespace {
+
+using gravity::Faces;
+using gravity::PolyhedronGravity;
+using gravity::Shape;
+using gravity::ShapeRepair;
+using gravity::Vertices;
+using PointArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+int thread_count(std::optional<int> threads) {
+  if (threads && *threads < 0) throw py::value_error("threads must be None, 0 (all hardware threads) or > 0");
+  return threads ? *threads : 0;
+}
+
+// Points as an (n, 3) view; `single` tells whether a (3,) input was given.
+Eigen::Map<const gravity::Points> as_points(const PointArray& a, bool& single) {
+  single = a.ndim() == 1;
+  if (!((a.ndim() == 1 && a.shape(0) == 3) || (a.ndim() == 2 && a.shape(1) == 3))) {
+    throw py::value_error("points must have shape (3,) or (n, 3)");
+  }
+  const Eigen::Index n = single ? 1 : a.shape(0);
+  return {a.data(), n, 3};
+}
+
+py::tuple evaluate(const PolyhedronGravity& g, const PointArray& points, std::optional<int> threads) {
+  bool single = false;
+  const auto r = as_points(points, single);
+  const Eigen::Index n = r.rows();
+  py::array_t<double> pot(n);
+  py::array_t<double> acc({n, Eigen::Index{3}});
+  py::array_t<double> grad({n, Eigen::Index{3}, Eigen::Index{3}});
+  {
+    Eigen::Map<Eigen::VectorXd> p(pot.mutable_data(), n);
+    Eigen::Map<gravity::Points> a(acc.mutable_data(), n, 3);
+    Eigen::Map<gravity::Gradients> G(grad.mutable_data(), n, 9);
+    const int t = thread_count(threads);
+    py::gil_scoped_release release;
+    g.evaluate_batch(r, p, a, G, t);
+  }
+  if (single) {
+    return py::make_tuple(pot.at(0), acc.attr("reshape")(3), grad.attr("reshape")(3, 3));
+  }
+  return py::make_tuple(pot, acc, grad);
+}
+
+py::object laplacian(const PolyhedronGravity& g, const PointArray& points, std::optional<int> threads) {
+  bool single = false;
+  const auto r = as_points(points, single);
+  py::array_t<double> out(r.rows());
+  {
+    Eigen::Map<Eigen::VectorXd> l(out.mutable_data(), r.rows());
+    const int t = thread_count(threads);
+    py::gil_scoped_release release;
+    g.laplacian_batch(r, l, t);
+  }
+  if (single) return py::float_(out.at(0));
+  return std::move(out);
+}
+
+Eigen::Matrix<std::int64_t, Eigen::Dynamic, 4, Eigen::RowMajor> edge_table(const Shape& s) {
+  Eigen::Matrix<std::int64_t, Eigen::Dynamic, 4, Eigen::RowMajor> t(static_cast<Eigen::Index>(s.edges().size()), 4);
+  for (size_t i = 0; i < s.edges().size(); ++i) {
+    const auto& e = s.edges()[i];
+    t.row(static_cast<Eigen::Index>(i)) << e.v0, e.v1, e.face_a, e.face_b;
+  }
+  return t;
+}
+
+}  // namespace
+
+void bind_gravity(py::module_& m) {
+  auto g = m.def_submodule("gravity", "Constant-density polyhedron gravity and validated shapes (SI units)");
+  g.attr("GRAVITATIONAL_CONSTANT") = gravity::kGravitationalConstant;
+
+  // Every field is a GravityModel held by std::shared_ptr, so the dynamics can share it.
+  py::class_<gravity::GravityModel, std::shared_ptr<gravity::GravityModel>>(
+      g, "GravityModel", "Gravity field in the asteroid frame A (interface).")
+      .def(
+          "evaluate_point",
+          [](const gravity::GravityModel& self, const Eigen::Vector3d& r_A) {
+            gravity::GravitySample s;
+            self.evaluate(r_A, s);
+            return py::make_tuple(s.potential, s.acceleration, s.gradient);
+          },
+          py::arg("r_A"), "(U (m^2/s^2), a = grad U (m/s^2), Hess U (1/s^2)) at one point r_A (3,) m in A.")
+      .def_property_readonly("gm", &gravity::GravityModel::gm, "G M (m^3/s^2).");
+
+  py::class_<gravity::PointMassGravity, gravity::GravityModel, std::shared_ptr<gravity::PointMassGravity>>(
+      g, "PointMassGravity", "Point mass at the origin of A: U = GM / |r|.")
+      .def(py::init<double>(), py::arg("gm"), "gm: gravitational parameter (m^3/s^2), > 0.")
+      .def("__repr__",
+           [](const gravity::PointMassGravity& self) {
+             return "PointMassGravity(gm=" + py::repr(py::float_(self.gm())).cast<std::string>() + ")";
+           })
+      .def(py::pickle([](const gravity::PointMassGravity& self) { return py::make_tuple(self.gm()); },
+                      [](const py::tuple& t) {
+                        if (t.size() != 1) throw std::invalid_argument("PointMassGravity: bad pickle state");
+                        return std::make_shared<gravity::PointMassGravity>(t[0].cast<double>());
+                      }));
+
+  py::enum_<ShapeRepair>(g, "ShapeRepair", "What Shape may change in the mesh it is given.")
+      .value("NONE", ShapeRepair::None, "reject orientation errors")
+      .value("ORIENT", ShapeRepair::Orient, "flip faces to a consistent outward orientation");
+
+  py::class_<Shape>(g, "Shape", R"doc(
+A closed, consistently outward-oriented triangle mesh (metres), validated on construction.
+
+Shape(vertices (n, 3) m, faces (m, 3) 0-based, repair=ShapeRepair.NONE). ValueError names the
+offending vertex, face or edge for: non-finite coordinates, index out of range, degenerate or
+duplicate face, open or non-manifold mesh, inconsistent or inward orientation (the latter two are
+repaired with repair=ShapeRepair.ORIENT).)doc")
+      .def(py::init([](const Vertices& v, const Faces& f, ShapeRepair repair) { return Shape(v, f, repair); }),
+           py::arg("vertices"), py::arg("faces"), py::arg("repair") = ShapeRepair::None)
+      .def_property_readonly("vertices", &Shape::vertices, "Vertices (n, 3) in m.")
+      .def_property_readonly("faces", &Shape::faces, "Faces (m, 3), 0-based, outward (counter-clockwise).")
+      .def_property_readonly("n_vertices", &Shape::n_vertices)
+      .def_property_readonly("n_faces", &Shape::n_faces)
+      .def_property_readonly("n_edges", [](const Shape& s) { return s.edges().size(); })
+      .def_property_readonly("edges", &edge_table,
+                             "Unique edges (k, 4): v0, v1, face_a (runs v0 -> v1), face_b (runs v1 -> v0).")
+      .def_property_readonly("n_flipped_faces", &Shape::n_flipped_faces, "Faces flipped by ShapeRepair.ORIENT.")
+      .def_property_readonly("volume", &Shape::volume, "Volume (m^3).")
+      .def_property_readonly("center_of_mass", &Shape::center_of_mass, "Centre of mass (m), constant density.")
+      .def_property_readonly("inertia_per_unit_density", &Shape::inertia_per_unit_density,
+                             "Inertia tensor about the centre of mass per unit density (m^5).")
+      .def("inertia", &Shape::inertia, py::arg("density"),
+           "Inertia tensor about the centre of mass (kg m^2) for a density (kg/m^3).")
+      .def_property_readonly("mean_radius", &Shape::mean_radius, "Radius of the equal-volume sphere (m).")
+      .def(py::pickle([](const Shape& s) { return py::make_tuple(s.vertices(), s.faces()); },
+                      [](const py::tuple& t) {
+                        if (t.size() != 2) throw std::runtime_error("Shape: bad pickle state");
+                        return Shape(t[0].cast<Vertices>(), t[1].cast<Faces>());
+                      }));
+
+  py::class_<PolyhedronGravity, gravity::GravityModel, std::shared_ptr<PolyhedronGravity>>(g, "PolyhedronGravity", R"doc(
+Gravity of a constant-density polyhedron (Werner and Scheeres 1997; PAPER_NOTES.md "Gravity").
+
+PolyhedronGravity(vertices (n, 3) m, faces (m, 3) 0-based, density kg/m^3, repair=ShapeRepair.NONE)
+or PolyhedronGravity(shape, density). G = 6.67430e-11.
+
+Sign convention: the potential U is positive (U -> GM/|r| far away) and the acceleration is its
+gradient, a = grad U (pointing towards the body); the gradient tensor is Hess U = d a / d r.
+On a face the Hessian returned is the mean of its inside and outside limits; on an edge or vertex
+it is singular and the value returned is finite but not a limit. Beyond 400 times the largest vertex
+distance from the centre of mass the degree-2 exterior expansion (point mass + quadrupole) replaces
+the polyhedron sums, whose cancellation grows like |r|^2 (see polyhedron_gravity.hpp).)doc")
+      .def(py::init([](const Vertices& v, const Faces& f, double density, ShapeRepair repair) {
+             return PolyhedronGravity(Shape(v, f, repair), density);
+           }),
+           py::arg("vertices"), py::arg("faces"), py::arg("density"), py::arg("repair") = ShapeRepair::None)
+      .def(py::init<Shape, double>(), py::arg("shape"), py::arg("density"))
+      .def("evaluate", &evaluate, py::arg("points"), py::arg("threads") = py::none(),
+           R"doc(U (n,) m^2/s^2, a = grad U (n, 3) m/s^2 and Hess U (n, 3, 3) 1/s^2 at points (n, 3) m.
+
+A (3,) point gives (float, (3,), (3, 3)). threads: None or 0 = all hardware threads. The GIL is
+released; results do not depend on the number of threads.)doc")
+      .def("laplacian", &laplacian, py::arg("points"), py::arg("threads") = py::none(),
+           "Laplacian of U (1/s^2) at points (n, 3) or (3,) m: -G rho sum_f w_f (0 outside, -4 pi G rho inside).")
+      .def_property_readonly("density", &PolyhedronGravity::density, "kg/m^3")
+      .def_property_readonly("mass", &PolyhedronGravity::mass, "kg")
+      .def_property_readonly("gm", &PolyhedronGravity::gm, "G M (m^3/s^2)")
+      .def_property_readonly("volume", [](const PolyhedronGravity& s) { return s.shape().volume(); }, "m^3")
+      .def_property_readonly("center_of_mass", [](const PolyhedronGravity& s) { return s.shape().center_of_mass(); },
+                             "m")
+      .def_property_readonly("inertia", [](const PolyhedronGravity& s) { return s.shape().inertia(s.density()); },
+                             "Inertia tensor about the centre of mass (kg m^2).")
+      .def_property_readonly("mean_radius", [](const PolyhedronGravity& s) { return s.shape().mean_radius(); }, "m")
+      .def_property_readonly("n_faces", [](const PolyhedronGravity& s) { return s.shape().n_faces(); })
+      .def_property_readonly("n_vertices", [](const PolyhedronGravity& s) { return s.shape().n_vertices(); })
+      .def_property_readonly("vertices", [](const PolyhedronGravity& s) { return s.shape().vertices(); }, "m")
+      .def_property_readonly("faces", [](const PolyhedronGravity& s) { return s.shape().faces(); })
+      .def_property_readonly("shape", &PolyhedronGravity::shape, py::return_value_policy::reference_internal)
+      .def(py::pickle(
+          [](const PolyhedronGravity& s) {
+            return py::make_tuple(s.shape().vertices(), s.shape().faces(), s.density());
+          },
+          [](const py::tuple& t) {
+            if (t.size() != 3) throw std::runtime_error("PolyhedronGravity: bad pickle state");
+            return PolyhedronGravity(Shape(t[0].cast<Vertices>(), t[1].cast<Faces>()), t[2].cast<double>());
+          }));
+}
+
+}  // namespace tubempc::python
