@@ -213,7 +213,7 @@ struct TubeMPC::Impl {
   Eigen::VectorXd q, b, h_l, h_u, x_l, x_u;
   double constant = 0.0;
   std::vector<std::vector<int>> posP_z, posA_A, posA_B, posG;
-  std::vector<int> posA_L;
+  std::vector<int> posA_L, posG_term;  // posG_term: the soft-terminal rows' four diagonals
 
   piqp::SparseSolver<double> solver;
 
@@ -326,16 +326,18 @@ struct TubeMPC::Impl {
     }
     if (s.soft_terminal) {
       const int r0 = (N + 1) * nc;
-      const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(nx, nx);
-      write_block(G, block_positions(G, r0, iz(N), nx, nx, Pattern::Diagonal), I, 1.0, Pattern::Diagonal);
-      write_block(G, block_positions(G, r0, off_t, nx, nx, Pattern::Diagonal), I, -1.0, Pattern::Diagonal);
-      write_block(G, block_positions(G, r0 + nx, iz(N), nx, nx, Pattern::Diagonal), I, 1.0, Pattern::Diagonal);
-      write_block(G, block_positions(G, r0 + nx, off_t, nx, nx, Pattern::Diagonal), I, 1.0, Pattern::Diagonal);
+      for (const auto& blk : {block_positions(G, r0, iz(N), nx, nx, Pattern::Diagonal),
+                              block_positions(G, r0, off_t, nx, nx, Pattern::Diagonal),
+                              block_positions(G, r0 + nx, iz(N), nx, nx, Pattern::Diagonal),
+                              block_positions(G, r0 + nx, off_t, nx, nx, Pattern::Diagonal)})
+        posG_term.insert(posG_term.end(), blk.begin(), blk.end());
     }
     q.setZero(n_var);
     b.setZero(n_eq);
-    h_l.setConstant(n_in, -kInf);
-    h_u.setConstant(n_in, kInf);
+    // Absent rows are zero rows with bounds [-1, 1] (what PIQP would do itself, with a message, for
+    // rows whose two sides are infinite).
+    h_l.setConstant(n_in, -1.0);
+    h_u.setConstant(n_in, 1.0);
     x_l.setConstant(n_var, -kInf);
     x_u.setConstant(n_var, kInf);
   }
@@ -545,12 +547,17 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     const int r0 = (N + 1) * nc;
     m.q.segment(m.off_t, nx).setConstant(terminal_phase ? s.soft_penalty : 0.0);
     m.x_l.segment(m.off_t, nx).setZero();
+    const double sign[4] = {1.0, -1.0, 1.0, 1.0};  // z_N - t <= x_f, z_N + t >= x_f
+    for (int blk = 0; blk < 4; ++blk)
+      for (int j = 0; j < nx; ++j) m.G.valuePtr()[m.posG_term[blk * nx + j]] = terminal_phase ? sign[blk] : 0.0;
     if (terminal_phase) {
+      m.h_l.segment(r0, nx).setConstant(-kInf);
       m.h_u.segment(r0, nx) = x_f;
       m.h_l.segment(r0 + nx, nx) = x_f;
+      m.h_u.segment(r0 + nx, nx).setConstant(kInf);
     } else {
-      m.h_u.segment(r0, nx).setConstant(kInf);
-      m.h_l.segment(r0 + nx, nx).setConstant(-kInf);
+      m.h_l.segment(r0, 2 * nx).setConstant(-1.0);
+      m.h_u.segment(r0, 2 * nx).setConstant(1.0);
     }
   }
 
@@ -568,7 +575,7 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     for (int i = 0; i <= n; ++i) {
       if (nc == 0) break;
       model_->constraints(t_k + i * dt, m.z_lin.col(i), m.Gc[i], m.hc[i]);
-      finite = finite && m.Gc[i].allFinite() && !m.hc[i].array().isNaN().any();
+      finite = finite && m.Gc[i].allFinite() && !m.hc[i].array().isNaN().any() && !(m.hc[i].array() == -kInf).any();
     }
     res.timings.linearize += seconds_since(t0);
     if (!finite) return fallback(Status::NumericalError);
@@ -592,12 +599,21 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
       if (i <= n) {
         write_block(m.G, m.posG[i], m.Gc[i], 1.0, Pattern::Dense);
         for (int j = 0; j < nc; ++j) {
-          m.tmp_nx.noalias() = tube.Pe * m.Gc[i].row(j).transpose();
-          m.h_u(i * nc + j) = m.hc[i](j) - std::sqrt(std::max(0.0, m.Gc[i].row(j).dot(m.tmp_nx)));
+          const int row = i * nc + j;
+          if (std::isfinite(m.hc[i](j))) {
+            m.tmp_nx.noalias() = tube.Pe * m.Gc[i].row(j).transpose();
+            m.h_l(row) = -kInf;
+            m.h_u(row) = m.hc[i](j) - std::sqrt(std::max(0.0, m.Gc[i].row(j).dot(m.tmp_nx)));
+          } else {  // the model marks the row absent
+            for (int c = 0; c < nx; ++c) m.G.valuePtr()[m.posG[i][c * nc + j]] = 0.0;
+            m.h_l(row) = -1.0;
+            m.h_u(row) = 1.0;
+          }
         }
       } else {
         write_block(m.G, m.posG[i], m.Gc[0], 0.0, Pattern::Dense);
-        m.h_u.segment(i * nc, nc).setConstant(kInf);
+        m.h_l.segment(i * nc, nc).setConstant(-1.0);
+        m.h_u.segment(i * nc, nc).setConstant(1.0);
       }
     }
     for (int i = 1; i <= N; ++i) {
