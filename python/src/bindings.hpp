@@ -7,5 +7,6 @@ namespace tubempc::python {
 
 void bind_core(pybind11::module_& m);
 void bind_so3(pybind11::module_& m);
+void bind_mpc(pybind11::module_& m);
 
 }  // namespace tubempc::python

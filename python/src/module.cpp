@@ -5,4 +5,5 @@ PYBIND11_MODULE(_core, m) {
   m.attr("__version__") = TUBEMPC_PYTHON_MODULE_VERSION;
   tubempc::python::bind_core(m);
   tubempc::python::bind_so3(m);
+  tubempc::python::bind_mpc(m);
 }

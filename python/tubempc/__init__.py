@@ -7,11 +7,18 @@ from __future__ import annotations
 
 from . import _core
 from ._core import build_info, so3
+from . import mpc
+from .mpc import LinearizedModel, LtiModel, TubeMPC, solve_qp
 
 __version__: str = _core.__version__
 
 __all__ = [
+    "LinearizedModel",
+    "LtiModel",
+    "TubeMPC",
     "__version__",
     "build_info",
+    "mpc",
     "so3",
+    "solve_qp",
 ]

@@ -5,6 +5,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from . import _mpc as mpc
 from . import _so3 as so3
 
 __version__: str
