@@ -97,6 +97,9 @@ void bind_mpc(py::module_& m) {
       .value("Paper", mpc::InputCost::Paper)
       .value("FromReference", mpc::InputCost::FromReference);
   py::enum_<mpc::Backend>(s, "Backend").value("PiqpSparse", mpc::Backend::PiqpSparse);
+  py::enum_<mpc::KktSolver>(s, "KktSolver")
+      .value("SparseLdlt", mpc::KktSolver::SparseLdlt)
+      .value("SparseMultistage", mpc::KktSolver::SparseMultistage);
 
   py::class_<mpc::Settings>(s, "Settings", "Tube MPC settings (see tube_mpc.hpp); validate() names the bad field")
       .def(py::init<>())
@@ -121,6 +124,7 @@ void bind_mpc(py::module_& m) {
       .def_readwrite("riccati_tol", &mpc::Settings::riccati_tol)
       .def_readwrite("riccati_max_iterations", &mpc::Settings::riccati_max_iterations)
       .def_readwrite("backend", &mpc::Settings::backend)
+      .def_readwrite("kkt_solver", &mpc::Settings::kkt_solver)
       .def("validate", &mpc::Settings::validate, py::arg("nx"), py::arg("nu"));
 
   py::class_<mpc::Reference>(s, "Reference", "Mission reference: z (n_x x (T+1)), u (n_u x T), t0 (s)")

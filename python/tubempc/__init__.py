@@ -5,9 +5,8 @@ SI units throughout; frames are named in argument names and docstrings (see PAPE
 
 from __future__ import annotations
 
-from . import _core
+from . import _core, mpc
 from ._core import build_info, so3
-from . import mpc
 from .mpc import LinearizedModel, LtiModel, TubeMPC, solve_qp
 
 __version__: str = _core.__version__

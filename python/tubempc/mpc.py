@@ -23,6 +23,7 @@ from ._core.mpc import (
     Backend,
     InitialCondition,
     InputCost,
+    KktSolver,
     LinearizedModel,
     LtiModel,
     QpData,
@@ -41,6 +42,7 @@ __all__ = [
     "Backend",
     "InitialCondition",
     "InputCost",
+    "KktSolver",
     "LinearizedModel",
     "LtiModel",
     "QpData",
@@ -67,7 +69,7 @@ class QpResult:
     w: npt.NDArray[np.float64]
     objective: float  # 1/2 w'Pw + q'w + constant (the nominal cost)
     status: str
-    solve_time: float  # the solver's own time (s)
+    solve_time: float  # the solver's own time (s); nan when the backend does not report it
     wall_time: float  # including problem construction (s)
 
 
@@ -101,12 +103,16 @@ def _cvxpy(qp: QpData, solver: str, eps: float) -> QpResult:
         cons.append(qp.G[np.flatnonzero(up)] @ w <= qp.h_u[up])
     if lo.any():
         cons.append(qp.G[np.flatnonzero(lo)] @ w >= qp.h_l[lo])
-    bu, bl = np.isfinite(qp.x_u), np.isfinite(qp.x_l)
+    fixed = qp.x_l == qp.x_u  # equal bounds as equalities (interior-point solvers need an interior)
+    if fixed.any():
+        cons.append(w[np.flatnonzero(fixed)] == qp.x_l[fixed])
+    bu, bl = np.isfinite(qp.x_u) & ~fixed, np.isfinite(qp.x_l) & ~fixed
     if bu.any():
         cons.append(w[np.flatnonzero(bu)] <= qp.x_u[bu])
     if bl.any():
         cons.append(w[np.flatnonzero(bl)] >= qp.x_l[bl])
-    prob = cp.Problem(cp.Minimize(0.5 * cp.quad_form(w, qp.P, assume_PSD=True) + qp.q @ w), cons)
+    objective = 0.5 * cp.quad_form(w, qp.P, assume_PSD=True) + qp.q @ w  # type: ignore[attr-defined]
+    prob = cp.Problem(cp.Minimize(objective), cons)
     opts: dict[str, float] = {}
     name = solver.upper()
     if name == "OSQP":
@@ -115,12 +121,12 @@ def _cvxpy(qp: QpData, solver: str, eps: float) -> QpResult:
         opts = {"tol_gap_abs": eps, "tol_gap_rel": eps, "tol_feas": eps}
     elif name == "PIQP":
         opts = {"eps_abs": eps, "eps_rel": eps}
-    prob.solve(solver=name, **opts)
+    prob.solve(solver=name, **opts)  # type: ignore[no-untyped-call]
     wall = time.perf_counter() - t0
     x = np.asarray(w.value, dtype=float) if w.value is not None else np.full(n, np.nan)
     obj = float(0.5 * x @ (qp.P @ x) + qp.q @ x + qp.constant)
     stats = prob.solver_stats
-    solve_time = float(stats.solve_time) if stats is not None and stats.solve_time is not None else wall
+    solve_time = float(stats.solve_time) if stats is not None and stats.solve_time else float("nan")
     return QpResult(x, obj, str(prob.status), solve_time, wall)
 
 

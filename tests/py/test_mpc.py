@@ -31,11 +31,11 @@ class DoubleIntegrator(LinearizedModel):
     def n_constraints(self) -> int:
         return 5
 
-    def discretize(self, t, dt, x_lin, u_lin):  # noqa: ANN001, ANN201
+    def discretize(self, t, dt, x_lin, u_lin):
         assert dt == self.dt
         return self.A, self.B, np.zeros(4)
 
-    def constraints(self, t, x_lin):  # noqa: ANN001, ANN201
+    def constraints(self, t, x_lin):
         return self.G, self.h
 
 
@@ -96,7 +96,7 @@ def test_python_model_matches_the_cpp_model() -> None:
     Ac[0:2, 2:4] = np.eye(2)
     Bc = np.vstack([np.zeros((2, 2)), np.eye(2)])
     cpp_model = LtiModel(Ac, Bc, np.zeros(4), dt, py_model.G, py_model.h)
-    A, B, c = cpp_model.discretize(0.0, dt, np.zeros(4), np.zeros(2))
+    A, B, _ = cpp_model.discretize(0.0, dt, np.zeros(4), np.zeros(2))
     np.testing.assert_allclose(A, py_model.A, atol=1e-13)
     np.testing.assert_allclose(B, py_model.B, atol=1e-13)
     results = []
@@ -115,7 +115,7 @@ def test_python_model_matches_the_cpp_model() -> None:
 
 def test_python_model_shape_errors_name_the_output() -> None:
     class Bad(DoubleIntegrator):
-        def discretize(self, t, dt, x_lin, u_lin):  # noqa: ANN001, ANN201
+        def discretize(self, t, dt, x_lin, u_lin):
             return np.eye(3), self.B, np.zeros(4)
 
     ctrl = TubeMPC(Bad(0.5, 1.0, 0.3), _settings(False))

@@ -122,6 +122,10 @@ void Settings::validate(int nx, int nu) const {
   if (!(soft_penalty > 0.0) || !std::isfinite(soft_penalty)) fail("soft_penalty", "must be finite and > 0");
   if (!(riccati_tol > 0.0)) fail("riccati_tol", "must be > 0");
   if (riccati_max_iterations < 1) fail("riccati_max_iterations", "must be >= 1");
+#ifndef PIQP_HAS_BLASFEO
+  if (kkt_solver == KktSolver::SparseMultistage)
+    fail("kkt_solver", "SparseMultistage needs PIQP built with BLASFEO, which this build is not");
+#endif
 }
 
 Eigen::MatrixXd solve_dare(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::MatrixXd& Q,
@@ -398,7 +402,8 @@ void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_termina
   ps.eps_duality_gap_abs = settings_.qp_eps_abs;
   ps.eps_duality_gap_rel = settings_.qp_eps_rel;
   ps.max_iter = settings_.qp_max_iterations;
-  ps.kkt_solver = piqp::KKTSolver::sparse_ldlt;
+  ps.kkt_solver = settings_.kkt_solver == KktSolver::SparseMultistage ? piqp::KKTSolver::sparse_multistage
+                                                                       : piqp::KKTSolver::sparse_ldlt;
   ps.compute_timings = false;
   m.solver.setup(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u);
 }
@@ -639,6 +644,7 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     const auto& r = m.solver.result();
     res.scp_iterations = it + 1;
     res.qp_iterations += static_cast<int>(r.info.iter);
+    if (qs == piqp::Status::PIQP_INVALID_SETTINGS) return fallback(Status::NotSolved);
     if (qs == piqp::Status::PIQP_PRIMAL_INFEASIBLE || qs == piqp::Status::PIQP_DUAL_INFEASIBLE)
       return fallback(Status::Infeasible);
     if (qs == piqp::Status::PIQP_MAX_ITER_REACHED && r.info.primal_res_rel <= s.qp_inaccurate_tol &&

@@ -68,6 +68,12 @@ enum class Backend {
   PiqpSparse,  ///< PIQP's sparse interior-point solver, set up once, updated every QP (default).
 };
 
+/// Factorisation of PIQP's KKT systems.
+enum class KktSolver {
+  SparseLdlt,        ///< General sparse LDL^T with fill-reducing ordering (default).
+  SparseMultistage,  ///< Stage-wise block LDL^T; needs PIQP built with BLASFEO (validate() says if not).
+};
+
 /// Settings of the tube MPC; `validate()` throws std::invalid_argument naming the field.
 struct Settings {
   int horizon = 30;                    ///< N, nodes of the nominal plan.
@@ -91,6 +97,7 @@ struct Settings {
   double riccati_tol = 1e-10;          ///< Relative convergence tolerance of the DARE doubling.
   int riccati_max_iterations = 100;    ///< Cap on DARE doubling iterations.
   Backend backend = Backend::PiqpSparse;
+  KktSolver kkt_solver = KktSolver::SparseLdlt;
 
   /// Throws std::invalid_argument naming the offending field; n_x, n_u are the plant's sizes.
   void validate(int nx, int nu) const;
