@@ -89,6 +89,7 @@ void bind_mpc(py::module_& m) {
       .value("TimeLimit", mpc::Status::TimeLimit)
       .value("NumericalError", mpc::Status::NumericalError)
       .value("EmptyTightening", mpc::Status::EmptyTightening)
+      .value("ModelStructure", mpc::Status::ModelStructure)
       .def("__str__", [](mpc::Status st) { return mpc::to_string(st); });
   py::enum_<mpc::InitialCondition>(s, "InitialCondition")
       .value("WhitenedBox", mpc::InitialCondition::WhitenedBox)
@@ -125,6 +126,10 @@ void bind_mpc(py::module_& m) {
       .def_readwrite("riccati_max_iterations", &mpc::Settings::riccati_max_iterations)
       .def_readwrite("backend", &mpc::Settings::backend)
       .def_readwrite("kkt_solver", &mpc::Settings::kkt_solver)
+      .def_readwrite("qp_scale_cost", &mpc::Settings::qp_scale_cost)
+      .def_readwrite("A_structure", &mpc::Settings::A_structure)
+      .def_readwrite("B_structure", &mpc::Settings::B_structure)
+      .def_readwrite("G_structure", &mpc::Settings::G_structure)
       .def("validate", &mpc::Settings::validate, py::arg("nx"), py::arg("nu"));
 
   py::class_<mpc::Reference>(s, "Reference", "Mission reference: z (n_x x (T+1)), u (n_u x T), t0 (s)")

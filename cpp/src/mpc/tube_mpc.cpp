@@ -21,32 +21,38 @@ double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-enum class Pattern { Dense, Upper, Lower, Diagonal };
+// Structural pattern of a block (true: stored entry, explicit zero or not).
+using Mask = Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic>;
 
-bool in_pattern(Pattern p, int r, int c) {
-  switch (p) {
-    case Pattern::Dense: return true;
-    case Pattern::Upper: return r <= c;
-    case Pattern::Lower: return r >= c;
-    case Pattern::Diagonal: return r == c;
-  }
-  return false;
+Mask mask_dense(Eigen::Index m, Eigen::Index n) { return Mask::Constant(m, n, true); }
+Mask mask_diagonal(Eigen::Index n) { return Eigen::MatrixXd::Identity(n, n).array() != 0.0; }
+Mask mask_upper(Eigen::Index n) {
+  return Eigen::MatrixXd::Ones(n, n).triangularView<Eigen::Upper>().toDenseMatrix().array() != 0.0;
+}
+Mask mask_lower(Eigen::Index n) {
+  return Eigen::MatrixXd::Ones(n, n).triangularView<Eigen::Lower>().toDenseMatrix().array() != 0.0;
+}
+// Upper triangle of W's nonzeros plus the diagonal.
+Mask mask_upper_of(const Eigen::MatrixXd& W) { return (W.array() != 0.0 || mask_diagonal(W.rows())) && mask_upper(W.rows()); }
+// A user structure (entries != 0 structural; empty -> dense).
+Mask mask_structure(const Eigen::MatrixXd& S, Eigen::Index m, Eigen::Index n) {
+  return S.size() == 0 ? mask_dense(m, n) : Mask(S.array() != 0.0);
 }
 
-void add_block(std::vector<Eigen::Triplet<double, int>>& trip, int r0, int c0, int m, int n, Pattern p) {
-  for (int c = 0; c < n; ++c)
-    for (int r = 0; r < m; ++r)
-      if (in_pattern(p, r, c)) trip.emplace_back(r0 + r, c0 + c, 1.0);
+void add_block(std::vector<Eigen::Triplet<double, int>>& trip, int r0, int c0, const Mask& p) {
+  for (int c = 0; c < p.cols(); ++c)
+    for (int r = 0; r < p.rows(); ++r)
+      if (p(r, c)) trip.emplace_back(r0 + r, c0 + c, 1.0);
 }
 
 // Positions in M.valuePtr() of the block's entries, in column-major order of the block.
-std::vector<int> block_positions(const SpMat& M, int r0, int c0, int m, int n, Pattern p) {
+std::vector<int> block_positions(const SpMat& M, int r0, int c0, const Mask& p) {
   std::vector<int> pos;
-  for (int c = 0; c < n; ++c) {
+  for (int c = 0; c < p.cols(); ++c) {
     const int* begin = M.innerIndexPtr() + M.outerIndexPtr()[c0 + c];
     const int* end = M.innerIndexPtr() + M.outerIndexPtr()[c0 + c + 1];
-    for (int r = 0; r < m; ++r) {
-      if (!in_pattern(p, r, c)) continue;
+    for (int r = 0; r < p.rows(); ++r) {
+      if (!p(r, c)) continue;
       const int* it = std::lower_bound(begin, end, r0 + r);
       if (it == end || *it != r0 + r) throw std::logic_error("TubeMPC: sparsity pattern lookup failed");
       pos.push_back(static_cast<int>(it - M.innerIndexPtr()));
@@ -57,12 +63,36 @@ std::vector<int> block_positions(const SpMat& M, int r0, int c0, int m, int n, P
 
 // Writes scale * W's entries selected by the pattern into M's values at pos.
 template <typename Derived>
-void write_block(SpMat& M, const std::vector<int>& pos, const Eigen::MatrixBase<Derived>& W, double scale, Pattern p) {
+void write_block(SpMat& M, const std::vector<int>& pos, const Eigen::MatrixBase<Derived>& W, double scale,
+                 const Mask& p) {
   double* val = M.valuePtr();
   std::size_t k = 0;
   for (Eigen::Index c = 0; c < W.cols(); ++c)
     for (Eigen::Index r = 0; r < W.rows(); ++r)
-      if (in_pattern(p, static_cast<int>(r), static_cast<int>(c))) val[pos[k++]] = scale * W(r, c);
+      if (p(r, c)) val[pos[k++]] = scale * W(r, c);
+}
+
+void zero_block(SpMat& M, const std::vector<int>& pos) {
+  for (int i : pos) M.valuePtr()[i] = 0.0;
+}
+
+// Zeroes row j of a block written with mask p.
+void zero_block_row(SpMat& M, const std::vector<int>& pos, const Mask& p, Eigen::Index j) {
+  std::size_t k = 0;
+  for (Eigen::Index c = 0; c < p.cols(); ++c)
+    for (Eigen::Index r = 0; r < p.rows(); ++r)
+      if (p(r, c)) {
+        if (r == j) M.valuePtr()[pos[k]] = 0.0;
+        ++k;
+      }
+}
+
+// True if W has a nonzero outside the structural pattern p.
+bool outside_structure(const Eigen::MatrixXd& W, const Mask& p) {
+  for (Eigen::Index c = 0; c < W.cols(); ++c)
+    for (Eigen::Index r = 0; r < W.rows(); ++r)
+      if (!p(r, c) && W(r, c) != 0.0) return true;
+  return false;
 }
 
 void check_square_symmetric(const Eigen::MatrixXd& M, int n, const char* field) {
@@ -88,6 +118,7 @@ std::string to_string(Status status) {
     case Status::TimeLimit: return "time_limit";
     case Status::NumericalError: return "numerical_error";
     case Status::EmptyTightening: return "empty_tightening";
+    case Status::ModelStructure: return "model_structure";
   }
   return "unknown";
 }
@@ -121,6 +152,11 @@ void Settings::validate(int nx, int nu) const {
   if (!(time_limit > 0.0)) fail("time_limit", "must be > 0 s (inf disables it)");
   if (!(soft_penalty > 0.0) || !std::isfinite(soft_penalty)) fail("soft_penalty", "must be finite and > 0");
   if (!(riccati_tol > 0.0)) fail("riccati_tol", "must be > 0");
+  if (A_structure.size() != 0 && (A_structure.rows() != nx || A_structure.cols() != nx))
+    fail("A_structure", "must be empty or n_x x n_x");
+  if (B_structure.size() != 0 && (B_structure.rows() != nx || B_structure.cols() != nu))
+    fail("B_structure", "must be empty or n_x x n_u");
+  if (G_structure.size() != 0 && G_structure.cols() != nx) fail("G_structure", "must be empty or n_c x n_x");
   if (riccati_max_iterations < 1) fail("riccati_max_iterations", "must be >= 1");
 #ifndef PIQP_HAS_BLASFEO
   if (kkt_solver == KktSolver::SparseMultistage)
@@ -217,14 +253,15 @@ struct TubeMPC::Impl {
   Eigen::VectorXd q, b, h_l, h_u, x_l, x_u;
   double constant = 0.0;
   std::vector<std::vector<int>> posP_z, posA_A, posA_B, posG;
-  std::vector<int> posA_L, posG_term;  // posG_term: the soft-terminal rows' four diagonals
+  std::vector<int> posA_L, posG_term;
+  Mask mQ, mP, mR, mA, mB, mG, mL;  // posG_term: the soft-terminal rows' four diagonals
 
   piqp::SparseSolver<double> solver;
 
   // Linearisation trajectory and per-node model data.
   Eigen::MatrixXd z_lin, v_lin;  // nx x (N+1), nu x N
-  std::vector<Eigen::MatrixXd> Ad, Bd, Gc;
-  std::vector<Eigen::VectorXd> cd, hc;
+  std::vector<Eigen::MatrixXd> Ad, Bd, Gc, Ad_prev, Bd_prev, Gc_prev;
+  std::vector<Eigen::VectorXd> cd, hc, cd_prev, hc_prev;
   bool have_plan = false;
   Eigen::MatrixXd z_plan, v_plan;  // last applied plan (for the shifted fallback)
   Eigen::MatrixXd z_star, v_star;
@@ -253,6 +290,11 @@ struct TubeMPC::Impl {
     cd.assign(N, Eigen::VectorXd::Zero(nx));
     Gc.assign(N + 1, Eigen::MatrixXd::Zero(nc, nx));
     hc.assign(N + 1, Eigen::VectorXd::Zero(nc));
+    Ad_prev = Ad;
+    Bd_prev = Bd;
+    cd_prev = cd;
+    Gc_prev = Gc;
+    hc_prev = hc;
     llt = Eigen::LLT<Eigen::MatrixXd>(nx);
     Lc.setZero(nx, nx);
     tmp_nx.setZero(nx);
@@ -274,27 +316,34 @@ struct TubeMPC::Impl {
     n_eq = (N + 1) * nx;
     n_in = (N + 1) * nc + (s.soft_terminal ? 2 * nx : 0);
 
+    mQ = mask_upper_of(Q);
+    mP = mask_upper_of(P_term);
+    mR = mask_upper_of(R);
+    mA = mask_structure(s.A_structure, nx, nx) || mask_diagonal(nx);  // frozen nodes write the identity
+    mB = mask_structure(s.B_structure, nx, nu);
+    mG = mask_structure(s.G_structure, nc, nx);
+    const Mask dx = mask_diagonal(nx), dc = mask_diagonal(nc), lx = mask_lower(nx);
     std::vector<Eigen::Triplet<double, int>> tp, ta, tg;
-    for (int i = 0; i <= N; ++i) add_block(tp, iz(i), iz(i), nx, nx, Pattern::Upper);
-    for (int i = 0; i < N; ++i) add_block(tp, iv(i), iv(i), nu, nu, Pattern::Upper);
-    add_block(ta, 0, iz(0), nx, nx, Pattern::Diagonal);
-    if (box_ic) add_block(ta, 0, off_s, nx, nx, Pattern::Lower);
+    for (int i = 0; i <= N; ++i) add_block(tp, iz(i), iz(i), i < N ? mQ : mP);
+    for (int i = 0; i < N; ++i) add_block(tp, iv(i), iv(i), mR);
+    add_block(ta, 0, iz(0), dx);
+    if (box_ic) add_block(ta, 0, off_s, lx);
     for (int i = 0; i < N; ++i) {
       const int r0 = (i + 1) * nx;
-      add_block(ta, r0, iz(i + 1), nx, nx, Pattern::Diagonal);
-      add_block(ta, r0, iz(i), nx, nx, Pattern::Dense);
-      add_block(ta, r0, iv(i), nx, nu, Pattern::Dense);
+      add_block(ta, r0, iz(i + 1), dx);
+      add_block(ta, r0, iz(i), mA);
+      add_block(ta, r0, iv(i), mB);
     }
     for (int i = 0; i <= N; ++i) {
-      add_block(tg, i * nc, iz(i), nc, nx, Pattern::Dense);
-      if (off_sigma >= 0) add_block(tg, i * nc, off_sigma + i * nc, nc, nc, Pattern::Diagonal);
+      add_block(tg, i * nc, iz(i), mG);
+      if (off_sigma >= 0) add_block(tg, i * nc, off_sigma + i * nc, dc);
     }
     if (s.soft_terminal) {
       const int r0 = (N + 1) * nc;
-      add_block(tg, r0, iz(N), nx, nx, Pattern::Diagonal);
-      add_block(tg, r0, off_t, nx, nx, Pattern::Diagonal);
-      add_block(tg, r0 + nx, iz(N), nx, nx, Pattern::Diagonal);
-      add_block(tg, r0 + nx, off_t, nx, nx, Pattern::Diagonal);
+      add_block(tg, r0, iz(N), dx);
+      add_block(tg, r0, off_t, dx);
+      add_block(tg, r0 + nx, iz(N), dx);
+      add_block(tg, r0 + nx, off_t, dx);
     }
     P.resize(n_var, n_var);
     P.setFromTriplets(tp.begin(), tp.end());
@@ -310,30 +359,27 @@ struct TubeMPC::Impl {
     posA_A.clear();
     posA_B.clear();
     posG.clear();
-    for (int i = 0; i <= N; ++i) posP_z.push_back(block_positions(P, iz(i), iz(i), nx, nx, Pattern::Upper));
+    for (int i = 0; i <= N; ++i) posP_z.push_back(block_positions(P, iz(i), iz(i), i < N ? mQ : mP));
+    const Eigen::MatrixXd Ix = Eigen::MatrixXd::Identity(nx, nx);
     for (int i = 0; i < N; ++i) {
-      write_block(P, block_positions(P, iv(i), iv(i), nu, nu, Pattern::Upper), R, 2.0, Pattern::Upper);
+      write_block(P, block_positions(P, iv(i), iv(i), mR), R, 2.0, mR);
       const int r0 = (i + 1) * nx;
-      write_block(A, block_positions(A, r0, iz(i + 1), nx, nx, Pattern::Diagonal),
-                  Eigen::MatrixXd::Identity(nx, nx), 1.0, Pattern::Diagonal);
-      posA_A.push_back(block_positions(A, r0, iz(i), nx, nx, Pattern::Dense));
-      posA_B.push_back(block_positions(A, r0, iv(i), nx, nu, Pattern::Dense));
+      write_block(A, block_positions(A, r0, iz(i + 1), dx), Ix, 1.0, dx);
+      posA_A.push_back(block_positions(A, r0, iz(i), mA));
+      posA_B.push_back(block_positions(A, r0, iv(i), mB));
     }
-    write_block(A, block_positions(A, 0, iz(0), nx, nx, Pattern::Diagonal), Eigen::MatrixXd::Identity(nx, nx), 1.0,
-                Pattern::Diagonal);
-    if (box_ic) posA_L = block_positions(A, 0, off_s, nx, nx, Pattern::Lower);
+    write_block(A, block_positions(A, 0, iz(0), dx), Ix, 1.0, dx);
+    if (box_ic) posA_L = block_positions(A, 0, off_s, lx);
     for (int i = 0; i <= N; ++i) {
-      posG.push_back(block_positions(G, i * nc, iz(i), nc, nx, Pattern::Dense));
+      posG.push_back(block_positions(G, i * nc, iz(i), mG));
       if (off_sigma >= 0)
-        write_block(G, block_positions(G, i * nc, off_sigma + i * nc, nc, nc, Pattern::Diagonal),
-                    Eigen::MatrixXd::Identity(nc, nc), -1.0, Pattern::Diagonal);
+        write_block(G, block_positions(G, i * nc, off_sigma + i * nc, dc), Eigen::MatrixXd::Identity(nc, nc), -1.0,
+                    dc);
     }
     if (s.soft_terminal) {
       const int r0 = (N + 1) * nc;
-      for (const auto& blk : {block_positions(G, r0, iz(N), nx, nx, Pattern::Diagonal),
-                              block_positions(G, r0, off_t, nx, nx, Pattern::Diagonal),
-                              block_positions(G, r0 + nx, iz(N), nx, nx, Pattern::Diagonal),
-                              block_positions(G, r0 + nx, off_t, nx, nx, Pattern::Diagonal)})
+      for (const auto& blk : {block_positions(G, r0, iz(N), dx), block_positions(G, r0, off_t, dx),
+                              block_positions(G, r0 + nx, iz(N), dx), block_positions(G, r0 + nx, off_t, dx)})
         posG_term.insert(posG_term.end(), blk.begin(), blk.end());
     }
     q.setZero(n_var);
@@ -353,6 +399,8 @@ TubeMPC::TubeMPC(std::shared_ptr<const LinearizedModel> model, Settings settings
   const int nx = model_->nx(), nu = model_->nu();
   settings_.validate(nx, nu);
   if (model_->n_constraints() < 0) throw std::invalid_argument("TubeMPC: model n_constraints() < 0");
+  if (settings_.G_structure.size() != 0 && settings_.G_structure.rows() != model_->n_constraints())
+    throw std::invalid_argument("TubeMPC Settings: G_structure must have n_constraints() rows");
   if (settings_.Q.size() == 0) settings_.Q = Eigen::MatrixXd::Identity(nx, nx);
   if (settings_.R.size() == 0) settings_.R = Eigen::MatrixXd::Identity(nu, nu);
 }
@@ -395,6 +443,7 @@ void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_termina
   m.T = static_cast<int>(reference.u.cols());
   m.x_f = reference.z.col(m.T);
   m.allocate(nx, nu, nc, settings_);
+  m.mL = mask_lower(nx);
   m.build_pattern(settings_);
   piqp::Settings<double>& ps = m.solver.settings();
   ps.eps_abs = settings_.qp_eps_abs;
@@ -405,6 +454,7 @@ void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_termina
   ps.kkt_solver = settings_.kkt_solver == KktSolver::SparseMultistage ? piqp::KKTSolver::sparse_multistage
                                                                        : piqp::KKTSolver::sparse_ldlt;
   ps.compute_timings = false;
+  ps.preconditioner_scale_cost = settings_.qp_scale_cost;
   m.solver.setup(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u);
 }
 
@@ -511,7 +561,7 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   m.constant = 0.0;
   m.b.head(nx) = x_k;
   if (s.initial_condition == InitialCondition::WhitenedBox) {
-    write_block(m.A, m.posA_L, m.Lc, -1.0, Pattern::Lower);
+    write_block(m.A, m.posA_L, m.Lc, -1.0, m.mL);
     const double r = 1.0 / std::sqrt(static_cast<double>(nx));
     m.x_l.segment(m.off_s, nx).setConstant(-r);
     m.x_u.segment(m.off_s, nx).setConstant(r);
@@ -535,12 +585,12 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
       const Eigen::MatrixXd& W = staged ? m.Q : m.P_term;
       const double* zr_data = staged ? m.ref.z.col(k + i).data() : (terminal_cost ? m.ref.z.col(k + N).data() : x_f.data());
       const Eigen::Map<const Eigen::VectorXd> zr(zr_data, nx);
-      write_block(m.P, m.posP_z[i], W, 2.0, Pattern::Upper);
+      write_block(m.P, m.posP_z[i], W, 2.0, i < N ? m.mQ : m.mP);
       m.tmp_nx.noalias() = W * zr;
       m.q.segment(m.iz(i), nx) = -2.0 * m.tmp_nx;
       m.constant += zr.dot(m.tmp_nx);
     } else {
-      write_block(m.P, m.posP_z[i], m.Q, 0.0, Pattern::Upper);
+      zero_block(m.P, m.posP_z[i]);
       m.q.segment(m.iz(i), nx).setZero();
     }
   }
@@ -568,6 +618,7 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
 
   bool converged = false;
   bool inaccurate = false;
+  double last_delta = kInf;
   for (int it = 0; it < s.scp_max_iterations; ++it) {
     if (it > 0 && seconds_since(t_start) > s.time_limit) return fallback(Status::TimeLimit);
     // Linearise about (z_lin, v_lin).
@@ -584,25 +635,52 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     }
     res.timings.linearize += seconds_since(t0);
     if (!finite) return fallback(Status::NumericalError);
+    bool structured = true;
+    for (int i = 0; i < n; ++i)
+      structured = structured && !outside_structure(m.Ad[i], m.mA) && !outside_structure(m.Bd[i], m.mB);
+    for (int i = 0; i <= n && nc > 0; ++i) structured = structured && !outside_structure(m.Gc[i], m.mG);
+    if (!structured) return fallback(Status::ModelStructure);
+    // Same model data as the previous QP and its trust region inactive: the QP about the new nominal
+    // has the same minimiser, so the iteration has converged (residual 0) without solving it again.
+    if (it > 0 && last_delta < s.trust_region) {
+      bool same = true;
+      for (int i = 0; i < n && same; ++i)
+        same = m.Ad[i] == m.Ad_prev[i] && m.Bd[i] == m.Bd_prev[i] && m.cd[i] == m.cd_prev[i];
+      for (int i = 0; i <= n && same && nc > 0; ++i) same = m.Gc[i] == m.Gc_prev[i] && m.hc[i] == m.hc_prev[i];
+      if (same) {
+        res.scp_residual = 0.0;
+        converged = true;
+        break;
+      }
+    }
+    for (int i = 0; i < n; ++i) {
+      m.Ad_prev[i] = m.Ad[i];
+      m.Bd_prev[i] = m.Bd[i];
+      m.cd_prev[i] = m.cd[i];
+    }
+    for (int i = 0; i <= n && nc > 0; ++i) {
+      m.Gc_prev[i] = m.Gc[i];
+      m.hc_prev[i] = m.hc[i];
+    }
 
     // Write the linearisation-dependent values.
     t0 = Clock::now();
     for (int i = 0; i < N; ++i) {
       const int r0 = (i + 1) * nx;
       if (i < n) {
-        write_block(m.A, m.posA_A[i], m.Ad[i], -1.0, Pattern::Dense);
-        write_block(m.A, m.posA_B[i], m.Bd[i], -1.0, Pattern::Dense);
+        write_block(m.A, m.posA_A[i], m.Ad[i], -1.0, m.mA);
+        write_block(m.A, m.posA_B[i], m.Bd[i], -1.0, m.mB);
         m.b.segment(r0, nx) = m.cd[i];
       } else {  // frozen node: z_{i+1} = z_i, input without effect
-        write_block(m.A, m.posA_A[i], Eigen::MatrixXd::Identity(nx, nx), -1.0, Pattern::Dense);
-        write_block(m.A, m.posA_B[i], m.Bd[0], 0.0, Pattern::Dense);
+        write_block(m.A, m.posA_A[i], Eigen::MatrixXd::Identity(nx, nx), -1.0, m.mA);
+        zero_block(m.A, m.posA_B[i]);
         m.b.segment(r0, nx).setZero();
       }
     }
     for (int i = 0; i <= N; ++i) {
       if (nc == 0) break;
       if (i <= n) {
-        write_block(m.G, m.posG[i], m.Gc[i], 1.0, Pattern::Dense);
+        write_block(m.G, m.posG[i], m.Gc[i], 1.0, m.mG);
         for (int j = 0; j < nc; ++j) {
           const int row = i * nc + j;
           if (std::isfinite(m.hc[i](j))) {
@@ -610,13 +688,13 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
             m.h_l(row) = -kInf;
             m.h_u(row) = m.hc[i](j) - std::sqrt(std::max(0.0, m.Gc[i].row(j).dot(m.tmp_nx)));
           } else {  // the model marks the row absent
-            for (int c = 0; c < nx; ++c) m.G.valuePtr()[m.posG[i][c * nc + j]] = 0.0;
+            zero_block_row(m.G, m.posG[i], m.mG, j);
             m.h_l(row) = -1.0;
             m.h_u(row) = 1.0;
           }
         }
       } else {
-        write_block(m.G, m.posG[i], m.Gc[0], 0.0, Pattern::Dense);
+        zero_block(m.G, m.posG[i]);
         m.h_l.segment(i * nc, nc).setConstant(-1.0);
         m.h_u.segment(i * nc, nc).setConstant(1.0);
       }
@@ -663,6 +741,7 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     }
     for (int i = 0; i < N; ++i) m.v_star.col(i) = r.x.segment(m.iv(i), nu);
     res.scp_residual = delta;
+    last_delta = delta;
     res.objective = r.info.primal_obj + m.constant;
     m.z_lin = m.z_star;
     m.v_lin = m.v_star;

@@ -269,6 +269,9 @@ TEST(TubeMPC, ShrinkingHorizonReachesTheTarget) {
       const StepResult& r = mpc.step(k, x, tube);
       ASSERT_TRUE(r.status == Status::Solved) << k << " " << to_string(r.status) << " " << to_string(r.failure);
       EXPECT_EQ(r.horizon, std::min(10, T - k));
+      // Linear plant: the re-linearised QP is identical, so one QP per step.
+      EXPECT_EQ(r.scp_iterations, 1);
+      EXPECT_LT(r.scp_residual, s.scp_eps);
       if (r.horizon < 10) {
         ++shrunk;
         // The nominal plan ends at x_f and stays there on the frozen nodes.
@@ -397,4 +400,40 @@ TEST(TubeMPC, ScpConvergesOnThePendulum) {
   one.setup(ref, Eigen::MatrixXd::Identity(2, 2) + 0.1 * (Eigen::MatrixXd(2, 2) << 0, 1, 0, 0).finished(),
             (Eigen::MatrixXd(2, 1) << 0.005, 0.1).finished());
   EXPECT_EQ(one.step(0, x0, small_tube(2, 1, 1e-8)).status, Status::MaxIterations);
+}
+
+// A declared sparser structure gives the same plan as the dense pattern; a model that breaks it is caught.
+TEST(TubeMPC, DeclaredStructureIsUsedAndChecked) {
+  auto model = double_integrator(0.5, 1.2, 0.3);
+  Eigen::VectorXd x0(2), xf(2), x(2);
+  x0 << 0, 0;
+  xf << 2, 0;
+  x << 0.01, 0.25;
+  Tube tube = small_tube(2, 1, 1e-3);
+  tube.K << -0.5, -1.0;
+  Settings dense = di_settings(15, 0.5);
+  TubeMPC a(model, dense);
+  a.setup(straight_reference(x0, xf, 20, 1));
+  const StepResult ra = a.step(0, x, tube);
+  Settings sparse = dense;
+  sparse.A_structure = (Eigen::MatrixXd(2, 2) << 1, 1, 0, 1).finished();  // the DI's A is upper triangular
+  sparse.G_structure = (Eigen::MatrixXd(2, 2) << 1, 0, 0, 1).finished();
+  TubeMPC b(model, sparse);
+  b.setup(straight_reference(x0, xf, 20, 1));
+  const StepResult rb = b.step(0, x, tube);
+  ASSERT_EQ(rb.status, Status::Solved);
+  EXPECT_LT(b.qp_data().A.nonZeros(), a.qp_data().A.nonZeros());
+  EXPECT_LT(b.qp_data().G.nonZeros(), a.qp_data().G.nonZeros());
+  EXPECT_LT((ra.z - rb.z).cwiseAbs().maxCoeff(), 1e-7);
+  EXPECT_NEAR(ra.objective, rb.objective, 1e-8 * std::abs(ra.objective));
+  Settings wrong = dense;
+  wrong.A_structure = Eigen::MatrixXd::Identity(2, 2);  // misses A(0, 1) = dt
+  TubeMPC c(model, wrong);
+  c.setup(straight_reference(x0, xf, 20, 1));
+  const StepResult& rc = c.step(0, x, tube);
+  EXPECT_EQ(rc.failure, Status::ModelStructure);
+  EXPECT_EQ(rc.status, Status::FallbackSafeInput);
+  Settings bad_size = dense;
+  bad_size.B_structure = Eigen::MatrixXd::Ones(1, 1);
+  EXPECT_THROW(TubeMPC(model, bad_size), std::invalid_argument);
 }

@@ -159,6 +159,14 @@ TEST(TubeMPCAllocation, StepDoesNotAllocateAfterSetup) {
     s.soft_state_constraints = soft;
     s.soft_terminal = soft;
     s.input_cost = soft ? InputCost::FromReference : InputCost::Paper;
+    if (soft) {  // block-diagonal structure of the two subsystems (exercises the sparse masks)
+      s.A_structure = Eigen::MatrixXd::Zero(12, 12);
+      s.A_structure.topLeftCorner(6, 6).setOnes();
+      s.A_structure.bottomRightCorner(6, 6).setOnes();
+      s.B_structure = Eigen::MatrixXd::Zero(12, 6);
+      s.B_structure.topLeftCorner(6, 3).setOnes();
+      s.B_structure.bottomRightCorner(6, 3).setOnes();
+    }
     TubeMPC mpc(model, s);
     const int T = 40;
     Reference ref;

@@ -7,6 +7,9 @@
 /// everything, computes the terminal weight, builds the QP's sparsity pattern and sets PIQP up),
 /// then `step(k, x_k, tube)` every control period. `step` does not allocate heap memory.
 ///
+/// Stored (structural) entries: the upper triangles of Q, R and the terminal weight's nonzeros plus
+/// their diagonals, the model structures of Settings (dense by default), identities and L's lower triangle.
+///
 /// The QP (exported by `qp_data()`, PIQP's form):
 ///     min 1/2 w^T P w + q^T w   s.t.  A w = b,  h_l <= G w <= h_u,  x_l <= w <= x_u
 /// over w = [z_0, v_0, z_1, v_1, ..., z_{N-1}, v_{N-1}, z_N, s, sigma, t] where
@@ -46,6 +49,7 @@ enum class Status {
   TimeLimit,            ///< Failure cause: the step exceeded Settings::time_limit.
   NumericalError,       ///< Failure cause: non-finite data or solution, tube not positive definite.
   EmptyTightening,      ///< Failure cause: the tightened input box is empty (u_max_i <= sqrt(K_i Pe K_i^T)).
+  ModelStructure,       ///< Failure cause: the model returned a nonzero outside Settings::*_structure.
 };
 
 /// Name of a status ("solved", "fallback_shifted_plan", ...).
@@ -98,6 +102,12 @@ struct Settings {
   int riccati_max_iterations = 100;    ///< Cap on DARE doubling iterations.
   Backend backend = Backend::PiqpSparse;
   KktSolver kkt_solver = KktSolver::SparseLdlt;
+  bool qp_scale_cost = true;           ///< PIQP scales the cost in its Ruiz equilibration (fewer iterations here).
+  /// Optional structural patterns of the model's A (n_x x n_x), B (n_x x n_u) and G (n_c x n_x): entries
+  /// != 0 are stored in the QP, the others are structural zeros the model must respect (a nonzero there
+  /// makes the step fall back with failure ModelStructure). Empty: dense. Sparser patterns make the KKT
+  /// factorisation cheaper (e.g. block-diagonal translational/rotational subsystems).
+  Eigen::MatrixXd A_structure, B_structure, G_structure;
 
   /// Throws std::invalid_argument naming the offending field; n_x, n_u are the plant's sizes.
   void validate(int nx, int nu) const;
@@ -132,7 +142,9 @@ struct StepResult {
   Status status = Status::NotSolved;   ///< What was applied.
   Status failure = Status::Solved;     ///< Cause of a fallback (Solved when none).
   int horizon = 0;                     ///< Active horizon n = min(N, T - k).
-  int scp_iterations = 0;              ///< QPs built (and solved) in this step.
+  int scp_iterations = 0;              ///< QPs solved in this step. When re-linearising reproduces the
+                                       ///< last QP's data exactly (a linear plant) and its trust region is
+                                       ///< inactive, the loop stops without re-solving (residual 0).
   int qp_iterations = 0;               ///< Interior-point iterations summed over the step's QPs.
   double scp_residual = 0.0;           ///< Final max_i ||z*_i - z_lin_i||_inf (state units).
   double objective = 0.0;              ///< Nominal cost of the applied plan's last QP (incl. constant).
