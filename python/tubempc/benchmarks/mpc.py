@@ -106,15 +106,15 @@ def lqr_tube(Ad: Arr, Bd: Arr, settings: mpc.Settings) -> mpc.Tube:
 
 def run_mission(model: mpc.LinearizedModel, settings: mpc.Settings, reference: mpc.Reference,
                 tube: mpc.Tube, truth: Callable[[int, Arr, Arr], Arr], qp_steps: set[int]
-                ) -> tuple[list[dict[str, Any]], dict[int, tuple[mpc.QpData, float, float]]]:
+                ) -> tuple[list[dict[str, Any]], dict[int, tuple[mpc.QpData, float, float, Arr]]]:
     """Closed loop over the whole mission; per-step records and the QPs of the steps in qp_steps
-    (with the step's C++ solve time per QP and the objective)."""
+    (with the step's C++ solve time per QP, the objective and the C++ minimiser)."""
     ctrl = mpc.TubeMPC(model, settings)
     ctrl.setup(reference)
     T = ctrl.mission_steps
     x = reference.z[:, 0].copy()
     records: list[dict[str, Any]] = []
-    qps: dict[int, tuple[mpc.QpData, float, float]] = {}
+    qps: dict[int, tuple[mpc.QpData, float, float, Arr]] = {}
     for k in range(T):
         t0 = time.perf_counter()
         r = ctrl.step(k, x, tube)
@@ -124,10 +124,18 @@ def run_mission(model: mpc.LinearizedModel, settings: mpc.Settings, reference: m
                         "linearize": tm.linearize, "build": tm.build, "solve": tm.solve, "total": tm.total,
                         "python_wall": wall, "horizon": r.horizon})
         if k in qp_steps:
-            qps[k] = (ctrl.qp_data(), tm.solve / max(1, r.scp_iterations), r.objective)
+            qps[k] = (ctrl.qp_data(), tm.solve / max(1, r.scp_iterations), r.objective, ctrl.qp_solution().w)
         x = truth(k, x, r.u)
     records.append({"final_error_inf": float(np.max(np.abs(x - reference.z[:, -1])))})
     return records, qps
+
+
+def violation(qp: mpc.QpData, w: Arr) -> float:
+    """Largest constraint violation of w in the exported QP."""
+    Gw = qp.G @ w
+    return float(max(np.max(np.abs(qp.A @ w - qp.b)), np.max(Gw - qp.h_u, initial=0.0),
+                     np.max(qp.h_l - Gw, initial=0.0), np.max(w - qp.x_u, initial=0.0),
+                     np.max(qp.x_l - w, initial=0.0)))
 
 
 def _stats(values: list[float]) -> dict[str, float]:
@@ -174,6 +182,7 @@ def run(args: argparse.Namespace) -> int:
     for r in records:
         statuses[r["status"]] = statuses.get(r["status"], 0) + 1
     some_qp = next(iter(qps.values()))[0]
+    own_viol = max(violation(qp, w) for qp, w in ((q[0], q[3]) for q in qps.values()))
     n_var, n_eq, n_in = some_qp.P.shape[0], some_qp.A.shape[0], some_qp.G.shape[0]
     print("plant: 12-state/6-input stand-in (Hill/CW translation + linearised rigid body, "
           "4 glide-slope planes); the 6-DOF Bennu model is not merged yet")
@@ -196,30 +205,34 @@ def run(args: argparse.Namespace) -> int:
     print(f"  {'solve per QP':22s} {1e3 * per_qp['median']:10.3f} {1e3 * per_qp['p99']:10.3f} "
           f"{1e3 * per_qp['max']:10.3f}")
 
-    print(f"baseline on {len(qps)} of the mission's QPs (the last QP of each sampled step):")
+    print(f"baseline on {len(qps)} of the mission's QPs (the last QP of each sampled step); "
+          f"C++ max violation {own_viol:.1e}:")
+    out["cpp_max_violation"] = own_viol
     print(f"  {'solver':16s} {'solver ms':>10s} {'wall ms':>10s} {'ratio solver':>13s} {'ratio wall':>11s} "
-          f"{'|rel obj diff|':>15s} {'max excess':>11s}")
+          f"{'|rel obj diff|':>15s} {'max excess':>11s} {'max viol':>9s}")
     out["baseline"] = {}
     for solver in [s for s in args.solvers.split(",") if s]:
-        solver_t, wall_t, ratio_s, ratio_w, diffs = [], [], [], [], []
-        for qp, cpp_solve, objective in qps.values():
+        solver_t, wall_t, ratio_s, ratio_w, diffs, viols = [], [], [], [], [], []
+        for qp, cpp_solve, objective, _ in qps.values():
             res = solve_qp(qp, solver, args.osqp_eps if "osqp" in solver else args.eps)
             solver_t.append(res.solve_time)
             wall_t.append(res.wall_time)
             ratio_s.append(res.solve_time / cpp_solve)
             ratio_w.append(res.wall_time / cpp_solve)
             diffs.append((objective - res.objective) / max(1.0, abs(res.objective)))
+            viols.append(violation(qp, res.w) if np.all(np.isfinite(res.w)) else np.inf)
         entry = {"solver_time_median": float(np.median(solver_t)),
                  "wall_time_median": float(np.median(wall_t)),
                  "ratio_solver_median": float(np.median(ratio_s)),
                  "ratio_wall_median": float(np.median(ratio_w)),
                  "median_abs_rel_objective_diff": float(np.median(np.abs(diffs))),
-                 "max_rel_objective_excess": float(np.max(diffs))}
+                 "max_rel_objective_excess": float(np.max(diffs)),
+                 "max_violation": float(np.max(viols))}
         out["baseline"][solver] = entry
         print(f"  {solver:16s} {1e3 * entry['solver_time_median']:10.3f} "
               f"{1e3 * entry['wall_time_median']:10.3f} {entry['ratio_solver_median']:13.1f} "
               f"{entry['ratio_wall_median']:11.1f} {entry['median_abs_rel_objective_diff']:15.1e} "
-              f"{entry['max_rel_objective_excess']:11.1e}")
+              f"{entry['max_rel_objective_excess']:11.1e} {entry['max_violation']:9.1e}")
     print("ratio = Python backend time / C++ PIQP solve time per QP, median over the sampled QPs "
           "('solver': the backend's own solve time; 'wall': including cvxpy's problem construction)")
     print("objective: |rel obj diff| = median |ours - theirs| / |theirs|; max excess = max (ours - theirs) / "
