@@ -264,12 +264,13 @@ struct TubeMPC::Impl {
   std::vector<Eigen::VectorXd> cd, hc, cd_prev, hc_prev;
   bool have_plan = false;
   Eigen::MatrixXd z_plan, v_plan;  // last applied plan (for the shifted fallback)
+  Eigen::MatrixXd z_ref;           // zbar_{min(k+i, T)}, i = 0..N: origin of the QP's state deviations
   Eigen::MatrixXd z_star, v_star;
 
   // Tube work.
   Eigen::LLT<Eigen::MatrixXd> llt;
   Eigen::MatrixXd Lc;
-  Eigen::VectorXd tmp_nx, tmp_nu, u_tight, e, x_f;
+  Eigen::VectorXd tmp_nx, tmp_nu, u_tight, e;
   Eigen::VectorXd tight_row;  // per-constraint tightening at the current node
 
   StepResult result;
@@ -284,6 +285,7 @@ struct TubeMPC::Impl {
     z_plan = z_lin;
     v_plan = v_lin;
     z_star = z_lin;
+    z_ref = z_lin;
     v_star = v_lin;
     Ad.assign(N, Eigen::MatrixXd::Zero(nx, nx));
     Bd.assign(N, Eigen::MatrixXd::Zero(nx, nu));
@@ -441,7 +443,6 @@ void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_termina
   m.P_term = solve_dare(A_terminal, B_terminal, m.Q, m.R, settings_.riccati_tol, settings_.riccati_max_iterations);
   m.ref = reference;
   m.T = static_cast<int>(reference.u.cols());
-  m.x_f = reference.z.col(m.T);
   m.allocate(nx, nu, nc, settings_);
   m.mL = mask_lower(nx);
   m.build_pattern(settings_);
@@ -556,10 +557,12 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   }
   if ((m.u_tight.array() <= 0.0).any()) return fallback(Status::EmptyTightening);
 
-  // Parts of the QP that do not depend on the linearisation.
-  const Eigen::VectorXd& x_f = m.x_f;
+  // Parts of the QP that do not depend on the linearisation. The QP's state variables are the
+  // deviations dz_i = z_i - zbar_{min(k+i, T)}: the objective then carries no large constant, which
+  // keeps the solvers' relative tolerances meaningful for states of hundreds of metres.
+  for (int i = 0; i <= N; ++i) m.z_ref.col(i) = m.ref.z.col(std::min(k + i, T));
   m.constant = 0.0;
-  m.b.head(nx) = x_k;
+  m.b.head(nx) = x_k - m.z_ref.col(0);
   if (s.initial_condition == InitialCondition::WhitenedBox) {
     write_block(m.A, m.posA_L, m.Lc, -1.0, m.mL);
     const double r = 1.0 / std::sqrt(static_cast<double>(nx));
@@ -581,18 +584,12 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     const bool staged = i < n;
     const bool terminal_cost = i == N && !terminal_phase;
     const bool soft_end = i == N && terminal_phase && s.soft_terminal;
-    if (staged || terminal_cost || soft_end) {
-      const Eigen::MatrixXd& W = staged ? m.Q : m.P_term;
-      const double* zr_data = staged ? m.ref.z.col(k + i).data() : (terminal_cost ? m.ref.z.col(k + N).data() : x_f.data());
-      const Eigen::Map<const Eigen::VectorXd> zr(zr_data, nx);
-      write_block(m.P, m.posP_z[i], W, 2.0, i < N ? m.mQ : m.mP);
-      m.tmp_nx.noalias() = W * zr;
-      m.q.segment(m.iz(i), nx) = -2.0 * m.tmp_nx;
-      m.constant += zr.dot(m.tmp_nx);
-    } else {
+    // Stage, terminal (zbar_{k+N}) and soft-end (zbar_T = x_f) costs are all ||dz_i||^2_W.
+    if (staged || terminal_cost || soft_end)
+      write_block(m.P, m.posP_z[i], staged ? m.Q : m.P_term, 2.0, i < N ? m.mQ : m.mP);
+    else
       zero_block(m.P, m.posP_z[i]);
-      m.q.segment(m.iz(i), nx).setZero();
-    }
+    m.q.segment(m.iz(i), nx).setZero();
   }
   if (m.off_sigma >= 0) {
     m.q.segment(m.off_sigma, (N + 1) * nc).setConstant(s.soft_penalty);
@@ -602,13 +599,13 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     const int r0 = (N + 1) * nc;
     m.q.segment(m.off_t, nx).setConstant(terminal_phase ? s.soft_penalty : 0.0);
     m.x_l.segment(m.off_t, nx).setZero();
-    const double sign[4] = {1.0, -1.0, 1.0, 1.0};  // z_N - t <= x_f, z_N + t >= x_f
+    const double sign[4] = {1.0, -1.0, 1.0, 1.0};  // dz_N - t <= 0, dz_N + t >= 0 (zbar_T = x_f)
     for (int blk = 0; blk < 4; ++blk)
       for (int j = 0; j < nx; ++j) m.G.valuePtr()[m.posG_term[blk * nx + j]] = terminal_phase ? sign[blk] : 0.0;
     if (terminal_phase) {
       m.h_l.segment(r0, nx).setConstant(-kInf);
-      m.h_u.segment(r0, nx) = x_f;
-      m.h_l.segment(r0 + nx, nx) = x_f;
+      m.h_u.segment(r0, nx).setZero();
+      m.h_l.segment(r0 + nx, nx).setZero();
       m.h_u.segment(r0 + nx, nx).setConstant(kInf);
     } else {
       m.h_l.segment(r0, 2 * nx).setConstant(-1.0);
@@ -670,11 +667,13 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
       if (i < n) {
         write_block(m.A, m.posA_A[i], m.Ad[i], -1.0, m.mA);
         write_block(m.A, m.posA_B[i], m.Bd[i], -1.0, m.mB);
-        m.b.segment(r0, nx) = m.cd[i];
+        // dz_{i+1} - A dz_i - B v_i = c + A zbar_i - zbar_{i+1}
+        m.tmp_nx.noalias() = m.Ad[i] * m.z_ref.col(i);
+        m.b.segment(r0, nx) = m.cd[i] + m.tmp_nx - m.z_ref.col(i + 1);
       } else {  // frozen node: z_{i+1} = z_i, input without effect
         write_block(m.A, m.posA_A[i], Eigen::MatrixXd::Identity(nx, nx), -1.0, m.mA);
         zero_block(m.A, m.posA_B[i]);
-        m.b.segment(r0, nx).setZero();
+        m.b.segment(r0, nx) = m.z_ref.col(i) - m.z_ref.col(i + 1);
       }
     }
     for (int i = 0; i <= N; ++i) {
@@ -686,7 +685,8 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
           if (std::isfinite(m.hc[i](j))) {
             m.tmp_nx.noalias() = tube.Pe * m.Gc[i].row(j).transpose();
             m.h_l(row) = -kInf;
-            m.h_u(row) = m.hc[i](j) - std::sqrt(std::max(0.0, m.Gc[i].row(j).dot(m.tmp_nx)));
+            m.h_u(row) = m.hc[i](j) - std::sqrt(std::max(0.0, m.Gc[i].row(j).dot(m.tmp_nx))) -
+                         m.Gc[i].row(j).dot(m.z_ref.col(i));
           } else {  // the model marks the row absent
             zero_block_row(m.G, m.posG[i], m.mG, j);
             m.h_l(row) = -1.0;
@@ -701,16 +701,16 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     }
     for (int i = 1; i <= N; ++i) {
       if (i <= n && std::isfinite(s.trust_region)) {
-        m.x_l.segment(m.iz(i), nx).array() = m.z_lin.col(i).array() - s.trust_region;
-        m.x_u.segment(m.iz(i), nx).array() = m.z_lin.col(i).array() + s.trust_region;
+        m.x_l.segment(m.iz(i), nx).array() = (m.z_lin.col(i) - m.z_ref.col(i)).array() - s.trust_region;
+        m.x_u.segment(m.iz(i), nx).array() = (m.z_lin.col(i) - m.z_ref.col(i)).array() + s.trust_region;
       } else {
         m.x_l.segment(m.iz(i), nx).setConstant(-kInf);
         m.x_u.segment(m.iz(i), nx).setConstant(kInf);
       }
     }
-    if (terminal_phase && !s.soft_terminal) {
-      m.x_l.segment(m.iz(N), nx) = x_f;
-      m.x_u.segment(m.iz(N), nx) = x_f;
+    if (terminal_phase && !s.soft_terminal) {  // z_N = x_f = zbar_T
+      m.x_l.segment(m.iz(N), nx).setZero();
+      m.x_u.segment(m.iz(N), nx).setZero();
     }
     res.timings.build += seconds_since(t0);
 
@@ -736,7 +736,7 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
 
     double delta = 0.0;
     for (int i = 0; i <= N; ++i) {
-      m.z_star.col(i) = r.x.segment(m.iz(i), nx);
+      m.z_star.col(i) = r.x.segment(m.iz(i), nx) + m.z_ref.col(i);
       if (i <= n) delta = std::max(delta, (m.z_star.col(i) - m.z_lin.col(i)).cwiseAbs().maxCoeff());
     }
     for (int i = 0; i < N; ++i) m.v_star.col(i) = r.x.segment(m.iv(i), nu);

@@ -12,8 +12,10 @@
 ///
 /// The QP (exported by `qp_data()`, PIQP's form):
 ///     min 1/2 w^T P w + q^T w   s.t.  A w = b,  h_l <= G w <= h_u,  x_l <= w <= x_u
-/// over w = [z_0, v_0, z_1, v_1, ..., z_{N-1}, v_{N-1}, z_N, s, sigma, t] where
-///  - z_i (n_x) and v_i (n_u) are the nominal states and inputs at k + i;
+/// over w = [dz_0, v_0, dz_1, v_1, ..., dz_{N-1}, v_{N-1}, dz_N, s, sigma, t] where
+///  - dz_i = z_i - zbar_{min(k+i, T)} (n_x) are the nominal states as deviations from the reference (so
+///    the objective carries no large constant and relative solver tolerances stay meaningful for
+///    states of hundreds of metres) and v_i (n_u) the nominal inputs at k + i;
 ///  - s (n_x, only with InitialCondition::WhitenedBox) holds z_0 = x_k + L s, Pe = L L^T, with
 ///    |s_j| <= 1/sqrt(n_x). That box in whitened coordinates is the largest axis-aligned cube inside
 ///    the unit ball, so z_0 - x_k lies in the tube ellipsoid Z = -Z (conservative: a polytope inside
