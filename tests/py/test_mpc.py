@@ -158,3 +158,24 @@ def test_step_reports_fallback_with_finite_output() -> None:
     assert r.failure == mpc.Status.EmptyTightening
     assert str(r.failure) == "empty_tightening"
     assert np.all(np.isfinite(r.u)) and np.all(np.abs(r.u) <= 0.4)
+
+
+def test_benchmark_mission_runs_and_agrees_with_the_baseline(tmp_path) -> None:
+    """Short run of ``tubempc bench mpc``: every step solved, the C++ QPs satisfy KKT, and the same
+    QPs solved through cvxpy's PIQP interface give the same optimum."""
+    import argparse
+    import json
+
+    from tubempc.benchmarks import mpc as bench
+
+    parser = argparse.ArgumentParser()
+    bench.add_arguments(parser)
+    out = tmp_path / "bench.json"
+    # The whole 600 s mission: shorter ones make the reference exceed the input limits.
+    args = parser.parse_args(["--qp-samples", "3", "--solvers", "cvxpy-piqp", "--json", str(out)])
+    assert bench.run(args) == 0
+    data = json.loads(out.read_text())
+    assert data["statuses"] == {"solved": 300}
+    assert data["cpp_max_kkt_residual"] < 1e-8
+    assert data["cpp_max_violation"] < 1e-8
+    assert data["baseline"]["cvxpy-piqp"]["median_abs_rel_objective_diff"] < 1e-6
