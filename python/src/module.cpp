@@ -6,5 +6,6 @@ PYBIND11_MODULE(_core, m) {
   tubempc::python::bind_core(m);
   tubempc::python::bind_so3(m);
   tubempc::python::bind_gravity(m);
-  tubempc::python::bind_dynamics(m);  // after bind_gravity (it reuses its GravityModel types)
+  tubempc::python::bind_dynamics(m);  // after bind_gravity (it uses GravityModel)
+  tubempc::python::bind_mpc(m);       // after bind_dynamics (it accepts its models)
 }

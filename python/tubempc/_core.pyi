@@ -4,9 +4,10 @@ from typing import Any
 
 from . import _dynamics as dynamics
 from . import _gravity as gravity
+from . import _mpc as mpc
 from . import _so3 as so3
 
-__all__ = ["__version__", "build_info", "dynamics", "gravity", "so3"]
+__all__ = ["__version__", "build_info", "dynamics", "gravity", "mpc", "so3"]
 
 __version__: str
 

@@ -1,0 +1,257 @@
+/// @file tube_mpc.hpp
+/// Nominal problem of the tube MPC (PAPER_NOTES.md "Tube MPC", "Linearisation and discretisation",
+/// "Constraints"; the paper's Problems 2 and 3 and the inner iteration of Algorithm 1), solved by
+/// sequential convex programming with one sparse QP per iteration (PIQP).
+///
+/// Lifecycle: construct with a plant and Settings, `setup(reference)` once per mission (allocates
+/// everything, computes the terminal weight, builds the QP's sparsity pattern and sets PIQP up),
+/// then `step(k, x_k, tube)` every control period. `step` does not allocate heap memory.
+///
+/// Stored (structural) entries: the upper triangles of Q, R and the terminal weight's nonzeros plus
+/// their diagonals, the model structures of Settings (dense by default), identities and L's lower triangle.
+///
+/// The QP (exported by `qp_data()`, PIQP's form):
+///     min 1/2 w^T P w + q^T w   s.t.  A w = b,  h_l <= G w <= h_u,  x_l <= w <= x_u
+/// over w = [dz_0, v_0, dz_1, v_1, ..., dz_{N-1}, v_{N-1}, dz_N, s, sigma, t] where
+///  - dz_i = z_i - zbar_{min(k+i, T)} (n_x) are the nominal states as deviations from the reference (so
+///    the objective carries no large constant and relative solver tolerances stay meaningful for
+///    states of hundreds of metres) and v_i (n_u) the nominal inputs at k + i;
+///  - s (n_x, only with InitialCondition::WhitenedBox) holds z_0 = x_k + L s, Pe = L L^T, with
+///    |s_j| <= 1/sqrt(n_x). That box in whitened coordinates is the largest axis-aligned cube inside
+///    the unit ball, so z_0 - x_k lies in the tube ellipsoid Z = -Z (conservative: a polytope inside
+///    the ellipsoid, as PAPER_NOTES.md asks; the paper's set {x_k} (+) (-Z) is the whole ellipsoid);
+///  - sigma ((N + 1) n_c, only with soft state constraints) are the L1 slacks of the state
+///    constraints, t (n_x, only with a soft terminal constraint) those of the terminal equality.
+/// The cost is sum_{i < n} ||z_i - zbar_{k+i}||^2_Q + ||v_i||^2_R (or ||v_i - u_ref_{k+i}||^2_R) +
+/// ||z_N - zbar_{k+N}||^2_P, the QP's P is twice the weights, and the constant dropped from the QP is
+/// `QpData::constant`. The nodes past the mission's end (k + i > T) are padded with frozen nodes
+/// z_{i+1} = z_i, zero state cost and free (costed, unused) inputs so the sparsity pattern never
+/// changes; in that shrinking phase (k >= T - N, the paper's Problem 3) z_N = x_f = zbar_T.
+#pragma once
+
+#include <Eigen/Dense>
+#include <Eigen/SparseCore>
+#include <limits>
+#include <memory>
+#include <string>
+
+#include "tubempc/mpc/linearized_model.hpp"
+
+namespace tubempc::mpc {
+
+/// Outcome of a step (`StepResult::status`) and cause of a fallback (`StepResult::failure`).
+enum class Status {
+  Solved,               ///< SCP converged, QPs solved to tolerance.
+  SolvedInaccurate,     ///< SCP converged; a QP hit its iteration cap with small residuals.
+  MaxIterations,        ///< SCP cap reached; the last QP solution is applied.
+  FallbackShiftedPlan,  ///< The previous plan shifted by one step is applied (paper Theorem 1's candidate).
+  FallbackSafeInput,    ///< No previous plan: u = sat(u_ref_k + K (x_k - zbar_k)) is applied.
+  Infeasible,           ///< Failure cause: a QP was primal (or dual) infeasible.
+  NotSolved,            ///< Failure cause: the QP solver stopped without a usable solution.
+  TimeLimit,            ///< Failure cause: the step exceeded Settings::time_limit.
+  NumericalError,       ///< Failure cause: non-finite data or solution, tube not positive definite.
+  EmptyTightening,      ///< Failure cause: the tightened input box is empty (u_max_i <= sqrt(K_i Pe K_i^T)).
+  ModelStructure,       ///< Failure cause: the model returned a nonzero outside Settings::*_structure.
+};
+
+/// Name of a status ("solved", "fallback_shifted_plan", ...).
+std::string to_string(Status status);
+
+/// Initial-condition handling of the nominal state z_0.
+enum class InitialCondition {
+  WhitenedBox,  ///< z_0 = x_k + L s, |s_j| <= 1/sqrt(n_x) (inside the tube ellipsoid; default).
+  Exact,        ///< z_0 = x_k.
+};
+
+/// Input part of the stage cost.
+enum class InputCost {
+  Paper,          ///< ||v||^2_R (the paper's Problem 2, default).
+  FromReference,  ///< ||v - u_ref||^2_R.
+};
+
+/// QP solver used inside `step`.
+enum class Backend {
+  PiqpSparse,  ///< PIQP's sparse interior-point solver, set up once, updated every QP (default).
+};
+
+/// Factorisation of PIQP's KKT systems.
+enum class KktSolver {
+  SparseLdlt,        ///< General sparse LDL^T with fill-reducing ordering (default).
+  SparseMultistage,  ///< Stage-wise block LDL^T; needs PIQP built with BLASFEO (validate() says if not).
+};
+
+/// Settings of the tube MPC; `validate()` throws std::invalid_argument naming the field.
+struct Settings {
+  int horizon = 30;                    ///< N, nodes of the nominal plan.
+  double dt = 2.0;                     ///< Control period (s).
+  Eigen::MatrixXd Q;                   ///< State weight (n_x x n_x, symmetric PSD); empty -> identity.
+  Eigen::MatrixXd R;                   ///< Input weight (n_u x n_u, symmetric PD); empty -> identity.
+  Eigen::VectorXd u_max;               ///< True input bounds |u_i| <= u_max_i (input units); required.
+  InputCost input_cost = InputCost::Paper;
+  InitialCondition initial_condition = InitialCondition::WhitenedBox;
+  double scp_eps = 1e-3;               ///< SCP stops when max_i ||z*_i - z_lin_i||_inf < scp_eps (state units).
+  int scp_max_iterations = 10;         ///< Cap on SCP iterations per step.
+  double trust_region = std::numeric_limits<double>::infinity();  ///< |z_i - z_lin_i|_inf bound (i >= 1); inf: off.
+  double qp_eps_abs = 1e-8;            ///< PIQP absolute tolerance.
+  double qp_eps_rel = 1e-9;            ///< PIQP relative tolerance.
+  int qp_max_iterations = 200;         ///< PIQP iteration cap.
+  double qp_inaccurate_tol = 1e-5;     ///< A capped QP with relative residuals below this is accepted.
+  double time_limit = 1.0;             ///< Wall-clock budget of one step (s); exceeded -> fallback.
+  bool soft_state_constraints = false; ///< Exact L1 penalty on state-constraint violations.
+  bool soft_terminal = false;          ///< Exact L1 penalty on z_N - x_f in the shrinking phase.
+  double soft_penalty = 1e6;           ///< L1 penalty weight of the slacks (cost units per constraint unit).
+  double riccati_tol = 1e-10;          ///< Relative convergence tolerance of the DARE doubling.
+  int riccati_max_iterations = 100;    ///< Cap on DARE doubling iterations.
+  Backend backend = Backend::PiqpSparse;
+  KktSolver kkt_solver = KktSolver::SparseLdlt;
+  /// PIQP also scales the cost in its equilibration: far fewer iterations on the shrinking-horizon QPs
+  /// (e.g. 133 -> 17), but PIQP 0.6 then stops up to ~5e-5 (relative) above the optimum; off by default.
+  bool qp_scale_cost = false;
+  /// Optional structural patterns of the model's A (n_x x n_x), B (n_x x n_u) and G (n_c x n_x): entries
+  /// != 0 are stored in the QP, the others are structural zeros the model must respect (a nonzero there
+  /// makes the step fall back with failure ModelStructure). Empty: dense. Sparser patterns make the KKT
+  /// factorisation cheaper (e.g. block-diagonal translational/rotational subsystems).
+  Eigen::MatrixXd A_structure, B_structure, G_structure;
+
+  /// Throws std::invalid_argument naming the offending field; n_x, n_u are the plant's sizes.
+  void validate(int nx, int nu) const;
+};
+
+/// Mission reference: zbar (n_x x (T + 1)) and u_ref (n_u x T), node j at time t0 + j dt.
+struct Reference {
+  Eigen::MatrixXd z;  ///< Reference states zbar_0..zbar_T (columns); zbar_T is the target x_f.
+  Eigen::MatrixXd u;  ///< Reference inputs u_ref_0..u_ref_{T-1} (columns).
+  double t0 = 0.0;    ///< Time of node 0 (s), passed to the model.
+};
+
+/// Robust invariant tube: error e = x - z stays in {e : e^T Pe^-1 e <= 1} under u = v + K e.
+struct Tube {
+  Eigen::MatrixXd K;   ///< Ancillary gain (n_u x n_x).
+  Eigen::MatrixXd Pe;  ///< Tube shape (n_x x n_x, symmetric positive definite).
+};
+
+/// Wall-clock split of one step (s).
+struct Timings {
+  double linearize = 0.0;  ///< Model discretisation and constraint linearisation.
+  double build = 0.0;      ///< Writing the QP's values.
+  double solve = 0.0;      ///< QP solves.
+  double total = 0.0;      ///< Whole step.
+};
+
+/// Result of one step. Buffers are allocated at setup and overwritten by every step.
+struct StepResult {
+  Eigen::VectorXd u;   ///< Applied input u = sat(v_0 + K (x_k - z_0)) (n_u).
+  Eigen::MatrixXd z;   ///< Nominal plan z_0..z_N (n_x x (N + 1)); frozen past the mission's end.
+  Eigen::MatrixXd v;   ///< Nominal inputs v_0..v_{N-1} (n_u x N).
+  Status status = Status::NotSolved;   ///< What was applied.
+  Status failure = Status::Solved;     ///< Cause of a fallback (Solved when none).
+  int horizon = 0;                     ///< Active horizon n = min(N, T - k).
+  int scp_iterations = 0;              ///< QPs solved in this step. When re-linearising reproduces the
+                                       ///< last QP's data exactly (a linear plant) and its trust region is
+                                       ///< inactive, the loop stops without re-solving (residual 0).
+  int qp_iterations = 0;               ///< Interior-point iterations summed over the step's QPs.
+  double scp_residual = 0.0;           ///< Final max_i ||z*_i - z_lin_i||_inf (state units).
+  double objective = 0.0;              ///< Nominal cost of the applied plan's last QP (incl. constant).
+  Timings timings;
+};
+
+/// The last QP built, in PIQP's form (see the file comment). P is the full symmetric matrix.
+struct QpData {
+  Eigen::SparseMatrix<double> P;
+  Eigen::VectorXd q;
+  Eigen::SparseMatrix<double> A;
+  Eigen::VectorXd b;
+  Eigen::SparseMatrix<double> G;
+  Eigen::VectorXd h_l, h_u;  ///< +-inf where a side is absent.
+  Eigen::VectorXd x_l, x_u;  ///< +-inf where a side is absent.
+  double constant = 0.0;     ///< Cost = 1/2 w^T P w + q^T w + constant.
+};
+
+/// Primal-dual solution of the last QP. Stationarity: P w + q + A^T y + G^T (z_u - z_l) + z_bu - z_bl = 0,
+/// z_l, z_u, z_bl, z_bu >= 0 and complementary to the lower/upper sides.
+struct QpSolution {
+  Eigen::VectorXd w, y, z_l, z_u, z_bl, z_bu;
+};
+
+/// Stabilising solution X of the discrete algebraic Riccati equation
+/// X = A^T X A - A^T X B (R + B^T X B)^-1 B^T X A + Q by the structured doubling algorithm.
+/// Throws std::invalid_argument on inconsistent sizes and std::runtime_error when it does not
+/// converge to `tol` (relative) within `max_iterations` or meets a singular or non-finite iterate.
+Eigen::MatrixXd solve_dare(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::MatrixXd& Q,
+                           const Eigen::MatrixXd& R, double tol = 1e-10, int max_iterations = 100);
+
+/// Tube MPC (see the file comment for the QP).
+class TubeMPC {
+ public:
+  /// Keeps a shared reference to the plant; validates the settings against its sizes.
+  TubeMPC(std::shared_ptr<const LinearizedModel> model, Settings settings);
+  ~TubeMPC();
+  TubeMPC(const TubeMPC&) = delete;
+  TubeMPC& operator=(const TubeMPC&) = delete;
+
+  /// Stores the mission reference (T >= 1) and prepares everything; the terminal weight solves the
+  /// DARE with the model's discretisation at the final node (zbar_T, u_ref_{T-1}, t0 + T dt).
+  void setup(const Reference& reference);
+  /// As above with the terminal weight from the DARE of a given (A, B) (discrete time).
+  void setup(const Reference& reference, const Eigen::MatrixXd& A_terminal, const Eigen::MatrixXd& B_terminal);
+
+  /// One control step at time index k (0 <= k < T) from the measured state x_k (n_x) with the
+  /// tube (K, Pe). Returns a reference to internal storage, valid until the next step. Numerical
+  /// outcomes are statuses; wrong sizes or k out of range throw std::invalid_argument.
+  const StepResult& step(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k, const Tube& tube);
+
+  /// Forgets the previous plan (the next step re-linearises about the reference).
+  void reset();
+
+  /// The last QP built (copies; allocates).
+  QpData qp_data() const;
+  /// The last QP's primal-dual solution (copies; allocates).
+  QpSolution qp_solution() const;
+
+  const Settings& settings() const { return settings_; }
+  /// Terminal weight P (n_x x n_x) computed by setup.
+  const Eigen::MatrixXd& terminal_weight() const;
+  /// Mission length T (steps); 0 before setup.
+  int mission_steps() const;
+  /// Number of QP variables, equality rows and inequality rows.
+  Eigen::Vector3i qp_dimensions() const;
+
+ private:
+  struct Impl;
+  std::shared_ptr<const LinearizedModel> model_;
+  Settings settings_;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Exact zero-order-hold discretisation of x' = A_c x + B_c u + c_c over dt (s) by one exponential of
+/// the augmented matrix [[A_c, B_c, c_c], [0, 0, 0]] dt (PAPER_NOTES.md "Linearisation and
+/// discretisation"). Allocates.
+void zoh_discretize(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const Eigen::VectorXd& c_c, double dt,
+                    Eigen::MatrixXd& A, Eigen::MatrixXd& B, Eigen::VectorXd& c);
+
+/// Linear time-invariant plant x+ = A x + B u + c with constant constraints G x <= h: a test and
+/// benchmark plant (and a stand-in for the 6-DOF model). The discretisation is computed once.
+class LtiModel final : public LinearizedModel {
+ public:
+  /// Continuous-time (A_c, B_c, c_c), discretised with a zero-order hold over dt (s).
+  LtiModel(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const Eigen::VectorXd& c_c, double dt,
+           const Eigen::MatrixXd& G, const Eigen::VectorXd& h);
+  int nx() const override { return static_cast<int>(A_.rows()); }
+  int nu() const override { return static_cast<int>(B_.cols()); }
+  int n_constraints() const override { return static_cast<int>(G_.rows()); }
+  /// Writes the precomputed (A, B, c); throws std::invalid_argument if dt differs from the construction's.
+  void discretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_lin,
+                  const Eigen::Ref<const Eigen::VectorXd>& u_lin, Eigen::Ref<Eigen::MatrixXd> A,
+                  Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const override;
+  void constraints(double t, const Eigen::Ref<const Eigen::VectorXd>& x_lin, Eigen::Ref<Eigen::MatrixXd> G,
+                   Eigen::Ref<Eigen::VectorXd> h) const override;
+
+ private:
+  Eigen::MatrixXd A_, B_;
+  Eigen::VectorXd c_;
+  double dt_;
+  Eigen::MatrixXd G_;
+  Eigen::VectorXd h_;
+};
+
+}  // namespace tubempc::mpc

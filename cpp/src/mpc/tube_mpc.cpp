@@ -1,0 +1,769 @@
+// Tube MPC nominal problem: fixed-pattern sparse QP, SCP loop, fallbacks (see tube_mpc.hpp).
+#include "tubempc/mpc/tube_mpc.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <piqp/piqp.hpp>
+#include <stdexcept>
+#include <unsupported/Eigen/MatrixFunctions>
+#include <vector>
+
+namespace tubempc::mpc {
+
+namespace {
+
+using SpMat = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+using Clock = std::chrono::steady_clock;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Structural pattern of a block (true: stored entry, explicit zero or not).
+using Mask = Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic>;
+
+Mask mask_dense(Eigen::Index m, Eigen::Index n) { return Mask::Constant(m, n, true); }
+Mask mask_diagonal(Eigen::Index n) { return Eigen::MatrixXd::Identity(n, n).array() != 0.0; }
+Mask mask_upper(Eigen::Index n) {
+  return Eigen::MatrixXd::Ones(n, n).triangularView<Eigen::Upper>().toDenseMatrix().array() != 0.0;
+}
+Mask mask_lower(Eigen::Index n) {
+  return Eigen::MatrixXd::Ones(n, n).triangularView<Eigen::Lower>().toDenseMatrix().array() != 0.0;
+}
+// Upper triangle of W's nonzeros plus the diagonal.
+Mask mask_upper_of(const Eigen::MatrixXd& W) { return (W.array() != 0.0 || mask_diagonal(W.rows())) && mask_upper(W.rows()); }
+// A user structure (entries != 0 structural; empty -> dense).
+Mask mask_structure(const Eigen::MatrixXd& S, Eigen::Index m, Eigen::Index n) {
+  return S.size() == 0 ? mask_dense(m, n) : Mask(S.array() != 0.0);
+}
+
+void add_block(std::vector<Eigen::Triplet<double, int>>& trip, int r0, int c0, const Mask& p) {
+  for (int c = 0; c < p.cols(); ++c)
+    for (int r = 0; r < p.rows(); ++r)
+      if (p(r, c)) trip.emplace_back(r0 + r, c0 + c, 1.0);
+}
+
+// Positions in M.valuePtr() of the block's entries, in column-major order of the block.
+std::vector<int> block_positions(const SpMat& M, int r0, int c0, const Mask& p) {
+  std::vector<int> pos;
+  for (int c = 0; c < p.cols(); ++c) {
+    const int* begin = M.innerIndexPtr() + M.outerIndexPtr()[c0 + c];
+    const int* end = M.innerIndexPtr() + M.outerIndexPtr()[c0 + c + 1];
+    for (int r = 0; r < p.rows(); ++r) {
+      if (!p(r, c)) continue;
+      const int* it = std::lower_bound(begin, end, r0 + r);
+      if (it == end || *it != r0 + r) throw std::logic_error("TubeMPC: sparsity pattern lookup failed");
+      pos.push_back(static_cast<int>(it - M.innerIndexPtr()));
+    }
+  }
+  return pos;
+}
+
+// Writes scale * W's entries selected by the pattern into M's values at pos.
+template <typename Derived>
+void write_block(SpMat& M, const std::vector<int>& pos, const Eigen::MatrixBase<Derived>& W, double scale,
+                 const Mask& p) {
+  double* val = M.valuePtr();
+  std::size_t k = 0;
+  for (Eigen::Index c = 0; c < W.cols(); ++c)
+    for (Eigen::Index r = 0; r < W.rows(); ++r)
+      if (p(r, c)) val[pos[k++]] = scale * W(r, c);
+}
+
+void zero_block(SpMat& M, const std::vector<int>& pos) {
+  for (int i : pos) M.valuePtr()[i] = 0.0;
+}
+
+// Zeroes row j of a block written with mask p.
+void zero_block_row(SpMat& M, const std::vector<int>& pos, const Mask& p, Eigen::Index j) {
+  std::size_t k = 0;
+  for (Eigen::Index c = 0; c < p.cols(); ++c)
+    for (Eigen::Index r = 0; r < p.rows(); ++r)
+      if (p(r, c)) {
+        if (r == j) M.valuePtr()[pos[k]] = 0.0;
+        ++k;
+      }
+}
+
+// True if W has a nonzero outside the structural pattern p.
+bool outside_structure(const Eigen::MatrixXd& W, const Mask& p) {
+  for (Eigen::Index c = 0; c < W.cols(); ++c)
+    for (Eigen::Index r = 0; r < W.rows(); ++r)
+      if (!p(r, c) && W(r, c) != 0.0) return true;
+  return false;
+}
+
+void check_square_symmetric(const Eigen::MatrixXd& M, int n, const char* field) {
+  if (M.rows() != n || M.cols() != n)
+    throw std::invalid_argument(std::string("TubeMPC Settings: ") + field + " must be " + std::to_string(n) + "x" +
+                                std::to_string(n));
+  if (!M.allFinite()) throw std::invalid_argument(std::string("TubeMPC Settings: ") + field + " has non-finite entries");
+  if ((M - M.transpose()).cwiseAbs().maxCoeff() > 1e-12 * std::max(1.0, M.cwiseAbs().maxCoeff()))
+    throw std::invalid_argument(std::string("TubeMPC Settings: ") + field + " is not symmetric");
+}
+
+}  // namespace
+
+std::string to_string(Status status) {
+  switch (status) {
+    case Status::Solved: return "solved";
+    case Status::SolvedInaccurate: return "solved_inaccurate";
+    case Status::MaxIterations: return "max_iterations";
+    case Status::FallbackShiftedPlan: return "fallback_shifted_plan";
+    case Status::FallbackSafeInput: return "fallback_safe_input";
+    case Status::Infeasible: return "infeasible";
+    case Status::NotSolved: return "not_solved";
+    case Status::TimeLimit: return "time_limit";
+    case Status::NumericalError: return "numerical_error";
+    case Status::EmptyTightening: return "empty_tightening";
+    case Status::ModelStructure: return "model_structure";
+  }
+  return "unknown";
+}
+
+void Settings::validate(int nx, int nu) const {
+  auto fail = [](const std::string& field, const std::string& what) {
+    throw std::invalid_argument("TubeMPC Settings: " + field + " " + what);
+  };
+  if (nx <= 0 || nu <= 0) fail("(model)", "must have n_x > 0 and n_u > 0");
+  if (horizon < 1) fail("horizon", "must be >= 1");
+  if (!(dt > 0.0) || !std::isfinite(dt)) fail("dt", "must be finite and > 0 s");
+  if (Q.size() != 0) {
+    check_square_symmetric(Q, nx, "Q");
+    if (Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Q).eigenvalues().minCoeff() < 0.0)
+      fail("Q", "must be positive semidefinite");
+  }
+  if (R.size() != 0) {
+    check_square_symmetric(R, nu, "R");
+    if (!(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(R).eigenvalues().minCoeff() > 0.0))
+      fail("R", "must be positive definite");
+  }
+  if (u_max.size() != nu) fail("u_max", "must have n_u = " + std::to_string(nu) + " entries");
+  if (!u_max.allFinite() || (u_max.array() <= 0.0).any()) fail("u_max", "must be finite and > 0");
+  if (!(scp_eps > 0.0)) fail("scp_eps", "must be > 0");
+  if (scp_max_iterations < 1) fail("scp_max_iterations", "must be >= 1");
+  if (!(trust_region > 0.0)) fail("trust_region", "must be > 0 (inf disables it)");
+  if (!(qp_eps_abs > 0.0) || !std::isfinite(qp_eps_abs)) fail("qp_eps_abs", "must be finite and > 0");
+  if (!(qp_eps_rel >= 0.0) || !std::isfinite(qp_eps_rel)) fail("qp_eps_rel", "must be finite and >= 0");
+  if (qp_max_iterations < 1) fail("qp_max_iterations", "must be >= 1");
+  if (!(qp_inaccurate_tol > 0.0)) fail("qp_inaccurate_tol", "must be > 0");
+  if (!(time_limit > 0.0)) fail("time_limit", "must be > 0 s (inf disables it)");
+  if (!(soft_penalty > 0.0) || !std::isfinite(soft_penalty)) fail("soft_penalty", "must be finite and > 0");
+  if (!(riccati_tol > 0.0)) fail("riccati_tol", "must be > 0");
+  if (A_structure.size() != 0 && (A_structure.rows() != nx || A_structure.cols() != nx))
+    fail("A_structure", "must be empty or n_x x n_x");
+  if (B_structure.size() != 0 && (B_structure.rows() != nx || B_structure.cols() != nu))
+    fail("B_structure", "must be empty or n_x x n_u");
+  if (G_structure.size() != 0 && G_structure.cols() != nx) fail("G_structure", "must be empty or n_c x n_x");
+  if (riccati_max_iterations < 1) fail("riccati_max_iterations", "must be >= 1");
+#ifndef PIQP_HAS_BLASFEO
+  if (kkt_solver == KktSolver::SparseMultistage)
+    fail("kkt_solver", "SparseMultistage needs PIQP built with BLASFEO, which this build is not");
+#endif
+}
+
+Eigen::MatrixXd solve_dare(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::MatrixXd& Q,
+                           const Eigen::MatrixXd& R, double tol, int max_iterations) {
+  const Eigen::Index n = A.rows();
+  if (A.cols() != n || B.rows() != n || Q.rows() != n || Q.cols() != n || R.rows() != B.cols() ||
+      R.cols() != B.cols())
+    throw std::invalid_argument("solve_dare: inconsistent sizes of A, B, Q, R");
+  if (!A.allFinite() || !B.allFinite() || !Q.allFinite() || !R.allFinite())
+    throw std::invalid_argument("solve_dare: non-finite entries in A, B, Q or R");
+  Eigen::LLT<Eigen::MatrixXd> llt_R(R);
+  if (llt_R.info() != Eigen::Success) throw std::invalid_argument("solve_dare: R is not positive definite");
+  // Structured doubling (Chu, Fan, Lin 2005): A_k, G_k, H_k with H_k -> X quadratically.
+  Eigen::MatrixXd Ak = A;
+  Eigen::MatrixXd Gk = B * llt_R.solve(B.transpose());
+  Eigen::MatrixXd Hk = Q;
+  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
+  for (int it = 0; it < max_iterations; ++it) {
+    Eigen::PartialPivLU<Eigen::MatrixXd> lu(I + Gk * Hk);
+    if (!(std::abs(lu.determinant()) > 0.0) || !std::isfinite(lu.determinant()))
+      throw std::runtime_error("solve_dare: singular I + G H in the doubling iteration " + std::to_string(it));
+    const Eigen::MatrixXd W1 = lu.solve(Ak);          // (I + G H)^-1 A
+    const Eigen::MatrixXd W2 = lu.solve(Gk);          // (I + G H)^-1 G
+    const Eigen::MatrixXd H_next = Hk + Ak.transpose() * Hk * W1;
+    Gk = Gk + Ak * W2 * Ak.transpose();
+    Ak = Ak * W1;
+    const double change = (H_next - Hk).cwiseAbs().maxCoeff();
+    Hk = 0.5 * (H_next + H_next.transpose());
+    if (!Hk.allFinite()) throw std::runtime_error("solve_dare: non-finite iterate");
+    if (change <= tol * std::max(1.0, Hk.cwiseAbs().maxCoeff())) return Hk;
+  }
+  throw std::runtime_error("solve_dare: no convergence in " + std::to_string(max_iterations) +
+                           " doubling iterations (is (A, B) stabilisable and (A, Q^1/2) detectable?)");
+}
+
+void zoh_discretize(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const Eigen::VectorXd& c_c, double dt,
+                    Eigen::MatrixXd& A, Eigen::MatrixXd& B, Eigen::VectorXd& c) {
+  const Eigen::Index n = A_c.rows(), m = B_c.cols();
+  if (A_c.cols() != n || B_c.rows() != n || c_c.size() != n)
+    throw std::invalid_argument("zoh_discretize: inconsistent sizes of A_c, B_c, c_c");
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n + m + 1, n + m + 1);
+  M.topLeftCorner(n, n) = A_c * dt;
+  M.block(0, n, n, m) = B_c * dt;
+  M.block(0, n + m, n, 1) = c_c * dt;
+  const Eigen::MatrixXd E = M.exp();
+  A = E.topLeftCorner(n, n);
+  B = E.block(0, n, n, m);
+  c = E.block(0, n + m, n, 1);
+}
+
+LtiModel::LtiModel(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const Eigen::VectorXd& c_c, double dt,
+                   const Eigen::MatrixXd& G, const Eigen::VectorXd& h)
+    : dt_(dt), G_(G), h_(h) {
+  if (!(dt > 0.0)) throw std::invalid_argument("LtiModel: dt must be > 0 s");
+  if (G.cols() != A_c.rows() || G.rows() != h.size()) throw std::invalid_argument("LtiModel: G, h sizes mismatch");
+  zoh_discretize(A_c, B_c, c_c, dt, A_, B_, c_);
+}
+
+void LtiModel::discretize(double, double dt, const Eigen::Ref<const Eigen::VectorXd>&,
+                          const Eigen::Ref<const Eigen::VectorXd>&, Eigen::Ref<Eigen::MatrixXd> A,
+                          Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const {
+  if (dt != dt_) throw std::invalid_argument("LtiModel::discretize: dt differs from the construction's");
+  A = A_;
+  B = B_;
+  c = c_;
+}
+
+void LtiModel::constraints(double, const Eigen::Ref<const Eigen::VectorXd>&, Eigen::Ref<Eigen::MatrixXd> G,
+                           Eigen::Ref<Eigen::VectorXd> h) const {
+  G = G_;
+  h = h_;
+}
+
+// ------------------------------------------------------------------------------------------------
+
+struct TubeMPC::Impl {
+  int nx = 0, nu = 0, nc = 0, N = 0, T = 0;
+  Eigen::MatrixXd Q, R, P_term;
+  Reference ref;
+
+  // Layout of w.
+  int n_var = 0, n_eq = 0, n_in = 0;
+  int off_s = -1, off_sigma = -1, off_t = -1;
+  int iz(int i) const { return i < N ? i * (nx + nu) : N * (nx + nu); }
+  int iv(int i) const { return i * (nx + nu) + nx; }
+
+  // QP data (fixed pattern).
+  SpMat P, A, G;
+  Eigen::VectorXd q, b, h_l, h_u, x_l, x_u;
+  double constant = 0.0;
+  std::vector<std::vector<int>> posP_z, posA_A, posA_B, posG;
+  std::vector<int> posA_L, posG_term;
+  Mask mQ, mP, mR, mA, mB, mG, mL;  // posG_term: the soft-terminal rows' four diagonals
+
+  piqp::SparseSolver<double> solver;
+
+  // Linearisation trajectory and per-node model data.
+  Eigen::MatrixXd z_lin, v_lin;  // nx x (N+1), nu x N
+  std::vector<Eigen::MatrixXd> Ad, Bd, Gc, Ad_prev, Bd_prev, Gc_prev;
+  std::vector<Eigen::VectorXd> cd, hc, cd_prev, hc_prev;
+  bool have_plan = false;
+  Eigen::MatrixXd z_plan, v_plan;  // last applied plan (for the shifted fallback)
+  Eigen::MatrixXd z_ref;           // zbar_{min(k+i, T)}, i = 0..N: origin of the QP's state deviations
+  Eigen::MatrixXd z_star, v_star;
+
+  // Tube work.
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  Eigen::MatrixXd Lc;
+  Eigen::VectorXd tmp_nx, tmp_nu, u_tight, e;
+  Eigen::VectorXd tight_row;  // per-constraint tightening at the current node
+
+  StepResult result;
+
+  void allocate(int nx_, int nu_, int nc_, const Settings& s) {
+    nx = nx_;
+    nu = nu_;
+    nc = nc_;
+    N = s.horizon;
+    z_lin.setZero(nx, N + 1);
+    v_lin.setZero(nu, N);
+    z_plan = z_lin;
+    v_plan = v_lin;
+    z_star = z_lin;
+    z_ref = z_lin;
+    v_star = v_lin;
+    Ad.assign(N, Eigen::MatrixXd::Zero(nx, nx));
+    Bd.assign(N, Eigen::MatrixXd::Zero(nx, nu));
+    cd.assign(N, Eigen::VectorXd::Zero(nx));
+    Gc.assign(N + 1, Eigen::MatrixXd::Zero(nc, nx));
+    hc.assign(N + 1, Eigen::VectorXd::Zero(nc));
+    Ad_prev = Ad;
+    Bd_prev = Bd;
+    cd_prev = cd;
+    Gc_prev = Gc;
+    hc_prev = hc;
+    llt = Eigen::LLT<Eigen::MatrixXd>(nx);
+    Lc.setZero(nx, nx);
+    tmp_nx.setZero(nx);
+    tmp_nu.setZero(nu);
+    e.setZero(nx);
+    u_tight.setZero(nu);
+    tight_row.setZero(nc);
+    result.u.setZero(nu);
+    result.z.setZero(nx, N + 1);
+    result.v.setZero(nu, N);
+  }
+
+  void build_pattern(const Settings& s) {
+    const bool box_ic = s.initial_condition == InitialCondition::WhitenedBox;
+    n_var = N * (nx + nu) + nx;
+    if (box_ic) { off_s = n_var; n_var += nx; }
+    if (s.soft_state_constraints && nc > 0) { off_sigma = n_var; n_var += (N + 1) * nc; }
+    if (s.soft_terminal) { off_t = n_var; n_var += nx; }
+    n_eq = (N + 1) * nx;
+    n_in = (N + 1) * nc + (s.soft_terminal ? 2 * nx : 0);
+
+    mQ = mask_upper_of(Q);
+    mP = mask_upper_of(P_term);
+    mR = mask_upper_of(R);
+    mA = mask_structure(s.A_structure, nx, nx) || mask_diagonal(nx);  // frozen nodes write the identity
+    mB = mask_structure(s.B_structure, nx, nu);
+    mG = mask_structure(s.G_structure, nc, nx);
+    const Mask dx = mask_diagonal(nx), dc = mask_diagonal(nc), lx = mask_lower(nx);
+    std::vector<Eigen::Triplet<double, int>> tp, ta, tg;
+    for (int i = 0; i <= N; ++i) add_block(tp, iz(i), iz(i), i < N ? mQ : mP);
+    for (int i = 0; i < N; ++i) add_block(tp, iv(i), iv(i), mR);
+    add_block(ta, 0, iz(0), dx);
+    if (box_ic) add_block(ta, 0, off_s, lx);
+    for (int i = 0; i < N; ++i) {
+      const int r0 = (i + 1) * nx;
+      add_block(ta, r0, iz(i + 1), dx);
+      add_block(ta, r0, iz(i), mA);
+      add_block(ta, r0, iv(i), mB);
+    }
+    for (int i = 0; i <= N; ++i) {
+      add_block(tg, i * nc, iz(i), mG);
+      if (off_sigma >= 0) add_block(tg, i * nc, off_sigma + i * nc, dc);
+    }
+    if (s.soft_terminal) {
+      const int r0 = (N + 1) * nc;
+      add_block(tg, r0, iz(N), dx);
+      add_block(tg, r0, off_t, dx);
+      add_block(tg, r0 + nx, iz(N), dx);
+      add_block(tg, r0 + nx, off_t, dx);
+    }
+    P.resize(n_var, n_var);
+    P.setFromTriplets(tp.begin(), tp.end());
+    A.resize(n_eq, n_var);
+    A.setFromTriplets(ta.begin(), ta.end());
+    G.resize(n_in, n_var);
+    G.setFromTriplets(tg.begin(), tg.end());
+    P.makeCompressed();
+    A.makeCompressed();
+    G.makeCompressed();
+
+    posP_z.clear();
+    posA_A.clear();
+    posA_B.clear();
+    posG.clear();
+    for (int i = 0; i <= N; ++i) posP_z.push_back(block_positions(P, iz(i), iz(i), i < N ? mQ : mP));
+    const Eigen::MatrixXd Ix = Eigen::MatrixXd::Identity(nx, nx);
+    for (int i = 0; i < N; ++i) {
+      write_block(P, block_positions(P, iv(i), iv(i), mR), R, 2.0, mR);
+      const int r0 = (i + 1) * nx;
+      write_block(A, block_positions(A, r0, iz(i + 1), dx), Ix, 1.0, dx);
+      posA_A.push_back(block_positions(A, r0, iz(i), mA));
+      posA_B.push_back(block_positions(A, r0, iv(i), mB));
+    }
+    write_block(A, block_positions(A, 0, iz(0), dx), Ix, 1.0, dx);
+    if (box_ic) posA_L = block_positions(A, 0, off_s, lx);
+    for (int i = 0; i <= N; ++i) {
+      posG.push_back(block_positions(G, i * nc, iz(i), mG));
+      if (off_sigma >= 0)
+        write_block(G, block_positions(G, i * nc, off_sigma + i * nc, dc), Eigen::MatrixXd::Identity(nc, nc), -1.0,
+                    dc);
+    }
+    if (s.soft_terminal) {
+      const int r0 = (N + 1) * nc;
+      for (const auto& blk : {block_positions(G, r0, iz(N), dx), block_positions(G, r0, off_t, dx),
+                              block_positions(G, r0 + nx, iz(N), dx), block_positions(G, r0 + nx, off_t, dx)})
+        posG_term.insert(posG_term.end(), blk.begin(), blk.end());
+    }
+    q.setZero(n_var);
+    b.setZero(n_eq);
+    // Absent rows are zero rows with bounds [-1, 1] (what PIQP would do itself, with a message, for
+    // rows whose two sides are infinite).
+    h_l.setConstant(n_in, -1.0);
+    h_u.setConstant(n_in, 1.0);
+    x_l.setConstant(n_var, -kInf);
+    x_u.setConstant(n_var, kInf);
+  }
+};
+
+TubeMPC::TubeMPC(std::shared_ptr<const LinearizedModel> model, Settings settings)
+    : model_(std::move(model)), settings_(std::move(settings)), impl_(std::make_unique<Impl>()) {
+  if (!model_) throw std::invalid_argument("TubeMPC: model is null");
+  const int nx = model_->nx(), nu = model_->nu();
+  settings_.validate(nx, nu);
+  if (model_->n_constraints() < 0) throw std::invalid_argument("TubeMPC: model n_constraints() < 0");
+  if (settings_.G_structure.size() != 0 && settings_.G_structure.rows() != model_->n_constraints())
+    throw std::invalid_argument("TubeMPC Settings: G_structure must have n_constraints() rows");
+  if (settings_.Q.size() == 0) settings_.Q = Eigen::MatrixXd::Identity(nx, nx);
+  if (settings_.R.size() == 0) settings_.R = Eigen::MatrixXd::Identity(nu, nu);
+}
+
+TubeMPC::~TubeMPC() = default;
+
+const Eigen::MatrixXd& TubeMPC::terminal_weight() const { return impl_->P_term; }
+int TubeMPC::mission_steps() const { return impl_->T; }
+Eigen::Vector3i TubeMPC::qp_dimensions() const { return {impl_->n_var, impl_->n_eq, impl_->n_in}; }
+
+void TubeMPC::setup(const Reference& reference) {
+  const int nx = model_->nx(), nu = model_->nu();
+  if (reference.u.cols() < 1 || reference.z.rows() != nx || reference.u.rows() != nu ||
+      reference.z.cols() != reference.u.cols() + 1)
+    throw std::invalid_argument("TubeMPC::setup: reference.z must be n_x x (T + 1) and reference.u n_u x T, T >= 1");
+  const int T = static_cast<int>(reference.u.cols());
+  Eigen::MatrixXd A(nx, nx), B(nx, nu);
+  Eigen::VectorXd c(nx);
+  model_->discretize(reference.t0 + T * settings_.dt, settings_.dt, reference.z.col(T), reference.u.col(T - 1), A, B,
+                     c);
+  setup(reference, A, B);
+}
+
+void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_terminal,
+                    const Eigen::MatrixXd& B_terminal) {
+  const int nx = model_->nx(), nu = model_->nu(), nc = model_->n_constraints();
+  if (reference.u.cols() < 1 || reference.z.rows() != nx || reference.u.rows() != nu ||
+      reference.z.cols() != reference.u.cols() + 1)
+    throw std::invalid_argument("TubeMPC::setup: reference.z must be n_x x (T + 1) and reference.u n_u x T, T >= 1");
+  if (!reference.z.allFinite() || !reference.u.allFinite() || !std::isfinite(reference.t0))
+    throw std::invalid_argument("TubeMPC::setup: reference has non-finite entries");
+  if (A_terminal.rows() != nx || A_terminal.cols() != nx || B_terminal.rows() != nx || B_terminal.cols() != nu)
+    throw std::invalid_argument("TubeMPC::setup: A_terminal must be n_x x n_x and B_terminal n_x x n_u");
+  impl_ = std::make_unique<Impl>();
+  Impl& m = *impl_;
+  m.Q = settings_.Q;
+  m.R = settings_.R;
+  m.P_term = solve_dare(A_terminal, B_terminal, m.Q, m.R, settings_.riccati_tol, settings_.riccati_max_iterations);
+  m.ref = reference;
+  m.T = static_cast<int>(reference.u.cols());
+  m.allocate(nx, nu, nc, settings_);
+  m.mL = mask_lower(nx);
+  m.build_pattern(settings_);
+  piqp::Settings<double>& ps = m.solver.settings();
+  ps.eps_abs = settings_.qp_eps_abs;
+  ps.eps_rel = settings_.qp_eps_rel;
+  ps.eps_duality_gap_abs = settings_.qp_eps_abs;
+  ps.eps_duality_gap_rel = settings_.qp_eps_rel;
+  ps.max_iter = settings_.qp_max_iterations;
+  ps.kkt_solver = settings_.kkt_solver == KktSolver::SparseMultistage ? piqp::KKTSolver::sparse_multistage
+                                                                       : piqp::KKTSolver::sparse_ldlt;
+  ps.compute_timings = false;
+  ps.preconditioner_scale_cost = settings_.qp_scale_cost;
+  m.solver.setup(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u);
+}
+
+void TubeMPC::reset() { impl_->have_plan = false; }
+
+QpData TubeMPC::qp_data() const {
+  const Impl& m = *impl_;
+  QpData d;
+  const SpMat Pu = m.P;
+  d.P = Pu.selfadjointView<Eigen::Upper>();
+  d.q = m.q;
+  d.A = m.A;
+  d.b = m.b;
+  d.G = m.G;
+  d.h_l = m.h_l;
+  d.h_u = m.h_u;
+  d.x_l = m.x_l;
+  d.x_u = m.x_u;
+  d.constant = m.constant;
+  return d;
+}
+
+QpSolution TubeMPC::qp_solution() const {
+  const auto& r = impl_->solver.result();
+  return QpSolution{r.x, r.y, r.z_l, r.z_u, r.z_bl, r.z_bu};
+}
+
+const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k, const Tube& tube) {
+  Impl& m = *impl_;
+  const Settings& s = settings_;
+  const int nx = m.nx, nu = m.nu, nc = m.nc, N = m.N, T = m.T;
+  if (T == 0) throw std::invalid_argument("TubeMPC::step: call setup first");
+  if (k < 0 || k >= T) throw std::invalid_argument("TubeMPC::step: k must be in [0, T)");
+  if (x_k.size() != nx) throw std::invalid_argument("TubeMPC::step: x_k must have n_x entries");
+  if (tube.K.rows() != nu || tube.K.cols() != nx || tube.Pe.rows() != nx || tube.Pe.cols() != nx)
+    throw std::invalid_argument("TubeMPC::step: tube.K must be n_u x n_x and tube.Pe n_x x n_x");
+
+  const auto t_start = Clock::now();
+  StepResult& res = m.result;
+  res.timings = Timings{};
+  res.scp_iterations = 0;
+  res.qp_iterations = 0;
+  res.scp_residual = kInf;
+  res.failure = Status::Solved;
+  const int n = std::min(N, T - k);
+  res.horizon = n;
+  const bool terminal_phase = k >= T - N;
+  const double dt = s.dt;
+  const double t_k = m.ref.t0 + k * dt;
+
+  // Linearisation trajectory: shifted previous plan, else the reference (frozen past T).
+  if (m.have_plan) {
+    for (int i = 0; i < N; ++i) m.z_lin.col(i) = m.z_plan.col(i + 1);
+    for (int i = 0; i + 1 < N; ++i) m.v_lin.col(i) = m.v_plan.col(i + 1);
+    m.z_lin.col(N) = m.ref.z.col(std::min(k + N, T));
+    m.v_lin.col(N - 1) = m.ref.u.col(std::min(k + N - 1, T - 1));
+  } else {
+    for (int i = 0; i <= N; ++i) m.z_lin.col(i) = m.ref.z.col(std::min(k + i, T));
+    for (int i = 0; i < N; ++i) m.v_lin.col(i) = m.ref.u.col(std::min(k + i, T - 1));
+  }
+
+  auto fallback = [&](Status cause) -> const StepResult& {
+    res.failure = cause;
+    if (m.have_plan && m.z_plan.allFinite() && m.v_plan.allFinite()) {
+      // Theorem 1's candidate: the previous plan shifted by one node, holding its last state.
+      for (int i = 0; i < N; ++i) res.z.col(i) = m.z_plan.col(i + 1);
+      res.z.col(N) = m.z_plan.col(N);
+      for (int i = 0; i + 1 < N; ++i) res.v.col(i) = m.v_plan.col(i + 1);
+      if (s.input_cost == InputCost::FromReference && k + N - 1 < T)
+        res.v.col(N - 1) = m.ref.u.col(k + N - 1);
+      else
+        res.v.col(N - 1).setZero();
+      m.z_plan = res.z;
+      m.v_plan = res.v;
+      res.status = Status::FallbackShiftedPlan;
+    } else {
+      for (int i = 0; i <= N; ++i) res.z.col(i) = m.ref.z.col(std::min(k + i, T));
+      for (int i = 0; i < N; ++i) res.v.col(i) = m.ref.u.col(std::min(k + i, T - 1));
+      res.status = Status::FallbackSafeInput;
+    }
+    m.e = x_k - res.z.col(0);
+    res.u = res.v.col(0);
+    if (tube.K.allFinite() && m.e.allFinite()) res.u.noalias() += tube.K * m.e;
+    if (!res.u.allFinite()) res.u = m.ref.u.col(k);
+    res.u = res.u.cwiseMax(-s.u_max).cwiseMin(s.u_max);
+    res.objective = kInf;
+    res.timings.total = seconds_since(t_start);
+    return res;
+  };
+
+  if (!x_k.allFinite() || !tube.K.allFinite() || !tube.Pe.allFinite()) return fallback(Status::NumericalError);
+  // Tube: Pe = L L^T and the tightenings sqrt(a^T Pe a).
+  m.llt.compute(tube.Pe);
+  if (m.llt.info() != Eigen::Success) return fallback(Status::NumericalError);
+  m.Lc = m.llt.matrixL();
+  for (int j = 0; j < nu; ++j) {
+    m.tmp_nx.noalias() = tube.Pe * tube.K.row(j).transpose();
+    m.u_tight(j) = s.u_max(j) - std::sqrt(std::max(0.0, tube.K.row(j).dot(m.tmp_nx)));
+  }
+  if ((m.u_tight.array() <= 0.0).any()) return fallback(Status::EmptyTightening);
+
+  // Parts of the QP that do not depend on the linearisation. The QP's state variables are the
+  // deviations dz_i = z_i - zbar_{min(k+i, T)}: the objective then carries no large constant, which
+  // keeps the solvers' relative tolerances meaningful for states of hundreds of metres.
+  for (int i = 0; i <= N; ++i) m.z_ref.col(i) = m.ref.z.col(std::min(k + i, T));
+  m.constant = 0.0;
+  m.b.head(nx) = x_k - m.z_ref.col(0);
+  if (s.initial_condition == InitialCondition::WhitenedBox) {
+    write_block(m.A, m.posA_L, m.Lc, -1.0, m.mL);
+    const double r = 1.0 / std::sqrt(static_cast<double>(nx));
+    m.x_l.segment(m.off_s, nx).setConstant(-r);
+    m.x_u.segment(m.off_s, nx).setConstant(r);
+  }
+  for (int i = 0; i < N; ++i) {
+    m.x_l.segment(m.iv(i), nu) = -m.u_tight;
+    m.x_u.segment(m.iv(i), nu) = m.u_tight;
+    if (s.input_cost == InputCost::FromReference && i < n) {
+      m.tmp_nu.noalias() = m.R * m.ref.u.col(k + i);
+      m.q.segment(m.iv(i), nu) = -2.0 * m.tmp_nu;
+      m.constant += m.ref.u.col(k + i).dot(m.tmp_nu);
+    } else {
+      m.q.segment(m.iv(i), nu).setZero();
+    }
+  }
+  for (int i = 0; i <= N; ++i) {
+    const bool staged = i < n;
+    const bool terminal_cost = i == N && !terminal_phase;
+    const bool soft_end = i == N && terminal_phase && s.soft_terminal;
+    // Stage, terminal (zbar_{k+N}) and soft-end (zbar_T = x_f) costs are all ||dz_i||^2_W.
+    if (staged || terminal_cost || soft_end)
+      write_block(m.P, m.posP_z[i], staged ? m.Q : m.P_term, 2.0, i < N ? m.mQ : m.mP);
+    else
+      zero_block(m.P, m.posP_z[i]);
+    m.q.segment(m.iz(i), nx).setZero();
+  }
+  if (m.off_sigma >= 0) {
+    m.q.segment(m.off_sigma, (N + 1) * nc).setConstant(s.soft_penalty);
+    m.x_l.segment(m.off_sigma, (N + 1) * nc).setZero();
+  }
+  if (m.off_t >= 0) {
+    const int r0 = (N + 1) * nc;
+    m.q.segment(m.off_t, nx).setConstant(terminal_phase ? s.soft_penalty : 0.0);
+    m.x_l.segment(m.off_t, nx).setZero();
+    const double sign[4] = {1.0, -1.0, 1.0, 1.0};  // dz_N - t <= 0, dz_N + t >= 0 (zbar_T = x_f)
+    for (int blk = 0; blk < 4; ++blk)
+      for (int j = 0; j < nx; ++j) m.G.valuePtr()[m.posG_term[blk * nx + j]] = terminal_phase ? sign[blk] : 0.0;
+    if (terminal_phase) {
+      m.h_l.segment(r0, nx).setConstant(-kInf);
+      m.h_u.segment(r0, nx).setZero();
+      m.h_l.segment(r0 + nx, nx).setZero();
+      m.h_u.segment(r0 + nx, nx).setConstant(kInf);
+    } else {
+      m.h_l.segment(r0, 2 * nx).setConstant(-1.0);
+      m.h_u.segment(r0, 2 * nx).setConstant(1.0);
+    }
+  }
+
+  bool converged = false;
+  bool inaccurate = false;
+  double last_delta = kInf;
+  for (int it = 0; it < s.scp_max_iterations; ++it) {
+    if (it > 0 && seconds_since(t_start) > s.time_limit) return fallback(Status::TimeLimit);
+    // Linearise about (z_lin, v_lin).
+    auto t0 = Clock::now();
+    bool finite = true;
+    for (int i = 0; i < n; ++i) {
+      model_->discretize(t_k + i * dt, dt, m.z_lin.col(i), m.v_lin.col(i), m.Ad[i], m.Bd[i], m.cd[i]);
+      finite = finite && m.Ad[i].allFinite() && m.Bd[i].allFinite() && m.cd[i].allFinite();
+    }
+    for (int i = 0; i <= n; ++i) {
+      if (nc == 0) break;
+      model_->constraints(t_k + i * dt, m.z_lin.col(i), m.Gc[i], m.hc[i]);
+      finite = finite && m.Gc[i].allFinite() && !m.hc[i].array().isNaN().any() && !(m.hc[i].array() == -kInf).any();
+    }
+    res.timings.linearize += seconds_since(t0);
+    if (!finite) return fallback(Status::NumericalError);
+    bool structured = true;
+    for (int i = 0; i < n; ++i)
+      structured = structured && !outside_structure(m.Ad[i], m.mA) && !outside_structure(m.Bd[i], m.mB);
+    for (int i = 0; i <= n && nc > 0; ++i) structured = structured && !outside_structure(m.Gc[i], m.mG);
+    if (!structured) return fallback(Status::ModelStructure);
+    // Same model data as the previous QP and its trust region inactive: the QP about the new nominal
+    // has the same minimiser, so the iteration has converged (residual 0) without solving it again.
+    if (it > 0 && last_delta < s.trust_region) {
+      bool same = true;
+      for (int i = 0; i < n && same; ++i)
+        same = m.Ad[i] == m.Ad_prev[i] && m.Bd[i] == m.Bd_prev[i] && m.cd[i] == m.cd_prev[i];
+      for (int i = 0; i <= n && same && nc > 0; ++i) same = m.Gc[i] == m.Gc_prev[i] && m.hc[i] == m.hc_prev[i];
+      if (same) {
+        res.scp_residual = 0.0;
+        converged = true;
+        break;
+      }
+    }
+    for (int i = 0; i < n; ++i) {
+      m.Ad_prev[i] = m.Ad[i];
+      m.Bd_prev[i] = m.Bd[i];
+      m.cd_prev[i] = m.cd[i];
+    }
+    for (int i = 0; i <= n && nc > 0; ++i) {
+      m.Gc_prev[i] = m.Gc[i];
+      m.hc_prev[i] = m.hc[i];
+    }
+
+    // Write the linearisation-dependent values.
+    t0 = Clock::now();
+    for (int i = 0; i < N; ++i) {
+      const int r0 = (i + 1) * nx;
+      if (i < n) {
+        write_block(m.A, m.posA_A[i], m.Ad[i], -1.0, m.mA);
+        write_block(m.A, m.posA_B[i], m.Bd[i], -1.0, m.mB);
+        // dz_{i+1} - A dz_i - B v_i = c + A zbar_i - zbar_{i+1}
+        m.tmp_nx.noalias() = m.Ad[i] * m.z_ref.col(i);
+        m.b.segment(r0, nx) = m.cd[i] + m.tmp_nx - m.z_ref.col(i + 1);
+      } else {  // frozen node: z_{i+1} = z_i, input without effect
+        write_block(m.A, m.posA_A[i], Eigen::MatrixXd::Identity(nx, nx), -1.0, m.mA);
+        zero_block(m.A, m.posA_B[i]);
+        m.b.segment(r0, nx) = m.z_ref.col(i) - m.z_ref.col(i + 1);
+      }
+    }
+    for (int i = 0; i <= N; ++i) {
+      if (nc == 0) break;
+      if (i <= n) {
+        write_block(m.G, m.posG[i], m.Gc[i], 1.0, m.mG);
+        for (int j = 0; j < nc; ++j) {
+          const int row = i * nc + j;
+          if (std::isfinite(m.hc[i](j))) {
+            m.tmp_nx.noalias() = tube.Pe * m.Gc[i].row(j).transpose();
+            m.h_l(row) = -kInf;
+            m.h_u(row) = m.hc[i](j) - std::sqrt(std::max(0.0, m.Gc[i].row(j).dot(m.tmp_nx))) -
+                         m.Gc[i].row(j).dot(m.z_ref.col(i));
+          } else {  // the model marks the row absent
+            zero_block_row(m.G, m.posG[i], m.mG, j);
+            m.h_l(row) = -1.0;
+            m.h_u(row) = 1.0;
+          }
+        }
+      } else {
+        zero_block(m.G, m.posG[i]);
+        m.h_l.segment(i * nc, nc).setConstant(-1.0);
+        m.h_u.segment(i * nc, nc).setConstant(1.0);
+      }
+    }
+    for (int i = 1; i <= N; ++i) {
+      if (i <= n && std::isfinite(s.trust_region)) {
+        m.x_l.segment(m.iz(i), nx).array() = (m.z_lin.col(i) - m.z_ref.col(i)).array() - s.trust_region;
+        m.x_u.segment(m.iz(i), nx).array() = (m.z_lin.col(i) - m.z_ref.col(i)).array() + s.trust_region;
+      } else {
+        m.x_l.segment(m.iz(i), nx).setConstant(-kInf);
+        m.x_u.segment(m.iz(i), nx).setConstant(kInf);
+      }
+    }
+    if (terminal_phase && !s.soft_terminal) {  // z_N = x_f = zbar_T
+      m.x_l.segment(m.iz(N), nx).setZero();
+      m.x_u.segment(m.iz(N), nx).setZero();
+    }
+    res.timings.build += seconds_since(t0);
+
+    // Solve.
+    t0 = Clock::now();
+    m.solver.update(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u);
+    const piqp::Status qs = m.solver.solve();
+    res.timings.solve += seconds_since(t0);
+    const auto& r = m.solver.result();
+    res.scp_iterations = it + 1;
+    res.qp_iterations += static_cast<int>(r.info.iter);
+    if (qs == piqp::Status::PIQP_INVALID_SETTINGS) return fallback(Status::NotSolved);
+    if (qs == piqp::Status::PIQP_PRIMAL_INFEASIBLE || qs == piqp::Status::PIQP_DUAL_INFEASIBLE)
+      return fallback(Status::Infeasible);
+    if (qs == piqp::Status::PIQP_MAX_ITER_REACHED && r.info.primal_res_rel <= s.qp_inaccurate_tol &&
+        r.info.dual_res_rel <= s.qp_inaccurate_tol) {
+      inaccurate = true;
+    } else if (qs != piqp::Status::PIQP_SOLVED) {
+      return fallback(qs == piqp::Status::PIQP_NUMERICS ? Status::NumericalError : Status::NotSolved);
+    }
+    if (!r.x.allFinite()) return fallback(Status::NumericalError);
+    if (seconds_since(t_start) > s.time_limit) return fallback(Status::TimeLimit);
+
+    double delta = 0.0;
+    for (int i = 0; i <= N; ++i) {
+      m.z_star.col(i) = r.x.segment(m.iz(i), nx) + m.z_ref.col(i);
+      if (i <= n) delta = std::max(delta, (m.z_star.col(i) - m.z_lin.col(i)).cwiseAbs().maxCoeff());
+    }
+    for (int i = 0; i < N; ++i) m.v_star.col(i) = r.x.segment(m.iv(i), nu);
+    res.scp_residual = delta;
+    last_delta = delta;
+    res.objective = r.info.primal_obj + m.constant;
+    m.z_lin = m.z_star;
+    m.v_lin = m.v_star;
+    if (delta < s.scp_eps) {
+      converged = true;
+      break;
+    }
+  }
+
+  res.z = m.z_star;
+  res.v = m.v_star;
+  m.z_plan = m.z_star;
+  m.v_plan = m.v_star;
+  m.have_plan = true;
+  m.e = x_k - res.z.col(0);
+  res.u = res.v.col(0);
+  res.u.noalias() += tube.K * m.e;
+  res.u = res.u.cwiseMax(-s.u_max).cwiseMin(s.u_max);
+  res.status = !converged ? Status::MaxIterations : (inaccurate ? Status::SolvedInaccurate : Status::Solved);
+  if (!res.u.allFinite()) return fallback(Status::NumericalError);
+  res.timings.total = seconds_since(t_start);
+  return res;
+}
+
+}  // namespace tubempc::mpc

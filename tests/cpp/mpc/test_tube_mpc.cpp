@@ -1,0 +1,439 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <random>
+#include <stdexcept>
+
+#include "tubempc/mpc/tube_mpc.hpp"
+
+using namespace tubempc::mpc;
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// 1-D double integrator per axis: x = [p; v], u = a; constraints p <= p_max and -v <= v_max.
+std::shared_ptr<LtiModel> double_integrator(double dt, double p_max = 10.0, double v_max = 1.0) {
+  Eigen::MatrixXd A_c(2, 2), B_c(2, 1), G(2, 2);
+  A_c << 0, 1, 0, 0;
+  B_c << 0, 1;
+  G << 1, 0, 0, -1;
+  Eigen::VectorXd h(2);
+  h << p_max, v_max;
+  return std::make_shared<LtiModel>(A_c, B_c, Eigen::VectorXd::Zero(2), dt, G, h);
+}
+
+Reference straight_reference(const Eigen::VectorXd& x0, const Eigen::VectorXd& xf, int T, int nu) {
+  Reference r;
+  r.z.resize(x0.size(), T + 1);
+  for (int j = 0; j <= T; ++j) r.z.col(j) = x0 + (xf - x0) * (static_cast<double>(j) / T);
+  r.u = Eigen::MatrixXd::Zero(nu, T);
+  return r;
+}
+
+Tube small_tube(int nx, int nu, double scale) {
+  Tube t;
+  t.K = Eigen::MatrixXd::Zero(nu, nx);
+  t.Pe = scale * Eigen::MatrixXd::Identity(nx, nx);
+  return t;
+}
+
+Settings di_settings(int N, double dt) {
+  Settings s;
+  s.horizon = N;
+  s.dt = dt;
+  s.u_max = Eigen::VectorXd::Constant(1, 0.5);
+  s.time_limit = kInf;
+  return s;
+}
+
+// Pendulum theta'' = -(g/l) sin(theta) + u, discretised about the linearisation point (ZOH).
+class Pendulum final : public LinearizedModel {
+ public:
+  int nx() const override { return 2; }
+  int nu() const override { return 1; }
+  int n_constraints() const override { return 0; }
+  void discretize(double, double dt, const Eigen::Ref<const Eigen::VectorXd>& x,
+                  const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::MatrixXd> A,
+                  Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const override {
+    Eigen::MatrixXd A_c(2, 2), B_c(2, 1);
+    A_c << 0, 1, -w2 * std::cos(x(0)), 0;
+    B_c << 0, 1;
+    Eigen::VectorXd f(2);
+    f << x(1), -w2 * std::sin(x(0)) + u(0);
+    Eigen::VectorXd c_c = f - A_c * x - B_c * u;
+    Eigen::MatrixXd Ad, Bd;
+    Eigen::VectorXd cd;
+    zoh_discretize(A_c, B_c, c_c, dt, Ad, Bd, cd);
+    A = Ad;
+    B = Bd;
+    c = cd;
+  }
+  void constraints(double, const Eigen::Ref<const Eigen::VectorXd>&, Eigen::Ref<Eigen::MatrixXd>,
+                   Eigen::Ref<Eigen::VectorXd>) const override {}
+  double w2 = 9.81;
+};
+
+// Wraps a plant; its constraints can be made contradictory or its dynamics non-finite on demand.
+class Sabotaged final : public LinearizedModel {
+ public:
+  explicit Sabotaged(std::shared_ptr<LinearizedModel> inner) : inner_(std::move(inner)) {}
+  int nx() const override { return inner_->nx(); }
+  int nu() const override { return inner_->nu(); }
+  int n_constraints() const override { return inner_->n_constraints(); }
+  void discretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x,
+                  const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::MatrixXd> A,
+                  Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const override {
+    inner_->discretize(t, dt, x, u, A, B, c);
+    if (nan_dynamics) c(0) = std::numeric_limits<double>::quiet_NaN();
+  }
+  void constraints(double t, const Eigen::Ref<const Eigen::VectorXd>& x, Eigen::Ref<Eigen::MatrixXd> G,
+                   Eigen::Ref<Eigen::VectorXd> h) const override {
+    inner_->constraints(t, x, G, h);
+    if (contradict) {  // p <= -5 and -p <= -5
+      G.setZero();
+      G(0, 0) = 1.0;
+      G(1, 0) = -1.0;
+      h.setConstant(-5.0);
+    }
+  }
+  bool contradict = false;
+  bool nan_dynamics = false;
+
+ private:
+  std::shared_ptr<LinearizedModel> inner_;
+};
+
+}  // namespace
+
+TEST(SolveDare, SatisfiesTheRiccatiEquation) {
+  std::mt19937 gen(3);
+  std::normal_distribution<double> nd(0.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int n = 2 + trial % 5, m = 1 + trial % 3;
+    Eigen::MatrixXd A(n, n), B(n, m), Qh(n, n), Rh(m, m);
+    for (int i = 0; i < A.size(); ++i) A.data()[i] = 0.6 * nd(gen);
+    for (int i = 0; i < B.size(); ++i) B.data()[i] = nd(gen);
+    for (int i = 0; i < Qh.size(); ++i) Qh.data()[i] = nd(gen);
+    for (int i = 0; i < Rh.size(); ++i) Rh.data()[i] = nd(gen);
+    const Eigen::MatrixXd Q = Qh * Qh.transpose() + 0.1 * Eigen::MatrixXd::Identity(n, n);
+    const Eigen::MatrixXd R = Rh * Rh.transpose() + 0.1 * Eigen::MatrixXd::Identity(m, m);
+    const Eigen::MatrixXd X = solve_dare(A, B, Q, R);
+    const Eigen::MatrixXd S = R + B.transpose() * X * B;
+    const Eigen::MatrixXd rhs = A.transpose() * X * A - A.transpose() * X * B * S.ldlt().solve(B.transpose() * X * A) + Q;
+    EXPECT_LT((X - rhs).cwiseAbs().maxCoeff(), 1e-8 * std::max(1.0, X.cwiseAbs().maxCoeff())) << trial;
+    // Stabilising: the closed loop A - B K has spectral radius < 1.
+    const Eigen::MatrixXd K = S.ldlt().solve(B.transpose() * X * A);
+    EXPECT_LT((A - B * K).eigenvalues().cwiseAbs().maxCoeff(), 1.0) << trial;
+  }
+}
+
+TEST(SolveDare, FailsClearlyWhenNotStabilisable) {
+  Eigen::MatrixXd A(2, 2), B(2, 1);
+  A << 1.5, 0, 0, 0.5;  // the unstable mode is not actuated
+  B << 0, 1;
+  EXPECT_THROW(solve_dare(A, B, Eigen::MatrixXd::Identity(2, 2), Eigen::MatrixXd::Identity(1, 1)), std::runtime_error);
+  EXPECT_THROW(solve_dare(A, B, Eigen::MatrixXd::Identity(3, 3), Eigen::MatrixXd::Identity(1, 1)),
+               std::invalid_argument);
+}
+
+TEST(TubeMPCSettings, ValidateNamesTheField) {
+  Settings s = di_settings(10, 0.5);
+  s.u_max.resize(0);
+  try {
+    s.validate(2, 1);
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("u_max"), std::string::npos);
+  }
+  s = di_settings(10, 0.5);
+  s.R = -Eigen::MatrixXd::Identity(1, 1);
+  EXPECT_THROW(s.validate(2, 1), std::invalid_argument);
+  s = di_settings(0, 0.5);
+  EXPECT_THROW(s.validate(2, 1), std::invalid_argument);
+}
+
+// KKT conditions of the QP PIQP returned, evaluated independently from the exported data.
+TEST(TubeMPC, KktConditionsHoldAtTheReturnedSolution) {
+  for (bool soft : {false, true}) {
+    auto model = double_integrator(0.5, 1.2, 0.3);
+    Settings s = di_settings(15, 0.5);
+    s.soft_state_constraints = soft;
+    s.soft_penalty = 1e3;
+    TubeMPC mpc(model, s);
+    Eigen::VectorXd x0(2), xf(2);
+    x0 << 0, 0;
+    xf << 2, 0;  // the reference passes p_max: the position constraint becomes active
+    mpc.setup(straight_reference(x0, xf, 20, 1));
+    Tube tube = small_tube(2, 1, 1e-3);
+    tube.K << -0.5, -1.0;
+    Eigen::VectorXd x(2);
+    x << 0.01, 0.25;
+    const StepResult& r = mpc.step(0, x, tube);
+    ASSERT_EQ(r.status, Status::Solved) << to_string(r.failure);
+    const QpData d = mpc.qp_data();
+    const QpSolution sol = mpc.qp_solution();
+    const Eigen::VectorXd& w = sol.w;
+    const double tol = 1e-6;
+    const Eigen::VectorXd stat = d.P * w + d.q + d.A.transpose() * sol.y + d.G.transpose() * (sol.z_u - sol.z_l) +
+                                 sol.z_bu - sol.z_bl;
+    EXPECT_LT(stat.cwiseAbs().maxCoeff(), tol);
+    EXPECT_LT((d.A * w - d.b).cwiseAbs().maxCoeff(), tol);
+    const Eigen::VectorXd Gw = d.G * w;
+    int active = 0;
+    for (Eigen::Index i = 0; i < Gw.size(); ++i) {
+      EXPECT_LE(Gw(i), d.h_u(i) + tol);
+      EXPECT_GE(Gw(i), d.h_l(i) - tol);
+      EXPECT_GE(sol.z_u(i), -tol);
+      EXPECT_GE(sol.z_l(i), -tol);
+      if (std::isfinite(d.h_u(i))) EXPECT_LT(std::abs(sol.z_u(i) * (d.h_u(i) - Gw(i))), tol);
+      if (std::isfinite(d.h_l(i))) EXPECT_LT(std::abs(sol.z_l(i) * (Gw(i) - d.h_l(i))), tol);
+      if (sol.z_u(i) > 1e-3) ++active;
+    }
+    for (Eigen::Index i = 0; i < w.size(); ++i) {
+      EXPECT_LE(w(i), d.x_u(i) + tol);
+      EXPECT_GE(w(i), d.x_l(i) - tol);
+      EXPECT_GE(sol.z_bu(i), -tol);
+      EXPECT_GE(sol.z_bl(i), -tol);
+      if (std::isfinite(d.x_u(i))) EXPECT_LT(std::abs(sol.z_bu(i) * (d.x_u(i) - w(i))), tol);
+      if (std::isfinite(d.x_l(i))) EXPECT_LT(std::abs(sol.z_bl(i) * (w(i) - d.x_l(i))), tol);
+    }
+    EXPECT_GT(active, 0) << "the test should exercise an active state constraint";
+    const double obj = 0.5 * w.dot(d.P * w) + d.q.dot(w) + d.constant;
+    EXPECT_NEAR(r.objective, obj, 1e-6 * std::max(1.0, std::abs(obj)));
+  }
+}
+
+// The tightened bounds in the QP equal h - max over the tube ellipsoid's boundary of a^T e.
+TEST(TubeMPC, TighteningEqualsTheSupportFunctionOfTheTube) {
+  std::mt19937 gen(11);
+  std::normal_distribution<double> nd(0.0, 1.0);
+  for (int trial = 0; trial < 10; ++trial) {
+    Eigen::MatrixXd A_c(2, 2), B_c(2, 1), G(3, 2);
+    A_c << 0, 1, 0, 0;
+    B_c << 0, 1;
+    for (int i = 0; i < G.size(); ++i) G.data()[i] = nd(gen);
+    const Eigen::VectorXd h = Eigen::VectorXd::Constant(3, 50.0);
+    auto model = std::make_shared<LtiModel>(A_c, B_c, Eigen::VectorXd::Zero(2), 0.5, G, h);
+    Settings s = di_settings(5, 0.5);
+    s.u_max(0) = 20.0;
+    TubeMPC mpc(model, s);
+    mpc.setup(straight_reference(Eigen::VectorXd::Zero(2), Eigen::VectorXd::Zero(2), 20, 1));
+    Eigen::MatrixXd M(2, 2);
+    M << nd(gen), nd(gen), nd(gen), nd(gen);
+    Tube tube;
+    tube.Pe = M * M.transpose() + 0.05 * Eigen::MatrixXd::Identity(2, 2);
+    tube.K = Eigen::MatrixXd(1, 2);
+    tube.K << nd(gen), nd(gen);
+    mpc.step(0, Eigen::VectorXd::Zero(2), tube);
+    const QpData d = mpc.qp_data();
+    const Eigen::MatrixXd L = tube.Pe.llt().matrixL();
+    // Dense samples of the boundary {L u : |u| = 1}.
+    const int n_samples = 200000;
+    Eigen::VectorXd best_G = Eigen::VectorXd::Constant(3, -kInf);
+    double best_K = -kInf;
+    for (int j = 0; j < n_samples; ++j) {
+      const double a = 2.0 * M_PI * j / n_samples;
+      const Eigen::Vector2d e = L * Eigen::Vector2d(std::cos(a), std::sin(a));
+      best_G = best_G.cwiseMax(G * e);
+      best_K = std::max(best_K, (tube.K * e)(0));
+    }
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(d.h_u(i), h(i) - best_G(i), 1e-7 * (1.0 + best_G(i))) << trial;
+    const int iv0 = 2;  // w = [z_0 (2), v_0 (1), ...]
+    EXPECT_NEAR(d.x_u(iv0), s.u_max(0) - best_K, 1e-7 * (1.0 + best_K)) << trial;
+    EXPECT_NEAR(d.x_l(iv0), -(s.u_max(0) - best_K), 1e-7 * (1.0 + best_K)) << trial;
+  }
+}
+
+// Shrinking horizon on a linear plant: the closed loop reaches x_f = zbar_T at T.
+TEST(TubeMPC, ShrinkingHorizonReachesTheTarget) {
+  const double dt = 0.5;
+  auto model = double_integrator(dt, 10.0, 2.0);
+  for (auto ic : {InitialCondition::WhitenedBox, InitialCondition::Exact}) {
+    Settings s = di_settings(10, dt);
+    s.initial_condition = ic;
+    TubeMPC mpc(model, s);
+    const int T = 30;
+    Eigen::VectorXd x0(2), xf(2);
+    x0 << 0, 0;
+    xf << 3, 0;
+    mpc.setup(straight_reference(x0, xf, T, 1));
+    Tube tube = small_tube(2, 1, 1e-6);
+    tube.K << -0.3, -0.8;
+    Eigen::MatrixXd A(2, 2), B(2, 1);
+    Eigen::VectorXd c(2), x = x0;
+    int shrunk = 0;
+    for (int k = 0; k < T; ++k) {
+      const StepResult& r = mpc.step(k, x, tube);
+      ASSERT_TRUE(r.status == Status::Solved) << k << " " << to_string(r.status) << " " << to_string(r.failure);
+      EXPECT_EQ(r.horizon, std::min(10, T - k));
+      // Linear plant: the re-linearised QP is identical, so one QP per step.
+      EXPECT_EQ(r.scp_iterations, 1);
+      EXPECT_LT(r.scp_residual, s.scp_eps);
+      if (r.horizon < 10) {
+        ++shrunk;
+        // The nominal plan ends at x_f and stays there on the frozen nodes.
+        for (int i = r.horizon; i <= 10; ++i) EXPECT_LT((r.z.col(i) - xf).cwiseAbs().maxCoeff(), 1e-6);
+      }
+      model->discretize(0.0, dt, x, r.u, A, B, c);
+      x = A * x + B * r.u + c;
+    }
+    EXPECT_EQ(shrunk, 9);
+    // Without disturbance x - z stays in the tube; with z_0 = x_k it is zero.
+    const Eigen::VectorXd e = x - xf;
+    if (ic == InitialCondition::Exact)
+      EXPECT_LT(e.cwiseAbs().maxCoeff(), 1e-6);
+    else
+      EXPECT_LE(e.dot(tube.Pe.llt().solve(e)), 1.0 + 1e-6);
+  }
+}
+
+TEST(TubeMPC, InfeasibleStepFallsBackToTheShiftedPlan) {
+  const double dt = 0.5;
+  auto sab = std::make_shared<Sabotaged>(double_integrator(dt));
+  Settings s = di_settings(10, dt);
+  TubeMPC mpc(sab, s);
+  Eigen::VectorXd x0(2), xf(2);
+  x0 << 0, 0;
+  xf << 1, 0;
+  mpc.setup(straight_reference(x0, xf, 30, 1));
+  Tube tube = small_tube(2, 1, 1e-4);
+  tube.K << -0.3, -0.8;
+
+  // No previous plan: the documented safe input.
+  sab->contradict = true;
+  const StepResult& r0 = mpc.step(0, x0, tube);
+  EXPECT_EQ(r0.status, Status::FallbackSafeInput);
+  EXPECT_EQ(r0.failure, Status::Infeasible);
+  EXPECT_TRUE(r0.u.allFinite());
+
+  sab->contradict = false;
+  const StepResult r1 = mpc.step(0, x0, tube);
+  ASSERT_EQ(r1.status, Status::Solved);
+  Eigen::VectorXd x1(2);
+  x1 << 0.01, 0.02;
+  sab->contradict = true;
+  const StepResult& r2 = mpc.step(1, x1, tube);
+  EXPECT_EQ(r2.status, Status::FallbackShiftedPlan);
+  EXPECT_EQ(r2.failure, Status::Infeasible);
+  for (int i = 0; i < 10; ++i) EXPECT_LT((r2.z.col(i) - r1.z.col(i + 1)).cwiseAbs().maxCoeff(), 1e-12);
+  for (int i = 0; i < 9; ++i) EXPECT_LT((r2.v.col(i) - r1.v.col(i + 1)).cwiseAbs().maxCoeff(), 1e-12);
+  const double u_expected =
+      std::clamp((r1.v.col(1) + tube.K * (x1 - r1.z.col(1)))(0), -s.u_max(0), s.u_max(0));
+  EXPECT_NEAR(r2.u(0), u_expected, 1e-12);
+
+  sab->contradict = false;
+  sab->nan_dynamics = true;
+  const StepResult& r3 = mpc.step(2, x1, tube);
+  EXPECT_EQ(r3.status, Status::FallbackShiftedPlan);
+  EXPECT_EQ(r3.failure, Status::NumericalError);
+  EXPECT_TRUE(r3.u.allFinite() && r3.z.allFinite() && r3.v.allFinite());
+
+  sab->nan_dynamics = false;
+  Tube fat = tube;
+  fat.K << 100.0, 0.0;  // sqrt(K Pe K^T) = 1 > u_max = 0.5
+  EXPECT_EQ(mpc.step(3, x1, fat).failure, Status::EmptyTightening);
+  Eigen::VectorXd x_nan = x1;
+  x_nan(1) = std::nan("");
+  const StepResult& r5 = mpc.step(4, x_nan, tube);
+  EXPECT_EQ(r5.failure, Status::NumericalError);
+  EXPECT_TRUE(r5.u.allFinite());
+}
+
+// Soft state constraints keep the contradictory problem solvable (exact L1 penalty).
+TEST(TubeMPC, SoftConstraintsSolveTheContradictoryProblem) {
+  auto sab = std::make_shared<Sabotaged>(double_integrator(0.5));
+  Settings s = di_settings(10, 0.5);
+  s.soft_state_constraints = true;
+  TubeMPC mpc(sab, s);
+  mpc.setup(straight_reference(Eigen::VectorXd::Zero(2), Eigen::VectorXd::Zero(2), 30, 1));
+  sab->contradict = true;
+  const StepResult& r = mpc.step(0, Eigen::VectorXd::Zero(2), small_tube(2, 1, 1e-4));
+  EXPECT_EQ(r.status, Status::Solved) << to_string(r.failure);
+}
+
+TEST(TubeMPC, ScpConvergesOnThePendulum) {
+  auto model = std::make_shared<Pendulum>();
+  Settings s;
+  s.horizon = 20;
+  s.dt = 0.1;
+  s.u_max = Eigen::VectorXd::Constant(1, 20.0);
+  s.R = 1e-2 * Eigen::MatrixXd::Identity(1, 1);
+  s.Q = 10.0 * Eigen::MatrixXd::Identity(2, 2);
+  s.trust_region = 1.0;
+  s.time_limit = kInf;
+  s.input_cost = InputCost::FromReference;
+  TubeMPC mpc(model, s);
+  const int T = 40;
+  Eigen::VectorXd x0(2), xf(2);
+  x0 << 0.0, 0.0;
+  xf << 2.0, 0.0;  // swing up to 2 rad: far from the linearisation about the straight reference
+  Reference ref = straight_reference(x0, xf, T, 1);
+  for (int j = 0; j <= T; ++j) ref.z(1, j) = 2.0 / (T * 0.1);
+  ref.z(1, 0) = 0.0;
+  ref.z(1, T) = 0.0;
+  mpc.setup(ref, Eigen::MatrixXd::Identity(2, 2) + 0.1 * (Eigen::MatrixXd(2, 2) << 0, 1, 0, 0).finished(),
+            (Eigen::MatrixXd(2, 1) << 0.005, 0.1).finished());
+  const StepResult& r = mpc.step(0, x0, small_tube(2, 1, 1e-8));
+  EXPECT_EQ(r.status, Status::Solved) << to_string(r.status) << " " << to_string(r.failure);
+  EXPECT_GE(r.scp_iterations, 2);
+  EXPECT_LT(r.scp_residual, s.scp_eps);
+  // At the fixed point the plan follows the nonlinear pendulum (RK4 over each interval) closely.
+  double worst = 0.0;
+  for (int i = 0; i < 20; ++i) {
+    Eigen::Vector2d y = r.z.col(i);
+    const double u = r.v(0, i), h = 0.1 / 50;
+    auto f = [&](const Eigen::Vector2d& q) { return Eigen::Vector2d(q(1), -9.81 * std::sin(q(0)) + u); };
+    for (int j = 0; j < 50; ++j) {
+      const Eigen::Vector2d k1 = f(y), k2 = f(y + 0.5 * h * k1), k3 = f(y + 0.5 * h * k2), k4 = f(y + h * k3);
+      y += h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4);
+    }
+    worst = std::max(worst, (y - r.z.col(i + 1)).cwiseAbs().maxCoeff());
+  }
+  EXPECT_LT(worst, 5e-3);
+
+  Settings s1 = s;
+  s1.scp_max_iterations = 1;
+  TubeMPC one(model, s1);
+  one.setup(ref, Eigen::MatrixXd::Identity(2, 2) + 0.1 * (Eigen::MatrixXd(2, 2) << 0, 1, 0, 0).finished(),
+            (Eigen::MatrixXd(2, 1) << 0.005, 0.1).finished());
+  EXPECT_EQ(one.step(0, x0, small_tube(2, 1, 1e-8)).status, Status::MaxIterations);
+}
+
+// A declared sparser structure gives the same plan as the dense pattern; a model that breaks it is caught.
+TEST(TubeMPC, DeclaredStructureIsUsedAndChecked) {
+  auto model = double_integrator(0.5, 1.2, 0.3);
+  Eigen::VectorXd x0(2), xf(2), x(2);
+  x0 << 0, 0;
+  xf << 2, 0;
+  x << 0.01, 0.25;
+  Tube tube = small_tube(2, 1, 1e-3);
+  tube.K << -0.5, -1.0;
+  Settings dense = di_settings(15, 0.5);
+  TubeMPC a(model, dense);
+  a.setup(straight_reference(x0, xf, 20, 1));
+  const StepResult ra = a.step(0, x, tube);
+  Settings sparse = dense;
+  sparse.A_structure = (Eigen::MatrixXd(2, 2) << 1, 1, 0, 1).finished();  // the DI's A is upper triangular
+  sparse.G_structure = (Eigen::MatrixXd(2, 2) << 1, 0, 0, 1).finished();
+  TubeMPC b(model, sparse);
+  b.setup(straight_reference(x0, xf, 20, 1));
+  const StepResult rb = b.step(0, x, tube);
+  ASSERT_EQ(rb.status, Status::Solved);
+  EXPECT_LT(b.qp_data().A.nonZeros(), a.qp_data().A.nonZeros());
+  EXPECT_LT(b.qp_data().G.nonZeros(), a.qp_data().G.nonZeros());
+  EXPECT_LT((ra.z - rb.z).cwiseAbs().maxCoeff(), 1e-7);
+  EXPECT_NEAR(ra.objective, rb.objective, 1e-8 * std::abs(ra.objective));
+  Settings wrong = dense;
+  wrong.A_structure = Eigen::MatrixXd::Identity(2, 2);  // misses A(0, 1) = dt
+  TubeMPC c(model, wrong);
+  c.setup(straight_reference(x0, xf, 20, 1));
+  const StepResult& rc = c.step(0, x, tube);
+  EXPECT_EQ(rc.failure, Status::ModelStructure);
+  EXPECT_EQ(rc.status, Status::FallbackSafeInput);
+  Settings bad_size = dense;
+  bad_size.B_structure = Eigen::MatrixXd::Ones(1, 1);
+  EXPECT_THROW(TubeMPC(model, bad_size), std::invalid_argument);
+}

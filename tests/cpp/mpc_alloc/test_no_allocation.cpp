@@ -1,0 +1,218 @@
+// TubeMPC::step must not allocate after setup. Two independent checks, both switched on only
+// around the steps:
+//  1. counting allocator: global operator new/delete are replaced and malloc/calloc/realloc/
+//     free/posix_memalign/aligned_alloc/memalign are interposed (forwarding to glibc's __libc_*),
+//     so allocations by PIQP, Eigen, the standard library and C code are all seen;
+//  2. Eigen's runtime guard: the implementation (and with it PIQP's header-only solver) is compiled
+//     into this translation unit with EIGEN_RUNTIME_NO_MALLOC and an eigen_assert that counts, so
+//     every Eigen allocation while the guard is on is recorded even in a release build.
+#include <cstddef>
+#include <cstdlib>
+#include <malloc.h>
+#include <new>
+
+namespace alloc_test {
+bool counting = false;
+long count = 0;
+long eigen_failures = 0;
+}  // namespace alloc_test
+
+#define EIGEN_RUNTIME_NO_MALLOC
+#define eigen_assert(x)                                     \
+  do {                                                      \
+    if (!(x)) ++::alloc_test::eigen_failures;               \
+  } while (false)
+
+extern "C" {
+void* __libc_malloc(std::size_t);
+void* __libc_calloc(std::size_t, std::size_t);
+void* __libc_realloc(void*, std::size_t);
+void __libc_free(void*);
+void* __libc_memalign(std::size_t, std::size_t);
+
+void* malloc(std::size_t n) noexcept {
+  if (alloc_test::counting) ++alloc_test::count;
+  return __libc_malloc(n);
+}
+void* calloc(std::size_t n, std::size_t size) noexcept {
+  if (alloc_test::counting) ++alloc_test::count;
+  return __libc_calloc(n, size);
+}
+void* realloc(void* p, std::size_t n) noexcept {
+  if (alloc_test::counting) ++alloc_test::count;
+  return __libc_realloc(p, n);
+}
+void free(void* p) noexcept {
+  if (alloc_test::counting && p != nullptr) ++alloc_test::count;
+  __libc_free(p);
+}
+void* memalign(std::size_t alignment, std::size_t n) noexcept {
+  if (alloc_test::counting) ++alloc_test::count;
+  return __libc_memalign(alignment, n);
+}
+void* aligned_alloc(std::size_t alignment, std::size_t n) noexcept {
+  if (alloc_test::counting) ++alloc_test::count;
+  return __libc_memalign(alignment, n);
+}
+int posix_memalign(void** out, std::size_t alignment, std::size_t n) noexcept {
+  if (alloc_test::counting) ++alloc_test::count;
+  *out = __libc_memalign(alignment, n);
+  return *out != nullptr ? 0 : 12;  // ENOMEM
+}
+}
+
+void* operator new(std::size_t n) {
+  if (alloc_test::counting) ++alloc_test::count;
+  if (void* p = __libc_malloc(n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
+  if (alloc_test::counting) ++alloc_test::count;
+  return __libc_malloc(n == 0 ? 1 : n);
+}
+void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
+void* operator new(std::size_t n, std::align_val_t a) {
+  if (alloc_test::counting) ++alloc_test::count;
+  if (void* p = __libc_memalign(static_cast<std::size_t>(a), n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n, std::align_val_t a) { return operator new(n, a); }
+void operator delete(void* p) noexcept {
+  if (alloc_test::counting && p != nullptr) ++alloc_test::count;
+  __libc_free(p);
+}
+void operator delete[](void* p) noexcept { operator delete(p); }
+void operator delete(void* p, std::size_t) noexcept { operator delete(p); }
+void operator delete[](void* p, std::size_t) noexcept { operator delete(p); }
+void operator delete(void* p, std::align_val_t) noexcept { operator delete(p); }
+void operator delete[](void* p, std::align_val_t) noexcept { operator delete(p); }
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept { operator delete(p); }
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { operator delete(p); }
+
+// The implementation under test, compiled here with the Eigen guard (its symbols take precedence
+// over the static library's copy).
+#include "../../../cpp/src/mpc/tube_mpc.cpp"
+
+#include <gtest/gtest.h>
+
+using namespace tubempc::mpc;
+
+namespace {
+
+struct Guard {
+  Guard() {
+    alloc_test::count = 0;
+    alloc_test::eigen_failures = 0;
+    Eigen::internal::set_is_malloc_allowed(false);
+    alloc_test::counting = true;
+  }
+  ~Guard() {
+    alloc_test::counting = false;
+    Eigen::internal::set_is_malloc_allowed(true);
+  }
+};
+
+// Two decoupled 6-state, 3-input double integrators (the paper's 12/6 sizes) with four planar
+// constraints per node.
+std::shared_ptr<LtiModel> plant_12_6(double dt) {
+  Eigen::MatrixXd A_c = Eigen::MatrixXd::Zero(12, 12), B_c = Eigen::MatrixXd::Zero(12, 6);
+  A_c.block(0, 3, 3, 3).setIdentity();
+  A_c.block(6, 9, 3, 3).setIdentity();
+  B_c.block(3, 0, 3, 3).setIdentity();
+  B_c.block(9, 3, 3, 3) = Eigen::Vector3d(1.0 / 2750, 1.0 / 2750, 1.0 / 2030).asDiagonal();
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(4, 12);
+  G(0, 0) = 1.0;
+  G(1, 1) = -1.0;
+  G(2, 3) = 1.0;
+  G(3, 6) = 1.0;
+  Eigen::VectorXd h(4);
+  h << 100.0, 100.0, 5.0, 3.0;
+  return std::make_shared<LtiModel>(A_c, B_c, Eigen::VectorXd::Zero(12), dt, G, h);
+}
+
+}  // namespace
+
+TEST(TubeMPCAllocation, CounterSeesAllocations) {
+  {
+    Guard g;
+    Eigen::VectorXd v(100);
+    v.setZero();
+    void* p = std::malloc(8);
+    std::free(p);
+  }
+  EXPECT_GE(alloc_test::count, 4);  // new or malloc + free for the vector, malloc + free
+  EXPECT_GE(alloc_test::eigen_failures, 1);
+}
+
+TEST(TubeMPCAllocation, StepDoesNotAllocateAfterSetup) {
+  for (bool soft : {false, true}) {
+    const double dt = 2.0;
+    auto model = plant_12_6(dt);
+    Settings s;
+    s.horizon = 30;
+    s.dt = dt;
+    s.R = Eigen::VectorXd((Eigen::VectorXd(6) << 1e3, 1e3, 1e3, 1e4, 1e4, 1e4).finished()).asDiagonal();
+    s.u_max = (Eigen::VectorXd(6) << 0.55, 0.55, 0.55, 3.0, 3.0, 3.0).finished();
+    s.time_limit = 10.0;
+    s.trust_region = 50.0;
+    s.soft_state_constraints = soft;
+    s.soft_terminal = soft;
+    s.input_cost = soft ? InputCost::FromReference : InputCost::Paper;
+    if (soft) {  // block-diagonal structure of the two subsystems (exercises the sparse masks)
+      s.A_structure = Eigen::MatrixXd::Zero(12, 12);
+      s.A_structure.topLeftCorner(6, 6).setOnes();
+      s.A_structure.bottomRightCorner(6, 6).setOnes();
+      s.B_structure = Eigen::MatrixXd::Zero(12, 6);
+      s.B_structure.topLeftCorner(6, 3).setOnes();
+      s.B_structure.bottomRightCorner(6, 3).setOnes();
+    }
+    TubeMPC mpc(model, s);
+    const int T = 40;
+    Reference ref;
+    ref.z = Eigen::MatrixXd::Zero(12, T + 1);
+    ref.u = Eigen::MatrixXd::Zero(6, T);
+    for (int j = 0; j <= T; ++j) ref.z(0, j) = 50.0 * (1.0 - static_cast<double>(j) / T);
+    ref.z.block(3, 0, 1, T).setConstant(-50.0 / (T * dt));
+    mpc.setup(ref);
+    Tube tube;
+    tube.K = Eigen::MatrixXd::Zero(6, 12);
+    tube.K.block(0, 0, 3, 3) = -0.01 * Eigen::MatrixXd::Identity(3, 3);
+    tube.K.block(0, 3, 3, 3) = -0.1 * Eigen::MatrixXd::Identity(3, 3);
+    tube.Pe = 1e-3 * Eigen::MatrixXd::Identity(12, 12);
+    Eigen::VectorXd x = ref.z.col(0);
+    x(0) += 0.01;
+    Eigen::MatrixXd A(12, 12), B(12, 6);
+    Eigen::VectorXd c(12), x_next(12);
+    int solved = 0, fallbacks = 0;
+    long total_allocs = 0, total_eigen = 0;
+    for (int k = 0; k < T; ++k) {
+      Status status;
+      {
+        Guard g;
+        const StepResult& r = mpc.step(k, x, tube);
+        status = r.status;
+        model->discretize(0.0, dt, x, r.u, A, B, c);
+        x_next.noalias() = A * x;
+        x_next.noalias() += B * r.u;
+        x = x_next + c;
+      }
+      total_allocs += alloc_test::count;
+      total_eigen += alloc_test::eigen_failures;
+      EXPECT_EQ(alloc_test::count, 0) << "step " << k << " (" << to_string(status) << ")";
+      EXPECT_EQ(alloc_test::eigen_failures, 0) << "step " << k;
+      if (status == Status::Solved) ++solved;
+    }
+    // A fallback path, too.
+    {
+      Tube fat = tube;
+      fat.K(0, 0) = 1e3;
+      Guard g;
+      fallbacks += mpc.step(T - 1, x, fat).status == Status::FallbackShiftedPlan;
+    }
+    EXPECT_EQ(alloc_test::count, 0);
+    EXPECT_EQ(solved, T) << "soft = " << soft;
+    EXPECT_EQ(fallbacks, 1);
+    EXPECT_EQ(total_allocs + total_eigen, 0);
+  }
+}

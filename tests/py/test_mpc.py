@@ -1,0 +1,181 @@
+"""Tube MPC bindings: a Python plant through the trampoline, the exported QP against independent
+solvers (cvxpy + Clarabel, OSQP, PIQP), the DARE against scipy, settings errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from tubempc import LinearizedModel, LtiModel, TubeMPC, mpc, solve_qp
+
+
+class DoubleIntegrator(LinearizedModel):
+    """Two decoupled double integrators (x = [p1, p2, v1, v2], u = a) with p1 <= p_max, |v_i| <= v_max."""
+
+    def __init__(self, dt: float, p_max: float, v_max: float) -> None:
+        super().__init__()
+        I2 = np.eye(2)
+        self.A = np.block([[I2, dt * I2], [np.zeros((2, 2)), I2]])
+        self.B = np.vstack([0.5 * dt * dt * I2, dt * I2])
+        self.G = np.array([[1.0, 0, 0, 0], [0, 0, 1, 0], [0, 0, -1, 0], [0, 0, 0, 1], [0, 0, 0, -1]])
+        self.h = np.array([p_max, v_max, v_max, v_max, v_max])
+        self.dt = dt
+
+    def nx(self) -> int:
+        return 4
+
+    def nu(self) -> int:
+        return 2
+
+    def n_constraints(self) -> int:
+        return 5
+
+    def discretize(self, t, dt, x_lin, u_lin):
+        assert dt == self.dt
+        return self.A, self.B, np.zeros(4)
+
+    def constraints(self, t, x_lin):
+        return self.G, self.h
+
+
+def _settings(soft: bool) -> mpc.Settings:
+    s = mpc.Settings()
+    s.horizon = 12
+    s.dt = 0.5
+    s.u_max = np.array([0.4, 0.4])
+    s.R = np.diag([2.0, 3.0])
+    s.time_limit = np.inf
+    s.soft_state_constraints = soft
+    s.soft_penalty = 50.0
+    return s
+
+
+def _reference(T: int) -> mpc.Reference:
+    z = np.zeros((4, T + 1))
+    z[0] = np.linspace(0.0, 3.0, T + 1)  # crosses p_max = 1.0 before the end: active constraints
+    z[1] = np.linspace(1.0, 0.0, T + 1)
+    return mpc.Reference(z, np.zeros((2, T)))
+
+
+def _tube() -> mpc.Tube:
+    K = np.array([[-0.3, 0.0, -0.8, 0.0], [0.0, -0.3, 0.0, -0.8]])
+    return mpc.Tube(K, 1e-3 * np.eye(4))
+
+
+@pytest.mark.parametrize("soft", [False, True])
+def test_exported_qp_has_the_same_optimum_with_independent_solvers(soft: bool) -> None:
+    ctrl = TubeMPC(DoubleIntegrator(0.5, 1.0, 0.3), _settings(soft))
+    ctrl.setup(_reference(20))
+    r = ctrl.step(0, np.array([0.05, 0.9, 0.25, -0.1]), _tube())
+    assert r.status == mpc.Status.Solved, (r.status, r.failure)
+    qp = ctrl.qp_data()
+    assert qp.P.shape[0] == ctrl.qp_dimensions[0]
+    clarabel = solve_qp(qp, "cvxpy-clarabel")
+    assert clarabel.status == "optimal"
+    assert clarabel.objective == pytest.approx(r.objective, rel=1e-6)
+    piqp = solve_qp(qp, "cvxpy-piqp")
+    assert piqp.objective == pytest.approx(r.objective, rel=1e-6)
+    osqp = solve_qp(qp, "osqp")
+    assert osqp.status == "solved"
+    assert osqp.objective == pytest.approx(r.objective, rel=1e-5)
+    # Same minimiser (the QP is strictly convex in the inputs and states).
+    w = ctrl.qp_solution().w
+    assert np.max(np.abs(clarabel.w - w)) < 1e-4 * max(1.0, np.max(np.abs(w)))
+    # The plan is read from the minimiser: its first block is z_0 - zbar_0.
+    np.testing.assert_allclose(r.z[:, 0], w[:4] + _reference(20).z[:, 0], atol=1e-12)
+    # Some tightened state constraint is active (else this test would not exercise them).
+    Gw = qp.G @ w
+    assert np.any(np.isfinite(qp.h_u) & (np.abs(Gw - qp.h_u) < 1e-6))
+
+
+def test_python_model_matches_the_cpp_model() -> None:
+    dt = 0.5
+    py_model = DoubleIntegrator(dt, 1.0, 0.3)
+    Ac = np.zeros((4, 4))
+    Ac[0:2, 2:4] = np.eye(2)
+    Bc = np.vstack([np.zeros((2, 2)), np.eye(2)])
+    cpp_model = LtiModel(Ac, Bc, np.zeros(4), dt, py_model.G, py_model.h)
+    A, B, _ = cpp_model.discretize(0.0, dt, np.zeros(4), np.zeros(2))
+    np.testing.assert_allclose(A, py_model.A, atol=1e-13)
+    np.testing.assert_allclose(B, py_model.B, atol=1e-13)
+    results = []
+    for model in (py_model, cpp_model):
+        ctrl = TubeMPC(model, _settings(False))
+        ctrl.setup(_reference(20))
+        x = np.array([0.05, 0.9, 0.25, -0.1])
+        plan = []
+        for k in range(3):
+            r = ctrl.step(k, x, _tube())
+            plan.append(r.u)
+            x = A @ x + B @ r.u
+        results.append(np.array(plan))
+    np.testing.assert_allclose(results[0], results[1], atol=1e-8)
+
+
+def test_python_model_shape_errors_name_the_output() -> None:
+    class Bad(DoubleIntegrator):
+        def discretize(self, t, dt, x_lin, u_lin):
+            return np.eye(3), self.B, np.zeros(4)
+
+    ctrl = TubeMPC(Bad(0.5, 1.0, 0.3), _settings(False))
+    with pytest.raises(ValueError, match="discretize: A"):
+        ctrl.setup(_reference(20))
+
+
+def test_settings_errors_name_the_field() -> None:
+    s = _settings(False)
+    s.u_max = np.array([0.4])
+    with pytest.raises(ValueError, match="u_max"):
+        TubeMPC(DoubleIntegrator(0.5, 1.0, 0.3), s)
+    s = _settings(False)
+    s.horizon = 0
+    with pytest.raises(ValueError, match="horizon"):
+        s.validate(4, 2)
+
+
+def test_dare_matches_scipy() -> None:
+    rng = np.random.default_rng(4)
+    for _ in range(10):
+        A = 0.7 * rng.normal(size=(5, 5))
+        B = rng.normal(size=(5, 2))
+        M = rng.normal(size=(5, 5))
+        Q = M @ M.T + 0.1 * np.eye(5)
+        R = np.diag(rng.uniform(0.5, 2.0, size=2))
+        X = mpc.solve_dare(A, B, Q, R)
+        X_ref = scipy.linalg.solve_discrete_are(A, B, Q, R)
+        np.testing.assert_allclose(X, X_ref, rtol=1e-8, atol=1e-8 * np.max(np.abs(X_ref)))
+
+
+def test_step_reports_fallback_with_finite_output() -> None:
+    ctrl = TubeMPC(DoubleIntegrator(0.5, 1.0, 0.3), _settings(False))
+    ctrl.setup(_reference(20))
+    tube = _tube()
+    ctrl.step(0, np.array([0.05, 0.9, 0.25, -0.1]), tube)
+    fat = mpc.Tube(tube.K * 100.0, tube.Pe)  # tightened input box is empty
+    r = ctrl.step(1, np.array([0.1, 0.9, 0.25, -0.1]), fat)
+    assert r.status == mpc.Status.FallbackShiftedPlan
+    assert r.failure == mpc.Status.EmptyTightening
+    assert str(r.failure) == "empty_tightening"
+    assert np.all(np.isfinite(r.u)) and np.all(np.abs(r.u) <= 0.4)
+
+
+def test_benchmark_mission_runs_and_agrees_with_the_baseline(tmp_path) -> None:
+    """Short run of ``tubempc bench mpc``: every step solved, the C++ QPs satisfy KKT, and the same
+    QPs solved through cvxpy's PIQP interface give the same optimum."""
+    import argparse
+    import json
+
+    from tubempc.benchmarks import mpc as bench
+
+    parser = argparse.ArgumentParser()
+    bench.add_arguments(parser)
+    out = tmp_path / "bench.json"
+    # The whole 600 s mission: shorter ones make the reference exceed the input limits.
+    args = parser.parse_args(["--qp-samples", "3", "--solvers", "cvxpy-piqp", "--json", str(out)])
+    assert bench.run(args) == 0
+    data = json.loads(out.read_text())
+    assert data["statuses"] == {"solved": 300}
+    assert data["cpp_max_kkt_residual"] < 1e-8
+    assert data["cpp_max_violation"] < 1e-8
+    assert data["baseline"]["cvxpy-piqp"]["median_abs_rel_objective_diff"] < 1e-6
