@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include "bindings.hpp"
+#include "tubempc/dynamics/linearized_proximity.hpp"
 #include "tubempc/mpc/tube_mpc.hpp"
 
 namespace py = pybind11;
@@ -204,6 +205,15 @@ void bind_mpc(py::module_& m) {
       .def(py::init<const Eigen::MatrixXd&, const Eigen::MatrixXd&, const Eigen::VectorXd&, double,
                     const Eigen::MatrixXd&, const Eigen::VectorXd&>(),
            py::arg("A_c"), py::arg("B_c"), py::arg("c_c"), py::arg("dt"), py::arg("G"), py::arg("h"));
+
+  py::class_<dynamics::LinearizedProximityModel, LinearizedModel, py::smart_holder>(
+      s, "LinearizedProximityModel",
+      "The 6-DOF proximity model as the MPC's plant (C++): exact ZOH discretisation and the linearised "
+      "[glide slope; line of sight] constraints")
+      .def(py::init([](std::shared_ptr<dynamics::ProximityModel> model) {
+             return std::make_shared<dynamics::LinearizedProximityModel>(std::move(model));
+           }),
+           py::arg("model"));
 
   s.def("solve_dare", &mpc::solve_dare, py::arg("A"), py::arg("B"), py::arg("Q"), py::arg("R"),
         py::arg("tol") = 1e-10, py::arg("max_iterations") = 100,

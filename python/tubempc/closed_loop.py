@@ -129,6 +129,7 @@ class SimulationResult:
     seed: int
     arrays: dict[str, Array] = field(default_factory=dict)
     statuses: list[str] = field(default_factory=list)
+    failures: list[str] = field(default_factory=list)  # cause of each fallback ("solved": none)
     tube_statuses: list[str] = field(default_factory=list)
     wall_time_s: float = 0.0
 
@@ -158,8 +159,18 @@ def _block_tube(tp: TubeResult, tr: TubeResult) -> tuple[Array, Array]:
     return K, Pe
 
 
-def _mpc_settings(cfg: Config) -> Any:
+def _structure(scn: Scenario) -> tuple[Array, Array, Array]:
+    """Nonzero patterns of the model's A, B and G over the reference (block-diagonal subsystems)."""
+    ref, dt = scn.reference, scn.config.mpc.dt
+    Ad, Bd, _ = scn.model.discretize(0.0, ref.x[:-1], ref.u, dt)
+    G = np.array([scn.model.constraints(k * dt, ref.x[k])[0] for k in range(0, len(ref.x), 10)])
+    return ((np.abs(Ad) > 0).any(axis=0).astype(float), (np.abs(Bd) > 0).any(axis=0).astype(float),
+            (np.abs(G) > 0).any(axis=0).astype(float))
+
+
+def _mpc_settings(cfg: Config, scn: Scenario) -> Any:
     st = _core.mpc.Settings()
+    st.A_structure, st.B_structure, st.G_structure = _structure(scn)
     st.horizon = cfg.mpc.N
     st.dt = cfg.mpc.dt
     st.Q = np.diag(np.concatenate([cfg.mpc.Q_p, cfg.mpc.Q_r]))
@@ -180,8 +191,9 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
     ref = scn.reference
     zbar, ubar = ref.x, ref.u
 
-    ctrl = _core.mpc.TubeMPC(_core.dynamics.LinearizedProximityModel(scn.model.impl), _mpc_settings(cfg))
-    ctrl.setup(zbar.T.copy(), ubar.T.copy(), 0.0)
+    plant = _core.mpc.LinearizedProximityModel(scn.model.core)
+    ctrl = _core.mpc.TubeMPC(plant, _mpc_settings(cfg, scn))
+    ctrl.setup(_core.mpc.Reference(zbar.T.copy(), ubar.T.copy(), 0.0))
     des_p, des_r = _tube_designers(cfg)
     idents = (
         ForgettingFactorIdentifier(lambda_p or ident_cfg.lambda_p, ident_cfg.w0_p, ident_cfg.S0_p,
@@ -255,7 +267,7 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
             K, Pe = _block_tube(*tubes)
             t1 = time.perf_counter()
             # 2. MPC step
-            step = ctrl.step(k, x, K, Pe)
+            step = ctrl.step(k, x, _core.mpc.Tube(K, Pe))
             u = np.asarray(step.u, dtype=float).copy()
             z0 = np.asarray(step.z)[:, 0].copy()
             t2 = time.perf_counter()
@@ -296,7 +308,8 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
             rec["time_linearize"][k], rec["time_build"][k], rec["time_solve"][k] = tm.linearize, tm.build, tm.solve
             rec["time_tube"][k], rec["time_mpc"][k] = t1 - t0, t2 - t1
             rec["time_propagate"][k], rec["time_identify"][k], rec["time_step"][k] = t3 - t2, t4 - t3, t4 - t0
-            result.statuses.append(_core.mpc.to_string(step.status))
+            result.statuses.append(str(step.status))
+            result.failures.append(str(step.failure))
             x = x_next
             rec["x"][k + 1] = x
             rec["g"][k + 1] = [scn.truth.glide_slope(x)[0], scn.truth.line_of_sight(x)[0]]

@@ -145,6 +145,12 @@ class ProximityModel:
         return f"ProximityModel(gravity={self._gravity!r}, kinematics={self.config()['kinematics']!r})"
 
     @property
+    def core(self) -> Any:
+        """The C++ model (``tubempc._core.dynamics.ProximityModel``), e.g. for
+        ``tubempc.mpc.LinearizedProximityModel``."""
+        return self._impl
+
+    @property
     def gravity(self) -> Any:
         """The gravity object (field in the asteroid frame A)."""
         return self._gravity
