@@ -196,7 +196,8 @@ class TubeMPC {
   void setup(const Reference& reference, const Eigen::MatrixXd& A_terminal, const Eigen::MatrixXd& B_terminal);
 
   /// One control step at time index k (0 <= k < T) from the measured state x_k (n_x) with the
-  /// tube (K, Pe). Returns a reference to internal storage, valid until the next step. Numerical
+  /// tube (K, Pe). The linearisation starts from the last plan shifted to k (when it was made at a
+  /// k' in (k - N, k]), else from the reference. Returns a reference to internal storage, valid until the next step. Numerical
   /// outcomes are statuses; wrong sizes or k out of range throw std::invalid_argument.
   const StepResult& step(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k, const Tube& tube);
 
