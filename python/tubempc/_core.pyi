@@ -2,11 +2,10 @@
 
 from typing import Any
 
-import numpy as np
-import numpy.typing as npt
-
 from . import _mpc as mpc
 from . import _so3 as so3
+
+__all__ = ["__version__", "build_info", "mpc", "so3"]
 
 __version__: str
 
