@@ -263,6 +263,7 @@ struct TubeMPC::Impl {
   std::vector<Eigen::MatrixXd> Ad, Bd, Gc, Ad_prev, Bd_prev, Gc_prev;
   std::vector<Eigen::VectorXd> cd, hc, cd_prev, hc_prev;
   bool have_plan = false;
+  int plan_k = 0;  // time index of z_plan's first node
   Eigen::MatrixXd z_plan, v_plan;  // last applied plan (for the shifted fallback)
   Eigen::MatrixXd z_ref;           // zbar_{min(k+i, T)}, i = 0..N: origin of the QP's state deviations
   Eigen::MatrixXd z_star, v_star;
@@ -506,30 +507,32 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   const double dt = s.dt;
   const double t_k = m.ref.t0 + k * dt;
 
-  // Linearisation trajectory: shifted previous plan, else the reference (frozen past T).
-  if (m.have_plan) {
-    for (int i = 0; i < N; ++i) m.z_lin.col(i) = m.z_plan.col(i + 1);
-    for (int i = 0; i + 1 < N; ++i) m.v_lin.col(i) = m.v_plan.col(i + 1);
-    m.z_lin.col(N) = m.ref.z.col(std::min(k + N, T));
-    m.v_lin.col(N - 1) = m.ref.u.col(std::min(k + N - 1, T - 1));
-  } else {
-    for (int i = 0; i <= N; ++i) m.z_lin.col(i) = m.ref.z.col(std::min(k + i, T));
-    for (int i = 0; i < N; ++i) m.v_lin.col(i) = m.ref.u.col(std::min(k + i, T - 1));
-  }
+  // Linearisation trajectory: the previous plan shifted to k (usually by one node), completed from
+  // the reference; the reference alone without a usable plan.
+  const int shift = k - m.plan_k;
+  const bool use_plan = m.have_plan && shift >= 0 && shift < N;
+  for (int i = 0; i <= N; ++i)
+    m.z_lin.col(i) = use_plan && i + shift <= N ? m.z_plan.col(i + shift) : m.ref.z.col(std::min(k + i, T));
+  for (int i = 0; i < N; ++i)
+    m.v_lin.col(i) = use_plan && i + shift < N ? m.v_plan.col(i + shift) : m.ref.u.col(std::min(k + i, T - 1));
 
   auto fallback = [&](Status cause) -> const StepResult& {
     res.failure = cause;
-    if (m.have_plan && m.z_plan.allFinite() && m.v_plan.allFinite()) {
-      // Theorem 1's candidate: the previous plan shifted by one node, holding its last state.
-      for (int i = 0; i < N; ++i) res.z.col(i) = m.z_plan.col(i + 1);
-      res.z.col(N) = m.z_plan.col(N);
-      for (int i = 0; i + 1 < N; ++i) res.v.col(i) = m.v_plan.col(i + 1);
-      if (s.input_cost == InputCost::FromReference && k + N - 1 < T)
-        res.v.col(N - 1) = m.ref.u.col(k + N - 1);
-      else
-        res.v.col(N - 1).setZero();
+    if (use_plan && m.z_plan.allFinite() && m.v_plan.allFinite()) {
+      // Theorem 1's candidate: the previous plan shifted to k, holding its last state, with zero
+      // inputs appended (u_ref with InputCost::FromReference).
+      for (int i = 0; i <= N; ++i) res.z.col(i) = m.z_plan.col(std::min(i + shift, N));
+      for (int i = 0; i < N; ++i) {
+        if (i + shift < N)
+          res.v.col(i) = m.v_plan.col(i + shift);
+        else if (s.input_cost == InputCost::FromReference && k + i < T)
+          res.v.col(i) = m.ref.u.col(k + i);
+        else
+          res.v.col(i).setZero();
+      }
       m.z_plan = res.z;
       m.v_plan = res.v;
+      m.plan_k = k;
       res.status = Status::FallbackShiftedPlan;
     } else {
       for (int i = 0; i <= N; ++i) res.z.col(i) = m.ref.z.col(std::min(k + i, T));
@@ -756,6 +759,7 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   m.z_plan = m.z_star;
   m.v_plan = m.v_star;
   m.have_plan = true;
+  m.plan_k = k;
   m.e = x_k - res.z.col(0);
   res.u = res.v.col(0);
   res.u.noalias() += tube.K * m.e;

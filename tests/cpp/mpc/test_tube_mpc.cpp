@@ -437,3 +437,25 @@ TEST(TubeMPC, DeclaredStructureIsUsedAndChecked) {
   bad_size.B_structure = Eigen::MatrixXd::Ones(1, 1);
   EXPECT_THROW(TubeMPC(model, bad_size), std::invalid_argument);
 }
+
+// Repeating a step reproduces it; a skipped step still starts from the plan shifted by the gap.
+TEST(TubeMPC, RepeatedAndSkippedStepsUseThePlanShiftedByTheGap) {
+  auto sab = std::make_shared<Sabotaged>(double_integrator(0.5));
+  TubeMPC mpc(sab, di_settings(10, 0.5));
+  Eigen::VectorXd x0(2), xf(2);
+  x0 << 0, 0;
+  xf << 1, 0;
+  mpc.setup(straight_reference(x0, xf, 30, 1));
+  Tube tube = small_tube(2, 1, 1e-4);
+  tube.K << -0.3, -0.8;
+  const StepResult a = mpc.step(3, x0, tube);
+  const StepResult b = mpc.step(3, x0, tube);
+  ASSERT_EQ(a.status, Status::Solved);
+  EXPECT_LT((a.z - b.z).cwiseAbs().maxCoeff(), 1e-9);
+  sab->contradict = true;
+  const StepResult& c = mpc.step(6, x0, tube);  // three steps later, infeasible: candidate = plan shifted by 3
+  EXPECT_EQ(c.status, Status::FallbackShiftedPlan);
+  for (int i = 0; i + 3 <= 10; ++i) EXPECT_LT((c.z.col(i) - b.z.col(i + 3)).cwiseAbs().maxCoeff(), 1e-12);
+  for (int i = 8; i <= 10; ++i) EXPECT_LT((c.z.col(i) - b.z.col(10)).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_EQ(c.v(0, 9), 0.0);
+}

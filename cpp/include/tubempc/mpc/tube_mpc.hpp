@@ -22,11 +22,16 @@
 ///    the ellipsoid, as PAPER_NOTES.md asks; the paper's set {x_k} (+) (-Z) is the whole ellipsoid);
 ///  - sigma ((N + 1) n_c, only with soft state constraints) are the L1 slacks of the state
 ///    constraints, t (n_x, only with a soft terminal constraint) those of the terminal equality.
-/// The cost is sum_{i < n} ||z_i - zbar_{k+i}||^2_Q + ||v_i||^2_R (or ||v_i - u_ref_{k+i}||^2_R) +
-/// ||z_N - zbar_{k+N}||^2_P, the QP's P is twice the weights, and the constant dropped from the QP is
-/// `QpData::constant`. The nodes past the mission's end (k + i > T) are padded with frozen nodes
-/// z_{i+1} = z_i, zero state cost and free (costed, unused) inputs so the sparsity pattern never
-/// changes; in that shrinking phase (k >= T - N, the paper's Problem 3) z_N = x_f = zbar_T.
+/// The cost is sum_{i < n} ||z_i - zbar_{k+i}||^2_Q + ||v_i||^2_R (or ||v_i - u_ref_{k+i}||^2_R), plus
+/// ||z_N - zbar_{k+N}||^2_P while k + N < T; the QP's P is twice the weights and the constant dropped
+/// from the QP is `QpData::constant` (nonzero only with InputCost::FromReference). Constraints: the
+/// linearised dynamics, the model's state constraints tightened by sqrt(a^T Pe a) at nodes 0..n, the
+/// input box tightened by sqrt(K_i Pe K_i^T), and the SCP trust region |z_i - z_lin_i| <= r (i >= 1).
+/// The nodes past the mission's end (k + i > T) are padded with frozen nodes z_{i+1} = z_i, zero state
+/// cost and free (costed, unused) inputs so the sparsity pattern never changes; in that shrinking
+/// phase (k >= T - N, the paper's Problem 3) z_N = x_f = zbar_T (hard, or L1-penalised).
+/// PIQP (an interior-point method) has no warm start; each step's SCP starts from the previous plan
+/// shifted to k as its linearisation trajectory.
 #pragma once
 
 #include <Eigen/Dense>
@@ -196,7 +201,8 @@ class TubeMPC {
   void setup(const Reference& reference, const Eigen::MatrixXd& A_terminal, const Eigen::MatrixXd& B_terminal);
 
   /// One control step at time index k (0 <= k < T) from the measured state x_k (n_x) with the
-  /// tube (K, Pe). Returns a reference to internal storage, valid until the next step. Numerical
+  /// tube (K, Pe). The linearisation starts from the last plan shifted to k (when it was made at a
+  /// k' in (k - N, k]), else from the reference. Returns a reference to internal storage, valid until the next step. Numerical
   /// outcomes are statuses; wrong sizes or k out of range throw std::invalid_argument.
   const StepResult& step(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k, const Tube& tube);
 
