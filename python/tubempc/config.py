@@ -152,7 +152,8 @@ class Constraints:
 class Mpc:
     """Discretisation, horizon, SCP threshold and weights (PAPER_NOTES "Linearisation",
     "Tube MPC"). Weights are diagonals, dimensionless as in Table 1. kinematics:
-    "first_order" (the paper's phi' = w) or "exact" (phi' = Jr^-1(phi) w)."""
+    "first_order" (the paper's phi' = w) or "exact" (phi' = Jr^-1(phi) w). input_cost: "paper"
+    (||v||^2_R, the paper's Problem 2) or "deviation" (||v - u_ref||^2_R)."""
 
     dt: float = field(metadata=_q("s", "time", check=_POS))
     N: int = field(metadata=_int(check=_GE1))
@@ -163,6 +164,7 @@ class Mpc:
     R_p: FloatArray = field(metadata=_num((3,), _POS))
     R_r: FloatArray = field(metadata=_num((3,), _POS))
     kinematics: str = field(metadata=_opt("first_order", "exact"))
+    input_cost: str = field(metadata=_opt("paper", "deviation"))
 
     @property
     def n_steps(self) -> int:
