@@ -182,8 +182,13 @@ def _mpc_settings(cfg: Config, scn: Scenario) -> Any:
 
 
 def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
-             lambda_p: float | None = None, lambda_r: float | None = None) -> SimulationResult:
-    """One closed-loop run of ``method`` ("tbmpc" or "ffa") with disturbance seed ``seed``."""
+             lambda_p: float | None = None, lambda_r: float | None = None,
+             max_steps: int | None = None) -> SimulationResult:
+    """One closed-loop run of ``method`` ("tbmpc" or "ffa") with disturbance seed ``seed``.
+
+    ``lambda_p``/``lambda_r`` override the configuration's forgetting factors; ``max_steps`` stops
+    the run early (arrays are then cut to the steps run).
+    """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     cfg = scn.config
@@ -237,7 +242,8 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
         bar = tqdm(total=T, desc=method, unit="step", leave=False)
     wall0 = time.perf_counter()
     try:
-        for k in range(T):
+        n_run = T if max_steps is None else max(1, min(int(max_steps), T))
+        for k in range(n_run):
             t_k = k * dt
             t0 = time.perf_counter()
             # 1. tube update (TBMPC: once from the prior; FFA: every step from the identified P_W)
@@ -321,4 +327,8 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
         if bar is not None:
             bar.close()
     result.wall_time_s = time.perf_counter() - wall0
+    if n_run < T:
+        for name, arr in rec.items():
+            if arr.ndim and arr.shape[0] in (T, T + 1):
+                rec[name] = arr[: n_run + (arr.shape[0] - T)]
     return result

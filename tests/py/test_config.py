@@ -45,7 +45,9 @@ def test_default_matches_the_paper(default: Config) -> None:
         and c.mpc.N == 30
         and c.mpc.n_steps == 300
     )
-    assert c.mpc.eps == 1e-3 and c.mpc.kinematics == "first_order"
+    # Project defaults where the paper's literal choice is kept selectable (README, "Readings").
+    assert c.mpc.eps == 1e-3 and c.mpc.kinematics == "exact" and c.mpc.input_cost == "deviation"
+    assert c.with_overrides({"mpc.kinematics": "first_order", "mpc.input_cost": "paper"}).mpc.kinematics == "first_order"
     assert c.environment.R == 1.685e11 and c.environment.beta_srp == 1.7744e15
     assert c.environment.mu_sun == 1.32712440018e20
     assert c.asteroid.density == 1260.0 and c.asteroid.G == 6.6743e-11
@@ -147,7 +149,7 @@ def test_overrides(default: Config) -> None:
         (r'^t_f = "600 s"', 't_f = "601 s"', "mpc.t_f", "multiple"),
         (r"^eps = 1e-3", "eps = nan", "mpc.eps", "non-finite"),
         (
-            r'^kinematics = "first_order"',
+            r'^kinematics = "exact"',
             'kinematics = "second"',
             "mpc.kinematics",
             "one of",

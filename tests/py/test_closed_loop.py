@@ -1,0 +1,74 @@
+"""A short closed loop of both methods on the default scenario (generated shape)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tubempc.closed_loop import build_scenario, simulate
+from tubempc.config import load_config
+from tubempc.results import load_result
+from tubempc.runner import run_summary
+
+
+@pytest.fixture(scope="module")
+def scenario(tmp_path_factory: pytest.TempPathFactory):  # type: ignore[no-untyped-def]
+    return build_scenario(load_config(), cache_dir=tmp_path_factory.mktemp("cache"))
+
+
+def test_reference_meets_boundary_and_constraints(scenario) -> None:  # type: ignore[no-untyped-def]
+    ref = scenario.reference
+    cfg = scenario.config
+    assert ref.converged and ref.max_defect < 1e-3
+    np.testing.assert_allclose(ref.x[0], scenario.x0, atol=1e-6)
+    np.testing.assert_allclose(ref.x[-1], scenario.xf, atol=1e-6)
+    frac = cfg.simulation.reference_input_fraction
+    assert np.linalg.norm(ref.u[:, :3], axis=1).max() <= frac * cfg.spacecraft.u_max * (1 + 1e-6)
+    assert np.linalg.norm(ref.u[:, 3:], axis=1).max() <= frac * cfg.spacecraft.T_max * (1 + 1e-6)
+    g = np.array([[scenario.model.glide_slope(x)[0], scenario.model.line_of_sight(x)[0]] for x in ref.x])
+    assert np.all(g <= 1e-6)
+
+
+@pytest.mark.parametrize("method", ["tbmpc", "ffa"])
+def test_short_closed_loop(scenario, method: str) -> None:  # type: ignore[no-untyped-def]
+    res = simulate(scenario, method, seed=3, max_steps=6)
+    a = res.arrays
+    assert a["x"].shape == (7, 12) and a["u"].shape == (6, 6)
+    for name in ("x", "u", "v", "z", "Pe_p", "Pe_r", "K", "w", "S_p", "S_r"):
+        assert np.all(np.isfinite(a[name])), name
+    assert all(s in ("solved", "solved_inaccurate", "max_iterations") for s in res.statuses), res.statuses
+    assert np.all(a["excursion"] <= 1.0)
+    # inputs within the true limits; the state stays near the reference
+    cfg = scenario.config
+    assert np.all(np.abs(a["u"][:, :3]) <= cfg.spacecraft.u_max + 1e-12)
+    assert np.all(np.abs(a["u"][:, 3:]) <= cfg.spacecraft.T_max + 1e-12)
+    assert np.max(np.abs(a["x"][:, :3] - a["zbar"][:7, :3])) < 1.0
+    # TBMPC keeps the tube of step 0; TBMPC-FFA re-designs it from the identified covariance
+    changed = not np.allclose(a["Pe_p"][0], a["Pe_p"][-1])
+    assert changed == (method == "ffa")
+    assert len(res.tube_statuses) == (6 if method == "ffa" else 1)
+    # the identification saw the measured inputs: its covariance left the prior
+    assert not np.allclose(a["S_p"][-1], np.diag(cfg.identification.S0_p.diagonal()))
+
+
+def test_summary_and_results_file(scenario, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    from tubempc.results import save_result
+
+    res = simulate(scenario, "ffa", seed=4, max_steps=3)
+    s = run_summary(scenario, res)
+    assert set(s) >= {"J_p", "J_r", "terminal_error", "rms_error", "max_tube_excursion", "constraint_violations",
+                      "step_time", "statuses"}
+    path = save_result(tmp_path / "ffa.h5", res.arrays, config=scenario.config.to_dict(), seed=4, method="ffa")
+    back = load_result(path)
+    np.testing.assert_array_equal(back["x"], res.arrays["x"])
+    assert back["seed"] == 4 and back["config"]["mpc"]["N"] == 30
+
+
+def test_same_seed_same_run(scenario) -> None:  # type: ignore[no-untyped-def]
+    a = simulate(scenario, "ffa", seed=11, max_steps=3).arrays
+    b = simulate(scenario, "ffa", seed=11, max_steps=3).arrays
+    c = simulate(scenario, "ffa", seed=12, max_steps=3).arrays
+    np.testing.assert_array_equal(a["x"], b["x"])
+    assert not np.array_equal(a["x"], c["x"])
