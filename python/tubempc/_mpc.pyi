@@ -1,6 +1,7 @@
 """Type stubs of tubempc._core.mpc: the tube MPC (see cpp/include/tubempc/mpc/tube_mpc.hpp)."""
 
 import enum
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -155,6 +156,9 @@ class LinearizedModel:
     def n_constraints(self) -> int: ...
     def discretize(self, t: float, dt: float, x_lin: _Vec, u_lin: _Vec) -> tuple[_Arr, _Arr, _Arr]: ...
     def constraints(self, t: float, x_lin: _Vec) -> tuple[_Arr, _Arr]: ...
+
+class LinearizedProximityModel(LinearizedModel):
+    def __init__(self, model: Any) -> None: ...
 
 class LtiModel(LinearizedModel):
     def __init__(self, A_c: _Vec, B_c: _Vec, c_c: _Vec, dt: float, G: _Vec, h: _Vec) -> None: ...

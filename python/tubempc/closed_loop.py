@@ -112,7 +112,7 @@ def build_scenario(cfg: Config, shape_path: str | Path | None = None, cache_dir:
     truth = ProximityModel(truth_gravity, _model_params(cfg, sim.density_scale, sim.srp_scale))
     x0, xf = _boundary(cfg, shape)
     frac = sim.reference_input_fraction
-    key = {"model": _model_params(cfg), "shape": shape_src, "n_faces": int(len(shape.faces)),
+    key = {"model": _model_params(cfg), "shape": shape_src, "n_faces": len(shape.faces),
            "volume": float(shape.volume), "density": cfg.asteroid.density}
     ref = load_or_generate_reference(
         model, x0, xf, cache_dir=cache_dir, key_extra=key, dt=cfg.mpc.dt, n_steps=cfg.mpc.n_steps,
@@ -217,7 +217,7 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
                                else {"method": "dopri", "rtol": sim.rtol})
 
     rec: dict[str, Array] = {
-        "t": np.arange(T + 1) * dt, "x": np.zeros((T + 1, 12)), "zbar": zbar, "ubar": ubar,
+        "t": np.arange(T + 1, dtype=np.float64) * dt, "x": np.zeros((T + 1, 12)), "zbar": zbar, "ubar": ubar,
         "z": np.zeros((T, 12)), "z_plan": np.zeros((T, N + 1, 12)), "u": np.zeros((T, 6)), "v": np.zeros((T, 6)),
         "K": np.zeros((T, 6, 12)), "Pe_p": np.zeros((T, 6, 6)), "Pe_r": np.zeros((T, 6, 6)),
         "alpha": np.zeros((T, 2)), "w": np.zeros((T, 12)), "w_true": np.zeros((T, 12)),
@@ -301,8 +301,8 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
 
             # Tube check (paper Proposition 1): the error after the step, x_{k+1} - z*_{1|k}, in the tube of step k.
             e = x_next - np.asarray(step.z)[:, 1]
-            rec["excursion"][k] = [e[_P] @ np.linalg.solve(tubes[0].Pe, e[_P]),
-                                   e[_R] @ np.linalg.solve(tubes[1].Pe, e[_R])]
+            Pe_p, Pe_r = np.asarray(tubes[0].Pe, dtype=float), np.asarray(tubes[1].Pe, dtype=float)
+            rec["excursion"][k] = [float(e[_P] @ np.linalg.solve(Pe_p, e[_P])), float(e[_R] @ np.linalg.solve(Pe_r, e[_R]))]
             rec["z"][k], rec["z_plan"][k] = z0, np.asarray(step.z).T
             rec["u"][k], rec["v"][k] = u, np.asarray(step.v)[:, 0]
             rec["K"][k], rec["Pe_p"][k], rec["Pe_r"][k] = K, tubes[0].Pe, tubes[1].Pe

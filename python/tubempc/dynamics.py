@@ -30,8 +30,8 @@ from . import _core
 _dyn = _core.dynamics
 
 if TYPE_CHECKING:
-    from ._gravity import GravityModel, PointMassGravity
     from ._dynamics import Kinematics, ModelParams, PropagationResult, PropagationStatus
+    from ._gravity import GravityModel, PointMassGravity
 else:
     ModelParams = _dyn.ModelParams
     Kinematics = _dyn.Kinematics

@@ -16,11 +16,11 @@ from typing import Any
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.figure import Figure
 
-from .metrics import ConvergenceFit  # noqa: E402
+from .metrics import ConvergenceFit
 
 __all__ = [
     "constraints",
@@ -83,7 +83,7 @@ def trajectory_3d(results: Mapping[str, Result], glide_slope_rad: float, every: 
     ax.set_xlabel("x_L (m)")
     ax.set_ylabel("y_L (m)")
     ax.set_zlabel("z_L (m)")
-    ax.set_title("Trajectory in L, predicted horizons (thin) every %d steps" % every)
+    ax.set_title(f"Trajectory in L, predicted horizons (thin) every {every} steps")
     ax.legend(loc="upper left", fontsize=8)
     return fig
 

@@ -111,7 +111,7 @@ def _cvxpy(qp: QpData, solver: str, eps: float) -> QpResult:
         cons.append(w[np.flatnonzero(bu)] <= qp.x_u[bu])
     if bl.any():
         cons.append(w[np.flatnonzero(bl)] >= qp.x_l[bl])
-    objective = 0.5 * cp.quad_form(w, qp.P, assume_PSD=True) + qp.q @ w  # type: ignore[attr-defined]
+    objective = 0.5 * cp.quad_form(w, qp.P, assume_PSD=True) + qp.q @ w
     prob = cp.Problem(cp.Minimize(objective), cons)
     opts: dict[str, float] = {}
     name = solver.upper()
@@ -121,7 +121,7 @@ def _cvxpy(qp: QpData, solver: str, eps: float) -> QpResult:
         opts = {"tol_gap_abs": eps, "tol_gap_rel": eps, "tol_feas": eps}
     elif name == "PIQP":
         opts = {"eps_abs": eps, "eps_rel": eps}
-    prob.solve(solver=name, **opts)  # type: ignore[no-untyped-call]
+    prob.solve(solver=name, **opts)
     wall = time.perf_counter() - t0
     x = np.asarray(w.value, dtype=float) if w.value is not None else np.full(n, np.nan)
     obj = float(0.5 * x @ (qp.P @ x) + qp.q @ x + qp.constant)

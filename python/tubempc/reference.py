@@ -170,7 +170,7 @@ def generate_reference(
         # Trust region: follow the step size down so that the linearisation stays valid.
         radius = max(min(radius, 2.0 * step), 10.0 * st.tol)
     return ReferenceTrajectory(
-        t=np.arange(T + 1) * dt, x=X, u=U, cost=cost, iterations=it, converged=converged,
+        t=np.arange(T + 1, dtype=np.float64) * dt, x=X, u=U, cost=cost, iterations=it, converged=converged,
         max_step=step, max_defect=_defect(model, X, U, dt), solve_time_s=time.perf_counter() - t_start,
     )
 

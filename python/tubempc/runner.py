@@ -21,7 +21,7 @@ from .closed_loop import Scenario, SimulationResult, build_scenario, simulate
 from .config import Config
 from .results import save_result
 
-__all__ = ["run_summary", "run_methods"]
+__all__ = ["run_methods", "run_summary"]
 
 _UNITS = {"t": "s", "x": "[m, m/s, rad, rad/s]", "zbar": "[m, m/s, rad, rad/s]", "u": "[m/s^2 (L), N m (B)]",
           "v": "[m/s^2 (L), N m (B)]", "Pe_p": "[m, m/s]^2", "Pe_r": "[rad, rad/s]^2", "g": "m",
@@ -65,7 +65,7 @@ def run_methods(cfg: Config, methods: list[str], seed: int, out: Path, *, shape:
     scn.config.save(out / "config.toml")
     summary: dict[str, Any] = {
         "tubempc_version": __version__, "config_hash": scn.config.hash(), "seed": seed,
-        "shape": scn.shape_source, "n_faces": int(len(scn.shape.faces)),
+        "shape": scn.shape_source, "n_faces": len(scn.shape.faces),
         "machine": {"python": platform.python_version(), "platform": platform.platform()},
         "reference": {"cost": scn.reference.cost, "iterations": scn.reference.iterations,
                       "converged": scn.reference.converged, "max_defect": scn.reference.max_defect,
