@@ -70,6 +70,67 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _floats(text: str) -> list[float]:
+    try:
+        return [float(v) for v in text.split(",") if v.strip()]
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from exc
+
+
+def _ints(text: str) -> list[int]:
+    try:
+        return [int(v) for v in text.split(",") if v.strip()]
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected comma-separated integers, got {text!r}") from exc
+
+
+def _cmd_montecarlo(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .analysis import montecarlo
+    from .config import load_config
+
+    methods = ("tbmpc", "ffa") if args.method == "both" else (args.method,)
+    s = montecarlo(load_config(args.config), args.runs, Path(args.out), master_seed=args.seed, workers=args.workers,
+                   scheduler=args.scheduler, methods=methods, retry_failed=args.retry_failed, only=args.only,
+                   progress=not args.quiet)
+    for m, row in s["methods"].items():
+        print(f"{m:6s} J_p mean {row['J_p']['mean']:.4g} (3 sigma {row['J_p']['3sigma']:.3g})  "
+              f"J_r mean {row['J_r']['mean']:.4g} (3 sigma {row['J_r']['3sigma']:.3g})  "
+              f"runs outside the tube {row['runs_outside_tube']}/{s['runs']}")
+    if "J_p_mean_reduction_percent" in s:
+        print(f"TBMPC-FFA mean J_p is {s['J_p_mean_reduction_percent']:.1f} % below TBMPC's")
+    print(f"{s['runs']} runs done ({s['executed_now']} now, {len(s['failed_runs'])} failed) in {s['wall_time_s']:.1f} s; "
+          f"{args.out}/summary.json")
+    return 1 if s["failed_runs"] else 0
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .analysis import sweep
+    from .config import load_config
+
+    s = sweep(load_config(args.config), args.lambda_p, args.lambda_r, Path(args.out), seed=args.seed,
+              progress=not args.quiet)
+    print(f"{'':40s} {'J_p':>8s} {'J_r':>8s} {'|dr(T)| m':>10s} {'RMS r m':>9s}")
+    for name, row in s["rows"].items():
+        print(f"{name:40s} {row['J_p']:8.4g} {row['J_r']:8.4g} {row['terminal_error']['position']:10.3g} "
+              f"{row['rms_error']['position']:9.3g}")
+    print(f"{args.out}/sweep.json and figures")
+    return 0
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .report import write_report
+
+    html, md = write_report(Path(args.dir))
+    print(f"{html}\n{md}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="tubempc", description=__doc__)
     parser.add_argument("--version", action="version", version=f"tubempc {__version__}")
@@ -86,6 +147,29 @@ def build_parser() -> argparse.ArgumentParser:
     p_run.add_argument("--no-figures", action="store_true")
     p_run.add_argument("--quiet", action="store_true", help="no progress bar")
     p_run.set_defaults(func=_cmd_run)
+    p_mc = sub.add_parser("montecarlo", help="resumable Monte Carlo campaign of both methods (paper Table 4)")
+    p_mc.add_argument("--runs", type=int, default=100)
+    p_mc.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
+    p_mc.add_argument("--scheduler", help="Dask scheduler address (tcp://host:port) instead of local processes")
+    p_mc.add_argument("--out", default="results/montecarlo")
+    p_mc.add_argument("--config", help="scenario TOML (default: the packaged paper scenario)")
+    p_mc.add_argument("--seed", type=int, default=0, help="master seed")
+    p_mc.add_argument("--method", choices=["tbmpc", "ffa", "both"], default="both")
+    p_mc.add_argument("--retry-failed", action="store_true", help="rerun the runs recorded as failed")
+    p_mc.add_argument("--only", type=_ints, help="rerun just these run indices (comma-separated)")
+    p_mc.add_argument("--quiet", action="store_true")
+    p_mc.set_defaults(func=_cmd_montecarlo)
+    p_sw = sub.add_parser("sweep", help="forgetting-factor sweep (paper Table 3, Figures 15-16)")
+    p_sw.add_argument("--lambda-p", type=_floats, default=[0.96, 0.97, 0.98])
+    p_sw.add_argument("--lambda-r", type=_floats, help="one per --lambda-p value (default: the config's)")
+    p_sw.add_argument("--out", default="results/sweep")
+    p_sw.add_argument("--config")
+    p_sw.add_argument("--seed", type=int, default=0)
+    p_sw.add_argument("--quiet", action="store_true")
+    p_sw.set_defaults(func=_cmd_sweep)
+    p_rep = sub.add_parser("report", help="HTML and Markdown report of a results folder")
+    p_rep.add_argument("dir", help="folder with summary.json (run), sweep/ and montecarlo/ sub-folders if present")
+    p_rep.set_defaults(func=_cmd_report)
     p_bench = sub.add_parser("bench", help="run a benchmark (see 'tubempc bench -h')")
     bench_sub = p_bench.add_subparsers(dest="benchmark", required=True)
     for name in benchmarks.available():

@@ -14,6 +14,7 @@ import hashlib
 import importlib.resources
 import json
 import math
+import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -22,7 +23,6 @@ from typing import Any, TypeVar
 import numpy as np
 import pint
 import tomli_w
-import tomllib
 from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]

@@ -1,0 +1,171 @@
+"""Monte Carlo campaigns (paper Table 4, Figures 17-18) and the forgetting-factor sweep (Table 3,
+Figures 15-16), on top of :mod:`tubempc.closed_loop` and :mod:`tubempc.campaign`."""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import figures
+from .campaign import CampaignResult, run_campaign
+from .closed_loop import METHODS, Scenario, build_scenario, simulate
+from .config import Config, load_config
+from .runner import run_summary
+
+__all__ = ["montecarlo", "montecarlo_summary", "sweep"]
+
+_SCENARIOS: dict[str, Scenario] = {}
+
+
+def _scenario(config_toml: str, cache_dir: str) -> Scenario:
+    """The scenario of a configuration, built once per process."""
+    key = f"{config_toml}|{cache_dir}"
+    if key not in _SCENARIOS:
+        with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
+            f.write(config_toml)
+        try:
+            cfg = load_config(f.name)
+        finally:
+            os.unlink(f.name)
+        _SCENARIOS[key] = build_scenario(cfg, cache_dir=cache_dir)
+    return _SCENARIOS[key]
+
+
+def _montecarlo_run(config_toml: str, cache_dir: str, runs_dir: str, methods: tuple[str, ...],
+                    max_steps: int | None, index: int, seed: int) -> dict[str, Any]:
+    """One Monte Carlo run: every method with the same disturbance seed. Metrics go in the result;
+    the error trajectories x - z and tube half-widths in runs/run_<i>.npz (for the envelopes)."""
+    scn = _scenario(config_toml, cache_dir)
+    out: dict[str, Any] = {}
+    arrays: dict[str, np.ndarray] = {}
+    for m in methods:
+        res = simulate(scn, m, seed, max_steps=max_steps)
+        s = run_summary(scn, res)
+        out[m] = {k: s[k] for k in ("J_p", "J_r", "control_effort", "terminal_error", "rms_error",
+                                    "max_tube_excursion", "steps_outside_tube", "constraint_violations", "statuses",
+                                    "run_time_s")}
+        a = res.arrays
+        arrays[f"{m}_error"] = (a["x"][:-1] - a["z"]).astype(np.float32)
+        arrays[f"{m}_half_width"] = np.sqrt(np.concatenate(
+            [np.diagonal(a["Pe_p"], axis1=1, axis2=2), np.diagonal(a["Pe_r"], axis1=1, axis2=2)], axis=1)).astype(np.float32)
+    path = Path(runs_dir) / f"run_{index:05d}.npz"
+    tmp = path.with_name(f".{path.name}.tmp.npz")
+    np.savez_compressed(tmp, **arrays)
+    os.replace(tmp, path)
+    return out
+
+
+def montecarlo_summary(campaign: CampaignResult, methods: tuple[str, ...]) -> dict[str, Any]:
+    """Table 4 (mean and 3 sigma of J_p and J_r per method) and the runs that ever left the tube."""
+    summary: dict[str, Any] = {"runs": len(campaign.results), "failed_runs": sorted(campaign.failures), "methods": {}}
+    for m in methods:
+        rows = [r[m] for r in campaign.results.values()]
+        if not rows:
+            continue
+        jp = np.array([r["J_p"] for r in rows])
+        jr = np.array([r["J_r"] for r in rows])
+        exc = np.array([max(r["max_tube_excursion"].values()) for r in rows])
+        summary["methods"][m] = {
+            "J_p": {"mean": float(jp.mean()), "3sigma": float(3 * jp.std(ddof=1)) if jp.size > 1 else 0.0},
+            "J_r": {"mean": float(jr.mean()), "3sigma": float(3 * jr.std(ddof=1)) if jr.size > 1 else 0.0},
+            "runs_outside_tube": int(np.sum(exc > 1.0)),
+            "max_tube_excursion": float(exc.max()),
+            "runs_with_cone_violation": int(sum(r["constraint_violations"]["glide_slope_steps"]
+                                                + r["constraint_violations"]["los_steps"] > 0 for r in rows)),
+            "terminal_position_error_max_m": float(max(r["terminal_error"]["position"] for r in rows)),
+        }
+    if {"tbmpc", "ffa"} <= set(summary["methods"]):
+        t, f = summary["methods"]["tbmpc"]["J_p"], summary["methods"]["ffa"]["J_p"]
+        summary["J_p_mean_reduction_percent"] = 100.0 * (1.0 - f["mean"] / t["mean"])
+    return summary
+
+
+def montecarlo(cfg: Config, runs: int, out: Path, *, master_seed: int = 0, workers: int | None = None,
+               scheduler: str | None = None, methods: tuple[str, ...] = METHODS, retry_failed: bool = False,
+               only: list[int] | None = None, progress: bool = True, max_steps: int | None = None) -> dict[str, Any]:
+    """Runs (or resumes) a campaign into ``out`` and writes ``out/summary.json`` and the envelope figures.
+
+    ``max_steps`` cuts every run short (quick checks); None runs the whole mission."""
+    out.mkdir(parents=True, exist_ok=True)
+    cfg.save(out / "config.toml")
+    toml_text = (out / "config.toml").read_text()
+    cache = out / "cache"
+    build_scenario(cfg, cache_dir=cache)  # the reference once, before the workers read it from the cache
+    runs_dir = out / "runs"
+    runs_dir.mkdir(exist_ok=True)
+    fn = functools.partial(_montecarlo_run, toml_text, str(cache), str(runs_dir), tuple(methods), max_steps)
+    t0 = time.perf_counter()
+    camp = run_campaign(fn, runs, out, master_seed, config_hash=cfg.hash(), workers=workers, scheduler=scheduler,
+                        retry_failed=retry_failed, only=only, progress=progress)
+    summary = montecarlo_summary(camp, tuple(methods))
+    summary.update({"master_seed": master_seed, "config_hash": cfg.hash(), "executed_now": len(camp.executed),
+                    "wall_time_s": time.perf_counter() - t0, "workers": workers, "scheduler": scheduler})
+    (out / "summary.json").write_text(json.dumps(summary, indent=1, sort_keys=True))
+    _envelope_figures(cfg, camp, out, tuple(methods))
+    return summary
+
+
+def _envelope_figures(cfg: Config, camp: CampaignResult, out: Path, methods: tuple[str, ...]) -> None:
+    t = np.arange(cfg.mpc.n_steps + 1) * cfg.mpc.dt
+    for m in methods:
+        errs: list[np.ndarray] = []
+        widths: list[np.ndarray] = []
+        for i in sorted(camp.results):
+            p = out / "runs" / f"run_{i:05d}.npz"
+            if p.exists():
+                with np.load(p) as d:
+                    errs.append(d[f"{m}_error"].astype(float))
+                    widths.append(d[f"{m}_half_width"].astype(float))
+        if not errs:
+            continue
+        hw = np.max(np.stack(widths), axis=0)
+        for tag, sl, labels in (("17_translation", slice(0, 6), ["x (m)", "y (m)", "z (m)", "vx (m/s)", "vy (m/s)", "vz (m/s)"]),
+                                ("18_rotation", slice(6, 12), ["phi_x (rad)", "phi_y (rad)", "phi_z (rad)",
+                                                               "omega_x (rad/s)", "omega_y (rad/s)", "omega_z (rad/s)"])):
+            figures.save(figures.montecarlo_envelopes(t, [e[:, sl] for e in errs], hw[:, sl], labels,
+                                                      f"{m}: {len(errs)} Monte Carlo runs, x - z against the tube"),
+                         out / f"fig{tag}_{m}.png")
+
+
+def sweep(cfg: Config, lambdas_p: list[float], lambdas_r: list[float] | None, out: Path, *, seed: int = 0,
+          progress: bool = True) -> dict[str, Any]:
+    """Table 3: TBMPC and TBMPC-FFA at each (lambda_p, lambda_r); Figures 15-16 (error and tube
+    half-width of x and phi_x against lambda)."""
+    if lambdas_r is not None and len(lambdas_r) != len(lambdas_p):
+        raise ValueError("--lambda-r needs as many values as --lambda-p")
+    pairs = list(zip(lambdas_p, lambdas_r or [cfg.identification.lambda_r] * len(lambdas_p), strict=True))
+    for lp, lr in pairs:
+        for name, v in (("lambda_p", lp), ("lambda_r", lr)):
+            if not 0.0 < v < 1.0:
+                raise ValueError(f"{name} must lie in (0, 1), got {v}")
+    out.mkdir(parents=True, exist_ok=True)
+    cfg.save(out / "config.toml")
+    scn = build_scenario(cfg, cache_dir=out / "cache")
+    rows: dict[str, Any] = {}
+    res = simulate(scn, "tbmpc", seed, progress=progress)
+    rows["TBMPC"] = run_summary(scn, res)
+    err_x: dict[str, np.ndarray] = {"TBMPC": res.arrays["x"][:, 0] - res.arrays["zbar"][:, 0]}
+    err_phi: dict[str, np.ndarray] = {"TBMPC": res.arrays["x"][:, 6] - res.arrays["zbar"][:, 6]}
+    tube_x = {"TBMPC": np.sqrt(res.arrays["Pe_p"][:, 0, 0])}
+    tube_phi = {"TBMPC": np.sqrt(res.arrays["Pe_r"][:, 0, 0])}
+    for lp, lr in pairs:
+        label = f"FFA lambda_p={lp:g}, lambda_r={lr:g}"
+        r = simulate(scn, "ffa", seed, progress=progress, lambda_p=lp, lambda_r=lr)
+        rows[label] = {**run_summary(scn, r), "lambda_p": lp, "lambda_r": lr}
+        err_x[label] = r.arrays["x"][:, 0] - r.arrays["zbar"][:, 0]
+        err_phi[label] = r.arrays["x"][:, 6] - r.arrays["zbar"][:, 6]
+        tube_x[label] = np.sqrt(r.arrays["Pe_p"][:, 0, 0])
+        tube_phi[label] = np.sqrt(r.arrays["Pe_r"][:, 0, 0])
+    summary = {"seed": seed, "config_hash": cfg.hash(), "rows": rows}
+    (out / "sweep.json").write_text(json.dumps(summary, indent=1, sort_keys=True))
+    t = np.arange(cfg.mpc.n_steps + 1) * cfg.mpc.dt
+    figures.save(figures.lambda_sensitivity(t, err_x, tube_x, "x (m)"), out / "fig15_lambda_x.png")
+    figures.save(figures.lambda_sensitivity(t, err_phi, tube_phi, "phi_x (rad)"), out / "fig16_lambda_phi.png")
+    return summary

@@ -1,0 +1,48 @@
+"""Monte Carlo campaign of the real closed loop (short missions), its resume, and the report."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tubempc.analysis import montecarlo, sweep
+from tubempc.config import load_config
+from tubempc.report import write_report
+
+
+def test_montecarlo_summary_resume_and_report(tmp_path: Path) -> None:
+    cfg = load_config()
+    out = tmp_path / "mc"
+    s1 = montecarlo(cfg, 3, out, master_seed=5, workers=1, progress=False, max_steps=4)
+    assert s1["runs"] == 3 and s1["executed_now"] == 3 and not s1["failed_runs"]
+    for m in ("tbmpc", "ffa"):
+        row = s1["methods"][m]
+        runs = [json.loads((out / "runs" / f"run_{i:05d}.json").read_text())["result"][m] for i in range(3)]
+        jp = np.array([r["J_p"] for r in runs])
+        assert row["J_p"]["mean"] == pytest.approx(jp.mean())
+        assert row["J_p"]["3sigma"] == pytest.approx(3 * jp.std(ddof=1))
+        assert row["runs_outside_tube"] == sum(max(r["max_tube_excursion"].values()) > 1 for r in runs)
+    # the three runs differ (their seeds differ) and a rerun does nothing and changes nothing
+    assert len({json.dumps(json.loads((out / "runs" / f"run_{i:05d}.json").read_text())["result"]) for i in range(3)}) == 3
+    before = {p.name: p.read_bytes() for p in (out / "runs").glob("run_*.json")}
+    s2 = montecarlo(cfg, 3, out, master_seed=5, workers=1, progress=False, max_steps=4)
+    assert s2["executed_now"] == 0 and s2["methods"] == s1["methods"]
+    assert {p.name: p.read_bytes() for p in (out / "runs").glob("run_*.json")} == before
+    html, md = write_report(out)
+    text = md.read_text()
+    assert "paper" in text and "Monte Carlo" in text and html.read_text().count("data:image/png;base64") >= 2
+
+
+def test_sweep_rejects_bad_lambdas(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="lambda_p"):
+        sweep(load_config(), [1.2], None, tmp_path)
+    with pytest.raises(ValueError, match="as many"):
+        sweep(load_config(), [0.96, 0.97], [0.98], tmp_path)
+
+
+def test_report_needs_results(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="no summary.json"):
+        write_report(tmp_path)
