@@ -57,7 +57,7 @@ def _montecarlo_run(config_toml: str, cache_dir: str, runs_dir: str, methods: tu
             [np.diagonal(a["Pe_p"], axis1=1, axis2=2), np.diagonal(a["Pe_r"], axis1=1, axis2=2)], axis=1)).astype(np.float32)
     path = Path(runs_dir) / f"run_{index:05d}.npz"
     tmp = path.with_name(f".{path.name}.tmp.npz")
-    np.savez_compressed(tmp, **arrays)
+    np.savez_compressed(tmp, allow_pickle=False, **arrays)
     os.replace(tmp, path)
     return out
 
@@ -126,7 +126,8 @@ def _envelope_figures(cfg: Config, camp: CampaignResult, out: Path, methods: tup
         if not errs:
             continue
         hw = np.max(np.stack(widths), axis=0)
-        for tag, sl, labels in (("17_translation", slice(0, 6), ["x (m)", "y (m)", "z (m)", "vx (m/s)", "vy (m/s)", "vz (m/s)"]),
+        translation = ["x (m)", "y (m)", "z (m)", "vx (m/s)", "vy (m/s)", "vz (m/s)"]
+        for tag, sl, labels in (("17_translation", slice(0, 6), translation),
                                 ("18_rotation", slice(6, 12), ["phi_x (rad)", "phi_y (rad)", "phi_z (rad)",
                                                                "omega_x (rad/s)", "omega_y (rad/s)", "omega_z (rad/s)"])):
             figures.save(figures.montecarlo_envelopes(t, [e[:, sl] for e in errs], hw[:, sl], labels,

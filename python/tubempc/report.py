@@ -98,9 +98,9 @@ def write_report(root: Path) -> tuple[Path, Path]:
         rows = []
         for name, r in s["rows"].items():
             key = "TBMPC" if name == "TBMPC" else f"{r['lambda_p']:g}"
-            paper = PAPER_TABLE3.get(key)
-            rows.append([name, _fmt(r["J_p"]), _fmt(paper[0]) if paper else "-", _fmt(r["J_r"]),
-                         _fmt(paper[1]) if paper else "-", _fmt(r["control_effort"]["translation"]),
+            ref = PAPER_TABLE3.get(key)
+            rows.append([name, _fmt(r["J_p"]), _fmt(ref[0]) if ref else "-", _fmt(r["J_r"]),
+                         _fmt(ref[1]) if ref else "-", _fmt(r["control_effort"]["translation"]),
                          _fmt(r["control_effort"]["rotation"]), _fmt(r["terminal_error"]["position"]),
                          _fmt(r["rms_error"]["position"])])
         table(["case", "J_p", "paper J_p", "J_r", "paper J_r", "effort u_p (m/s^2)", "effort T (N m)",

@@ -44,5 +44,5 @@ def test_sweep_rejects_bad_lambdas(tmp_path: Path) -> None:
 
 
 def test_report_needs_results(tmp_path: Path) -> None:
-    with pytest.raises(ValueError, match="no summary.json"):
+    with pytest.raises(ValueError, match=r"no summary\.json"):
         write_report(tmp_path)
