@@ -39,14 +39,14 @@ def _scenario(config_toml: str, cache_dir: str) -> Scenario:
 
 
 def _montecarlo_run(config_toml: str, cache_dir: str, runs_dir: str, methods: tuple[str, ...],
-                    max_steps: int | None, index: int, seed: int) -> dict[str, Any]:
+                    max_steps: int | None, tube_threads: int, index: int, seed: int) -> dict[str, Any]:
     """One Monte Carlo run: every method with the same disturbance seed. Metrics go in the result;
     the error trajectories x - z and tube half-widths in runs/run_<i>.npz (for the envelopes)."""
     scn = _scenario(config_toml, cache_dir)
     out: dict[str, Any] = {}
     arrays: dict[str, np.ndarray] = {}
     for m in methods:
-        res = simulate(scn, m, seed, max_steps=max_steps)
+        res = simulate(scn, m, seed, max_steps=max_steps, tube_threads=tube_threads)
         s = run_summary(scn, res)
         out[m] = {k: s[k] for k in ("J_p", "J_r", "control_effort", "terminal_error", "rms_error",
                                     "max_tube_excursion", "steps_outside_tube", "constraint_violations", "statuses",
@@ -100,7 +100,10 @@ def montecarlo(cfg: Config, runs: int, out: Path, *, master_seed: int = 0, worke
     build_scenario(cfg, cache_dir=cache)  # the reference once, before the workers read it from the cache
     runs_dir = out / "runs"
     runs_dir.mkdir(exist_ok=True)
-    fn = functools.partial(_montecarlo_run, toml_text, str(cache), str(runs_dir), tuple(methods), max_steps)
+    # Several runs at once already occupy the cores: then each run designs its two tubes sequentially.
+    parallel_runs = scheduler is not None or (workers or os.cpu_count() or 1) > 1
+    fn = functools.partial(_montecarlo_run, toml_text, str(cache), str(runs_dir), tuple(methods), max_steps,
+                           1 if parallel_runs else 2)
     t0 = time.perf_counter()
     camp = run_campaign(fn, runs, out, master_seed, config_hash=cfg.hash(), workers=workers, scheduler=scheduler,
                         retry_failed=retry_failed, only=only, progress=progress)

@@ -183,11 +183,13 @@ def _mpc_settings(cfg: Config, scn: Scenario) -> Any:
 
 def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
              lambda_p: float | None = None, lambda_r: float | None = None,
-             max_steps: int | None = None) -> SimulationResult:
+             max_steps: int | None = None, tube_threads: int = 2) -> SimulationResult:
     """One closed-loop run of ``method`` ("tbmpc" or "ffa") with disturbance seed ``seed``.
 
     ``lambda_p``/``lambda_r`` override the configuration's forgetting factors; ``max_steps`` stops
-    the run early (arrays are then cut to the steps run).
+    the run early (arrays are then cut to the steps run); ``tube_threads`` = 2 designs the two
+    subsystems' tubes in parallel threads, 1 one after the other (for campaigns whose worker
+    processes already occupy every core).
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -234,7 +236,7 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
     rec["x"][0] = x
     rec["g"][0] = [scn.truth.glide_slope(x)[0], scn.truth.line_of_sight(x)[0]]
     tubes: tuple[TubeResult, TubeResult] | None = None
-    pool = cf.ThreadPoolExecutor(max_workers=2)
+    pool = cf.ThreadPoolExecutor(max_workers=max(1, min(2, int(tube_threads))))
     bar = None
     if progress:
         from tqdm import tqdm
