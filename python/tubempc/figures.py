@@ -88,47 +88,51 @@ def trajectory_3d(results: Mapping[str, Result], glide_slope_rad: float, every: 
     return fig
 
 
+def _state_grid() -> tuple[Figure, Any]:
+    """A 4 x 3 grid: one row per state group, one column per axis."""
+    return plt.subplots(4, 3, figsize=(12, 11), sharex=True)
+
+
+def _finish_state_grid(fig: Figure, axes: Any, ylabel_prefix: str = "", title_prefix: str | None = None,
+                       suptitle: str = "", legend_size: int = 8) -> Figure:
+    for g in range(4):
+        for i in range(3):
+            axes[g, i].set_ylabel(ylabel_prefix + _STATE_LABELS[g][i])
+            axes[g, i].grid(alpha=0.3)
+        if title_prefix is not None:
+            axes[g, 1].set_title(title_prefix + _GROUP_TITLES[g])
+    for i in range(3):
+        axes[-1, i].set_xlabel("t (s)")
+    axes[0, 0].legend(fontsize=legend_size)
+    if suptitle:
+        fig.suptitle(suptitle)
+    fig.tight_layout()
+    return fig
+
+
 def states(results: Mapping[str, Result]) -> Figure:
     """Figs. 4-5: the 12 states against the reference."""
-    fig, axes = plt.subplots(4, 3, figsize=(12, 11), sharex=True)
+    fig, axes = _state_grid()
     for name, r in results.items():
         t = r["t"]
         for g in range(4):
             for i in range(3):
                 axes[g, i].plot(t, r["x"][:, 3 * g + i], color=_COLORS.get(name), lw=1.2, label=name)
     ref = next(iter(results.values()))
-    for g in range(4):
-        for i in range(3):
-            ax = axes[g, i]
-            ax.plot(ref["t"], ref["zbar"][:, 3 * g + i], "k--", lw=0.8, label="reference")
-            ax.set_ylabel(_STATE_LABELS[g][i])
-            ax.grid(alpha=0.3)
-        axes[g, 1].set_title(_GROUP_TITLES[g])
-    for i in range(3):
-        axes[-1, i].set_xlabel("t (s)")
-    axes[0, 0].legend(fontsize=8)
-    fig.tight_layout()
-    return fig
+    for j in range(12):
+        axes[j // 3, j % 3].plot(ref["t"], ref["zbar"][:, j], "k--", lw=0.8, label="reference")
+    return _finish_state_grid(fig, axes, "", "")
 
 
 def errors(results: Mapping[str, Result]) -> Figure:
     """Figs. 6-7: tracking errors x - zbar per state."""
-    fig, axes = plt.subplots(4, 3, figsize=(12, 11), sharex=True)
+    fig, axes = _state_grid()
     for name, r in results.items():
         e = r["x"] - r["zbar"]
         for g in range(4):
             for i in range(3):
                 axes[g, i].plot(r["t"], e[:, 3 * g + i], color=_COLORS.get(name), lw=1.0, label=name)
-    for g in range(4):
-        for i in range(3):
-            axes[g, i].set_ylabel("error " + _STATE_LABELS[g][i])
-            axes[g, i].grid(alpha=0.3)
-        axes[g, 1].set_title("tracking error, " + _GROUP_TITLES[g])
-    for i in range(3):
-        axes[-1, i].set_xlabel("t (s)")
-    axes[0, 0].legend(fontsize=8)
-    fig.tight_layout()
-    return fig
+    return _finish_state_grid(fig, axes, "error ", "tracking error, ")
 
 
 def controls(results: Mapping[str, Result], u_max: float, T_max: float) -> Figure:
@@ -157,7 +161,7 @@ def controls(results: Mapping[str, Result], u_max: float, T_max: float) -> Figur
 
 def disturbances(results: Mapping[str, Result], pw_scale: float = 9.0) -> Figure:
     """Figs. 9-11: measured exogenous inputs w with the identified mean and sqrt(scale) sigma bounds."""
-    fig, axes = plt.subplots(4, 3, figsize=(12, 11), sharex=True)
+    fig, axes = _state_grid()
     k_sigma = float(np.sqrt(pw_scale))
     for name, r in results.items():
         t = r["t"][1:]
@@ -169,21 +173,12 @@ def disturbances(results: Mapping[str, Result], pw_scale: float = 9.0) -> Figure
             bound = k_sigma * np.sqrt(S[:, j])
             ax.plot(t, r["w_hat"][:, j] + bound, color=c, lw=1.0, ls="--", label=f"{name} ±{k_sigma:.0f} sigma")
             ax.plot(t, r["w_hat"][:, j] - bound, color=c, lw=1.0, ls="--")
-    for g in range(4):
-        for i in range(3):
-            axes[g, i].set_ylabel("w " + _STATE_LABELS[g][i])
-            axes[g, i].grid(alpha=0.3)
-    for i in range(3):
-        axes[-1, i].set_xlabel("t (s)")
-    axes[0, 0].legend(fontsize=7)
-    fig.suptitle("Exogenous inputs per step and identified bounds")
-    fig.tight_layout()
-    return fig
+    return _finish_state_grid(fig, axes, "w ", None, "Exogenous inputs per step and identified bounds", 7)
 
 
 def tube_projections(results: Mapping[str, Result]) -> Figure:
     """Fig. 12 (and 10): error x - z against the tube's half-widths sqrt(Pe_ii) per state."""
-    fig, axes = plt.subplots(4, 3, figsize=(12, 11), sharex=True)
+    fig, axes = _state_grid()
     for name, r in results.items():
         t = r["t"][:-1]
         e = r["x"][:-1] - r["z"]
@@ -194,16 +189,7 @@ def tube_projections(results: Mapping[str, Result]) -> Figure:
             c = _COLORS.get(name)
             ax.plot(t, e[:, j], color=c, lw=1.0, label=f"{name} x - z")
             ax.fill_between(t, -half[:, j], half[:, j], color=c, alpha=0.12, label=f"{name} tube")
-    for g in range(4):
-        for i in range(3):
-            axes[g, i].set_ylabel(_STATE_LABELS[g][i])
-            axes[g, i].grid(alpha=0.3)
-    for i in range(3):
-        axes[-1, i].set_xlabel("t (s)")
-    axes[0, 0].legend(fontsize=7)
-    fig.suptitle("Actual minus nominal state inside the tube projections")
-    fig.tight_layout()
-    return fig
+    return _finish_state_grid(fig, axes, "", None, "Actual minus nominal state inside the tube projections", 7)
 
 
 def constraints(results: Mapping[str, Result]) -> Figure:

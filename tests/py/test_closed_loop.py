@@ -88,3 +88,21 @@ def test_model_mismatch_changes_the_truth_only(tmp_path: Path) -> None:
     assert np.all(np.isfinite(a1["x"])) and not np.allclose(a0["x"][1:], a1["x"][1:])
     # the identified input sees the mismatch: the residual grows
     assert np.linalg.norm(a1["w"][:, :6] - a1["w_true"][:, :6]) > np.linalg.norm(a0["w"][:, :6] - a0["w_true"][:, :6])
+
+
+def test_figures_render_from_a_short_run(scenario, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    from tubempc import figures
+
+    runs = {m: simulate(scenario, m, seed=1, max_steps=3).arrays for m in ("tbmpc", "ffa")}
+    cfg = scenario.config
+    made = [
+        figures.save(figures.trajectory_3d(runs, cfg.constraints.glide_slope_angle, every=1), tmp_path / "a.png"),
+        figures.save(figures.states(runs), tmp_path / "b.png"),
+        figures.save(figures.errors(runs), tmp_path / "c.png"),
+        figures.save(figures.controls(runs, cfg.spacecraft.u_max, cfg.spacecraft.T_max), tmp_path / "d.png"),
+        figures.save(figures.disturbances(runs), tmp_path / "e.png"),
+        figures.save(figures.tube_projections(runs), tmp_path / "f.png"),
+        figures.save(figures.constraints(runs), tmp_path / "g.png"),
+    ]
+    for p in made:
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 10_000
