@@ -85,7 +85,7 @@ def write_report(root: Path) -> tuple[Path, Path]:
                          _fmt(r["max_tube_excursion"]["rotation"]),
                          str(r["constraint_violations"]["glide_slope_steps"] + r["constraint_violations"]["los_steps"]),
                          _fmt(r["step_time"]["step"]["median_ms"]), _fmt(r["run_time_s"])])
-        table(["method", "J_p", "paper J_p", "J_r", "paper J_r", "|dr(T)| (m)", "max excursion p", "max excursion r",
+        table(["method", "J_p", "paper J_p", "J_r", "paper J_r", "terminal position error (m)", "max excursion p", "max excursion r",
                "cone violations", "step median (ms)", "run (s)"], rows)
         if "comparison" in s:
             red = s["comparison"]["J_p_reduction_percent"]
@@ -104,7 +104,7 @@ def write_report(root: Path) -> tuple[Path, Path]:
                          _fmt(r["control_effort"]["rotation"]), _fmt(r["terminal_error"]["position"]),
                          _fmt(r["rms_error"]["position"])])
         table(["case", "J_p", "paper J_p", "J_r", "paper J_r", "effort u_p (m/s^2)", "effort T (N m)",
-               "|dr(T)| (m)", "RMS r (m)"], rows)
+               "terminal position error (m)", "RMS r (m)"], rows)
         figures += sorted(sweep.parent.glob("fig1[56]*.png"))
     if mc is not None:
         s = json.loads(mc.read_text())
