@@ -85,8 +85,8 @@ def write_report(root: Path) -> tuple[Path, Path]:
                          _fmt(r["max_tube_excursion"]["rotation"]),
                          str(r["constraint_violations"]["glide_slope_steps"] + r["constraint_violations"]["los_steps"]),
                          _fmt(r["step_time"]["step"]["median_ms"]), _fmt(r["run_time_s"])])
-        table(["method", "J_p", "paper J_p", "J_r", "paper J_r", "terminal position error (m)", "max excursion p", "max excursion r",
-               "cone violations", "step median (ms)", "run (s)"], rows)
+        table(["method", "J_p", "paper J_p", "J_r", "paper J_r", "terminal position error (m)", "max excursion p",
+               "max excursion r", "cone violations", "step median (ms)", "run (s)"], rows)
         if "comparison" in s:
             red = s["comparison"]["J_p_reduction_percent"]
             parts_h.append(f"<p>TBMPC-FFA's J_p is {red:.1f} % below TBMPC's (paper: 90.9 %).</p>")

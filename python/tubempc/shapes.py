@@ -81,13 +81,18 @@ def _format_of(path: Path, fmt: str | None) -> str:
     return _EXTENSIONS[ext]
 
 
-def _text_lines(path: Path) -> list[str]:
+def _read_nonempty(path: Path) -> bytes:
     try:
         data = path.read_bytes()
     except OSError as exc:
         raise ShapeError(path, None, f"cannot read the file ({exc.strerror})") from exc
     if not data.strip():
         raise ShapeError(path, 1, "the file is empty")
+    return data
+
+
+def _text_lines(path: Path) -> list[str]:
+    data = _read_nonempty(path)
     lines = data.split(b"\n")
     out = []
     for number, raw in enumerate(lines, start=1):
@@ -244,12 +249,7 @@ def _load_trimesh(path: Path, scale: float, fmt: str, repair: ShapeRepair) -> Sh
         raise ImportError(
             f"reading {fmt.upper()} files needs the optional package 'trimesh' (pip install trimesh)"
         ) from exc
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise ShapeError(path, None, f"cannot read the file ({exc.strerror})") from exc
-    if not data.strip():
-        raise ShapeError(path, 1, "the file is empty")
+    _read_nonempty(path)
     try:
         mesh = trimesh.load(path, file_type=fmt, force="mesh", process=False)
     except Exception as exc:  # trimesh raises many exception types for unreadable files
