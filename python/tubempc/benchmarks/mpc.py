@@ -196,7 +196,7 @@ def run(args: argparse.Namespace) -> int:
     own_viol = max(violation(qp, w) for qp, w in ((q[0], q[3]) for q in qps.values()))
     n_var, n_eq, n_in = some_qp.P.shape[0], some_qp.A.shape[0], some_qp.G.shape[0]
     print("plant: 12-state/6-input stand-in (Hill/CW translation + linearised rigid body, "
-          "4 glide-slope planes); the 6-DOF Bennu model is not merged yet")
+          "4 glide-slope planes); the Bennu plant's step timings come from 'tubempc run' (summary.json, step_time)")
     print(f"mission: T = {args.steps}, N = {args.horizon}, dt = {dt} s; QP: {n_var} variables, "
           f"{n_eq} equalities, {n_in} inequalities; structure {args.structure}, "
           f"nnz(P, A, G) = {some_qp.P.nnz}, {some_qp.A.nnz}, {some_qp.G.nnz}")
