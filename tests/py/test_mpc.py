@@ -172,7 +172,7 @@ def test_benchmark_mission_runs_and_agrees_with_the_baseline(tmp_path) -> None:
     bench.add_arguments(parser)
     out = tmp_path / "bench.json"
     # The whole 600 s mission: shorter ones make the reference exceed the input limits.
-    args = parser.parse_args(["--qp-samples", "3", "--solvers", "cvxpy-piqp", "--json", str(out)])
+    args = parser.parse_args(["--plant", "stand-in", "--qp-samples", "3", "--solvers", "cvxpy-piqp", "--json", str(out)])
     assert bench.run(args) == 0
     data = json.loads(out.read_text())
     assert data["statuses"] == {"solved": 300}
