@@ -298,7 +298,7 @@ struct TubeMPC::Impl {
     cd_prev = cd;
     Gc_prev = Gc;
     hc_prev = hc;
-    llt = Eigen::LLT<Eigen::MatrixXd>(nx);
+    llt.compute(Eigen::MatrixXd::Identity(nx, nx));  // sizes the factor storage (and sets its state) at setup
     Lc.setZero(nx, nx);
     tmp_nx.setZero(nx);
     tmp_nu.setZero(nu);
