@@ -6,7 +6,6 @@ from __future__ import annotations
 import functools
 import json
 import os
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -16,7 +15,7 @@ import numpy as np
 from . import figures
 from .campaign import CampaignResult, run_campaign
 from .closed_loop import METHODS, Scenario, build_scenario, simulate
-from .config import Config, load_config
+from .config import Config
 from .runner import run_summary
 
 __all__ = ["montecarlo", "montecarlo_summary", "sweep"]
@@ -24,25 +23,19 @@ __all__ = ["montecarlo", "montecarlo_summary", "sweep"]
 _SCENARIOS: dict[str, Scenario] = {}
 
 
-def _scenario(config_toml: str, cache_dir: str) -> Scenario:
+def _scenario(cfg: Config, cache_dir: str) -> Scenario:
     """The scenario of a configuration, built once per process."""
-    key = f"{config_toml}|{cache_dir}"
+    key = f"{cfg.hash()}|{cache_dir}"
     if key not in _SCENARIOS:
-        with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
-            f.write(config_toml)
-        try:
-            cfg = load_config(f.name)
-        finally:
-            os.unlink(f.name)
         _SCENARIOS[key] = build_scenario(cfg, cache_dir=cache_dir)
     return _SCENARIOS[key]
 
 
-def _montecarlo_run(config_toml: str, cache_dir: str, runs_dir: str, methods: tuple[str, ...],
+def _montecarlo_run(cfg: Config, cache_dir: str, runs_dir: str, methods: tuple[str, ...],
                     max_steps: int | None, tube_threads: int, index: int, seed: int) -> dict[str, Any]:
     """One Monte Carlo run: every method with the same disturbance seed. Metrics go in the result;
     the error trajectories x - z and tube half-widths in runs/run_<i>.npz (for the envelopes)."""
-    scn = _scenario(config_toml, cache_dir)
+    scn = _scenario(cfg, cache_dir)
     out: dict[str, Any] = {}
     arrays: dict[str, np.ndarray] = {}
     for m in methods:
@@ -95,14 +88,13 @@ def montecarlo(cfg: Config, runs: int, out: Path, *, master_seed: int = 0, worke
     ``max_steps`` cuts every run short (quick checks); None runs the whole mission."""
     out.mkdir(parents=True, exist_ok=True)
     cfg.save(out / "config.toml")
-    toml_text = (out / "config.toml").read_text()
     cache = out / "cache"
     build_scenario(cfg, cache_dir=cache)  # the reference once, before the workers read it from the cache
     runs_dir = out / "runs"
     runs_dir.mkdir(exist_ok=True)
     # Several runs at once already occupy the cores: then each run designs its two tubes sequentially.
     parallel_runs = scheduler is not None or (workers or os.cpu_count() or 1) > 1
-    fn = functools.partial(_montecarlo_run, toml_text, str(cache), str(runs_dir), tuple(methods), max_steps,
+    fn = functools.partial(_montecarlo_run, cfg, str(cache), str(runs_dir), tuple(methods), max_steps,
                            1 if parallel_runs else 2)
     t0 = time.perf_counter()
     camp = run_campaign(fn, runs, out, master_seed, config_hash=cfg.hash(), workers=workers, scheduler=scheduler,

@@ -57,8 +57,8 @@ def write_report(root: Path) -> tuple[Path, Path]:
     run = _find(root, "summary.json", "run/summary.json")
     sweep = _find(root, "sweep.json", "sweep/sweep.json")
     mc = _find(root, "montecarlo/summary.json")
-    if run is not None and "methods" in json.loads(run.read_text()) and "runs" in json.loads(run.read_text()):
-        mc, run = run, None  # root is itself a Monte Carlo folder
+    if run is not None and "runs" in json.loads(run.read_text()):
+        mc, run = run, None  # root is itself a Monte Carlo folder (its summary counts runs)
     if run is None and sweep is None and mc is None:
         raise ValueError(f"{root}: no summary.json, sweep.json or montecarlo/summary.json to report")
     parts_h: list[str] = []
