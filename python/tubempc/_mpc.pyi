@@ -62,6 +62,7 @@ class Settings:
     backend: Backend
     kkt_solver: KktSolver
     qp_scale_cost: bool
+    qp_preconditioner_iterations: int
     A_structure: _Arr
     B_structure: _Arr
     G_structure: _Arr

@@ -255,7 +255,33 @@ DiscretizationStatus ProximityModel::discretize(double t, double dt, const State
   linearize(t, x_ref, u_ref, fx, A, B);
   if (!fx.allFinite() || !A.allFinite()) return DiscretizationStatus::NonFiniteResult;
   const StateVector c = fx - A * x_ref - B * u_ref;
-  if (!zoh_discretize<kNx, kNu>(A, B, c, dt, Ad, Bd, cd)) return DiscretizationStatus::NonFiniteResult;
+  // Translation (r, v; u_p) and rotation (phi, w; T) are decoupled in this model, so the exponential
+  // of the block-diagonal augmented matrix is taken per block: two 10 x 10 exponentials instead of
+  // one 19 x 19 (the same result, about 4x fewer operations). The coupling blocks are checked, not
+  // assumed, and the single exponential is kept for any model where they are nonzero.
+  const bool decoupled = A.topRightCorner<6, 6>().isZero(0.0) && A.bottomLeftCorner<6, 6>().isZero(0.0) &&
+                         B.topRightCorner<6, 3>().isZero(0.0) && B.bottomLeftCorner<6, 3>().isZero(0.0);
+  if (!decoupled) {
+    if (!zoh_discretize<kNx, kNu>(A, B, c, dt, Ad, Bd, cd)) return DiscretizationStatus::NonFiniteResult;
+    return DiscretizationStatus::Ok;
+  }
+  Eigen::Matrix<double, 6, 6> Ad_p, Ad_r;
+  Eigen::Matrix<double, 6, 3> Bd_p, Bd_r;
+  Eigen::Matrix<double, 6, 1> cd_p, cd_r;
+  const Eigen::Matrix<double, 6, 6> A_p = A.topLeftCorner<6, 6>(), A_r = A.bottomRightCorner<6, 6>();
+  const Eigen::Matrix<double, 6, 3> B_p = B.topLeftCorner<6, 3>(), B_r = B.bottomRightCorner<6, 3>();
+  const Eigen::Matrix<double, 6, 1> c_p = c.head<6>(), c_r = c.tail<6>();
+  if (!zoh_discretize<6, 3>(A_p, B_p, c_p, dt, Ad_p, Bd_p, cd_p) ||
+      !zoh_discretize<6, 3>(A_r, B_r, c_r, dt, Ad_r, Bd_r, cd_r)) {
+    return DiscretizationStatus::NonFiniteResult;
+  }
+  Ad.setZero();
+  Bd.setZero();
+  Ad.topLeftCorner<6, 6>() = Ad_p;
+  Ad.bottomRightCorner<6, 6>() = Ad_r;
+  Bd.topLeftCorner<6, 3>() = Bd_p;
+  Bd.bottomRightCorner<6, 3>() = Bd_r;
+  cd << cd_p, cd_r;
   return DiscretizationStatus::Ok;
 }
 

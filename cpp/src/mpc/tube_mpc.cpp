@@ -158,6 +158,7 @@ void Settings::validate(int nx, int nu) const {
     fail("B_structure", "must be empty or n_x x n_u");
   if (G_structure.size() != 0 && G_structure.cols() != nx) fail("G_structure", "must be empty or n_c x n_x");
   if (riccati_max_iterations < 1) fail("riccati_max_iterations", "must be >= 1");
+  if (qp_preconditioner_iterations < 0) fail("qp_preconditioner_iterations", "must be >= 0");
 #ifndef PIQP_HAS_BLASFEO
   if (kkt_solver == KktSolver::SparseMultistage)
     fail("kkt_solver", "SparseMultistage needs PIQP built with BLASFEO, which this build is not");
@@ -329,6 +330,9 @@ struct TubeMPC::Impl {
     std::vector<Eigen::Triplet<double, int>> tp, ta, tg;
     for (int i = 0; i <= N; ++i) add_block(tp, iz(i), iz(i), i < N ? mQ : mP);
     for (int i = 0; i < N; ++i) add_block(tp, iv(i), iv(i), mR);
+    // ||t||^2 on the soft-terminal slacks: they are unique (t = 0) outside the shrinking phase, where
+    // their rows are zero and their L1 cost is off; inside it the L1 term keeps the penalty exact.
+    if (off_t >= 0) add_block(tp, off_t, off_t, dx);
     add_block(ta, 0, iz(0), dx);
     if (box_ic) add_block(ta, 0, off_s, lx);
     for (int i = 0; i < N; ++i) {
@@ -372,6 +376,7 @@ struct TubeMPC::Impl {
       posA_B.push_back(block_positions(A, r0, iv(i), mB));
     }
     write_block(A, block_positions(A, 0, iz(0), dx), Ix, 1.0, dx);
+    if (off_t >= 0) write_block(P, block_positions(P, off_t, off_t, dx), Ix, 2.0, dx);
     if (box_ic) posA_L = block_positions(A, 0, off_s, lx);
     for (int i = 0; i <= N; ++i) {
       posG.push_back(block_positions(G, i * nc, iz(i), mG));
@@ -457,6 +462,7 @@ void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_termina
                                                                        : piqp::KKTSolver::sparse_ldlt;
   ps.compute_timings = false;
   ps.preconditioner_scale_cost = settings_.qp_scale_cost;
+  ps.preconditioner_iter = settings_.qp_preconditioner_iterations;
   m.solver.setup(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u);
 }
 

@@ -1,12 +1,15 @@
 """Tube MPC step time over a whole mission, and the same QPs through cvxpy (Clarabel, OSQP, PIQP).
 
-The plant is a stand-in until the 6-DOF Bennu model is merged: 12 states / 6 inputs with the paper's
-sizes (N = 30, dt = 2 s, T = 300, Table 1 weights Q = I, R_p = 1e3 I3, R_r = 1e4 I3, limits
-0.55 m/s^2 and 3 N m): linear Hill (Clohessy-Wiltshire) translation about Bennu's heliocentric orbit
-plus a linearised rigid body (phi' = w, w' = J^-1 T), with the glide-slope cone (70 deg) replaced by
-its four tangent planes (PAPER_NOTES.md "Constraints"). The reference is a cubic Hermite path from
-Table 2's initial to final state. ``run_mission`` takes any ``LinearizedModel``, reference, tube and
-truth propagator, so the Bennu scenario plugs in by passing the real model.
+Default plant (``--plant bennu``): the default scenario's 6-DOF model (polyhedral gravity of the
+generated Bennu-like shape, exact ZOH), TBMPC's prior tube, truth = RK4 propagation plus the
+scenario's disturbance. ``--plant stand-in``: 12 states / 6 inputs with the paper's sizes (N = 30,
+dt = 2 s, T = 300, Table 1 weights, limits 0.55 m/s^2 and 3 N m): linear Hill (Clohessy-Wiltshire)
+translation plus a linearised rigid body, the glide-slope cone replaced by its four tangent planes,
+a cubic Hermite reference. ``run_mission`` takes any ``LinearizedModel``, reference, tube and truth.
+
+Baselines on QPs of solved steps: the exported matrices through cvxpy (``cvxpy-*``), the same QP
+written node by node as a Python user would (``node-cvxpy-*``, :func:`tubempc.mpc.solve_qp_per_node`)
+and OSQP's Python package (``osqp``).
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .. import mpc
-from ..mpc import solve_qp
+from ..mpc import solve_qp, solve_qp_per_node
 from ._machine import machine_info
 
 DESCRIPTION = "tube MPC per-step time over a mission (C++/PIQP) and the same QPs through cvxpy"
@@ -107,8 +110,9 @@ def lqr_tube(Ad: Arr, Bd: Arr, settings: mpc.Settings) -> mpc.Tube:
 def run_mission(model: mpc.LinearizedModel, settings: mpc.Settings, reference: mpc.Reference,
                 tube: mpc.Tube, truth: Callable[[int, Arr, Arr], Arr], qp_steps: set[int]
                 ) -> tuple[list[dict[str, Any]], dict[int, tuple[mpc.QpData, float, float, Arr]]]:
-    """Closed loop over the whole mission; per-step records and the QPs of the steps in qp_steps
-    (with the step's C++ solve time per QP, the objective and the C++ minimiser)."""
+    """Closed loop over the whole mission; per-step records and, for each k in qp_steps, the QP of the
+    first step >= k whose status is "solved" (with the step's C++ solve time per QP, the objective and
+    the C++ minimiser): fallback steps' last QPs are not the plan applied and are not compared."""
     ctrl = mpc.TubeMPC(model, settings)
     ctrl.setup(reference)
     T = ctrl.mission_steps
@@ -116,6 +120,7 @@ def run_mission(model: mpc.LinearizedModel, settings: mpc.Settings, reference: m
     records: list[dict[str, Any]] = []
     qps: dict[int, tuple[mpc.QpData, float, float, Arr]] = {}
     kkt: dict[int, float] = {}
+    pending = sorted(qp_steps)
     for k in range(T):
         t0 = time.perf_counter()
         r = ctrl.step(k, x, tube)
@@ -124,7 +129,9 @@ def run_mission(model: mpc.LinearizedModel, settings: mpc.Settings, reference: m
         records.append({"k": k, "status": str(r.status), "scp": r.scp_iterations, "qp_iter": r.qp_iterations,
                         "linearize": tm.linearize, "build": tm.build, "solve": tm.solve, "total": tm.total,
                         "python_wall": wall, "horizon": r.horizon})
-        if k in qp_steps:
+        if pending and k >= pending[0] and r.status == mpc.Status.Solved:
+            while pending and pending[0] <= k:
+                pending.pop(0)
             sol = ctrl.qp_solution()
             qps[k] = (ctrl.qp_data(), tm.solve / max(1, r.scp_iterations), r.objective, sol.w)
             kkt[k] = kkt_residual(qps[k][0], sol)
@@ -158,8 +165,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--steps", type=int, default=300, help="mission length T (default 300 = 600 s)")
     parser.add_argument("--horizon", type=int, default=30, help="N (default 30)")
     parser.add_argument("--qp-samples", type=int, default=12, help="QPs re-solved through cvxpy (default 12)")
-    parser.add_argument("--solvers", default="cvxpy-clarabel,cvxpy-osqp,cvxpy-piqp,osqp",
-                        help="Python backends for the baseline (comma separated)")
+    parser.add_argument("--solvers",
+                        default="node-cvxpy-clarabel,node-cvxpy-osqp,node-cvxpy-piqp,cvxpy-clarabel,cvxpy-piqp,osqp",
+                        help="Python backends for the baseline (comma separated): node-cvxpy-* the QP written "
+                             "node by node in cvxpy, cvxpy-* the exported matrices through cvxpy, osqp")
     parser.add_argument("--eps", type=float, default=1e-8, help="interior-point baseline tolerance")
     parser.add_argument("--osqp-eps", type=float, default=1e-5, help="OSQP baseline tolerance (first order)")
     parser.add_argument("--disturbance", type=float, default=1e-3,
@@ -246,7 +255,7 @@ def run(args: argparse.Namespace) -> int:
           f"nnz(P, A, G) = {some_qp.P.nnz}, {some_qp.A.nnz}, {some_qp.G.nnz}")
     print(f"statuses: {statuses}; SCP iterations per step: mean {np.mean([r['scp'] for r in records]):.2f}; "
           f"final |x - x_f|_inf = {final['final_error_inf']:.3g}")
-    out: dict[str, Any] = {"machine": info, "plant": "test12 (Hill/CW + rigid body, stand-in)",
+    out: dict[str, Any] = {"machine": info, "plant": args.plant,
                            "structure": args.structure,
                            "T": args.steps, "N": args.horizon, "qp_size": [n_var, n_eq, n_in],
                            "statuses": statuses, "final_error_inf": final["final_error_inf"], "step": {}}
@@ -270,7 +279,11 @@ def run(args: argparse.Namespace) -> int:
     for solver in [s for s in args.solvers.split(",") if s]:
         solver_t, wall_t, ratio_s, ratio_w, diffs, viols = [], [], [], [], [], []
         for qp, cpp_solve, objective, _ in qps.values():
-            res = solve_qp(qp, solver, args.osqp_eps if "osqp" in solver else args.eps)
+            eps = args.osqp_eps if "osqp" in solver else args.eps
+            if solver.startswith("node-"):
+                res = solve_qp_per_node(qp, 12, 6, model.n_constraints(), args.horizon, solver.removeprefix("node-"), eps)
+            else:
+                res = solve_qp(qp, solver, eps)
             solver_t.append(res.solve_time)
             wall_t.append(res.wall_time)
             ratio_s.append(res.solve_time / cpp_solve)

@@ -153,6 +153,14 @@ TEST(TubeMPCSettings, ValidateNamesTheField) {
   EXPECT_THROW(s.validate(2, 1), std::invalid_argument);
   s = di_settings(0, 0.5);
   EXPECT_THROW(s.validate(2, 1), std::invalid_argument);
+  s = di_settings(10, 0.5);
+  s.qp_preconditioner_iterations = -1;
+  try {
+    s.validate(2, 1);
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("qp_preconditioner_iterations"), std::string::npos);
+  }
 }
 
 // KKT conditions of the QP PIQP returned, evaluated independently from the exported data.

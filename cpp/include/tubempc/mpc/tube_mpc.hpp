@@ -21,7 +21,8 @@
 ///    the unit ball, so z_0 - x_k lies in the tube ellipsoid Z = -Z (conservative: a polytope inside
 ///    the ellipsoid, as PAPER_NOTES.md asks; the paper's set {x_k} (+) (-Z) is the whole ellipsoid);
 ///  - sigma ((N + 1) n_c, only with soft state constraints) are the L1 slacks of the state
-///    constraints, t (n_x, only with a soft terminal constraint) those of the terminal equality.
+///    constraints, t (n_x, only with a soft terminal constraint) those of the terminal equality
+///    (|z_N - x_f| <= t, cost soft_penalty 1^T t + ||t||^2 in the shrinking phase; ||t||^2 before).
 /// The cost is sum_{i < n} ||z_i - zbar_{k+i}||^2_Q + ||v_i||^2_R (or ||v_i - u_ref_{k+i}||^2_R), plus
 /// ||z_N - zbar_{k+N}||^2_P while k + N < T; the QP's P is twice the weights and the constant dropped
 /// from the QP is `QpData::constant` (nonzero only with InputCost::FromReference). Constraints: the
@@ -103,15 +104,24 @@ struct Settings {
   double qp_inaccurate_tol = 1e-5;     ///< A capped QP with relative residuals below this is accepted.
   double time_limit = 1.0;             ///< Wall-clock budget of one step (s); exceeded -> fallback.
   bool soft_state_constraints = false; ///< Exact L1 penalty on state-constraint violations.
-  bool soft_terminal = false;          ///< Exact L1 penalty on z_N - x_f in the shrinking phase.
+  /// Exact L1 penalty on z_N - x_f in the shrinking phase (default; plus the terminal weight on
+  /// z_N - x_f). The penalty is exact: the minimiser is the hard constraint's (the paper's Problem 3)
+  /// whenever soft_penalty exceeds the terminal multipliers, and the step still returns a plan when
+  /// the hard terminal set is out of reach. With the hard equality (false) PIQP's interior point needs
+  /// hundreds of iterations on the last steps, whose terminal multipliers reach ~1e6.
+  bool soft_terminal = true;
   double soft_penalty = 1e6;           ///< L1 penalty weight of the slacks (cost units per constraint unit).
   double riccati_tol = 1e-10;          ///< Relative convergence tolerance of the DARE doubling.
   int riccati_max_iterations = 100;    ///< Cap on DARE doubling iterations.
   Backend backend = Backend::PiqpSparse;
   KktSolver kkt_solver = KktSolver::SparseLdlt;
-  /// PIQP also scales the cost in its equilibration: far fewer iterations on the shrinking-horizon QPs
-  /// (e.g. 133 -> 17), but PIQP 0.6 then stops up to ~5e-5 (relative) above the optimum; off by default.
-  bool qp_scale_cost = false;
+  /// PIQP also scales the cost in its equilibration (on by default): the shrinking-horizon QPs, whose
+  /// terminal-equality multipliers reach ~1e6, need ~14 interior-point iterations instead of 200+
+  /// (PIQP >= 0.7; `tubempc bench mpc` reports the optimum's agreement with Clarabel). With soft
+  /// constraints the L1 penalty dominates PIQP's cost scale and the quadratic part becomes tiny; turn
+  /// it off there if QPs stop at the iteration cap (status SolvedInaccurate).
+  bool qp_scale_cost = true;
+  int qp_preconditioner_iterations = 10;  ///< Ruiz equilibration iterations of PIQP (>= 0).
   /// Optional structural patterns of the model's A (n_x x n_x), B (n_x x n_u) and G (n_c x n_x): entries
   /// != 0 are stored in the QP, the others are structural zeros the model must respect (a nonzero there
   /// makes the step fall back with failure ModelStructure). Empty: dense. Sparser patterns make the KKT
