@@ -203,8 +203,8 @@ def solve_qp_per_node(qp: QpData, nx: int, nu: int, nc: int, horizon: int, solve
         Ai, Bi = -A[rows, iz(i)].toarray(), -A[rows, iv(i)].toarray()
         cons.append(z[i + 1] == Ai @ z[i] + Bi @ v[i] + qp.b[rows])
     if t is not None:  # soft terminal constraint |dz_N - (x_f - zbar_T)| <= t, two rows per state
-        rows = np.arange((horizon + 1) * nc, G.shape[0])
-        up, lo = rows[np.isfinite(qp.h_u[rows])], rows[np.isfinite(qp.h_l[rows])]
+        term = np.arange((horizon + 1) * nc, G.shape[0])
+        up, lo = term[np.isfinite(qp.h_u[term])], term[np.isfinite(qp.h_l[term])]
         if up.size:
             cons.append(G[up][:, iz(horizon)].toarray() @ z[horizon] + G[up][:, t_idx].toarray() @ t <= qp.h_u[up])
         if lo.size:
