@@ -65,7 +65,8 @@ def _tube() -> mpc.Tube:
 
 @pytest.mark.parametrize("soft", [False, True])
 def test_exported_qp_has_the_same_optimum_with_independent_solvers(soft: bool) -> None:
-    ctrl = TubeMPC(DoubleIntegrator(0.5, 1.0, 0.3), _settings(soft))
+    plant = DoubleIntegrator(0.5, 1.0, 0.3)
+    ctrl = TubeMPC(plant, _settings(soft))
     ctrl.setup(_reference(20))
     r = ctrl.step(0, np.array([0.05, 0.9, 0.25, -0.1]), _tube())
     assert r.status == mpc.Status.Solved, (r.status, r.failure)
@@ -79,6 +80,13 @@ def test_exported_qp_has_the_same_optimum_with_independent_solvers(soft: bool) -
     osqp = solve_qp(qp, "osqp")
     assert osqp.status == "solved"
     assert osqp.objective == pytest.approx(r.objective, rel=1e-5)
+    if not soft:  # the same QP written node by node (the benchmark's "Python user" baseline)
+        node = mpc.solve_qp_per_node(qp, 4, 2, plant.n_constraints(), 12)
+        assert node.status == "optimal"
+        assert node.objective == pytest.approx(r.objective, rel=1e-6)
+    else:
+        with pytest.raises(ValueError, match="slacks"):
+            mpc.solve_qp_per_node(qp, 4, 2, plant.n_constraints(), 12)
     # Same minimiser (the QP is strictly convex in the inputs and states).
     w = ctrl.qp_solution().w
     assert np.max(np.abs(clarabel.w - w)) < 1e-4 * max(1.0, np.max(np.abs(w)))
