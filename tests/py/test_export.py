@@ -111,3 +111,16 @@ def test_cpp_shape_loader_matches_python_loader(tmp_path: Path) -> None:
     (tmp_path / "bad.obj").write_text("v 0 0 0\nv 1 0 nan\n")
     with pytest.raises(ValueError, match=r"bad\.obj:2: vertex: non-finite number 'nan'"):
         _core.gravity.load_shape(str(tmp_path / "bad.obj"), 1.0)
+
+
+def test_bindings_loop_flies_the_exported_mission(exported: tuple[Path, Scenario]) -> None:
+    from tubempc.benchmarks.embed import find_example, python_loop
+
+    path, scn = exported
+    r = python_loop(path)
+    assert r["steps"] == 300 and r["statuses"] == {"solved": 300}
+    final = np.asarray(r["final_state"])
+    assert np.linalg.norm(final[:3] - scn.xf[:3]) < 0.05  # m, undisturbed
+    assert np.all(np.asarray(r["time_mpc_s"]) > 0.0)
+    with pytest.raises(FileNotFoundError, match="no such file"):
+        find_example(path.parent / "no_such_binary")
