@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # The test command (README): installs tubempc with its C++ test suite into .venv, then runs ctest
-# (GoogleTest) and pytest. One build tree serves both: build/test.
+# (GoogleTest and the C++ examples), the install test (tools/install_test.sh: the core installed into a
+# temporary prefix, both C++ examples built against it, closed_loop flying a scenario exported by the
+# installed package) and pytest. One build tree serves ctest and pytest: build/test.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -19,6 +21,12 @@ export CMAKE_BUILD_PARALLEL_LEVEL=${CMAKE_BUILD_PARALLEL_LEVEL:-$(nproc)}
   --config-settings=cmake.define.TUBEMPC_BUILD_TESTS=ON
 
 ctest --test-dir build/test --output-on-failure -j"$(nproc)"
+
+# The install test configures the core on its own: Eigen from the cmeel-eigen wheel pinned as a build
+# requirement in pyproject.toml (pip's isolated build environment is gone by now).
+eigen=$(grep -o 'cmeel-eigen==[0-9.]*' pyproject.toml)
+.venv/bin/python -m pip install -q "$eigen"
+PYTHON=.venv/bin/python bash tools/install_test.sh --python .venv/bin/python
 
 # pytest exit code 5 means "no tests collected": a failure here.
 set +e
