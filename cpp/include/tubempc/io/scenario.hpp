@@ -107,10 +107,11 @@ struct Scenario {
   dynamics::StateVector x0{dynamics::StateVector::Zero()};  ///< initial state (m, m/s, rad, rad/s)
   dynamics::StateVector xf{dynamics::StateVector::Zero()};  ///< target state (same units)
 
-  /// Mission length T (steps): the number of reference inputs.
+  /// @return the mission length T (steps): the number of reference inputs.
   int mission_steps() const { return static_cast<int>(reference.u.cols()); }
-  /// A path of the file (e.g. BodyModel::shape) made usable from the current directory: relative
-  /// paths are taken relative to `directory`; absolute paths and an empty `directory` leave it as is.
+  /// A path written in the file (e.g. BodyModel::shape) made usable from the current directory.
+  /// @param path relative to `directory`, or absolute.
+  /// @return `directory`/path for a relative path; the path itself if absolute or if `directory` is empty.
   std::string resolve(const std::string& path) const;
 };
 
