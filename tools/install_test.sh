@@ -9,6 +9,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-$(command -v python3)}
+case "$PY" in /*) ;; *) PY="$PWD/$PY" ;; esac  # CMake needs an absolute path (a venv's python is a symlink)
 SCENARIO_PY=""
 while [ $# -gt 0 ]; do
   case "$1" in

@@ -22,10 +22,11 @@ export CMAKE_BUILD_PARALLEL_LEVEL=${CMAKE_BUILD_PARALLEL_LEVEL:-$(nproc)}
 
 ctest --test-dir build/test --output-on-failure -j"$(nproc)"
 
-# The install test configures the core on its own: Eigen from the cmeel-eigen wheel pinned as a build
-# requirement in pyproject.toml (pip's isolated build environment is gone by now).
-eigen=$(grep -o 'cmeel-eigen==[0-9.]*' pyproject.toml)
-.venv/bin/python -m pip install -q "$eigen"
+# The install test configures the core outside pip's (by now removed) isolated build environment: it
+# needs pyproject.toml's build requirements (Eigen from cmeel-eigen; scikit-build-core for PIQP's sdist).
+.venv/bin/python -c "import tomllib; print('\n'.join(tomllib.load(open('pyproject.toml', 'rb'))['build-system']['requires']))" \
+  > build/test/build-requirements.txt
+.venv/bin/python -m pip install -q -r build/test/build-requirements.txt
 PYTHON=.venv/bin/python bash tools/install_test.sh --python .venv/bin/python
 
 # pytest exit code 5 means "no tests collected": a failure here.
