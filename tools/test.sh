@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # The test command (README): installs tubempc with its C++ test suite into .venv, then runs ctest
-# (GoogleTest) and pytest. One build tree serves both: build/test.
+# (GoogleTest and the C++ examples), the install test (tools/install_test.sh: the core installed into a
+# temporary prefix, both C++ examples built against it, closed_loop flying a scenario exported by the
+# installed package) and pytest. One build tree serves ctest and pytest: build/test.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -19,6 +21,13 @@ export CMAKE_BUILD_PARALLEL_LEVEL=${CMAKE_BUILD_PARALLEL_LEVEL:-$(nproc)}
   --config-settings=cmake.define.TUBEMPC_BUILD_TESTS=ON
 
 ctest --test-dir build/test --output-on-failure -j"$(nproc)"
+
+# The install test configures the core outside pip's (by now removed) isolated build environment: it
+# needs pyproject.toml's build requirements (Eigen from cmeel-eigen; scikit-build-core for PIQP's sdist).
+.venv/bin/python -c "import tomllib; print('\n'.join(tomllib.load(open('pyproject.toml', 'rb'))['build-system']['requires']))" \
+  > build/test/build-requirements.txt
+.venv/bin/python -m pip install -q -r build/test/build-requirements.txt
+PYTHON=.venv/bin/python bash tools/install_test.sh --python .venv/bin/python
 
 # pytest exit code 5 means "no tests collected": a failure here.
 set +e

@@ -9,6 +9,7 @@
 #include "tubempc/gravity/gravity_model.hpp"
 #include "tubempc/gravity/polyhedron_gravity.hpp"
 #include "tubempc/gravity/shape.hpp"
+#include "tubempc/gravity/shape_io.hpp"
 
 namespace py = pybind11;
 
@@ -147,6 +148,13 @@ repaired with repair=ShapeRepair.ORIENT).)doc")
                         if (t.size() != 2) throw std::runtime_error("Shape: bad pickle state");
                         return Shape(t[0].cast<Vertices>(), t[1].cast<Faces>());
                       }));
+
+  g.def("load_shape", &gravity::load_shape, py::arg("path"), py::arg("unit_scale"),
+        py::arg("repair") = ShapeRepair::None,
+        "The C++ shape loader (gravity/shape_io.hpp): OBJ or PDS v/f table (.tab) -> Shape in m; unit_scale "
+        "is metres per file unit. ValueError '<path>:<line>: <what>'.");
+  g.def("save_obj", &gravity::save_obj, py::arg("path"), py::arg("shape"), py::arg("unit_scale") = 1.0,
+        "Writes a Shape as OBJ with coordinates divided by unit_scale (17 significant digits).");
 
   py::class_<PolyhedronGravity, gravity::GravityModel, std::shared_ptr<PolyhedronGravity>>(g, "PolyhedronGravity", R"doc(
 Gravity of a constant-density polyhedron (Werner and Scheeres 1997; PAPER_NOTES.md "Gravity").

@@ -40,6 +40,16 @@ class ModelParams:
     def validate(self) -> None: ...
     def mean_motion(self) -> float: ...
 
+class PropagatorSettings:
+    method: Integrator
+    substeps: int
+    rtol: float
+    atol: float
+    max_steps: int
+    initial_step: float
+    def __init__(self) -> None: ...
+    def validate(self) -> None: ...
+
 class PropagationResult:
     @property
     def status(self) -> PropagationStatus: ...

@@ -1,4 +1,4 @@
-"""Command-line interface: ``tubempc --version``, ``info``, ``run``, ``bench NAME``."""
+"""Command-line interface: ``tubempc --version``, ``info``, ``run``, ``export-scenario``, ``bench NAME``."""
 
 from __future__ import annotations
 
@@ -67,6 +67,20 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if "comparison" in summary:
         print(f"TBMPC-FFA J_p is {summary['comparison']['J_p_reduction_percent']:.1f} % below TBMPC's")
     print(f"results in {out}/ (summary.json, <method>.h5, figures)")
+    return 0
+
+
+def _cmd_export_scenario(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .config import load_config
+    from .export import export_scenario, read_scenario
+
+    path = export_scenario(load_config(args.config), Path(args.out),
+                           cache_dir=Path(args.cache_dir) if args.cache_dir else None)
+    scn = read_scenario(str(path))  # the C++ reader validates what was written
+    print(f"wrote {path} (T = {scn.mission_steps} steps, N = {scn.settings.horizon}) with "
+          f"{', '.join(sorted({scn.controller.shape, scn.truth.shape}))} and config.toml")
     return 0
 
 
@@ -147,6 +161,12 @@ def build_parser() -> argparse.ArgumentParser:
     p_run.add_argument("--no-figures", action="store_true")
     p_run.add_argument("--quiet", action="store_true", help="no progress bar")
     p_run.set_defaults(func=_cmd_run)
+    p_exp = sub.add_parser("export-scenario",
+                           help="write the closed loop's scenario file for C++ programs (examples/cpp/closed_loop)")
+    p_exp.add_argument("--config", help="scenario TOML (default: the packaged paper scenario)")
+    p_exp.add_argument("--out", required=True, help="output folder (scenario.txt, shape.obj, config.toml)")
+    p_exp.add_argument("--cache-dir", help="reference-trajectory cache (default: none)")
+    p_exp.set_defaults(func=_cmd_export_scenario)
     p_mc = sub.add_parser("montecarlo", help="resumable Monte Carlo campaign of both methods (paper Table 4)")
     p_mc.add_argument("--runs", type=int, default=100)
     p_mc.add_argument("--workers", type=int, help="local worker processes (default: all cores)")

@@ -19,7 +19,8 @@ struct BuildInfo {
   unsigned hardware_threads{0};  ///< std::thread::hardware_concurrency() at run time
 };
 
-/// Returns the build facts of this library.
+/// The build facts of this library.
+/// @return version, compiler, flags, Eigen and PIQP versions of this build and the hardware threads now.
 BuildInfo build_info();
 
 }  // namespace tubempc::core

@@ -20,17 +20,30 @@
 
 namespace tubempc::dynamics {
 
-/// Glide-slope constraint value g_gs (m) at x; writes d g_gs / d x (12) to grad if non-null.
-/// @param glide_slope_angle phi_gs (rad)
+/// Glide-slope constraint g_gs(x) = |r| cos(phi_gs) - r . z_L (<= 0 feasible).
+/// @param x                 model state [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)].
+/// @param glide_slope_angle phi_gs (rad).
+/// @param grad              if non-null, receives d g_gs / d x (12; m per state unit).
+/// @return g_gs(x) (m).
+/// @throws std::domain_error at r = 0 or for a non-finite x.
 double glide_slope_constraint(const StateVector& x, double glide_slope_angle, StateVector* grad = nullptr);
 
-/// Line-of-sight constraint value g_los (m) at x; writes d g_los / d x (12) to grad if non-null.
-/// @param los_angle theta_LOS (rad); @param boresight_B boresight in B (normalised here)
+/// Line-of-sight constraint g_los(x) = |r| cos(theta_LOS) - r_B . b_B (<= 0 feasible).
+/// @param x           model state (see glide_slope_constraint).
+/// @param los_angle   theta_LOS (rad).
+/// @param boresight_B boresight b_B in B (normalised here).
+/// @param grad        if non-null, receives d g_los / d x (12; m per state unit).
+/// @return g_los(x) (m).
+/// @throws std::domain_error at r = 0 or for a non-finite x.
 double line_of_sight_constraint(const StateVector& x, double los_angle, const Eigen::Vector3d& boresight_B,
                                 StateVector* grad = nullptr);
 
 /// Tangent linearisation of g(x) <= 0 at x_ref from its value and gradient there:
-/// grad^T x <= b with b = grad . x_ref - g(x_ref). Returns b.
+/// grad^T x <= b with b = grad . x_ref - g(x_ref).
+/// @param g_ref g(x_ref) (m).
+/// @param grad  d g / d x at x_ref.
+/// @param x_ref linearisation state.
+/// @return the bound b (m).
 inline double linearized_bound(double g_ref, const StateVector& grad, const StateVector& x_ref) {
   return grad.dot(x_ref) - g_ref;
 }

@@ -15,6 +15,9 @@ namespace tubempc::dynamics {
 /// matrix exponential revisited", SIAM J. Matrix Anal. Appl. 26(4), 2005, Algorithm 2.3): the lowest
 /// degree whose backward-error bound theta_m covers ||M||_1 is used; otherwise M is scaled by
 /// 2^-s so that ||M/2^s||_1 <= theta_13 and the degree-13 result is squared s times.
+/// @tparam N the matrix size (fixed, > 0).
+/// @param M the matrix (dimensionless, e.g. A dt).
+/// @param E receives e^M.
 /// @return false if M or the result is not finite (E is then unspecified).
 template <int N>
 bool expm(const Eigen::Matrix<double, N, N>& M, Eigen::Matrix<double, N, N>& E) {
@@ -70,6 +73,15 @@ bool expm(const Eigen::Matrix<double, N, N>& M, Eigen::Matrix<double, N, N>& E) 
 /// Exact zero-order-hold discretisation of x' = A x + B u + c over dt (s):
 /// Ad = e^{A dt}, Bd = int_0^dt e^{A s} ds B, cd = int_0^dt e^{A s} ds c, read off the single
 /// exponential exp([[A, B, c], [0, 0, 0]] dt) of the (NX + NU + 1)-square augmented matrix.
+/// @tparam NX state dimension.
+/// @tparam NU input dimension.
+/// @param A  continuous state matrix (1/s).
+/// @param B  continuous input matrix (state units / (input units s)).
+/// @param c  continuous affine term (state units / s).
+/// @param dt step length (s).
+/// @param Ad receives e^{A dt}.
+/// @param Bd receives int_0^dt e^{A s} ds B.
+/// @param cd receives int_0^dt e^{A s} ds c (state units).
 /// @return false if an input or the result is not finite.
 template <int NX, int NU>
 bool zoh_discretize(const Eigen::Matrix<double, NX, NX>& A, const Eigen::Matrix<double, NX, NU>& B,

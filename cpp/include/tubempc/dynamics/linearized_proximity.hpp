@@ -17,13 +17,16 @@ namespace tubempc::dynamics {
 /// Preallocated storage of a discretised horizon: node k covers [t0 + k dt, t0 + (k+1) dt] with
 /// x_{k+1} ~= A[k] x_k + B[k] u_k + c[k].
 struct DiscreteHorizon {
-  /// Allocates N nodes (N >= 1, std::invalid_argument otherwise).
+  /// Allocates the nodes.
+  /// @param N number of nodes, >= 1.
+  /// @throws std::invalid_argument for N < 1.
   explicit DiscreteHorizon(int N);
+  /// @return the number of nodes N.
   int size() const { return static_cast<int>(A.size()); }
 
-  std::vector<StateMatrix, Eigen::aligned_allocator<StateMatrix>> A;
-  std::vector<InputMatrix, Eigen::aligned_allocator<InputMatrix>> B;
-  std::vector<StateVector, Eigen::aligned_allocator<StateVector>> c;
+  std::vector<StateMatrix, Eigen::aligned_allocator<StateMatrix>> A;  ///< A[k] = e^{A_c dt} (12 x 12)
+  std::vector<InputMatrix, Eigen::aligned_allocator<InputMatrix>> B;  ///< B[k] (12 x 6)
+  std::vector<StateVector, Eigen::aligned_allocator<StateVector>> c;  ///< c[k] (state units)
   int first_failed_node{-1};  ///< index of the first node whose discretisation failed, -1 if none
 };
 
@@ -32,7 +35,8 @@ struct DiscreteHorizon {
 /// grad g(x_ref) (x - x_ref) <= 0 (constraints.hpp).
 class LinearizedProximityModel final : public mpc::LinearizedModel {
  public:
-  /// @param model non-null (std::invalid_argument otherwise)
+  /// @param model the 6-DOF model, non-null.
+  /// @throws std::invalid_argument for a null model.
   explicit LinearizedProximityModel(std::shared_ptr<const ProximityModel> model);
 
   int nx() const override { return kNx; }
@@ -42,22 +46,41 @@ class LinearizedProximityModel final : public mpc::LinearizedModel {
   /// ProximityModel::discretize at the node's start time t. Sizes are checked
   /// (std::invalid_argument); a non-Ok status (non-finite input or result) throws std::domain_error
   /// because this interface has no status channel. Allocation-free.
+  /// @param t     start time of the step (s).
+  /// @param dt    step length (s).
+  /// @param x_lin linearisation state (12).
+  /// @param u_lin linearisation input (6).
+  /// @param A     receives Ad (12 x 12).
+  /// @param B     receives Bd (12 x 6).
+  /// @param c     receives cd (12).
   void discretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_lin,
                   const Eigen::Ref<const Eigen::VectorXd>& u_lin, Eigen::Ref<Eigen::MatrixXd> A,
                   Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const override;
 
   /// G (2 x 12), h (2): glide slope and line of sight linearised at x_lin (the constraints do not
-  /// depend on t). Allocation-free; std::domain_error at r = 0 or for non-finite x_lin.
+  /// depend on t). Allocation-free.
+  /// @param t     time (s), unused.
+  /// @param x_lin linearisation state (12).
+  /// @param G     receives the constraint rows (2 x 12).
+  /// @param h     receives the bounds (2; m).
+  /// @throws std::domain_error at r = 0 or for a non-finite x_lin.
   void constraints(double t, const Eigen::Ref<const Eigen::VectorXd>& x_lin, Eigen::Ref<Eigen::MatrixXd> G,
                    Eigen::Ref<Eigen::VectorXd> h) const override;
 
   /// Discretises out.size() nodes about the columns of x_ref (12 x N) and u_ref (6 x N), node k at
   /// t0 + k dt. Returns the first non-Ok status (and sets out.first_failed_node) after trying all
   /// nodes. Allocation-free.
+  /// @param t0    time of node 0 (s).
+  /// @param dt    node length (s).
+  /// @param x_ref linearisation states, one node per column (12 x N).
+  /// @param u_ref linearisation inputs, one node per column (6 x N).
+  /// @param out   receives the N nodes; its size sets N.
+  /// @return DiscretizationStatus::Ok, or the first failure.
   DiscretizationStatus discretize_horizon(
       double t0, double dt, const Eigen::Ref<const Eigen::Matrix<double, kNx, Eigen::Dynamic>>& x_ref,
       const Eigen::Ref<const Eigen::Matrix<double, kNu, Eigen::Dynamic>>& u_ref, DiscreteHorizon& out) const;
 
+  /// @return the 6-DOF model.
   const ProximityModel& model() const { return *model_; }
 
  private:

@@ -17,42 +17,59 @@ using Disturbance6 =
 
 /// Additive disturbance on v' and w': constant + function(t, truth state) (function optional).
 struct Disturbance {
+  /// Constant part: [acceleration in L (m/s^2); angular acceleration in B (rad/s^2)].
   Disturbance6 constant{Disturbance6::Zero()};
-  std::function<Disturbance6(double, const TruthState&)> function;  ///< empty: none
+  /// Time- and state-dependent part (same units), called at every derivative evaluation; empty: none.
+  std::function<Disturbance6(double, const TruthState&)> function;
 
+  /// The disturbance at a time and state.
+  /// @param t time (s).
+  /// @param s truth state [r_L (m), v_L (m/s), q_B/L, omega_BL_B (rad/s)].
+  /// @return constant + function(t, s) (m/s^2 in L; rad/s^2 in B).
   Disturbance6 operator()(double t, const TruthState& s) const {
     return function ? Disturbance6(constant + function(t, s)) : constant;
   }
 };
 
+/// Integration method of the truth propagation.
 enum class Integrator {
   RK4,     ///< classical fourth-order Runge-Kutta, `substeps` equal steps
   DOPRI5,  ///< Dormand-Prince 5(4), FSAL, local extrapolation, adaptive steps
 };
+/// Name of an integration method.
+/// @param m the method.
+/// @return "rk4" or "dopri5".
 const char* to_string(Integrator m);
 
+/// Settings of propagate().
 struct PropagatorSettings {
-  Integrator method{Integrator::RK4};
+  Integrator method{Integrator::RK4};  ///< integration method
   int substeps{20};          ///< RK4 steps per call, >= 1
   double rtol{1e-10};        ///< DOPRI5 relative tolerance, > 0
   double atol{1e-12};        ///< DOPRI5 absolute tolerance (state units), > 0
   int max_steps{100000};     ///< DOPRI5 step budget (accepted + rejected), >= 1
   double initial_step{0.0};  ///< DOPRI5 first step (s); 0: Hairer's automatic choice
 
-  /// Throws std::invalid_argument naming the first bad field.
+  /// Checks the ranges given above.
+  /// @throws std::invalid_argument naming the first bad field.
   void validate() const;
 };
 
+/// Outcome of propagate().
 enum class PropagationStatus {
   Success,
   MaxStepsReached,  ///< DOPRI5 used max_steps without reaching t0 + dt
   StepTooSmall,     ///< DOPRI5 step fell below 1e-14 |t| (tolerance unreachable)
   NonFinite,        ///< input, disturbance or state became non-finite
 };
+/// Name of a propagation status.
+/// @param s the status.
+/// @return its name ("success", ...).
 const char* to_string(PropagationStatus s);
 
+/// Result of propagate().
 struct PropagationResult {
-  PropagationStatus status{PropagationStatus::Success};
+  PropagationStatus status{PropagationStatus::Success};  ///< outcome
   TruthState state{TruthState::Zero()};  ///< at t (unit quaternion); last good state on failure
   double t{0.0};                         ///< time reached (s)
   int steps{0};                          ///< accepted steps
@@ -60,8 +77,18 @@ struct PropagationResult {
   int evaluations{0};                    ///< derivative evaluations
 };
 
-/// Propagates `state` from t0 over dt >= 0 (s) with input u held constant. Invalid settings or a
-/// non-unit/zero quaternion throw std::invalid_argument; numerical outcomes are statuses.
+/// Propagates a truth state over one interval with the input held constant (zero-order hold).
+/// @param model       the truth model (ProximityModel::truth_derivative).
+/// @param t0          start time (s).
+/// @param state       truth state at t0: [r_L (m), v_L (m/s), q_B/L (unit), omega_BL_B (rad/s)].
+/// @param u           input held over the interval: [u_p (m/s^2, in L), T (N m, in B)].
+/// @param dt          interval length (s), >= 0.
+/// @param disturbance additive disturbance on v' and w' (default: none).
+/// @param settings    integration method and its parameters.
+/// @return the state at t0 + dt (quaternion renormalised) and the integration's statistics; numerical
+///         failures are statuses, not exceptions.
+/// @throws std::invalid_argument for invalid settings, a negative or non-finite dt or a non-unit or
+///         zero quaternion.
 PropagationResult propagate(const ProximityModel& model, double t0, const TruthState& state,
                             const InputVector& u, double dt, const Disturbance& disturbance = {},
                             const PropagatorSettings& settings = {});

@@ -37,10 +37,15 @@ inline constexpr int kNx = 12;      ///< state dimension of x = [r, v, phi, w]
 inline constexpr int kNu = 6;       ///< input dimension of u = [u_p, T]
 inline constexpr int kNtruth = 13;  ///< truth-state dimension of [r, v, q_B/L, w]
 
+/// Model state x = [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)].
 using StateVector = Eigen::Matrix<double, kNx, 1>;
+/// Input u = [u_p (m/s^2, in L), T (N m, in B)].
 using InputVector = Eigen::Matrix<double, kNu, 1>;
-using TruthState = Eigen::Matrix<double, kNtruth, 1>;  ///< [r_L, v_L, q_B/L ([x,y,z,w]), omega_BL_B]
+/// Truth state [r_L (m), v_L (m/s), q_B/L ([x,y,z,w], unit), omega_BL_B (rad/s)].
+using TruthState = Eigen::Matrix<double, kNtruth, 1>;
+/// 12 x 12 matrix over the model state (e.g. A = df/dx, in the state's mixed units).
 using StateMatrix = Eigen::Matrix<double, kNx, kNx>;
+/// 12 x 6 matrix from the input to the model state (e.g. B = df/du).
 using InputMatrix = Eigen::Matrix<double, kNx, kNu>;
 
 /// Attitude kinematics of the rotation vector (PAPER_NOTES.md, "Attitude").
@@ -48,6 +53,9 @@ enum class Kinematics {
   Paper,  ///< phi' = omega_BL_B (the paper's first-order law)
   Exact,  ///< phi' = Jr(phi)^-1 omega_BL_B
 };
+/// Name of a kinematics variant.
+/// @param k the variant.
+/// @return "paper" or "exact".
 const char* to_string(Kinematics k);
 
 /// Model constants; in-class defaults are the paper's scenario (Table 1, PAPER_NOTES.md).
@@ -67,9 +75,11 @@ struct ModelParams {
   double los_angle{80.0 * 3.14159265358979323846 / 180.0};          ///< theta_LOS (rad), in (0, pi/2)
   Eigen::Vector3d boresight_B{0.0, 0.0, 1.0};  ///< camera boresight b_B in B (normalised on use)
 
-  /// Throws std::invalid_argument naming the first bad field.
+  /// Checks the ranges given above (finite values, inertia symmetric positive definite, ...).
+  /// @throws std::invalid_argument naming the first bad field.
   void validate() const;
-  /// Orbital rate n = sqrt(mu_sun / R^3) (rad/s).
+  /// Orbital rate of the frame L.
+  /// @return n = sqrt(mu_sun / R^3) (rad/s).
   double mean_motion() const;
 };
 
@@ -79,52 +89,90 @@ struct ModelParams {
 class ExtraAcceleration {
  public:
   virtual ~ExtraAcceleration() = default;
-  /// Acceleration (m/s^2) in L at time t (s), position r_L (m), velocity v_L (m/s).
+  /// The extra acceleration.
+  /// @param t   time (s).
+  /// @param r_L position in L (m).
+  /// @param v_L velocity in L (m/s).
+  /// @return the acceleration in L (m/s^2).
   virtual Eigen::Vector3d acceleration(double t, const Eigen::Vector3d& r_L,
                                        const Eigen::Vector3d& v_L) const = 0;
-  /// Partial derivatives d a / d r_L (1/s^2) and d a / d v_L (1/s).
+  /// Partial derivatives of acceleration().
+  /// @param t     time (s).
+  /// @param r_L   position in L (m).
+  /// @param v_L   velocity in L (m/s).
+  /// @param da_dr receives d a / d r_L (1/s^2).
+  /// @param da_dv receives d a / d v_L (1/s).
   virtual void jacobian(double t, const Eigen::Vector3d& r_L, const Eigen::Vector3d& v_L,
                         Eigen::Matrix3d& da_dr, Eigen::Matrix3d& da_dv) const = 0;
 };
 
 /// Outcome of a discretisation.
 enum class DiscretizationStatus {
-  Ok,
+  Ok,               ///< finite result
   NonFiniteInput,   ///< t, dt, x or u not finite
   NonFiniteResult,  ///< non-finite f, Jacobian or exponential, or Jr^-1 singular (Exact, |phi| ~ 2 pi)
 };
+/// Name of a discretisation status.
+/// @param s the status.
+/// @return its name ("ok", ...).
 const char* to_string(DiscretizationStatus s);
 
 /// The 6-DOF proximity model. Immutable after construction; all methods are const, thread-safe
 /// (if the gravity model is) and allocation-free.
 class ProximityModel {
  public:
-  /// @param gravity field in the asteroid frame A (non-null); @param params validated here;
-  /// @param extra optional extra acceleration (truth model), may be null.
+  /// @param gravity field in the asteroid frame A, non-null.
+  /// @param params  model constants, validated here.
+  /// @param extra   optional extra acceleration (truth model), may be null.
+  /// @throws std::invalid_argument for a null gravity or invalid params (ModelParams::validate).
   ProximityModel(std::shared_ptr<const gravity::GravityModel> gravity, const ModelParams& params = {},
                  std::shared_ptr<const ExtraAcceleration> extra = nullptr);
 
+  /// @return the model constants.
   const ModelParams& params() const { return params_; }
+  /// @return the gravity field (frame A).
   const std::shared_ptr<const gravity::GravityModel>& gravity() const { return gravity_; }
+  /// @return the extra acceleration, or null.
   const std::shared_ptr<const ExtraAcceleration>& extra_acceleration() const { return extra_; }
-  /// Orbital rate n (rad/s).
+  /// @return the orbital rate n (rad/s).
   double mean_motion() const { return n_; }
 
-  /// Angle theta(t) = theta_0 + (omega_A - n) t (rad) of x_A from x_L about z.
+  /// Angle of x_A from x_L about z.
+  /// @param t time (s).
+  /// @return theta(t) = theta_0 + (omega_A - n) t (rad).
   double spin_angle(double t) const;
-  /// C_AL(t): r_A = C_AL r_L.
+  /// Rotation from L to A.
+  /// @param t time (s).
+  /// @return C_AL(t), with r_A = C_AL r_L.
   Eigen::Matrix3d C_AL(double t) const;
-  /// q_A/L(t) with R(q_A/L) = C_AL (so3.hpp conventions).
+  /// Attitude of A relative to L.
+  /// @param t time (s).
+  /// @return q_A/L(t) with R(q_A/L) = C_AL (so3.hpp conventions).
   math::Quaternion q_AL(double t) const;
 
-  /// Gravity acceleration a_L (m/s^2) and gradient G_L = C_AL^T G_A C_AL (1/s^2) at r_L (m), time t (s).
+  /// Gravity acceleration and gradient in L.
+  /// @param t   time (s).
+  /// @param r_L position in L (m).
+  /// @param a_L receives the acceleration in L (m/s^2).
+  /// @param G_L receives the gradient G_L = C_AL^T G_A C_AL (1/s^2).
   void gravity_L(double t, const Eigen::Vector3d& r_L, Eigen::Vector3d& a_L, Eigen::Matrix3d& G_L) const;
 
-  /// Continuous dynamics x' = f(t, x, u). Throws std::domain_error for non-finite arguments.
+  /// Continuous dynamics.
+  /// @param t time (s).
+  /// @param x model state [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)].
+  /// @param u input [u_p (m/s^2, in L), T (N m, in B)].
+  /// @return x' = f(t, x, u) (units of x per second).
+  /// @throws std::domain_error for non-finite arguments.
   StateVector f(double t, const StateVector& x, const InputVector& u) const;
 
-  /// f and its Jacobians A = df/dx (12x12), B = df/du (12x6) at (t, x, u) (one gravity evaluation).
-  /// Throws std::domain_error for non-finite arguments.
+  /// f and its Jacobians at (t, x, u) with one gravity evaluation.
+  /// @param t     time (s).
+  /// @param x     model state (see f).
+  /// @param u     input (see f).
+  /// @param f_out receives f(t, x, u).
+  /// @param A     receives df/dx (12 x 12).
+  /// @param B     receives df/du (12 x 6).
+  /// @throws std::domain_error for non-finite arguments.
   void linearize(double t, const StateVector& x, const InputVector& u, StateVector& f_out, StateMatrix& A,
                  InputMatrix& B) const;
 
@@ -134,16 +182,32 @@ class ProximityModel {
   /// ~ 8e-4 rad for dt = 2 s, is left to the model residual). One 19x19 exponential; no allocation.
   /// Non-finite input or result, and |phi| >= 2 pi - 1e-6 with Kinematics::Exact (Jr^-1 singular),
   /// give a status, not an exception; the gravity model's own errors (e.g. r = 0) propagate.
+  /// @param t     start time of the step (s).
+  /// @param dt    step length (s).
+  /// @param x_ref linearisation state (see f).
+  /// @param u_ref linearisation input (see f).
+  /// @param Ad    receives e^{A dt}.
+  /// @param Bd    receives int_0^dt e^{A s} ds B.
+  /// @param cd    receives int_0^dt e^{A s} ds c (state units).
+  /// @return DiscretizationStatus::Ok, or why the outputs are not usable.
   DiscretizationStatus discretize(double t, double dt, const StateVector& x_ref, const InputVector& u_ref,
                                   StateMatrix& Ad, InputMatrix& Bd, StateVector& cd) const;
 
   /// Derivative of the 13-dimensional truth state [r, v, q_B/L, w] with the quaternion kinematics
   /// q' = 1/2 q (x) [w; 0] and C_BL = R(q)^T; disturbance = [acceleration in L (m/s^2); angular
   /// acceleration in B (rad/s^2)] added to v' and w'. No finiteness check (the propagator checks).
+  /// @param t           time (s).
+  /// @param s           truth state [r_L (m), v_L (m/s), q_B/L, omega_BL_B (rad/s)].
+  /// @param u           input (see f).
+  /// @param disturbance [acceleration in L (m/s^2); angular acceleration in B (rad/s^2)].
+  /// @return the derivative of s (units of s per second).
   TruthState truth_derivative(double t, const TruthState& s, const InputVector& u,
                               const Eigen::Matrix<double, 6, 1>& disturbance) const;
 
-  /// Rotation-vector kinematics phi' for the configured variant.
+  /// Rotation-vector kinematics for the configured variant.
+  /// @param phi        rotation vector of q_B/L (rad).
+  /// @param omega_BL_B angular velocity of B relative to L, in B (rad/s).
+  /// @return phi' (rad/s): omega_BL_B (Paper) or Jr(phi)^-1 omega_BL_B (Exact).
   Eigen::Vector3d phi_dot(const Eigen::Vector3d& phi, const Eigen::Vector3d& omega_BL_B) const;
 
  private:
@@ -160,8 +224,12 @@ class ProximityModel {
   Eigen::Matrix3d J_inv_{Eigen::Matrix3d::Identity()};
 };
 
-/// Inverse right Jacobian Jr(phi)^-1 and the derivative d(Jr(phi)^-1 w)/dphi (3x3), accurate near
-/// phi = 0 (series) and defined for |phi| < 2 pi (std::domain_error otherwise).
+/// Inverse right Jacobian and its directional derivative, accurate near phi = 0 (series).
+/// @param phi            rotation vector (rad), |phi| < 2 pi.
+/// @param w              angular velocity (rad/s).
+/// @param Jr_inv         receives Jr(phi)^-1.
+/// @param d_Jrinv_w_dphi receives d(Jr(phi)^-1 w)/dphi (3 x 3, 1/s).
+/// @throws std::domain_error for non-finite input or |phi| >= 2 pi.
 void right_jacobian_inverse_and_derivative(const Eigen::Vector3d& phi, const Eigen::Vector3d& w,
                                            Eigen::Matrix3d& Jr_inv, Eigen::Matrix3d& d_Jrinv_w_dphi);
 
@@ -169,9 +237,16 @@ void right_jacobian_inverse_and_derivative(const Eigen::Vector3d& phi, const Eig
 /// representative phi + 2 pi k phi/|phi| (k in {-1, 0, 1}) nearest to phi_ref. A trajectory
 /// crossing |phi| = pi thus stays continuous when phi_ref is the previous model state (|phi| may
 /// then exceed pi; the model is valid for |phi| < 2 pi). Pass phi_ref = 0 for the principal value.
+/// @param s       truth state [r_L (m), v_L (m/s), q_B/L, omega_BL_B (rad/s)].
+/// @param phi_ref rotation vector (rad) the result's phi is taken nearest to.
+/// @return the model state [r_L, v_L, phi (rad), omega_BL_B].
+/// @throws std::domain_error for non-finite s or phi_ref.
 StateVector truth_to_state(const TruthState& s, const Eigen::Vector3d& phi_ref = Eigen::Vector3d::Zero());
 
 /// Model state -> truth state: q_B/L = exp_map(phi).
+/// @param x model state [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)].
+/// @return the truth state [r_L, v_L, q_B/L (unit), omega_BL_B].
+/// @throws std::domain_error for a non-finite x.
 TruthState state_to_truth(const StateVector& x);
 
 }  // namespace tubempc::dynamics

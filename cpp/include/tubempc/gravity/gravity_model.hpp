@@ -23,21 +23,29 @@ class GravityModel {
  public:
   virtual ~GravityModel() = default;
 
-  /// Evaluates U, grad U and Hess U at the position r_A (m) in frame A.
+  /// Evaluates U, grad U and Hess U at a point.
+  /// @param r_A position in the body-fixed frame A (m).
+  /// @param out receives U (m^2/s^2), a (m/s^2) and G (1/s^2) at r_A, in frame A.
   virtual void evaluate(const Eigen::Vector3d& r_A, GravitySample& out) const = 0;
 
-  /// Gravitational parameter G M of the body (m^3/s^2).
+  /// Gravitational parameter of the body.
+  /// @return G M (m^3/s^2).
   virtual double gm() const = 0;
 };
 
 /// Point mass at the origin of A: U = GM / |r|.
 class PointMassGravity final : public GravityModel {
  public:
-  /// @param gm gravitational parameter (m^3/s^2), finite and > 0 (std::invalid_argument otherwise).
+  /// @param gm gravitational parameter (m^3/s^2), finite and > 0.
+  /// @throws std::invalid_argument otherwise.
   explicit PointMassGravity(double gm);
 
-  /// Evaluates the field; at r = 0 the field is singular and std::domain_error is thrown.
+  /// Evaluates U = GM/|r|, its gradient and Hessian.
+  /// @param r_A position in frame A (m), finite and non-zero.
+  /// @param out receives U (m^2/s^2), a (m/s^2) and G (1/s^2).
+  /// @throws std::domain_error at r_A = 0 (singular) or for a non-finite r_A.
   void evaluate(const Eigen::Vector3d& r_A, GravitySample& out) const override;
+  /// @return G M (m^3/s^2), as constructed.
   double gm() const override { return gm_; }
 
  private:

@@ -70,30 +70,50 @@ using Gradients = Eigen::Matrix<double, Eigen::Dynamic, 9, Eigen::RowMajor>;
 class PolyhedronGravity final : public GravityModel {
  public:
   /// @param shape   validated closed mesh (m).
-  /// @param density constant density (kg/m^3), finite and > 0 (std::invalid_argument otherwise).
+  /// @param density constant density (kg/m^3), finite and > 0.
+  /// @throws std::invalid_argument for a bad density.
   PolyhedronGravity(Shape shape, double density);
 
-  /// U (m^2/s^2), a = grad U (m/s^2) and G = Hess U (1/s^2) at r_A (m); r_A must be finite with
-  /// |r_A| < 1e150 m (std::domain_error otherwise).
+  /// U, grad U and Hess U at a point.
+  /// @param r_A position in frame A (m), finite with |r_A| < 1e150 m.
+  /// @param out receives U (m^2/s^2), a = grad U (m/s^2) and G = Hess U (1/s^2).
+  /// @throws std::domain_error for a non-finite or too large r_A.
   void evaluate(const Eigen::Vector3d& r_A, GravitySample& out) const override;
 
-  /// Laplacian of U at r_A (1/s^2): -G rho sum_f w_f (0 outside, -4 pi G rho inside).
+  /// Laplacian of U at a point.
+  /// @param r_A position in frame A (m), finite with |r_A| < 1e150 m.
+  /// @return -G rho sum_f w_f (1/s^2): 0 outside, -4 pi G rho inside.
+  /// @throws std::domain_error for a non-finite or too large r_A.
   double laplacian(const Eigen::Vector3d& r_A) const;
 
-  /// Evaluates at every row of r_A (m) on `threads` threads (0: std::thread::hardware_concurrency).
-  /// Writes potential (n), acceleration (n x 3) and gradient (n x 9, row-major 3 x 3 per row);
-  /// the outputs must have n rows (std::invalid_argument otherwise). Results do not depend on the
-  /// number of threads. Allocates only the threads.
+  /// Evaluates at every row of r_A. Results do not depend on the number of threads. Allocates only
+  /// the threads.
+  /// @param r_A          points in frame A (m), n x 3.
+  /// @param potential    receives U (m^2/s^2), n.
+  /// @param acceleration receives a (m/s^2), n x 3.
+  /// @param gradient     receives G (1/s^2), n x 9 (row-major 3 x 3 per row).
+  /// @param threads      threads to use; 0: std::thread::hardware_concurrency.
+  /// @throws std::invalid_argument if an output does not have n rows, a point is not finite or has
+  ///         |r| >= 1e150 m, or threads < 0.
   void evaluate_batch(const Eigen::Ref<const Points>& r_A, Eigen::Ref<Eigen::VectorXd> potential,
                       Eigen::Ref<Points> acceleration, Eigen::Ref<Gradients> gradient, int threads = 1) const;
 
-  /// Laplacian at every row of r_A (m) on `threads` threads (0: hardware threads).
+  /// Laplacian at every row of r_A.
+  /// @param r_A       points in frame A (m), n x 3.
+  /// @param laplacian receives the Laplacian of U (1/s^2), n.
+  /// @param threads   threads to use; 0: hardware threads.
+  /// @throws std::invalid_argument if laplacian does not have n rows, a point is not finite or has
+  ///         |r| >= 1e150 m, or threads < 0.
   void laplacian_batch(const Eigen::Ref<const Points>& r_A, Eigen::Ref<Eigen::VectorXd> laplacian,
                        int threads = 1) const;
 
+  /// @return G M = G rho V (m^3/s^2).
   double gm() const override { return kGravitationalConstant * mass(); }
-  double density() const { return density_; }                    ///< kg/m^3
-  double mass() const { return density_ * shape_.volume(); }     ///< kg
+  /// @return the density rho (kg/m^3).
+  double density() const { return density_; }
+  /// @return the mass rho V (kg).
+  double mass() const { return density_ * shape_.volume(); }
+  /// @return the mesh (m).
   const Shape& shape() const { return shape_; }
 
  private:

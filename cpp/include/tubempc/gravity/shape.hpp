@@ -25,10 +25,10 @@ enum class ShapeRepair {
 /// An edge of the mesh with the two faces that share it: face_a traverses v0 -> v1 and face_b
 /// traverses v1 -> v0.
 struct MeshEdge {
-  std::int64_t v0{0};
-  std::int64_t v1{0};
-  std::int64_t face_a{0};
-  std::int64_t face_b{0};
+  std::int64_t v0{0};      ///< first vertex (0-based index)
+  std::int64_t v1{0};      ///< second vertex (0-based index)
+  std::int64_t face_a{0};  ///< face traversing v0 -> v1 (0-based index)
+  std::int64_t face_b{0};  ///< face traversing v1 -> v0 (0-based index)
 };
 
 /// A closed, consistently outward-oriented triangle mesh, validated on construction.
@@ -45,24 +45,34 @@ class Shape {
   /// @param vertices_m vertex coordinates (m), n x 3.
   /// @param faces      0-based vertex indices, m x 3.
   /// @param repair     whether orientation errors are repaired or rejected.
+  /// @throws std::invalid_argument naming the offending vertex, face or edge (see the class comment).
   Shape(Vertices vertices_m, Faces faces, ShapeRepair repair = ShapeRepair::None);
 
-  const Vertices& vertices() const { return vertices_; }  ///< n x 3 (m)
-  const Faces& faces() const { return faces_; }           ///< m x 3, outward orientation
+  /// @return the vertices, n x 3 (m).
+  const Vertices& vertices() const { return vertices_; }
+  /// @return the faces, m x 3 0-based vertex indices, outward orientation (after any repair).
+  const Faces& faces() const { return faces_; }
+  /// @return the number of vertices n.
   Eigen::Index n_vertices() const { return vertices_.rows(); }
+  /// @return the number of faces m.
   Eigen::Index n_faces() const { return faces_.rows(); }
-  /// Unique edges (3 m / 2 of them), each with its two faces.
+  /// @return the unique edges (3 m / 2 of them), each with its two faces.
   const std::vector<MeshEdge>& edges() const { return edges_; }
-  /// Number of faces flipped by ShapeRepair::Orient (0 without repair).
+  /// @return the number of faces flipped by ShapeRepair::Orient (0 without repair).
   Eigen::Index n_flipped_faces() const { return n_flipped_; }
 
-  double volume() const { return volume_; }                               ///< m^3, > 0
-  const Eigen::Vector3d& center_of_mass() const { return center_of_mass_; }  ///< m (constant density)
-  /// Inertia tensor about the centre of mass per unit density (m^5): int (|x|^2 I - x x^T) dV.
+  /// @return the enclosed volume (m^3), > 0.
+  double volume() const { return volume_; }
+  /// @return the centre of mass for a constant density (m).
+  const Eigen::Vector3d& center_of_mass() const { return center_of_mass_; }
+  /// @return the inertia tensor about the centre of mass per unit density (m^5):
+  ///         int (|x|^2 I - x x^T) dV.
   const Eigen::Matrix3d& inertia_per_unit_density() const { return inertia_unit_; }
-  /// Inertia tensor about the centre of mass (kg m^2) for a density (kg/m^3).
+  /// Inertia tensor about the centre of mass for a constant density.
+  /// @param density density (kg/m^3).
+  /// @return density times inertia_per_unit_density() (kg m^2).
   Eigen::Matrix3d inertia(double density) const { return density * inertia_unit_; }
-  /// Radius of the sphere of equal volume (m).
+  /// @return the radius of the sphere of equal volume (m).
   double mean_radius() const;
 
  private:

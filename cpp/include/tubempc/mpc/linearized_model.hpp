@@ -14,20 +14,31 @@ class LinearizedModel {
  public:
   virtual ~LinearizedModel() = default;
 
-  /// State dimension n_x.
+  /// @return the state dimension n_x.
   virtual int nx() const = 0;
-  /// Input dimension n_u.
+  /// @return the input dimension n_u.
   virtual int nu() const = 0;
-  /// Number of linearised state-constraint rows per node.
+  /// @return the number of linearised state-constraint rows per node.
   virtual int n_constraints() const = 0;
 
-  /// Discretises the dynamics over [t, t + dt] (s) about (x_lin, u_lin) with a zero-order hold:
-  /// x(t + dt) ~= A x(t) + B u + c. Writes A (n_x x n_x), B (n_x x n_u) and c (n_x).
+  /// Discretises the dynamics over [t, t + dt] about (x_lin, u_lin) with a zero-order hold:
+  /// x(t + dt) ~= A x(t) + B u + c.
+  /// @param t     start time of the step (s).
+  /// @param dt    step length (s).
+  /// @param x_lin linearisation state (n_x, state units).
+  /// @param u_lin linearisation input (n_u, input units).
+  /// @param A     receives A (n_x x n_x).
+  /// @param B     receives B (n_x x n_u).
+  /// @param c     receives c (n_x, state units).
   virtual void discretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_lin,
                           const Eigen::Ref<const Eigen::VectorXd>& u_lin, Eigen::Ref<Eigen::MatrixXd> A,
                           Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const = 0;
 
-  /// Linearised state constraints at (t, x_lin): G x <= h, G (n_constraints x n_x), h (n_constraints).
+  /// Linearised state constraints at (t, x_lin): G x <= h.
+  /// @param t     time (s).
+  /// @param x_lin linearisation state (n_x).
+  /// @param G     receives G (n_constraints x n_x).
+  /// @param h     receives h (n_constraints, constraint units).
   virtual void constraints(double t, const Eigen::Ref<const Eigen::VectorXd>& x_lin,
                            Eigen::Ref<Eigen::MatrixXd> G, Eigen::Ref<Eigen::VectorXd> h) const = 0;
 };

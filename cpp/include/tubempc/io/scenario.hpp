@@ -1,0 +1,137 @@
+/// @file scenario.hpp
+/// The scenario file: everything a C++ program needs to fly the closed loop the Python package sets
+/// up (`tubempc export-scenario`, python/tubempc/export.py): the controller's and the truth's 6-DOF
+/// models, the tube MPC's settings, the reference trajectory, TBMPC's fixed tube, the initial and
+/// target states and the truth propagator's settings. Plain text, versioned, exact (every double
+/// written with 17 significant digits, so reading gives back the same bits).
+///
+/// Format, version 1
+/// -----------------
+/// - Line 1: `tubempc-scenario 1`. Lines starting with `#` (after optional blanks) and blank lines
+///   are comments anywhere else.
+/// - Then records in any order, each name at most once:
+///   - numeric: a header line `<name> <rows> <cols>` followed by `rows` lines of `cols` numbers each
+///     (a matrix row per line, row-major; `0 0` for an empty matrix, with no value lines). Numbers
+///     are C-locale decimals (`%.17g`); `inf`/`-inf` only where noted, never `nan`. Integers and
+///     flags (0 or 1) are numeric 1 x 1 records.
+///   - text: a header line `<name> text` followed by one line holding the value (leading and
+///     trailing blanks dropped; not empty).
+/// - Names, sizes and units (n_x = 12, n_u = 6, T the mission's steps; "opt." = optional):
+///
+///   | record | size | meaning |
+///   | --- | --- | --- |
+///   | `model.mu_sun` | 1 1 | Sun's gravitational parameter (m^3/s^2) |
+///   | `model.orbit_radius` | 1 1 | heliocentric distance R (m) |
+///   | `model.beta_srp` | 1 1 | SRP constant (m^3/s^2) |
+///   | `model.srp_enabled` | 1 1 | 0 or 1 |
+///   | `model.inertia_B` | 3 3 | spacecraft inertia in B (kg m^2) |
+///   | `model.spin_rate` | 1 1 | asteroid spin rate omega_A (rad/s, signed, about z_L) |
+///   | `model.spin_angle0` | 1 1 | theta_0 (rad) |
+///   | `model.kinematics` | text | `paper` or `exact` |
+///   | `model.glide_slope_angle` | 1 1 | phi_gs (rad) |
+///   | `model.los_angle` | 1 1 | theta_LOS (rad) |
+///   | `model.boresight_B` | 3 1 | boresight in B |
+///   | `model.density` | 1 1 | asteroid density (kg/m^3) |
+///   | `model.shape` | text | shape file (gravity/shape_io.hpp), relative to the scenario's folder or absolute |
+///   | `model.shape_unit_scale` | 1 1 | metres per unit of the shape file |
+///   | `truth.*` | | the same 14 records for the simulated plant (the truth model) |
+///   | `propagator.method` | text | `rk4` or `dopri5` |
+///   | `propagator.substeps`, `.rtol`, `.atol`, `.max_steps`, `.initial_step` | 1 1 each | dynamics::PropagatorSettings (s for initial_step) |
+///   | `mpc.horizon` | 1 1 | N |
+///   | `mpc.dt` | 1 1 | control period (s) |
+///   | `mpc.Q`, `mpc.R` | 12 12, 6 6 | stage weights |
+///   | `mpc.u_max` | 6 1 | input bounds (m/s^2, N m) |
+///   | `mpc.input_cost` | text | `paper` or `from_reference` |
+///   | `mpc.scp_eps` | 1 1 | SCP threshold (state units) |
+///   | `mpc.initial_condition` (opt.) | text | `whitened_box` or `exact` |
+///   | `mpc.scp_max_iterations`, `mpc.qp_max_iterations`, `mpc.riccati_max_iterations` (opt.) | 1 1 | integers |
+///   | `mpc.trust_region` (opt., may be `inf`), `mpc.time_limit` (opt., s, may be `inf`) | 1 1 | |
+///   | `mpc.qp_eps_abs`, `mpc.qp_eps_rel`, `mpc.qp_inaccurate_tol`, `mpc.soft_penalty`, `mpc.riccati_tol` (opt.) | 1 1 | |
+///   | `mpc.soft_state_constraints`, `mpc.soft_terminal`, `mpc.qp_scale_cost` (opt.) | 1 1 | 0 or 1 |
+///   | `mpc.kkt_solver` (opt.) | text | `sparse_ldlt` or `sparse_multistage` |
+///   | `mpc.A_structure`, `mpc.B_structure`, `mpc.G_structure` (opt.) | 12 12, 12 6, 2 12 (or 0 0) | model structures |
+///   | `reference.t0` | 1 1 | time of node 0 (s) |
+///   | `reference.z` | T+1 12 | reference states zbar_0..zbar_T, one node per row |
+///   | `reference.u` | T 6 | reference inputs u_ref_0..u_ref_{T-1}, one node per row |
+///   | `tube.K` | 6 12 | ancillary gain |
+///   | `tube.Pe` | 12 12 | tube shape |
+///   | `mission.x0` | 12 1 | initial state [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)] |
+///   | `mission.xf` | 12 1 | target state, same units |
+///
+///   Optional records default to mpc::Settings' defaults (the structures to dense). Everything else
+///   is required; unknown names are errors (a later version adds names and bumps the number).
+///
+/// Example (abridged):
+///
+///     tubempc-scenario 1
+///     # exported by tubempc 0.1.0
+///     model.mu_sun 1 1
+///     1.32712440018e+20
+///     model.kinematics text
+///     exact
+///     mpc.u_max 6 1
+///     0.55000000000000004
+///     ...
+#pragma once
+
+#include <string>
+
+#include "tubempc/dynamics/propagator.hpp"
+#include "tubempc/dynamics/proximity_model.hpp"
+#include "tubempc/mpc/tube_mpc.hpp"
+
+namespace tubempc::io {
+
+/// Version of the scenario format this library reads and writes.
+inline constexpr int kScenarioFormatVersion = 1;
+
+/// One 6-DOF model of the scenario: the inputs of gravity::load_shape, gravity::PolyhedronGravity
+/// and dynamics::ProximityModel.
+struct BodyModel {
+  dynamics::ModelParams params;  ///< dynamics constants (SI; see dynamics::ModelParams)
+  double density{1260.0};        ///< asteroid density (kg/m^3), finite and > 0
+  std::string shape;             ///< shape file as written: relative to Scenario::directory, or absolute
+  double shape_unit_scale{1.0};  ///< metres per unit of the shape file, finite and > 0
+};
+
+/// Contents of a scenario file (see the file comment for the format).
+struct Scenario {
+  /// Folder of the file read (relative shape paths are relative to it); empty if not read from a file.
+  std::string directory;
+  BodyModel controller;                    ///< the MPC's model (records `model.*`)
+  BodyModel truth;                         ///< the simulated plant (records `truth.*`)
+  dynamics::PropagatorSettings propagator; ///< truth propagation per control period
+  mpc::Settings settings;                  ///< tube MPC settings
+  mpc::Reference reference;                ///< zbar (12 x (T + 1)), u_ref (6 x T) as columns, t0 (s)
+  mpc::Tube tube;                          ///< TBMPC's fixed tube: K (6 x 12), Pe (12 x 12)
+  dynamics::StateVector x0{dynamics::StateVector::Zero()};  ///< initial state (m, m/s, rad, rad/s)
+  dynamics::StateVector xf{dynamics::StateVector::Zero()};  ///< target state (same units)
+
+  /// @return the mission length T (steps): the number of reference inputs.
+  int mission_steps() const { return static_cast<int>(reference.u.cols()); }
+  /// A path written in the file (e.g. BodyModel::shape) made usable from the current directory.
+  /// @param path relative to `directory`, or absolute.
+  /// @return `directory`/path for a relative path; the path itself if absolute or if `directory` is empty.
+  std::string resolve(const std::string& path) const;
+};
+
+/// Reads and validates a scenario file (format version 1).
+/// @param path the scenario file.
+/// @return its contents; `directory` is the file's folder. The shape files are not opened.
+/// @throws std::invalid_argument `<path>:<line>: <record>: <what>` for a malformed record (bad header,
+///         number or size, NaN, an infinity where none is allowed, a non-integer or out-of-range
+///         integer, a flag other than 0/1, an unknown option, an unknown or repeated name), and
+///         `<path>: <record>: <what>` for a missing record, an unreadable file, or values rejected by
+///         ModelParams::validate, PropagatorSettings::validate, mpc::Settings::validate or the
+///         size checks of the reference, the tube and the states.
+Scenario read_scenario(const std::string& path);
+
+/// Writes a scenario file (format version 1) with every record, optional ones included.
+/// @param path     file to create or overwrite.
+/// @param scenario contents; shape paths are written as they are (relative ones stay relative).
+/// @param comment  optional text written as `#` comment lines after the version line.
+/// @throws std::invalid_argument if the contents have the wrong sizes for the format (12 states,
+///         6 inputs); std::runtime_error naming the path when the file cannot be written.
+void write_scenario(const std::string& path, const Scenario& scenario, const std::string& comment = "");
+
+}  // namespace tubempc::io

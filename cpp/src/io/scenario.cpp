@@ -1,0 +1,476 @@
+#include "tubempc/io/scenario.hpp"
+
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <limits>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "../core/text.hpp"
+
+namespace tubempc::io {
+
+namespace {
+
+using core::text::format_double;
+
+constexpr const char* kMagic = "tubempc-scenario";
+
+// Text <-> enum of the options (the names written in the file).
+template <typename E>
+using Options = std::initializer_list<std::pair<const char*, E>>;
+const Options<dynamics::Kinematics> kKinematics = {{"paper", dynamics::Kinematics::Paper},
+                                                   {"exact", dynamics::Kinematics::Exact}};
+const Options<dynamics::Integrator> kIntegrators = {{"rk4", dynamics::Integrator::RK4},
+                                                    {"dopri5", dynamics::Integrator::DOPRI5}};
+const Options<mpc::InputCost> kInputCosts = {{"paper", mpc::InputCost::Paper},
+                                             {"from_reference", mpc::InputCost::FromReference}};
+const Options<mpc::InitialCondition> kInitialConditions = {{"whitened_box", mpc::InitialCondition::WhitenedBox},
+                                                           {"exact", mpc::InitialCondition::Exact}};
+const Options<mpc::KktSolver> kKktSolvers = {{"sparse_ldlt", mpc::KktSolver::SparseLdlt},
+                                             {"sparse_multistage", mpc::KktSolver::SparseMultistage}};
+
+template <typename E>
+const char* option_name(const Options<E>& options, E value) {
+  for (const auto& [name, v] : options) {
+    if (v == value) return name;
+  }
+  throw std::invalid_argument("write_scenario: option value " + std::to_string(static_cast<int>(value)) +
+                              " has no name in the scenario format");
+}
+
+// One record as read: a text value, or a matrix, with the line of each value row (text: of the value).
+struct Record {
+  long line{0};
+  bool is_text{false};
+  std::string text;
+  Eigen::MatrixXd values;
+  std::vector<long> row_lines;
+  long first_infinite_line{0};  // line of the first +-inf value, 0 if none
+  bool used{false};
+};
+
+class Reader {
+ public:
+  explicit Reader(std::string path) : path_(std::move(path)) {}
+
+  [[noreturn]] void fail(long line, const std::string& what) const {
+    throw std::invalid_argument(line > 0 ? path_ + ":" + std::to_string(line) + ": " + what : path_ + ": " + what);
+  }
+
+  void parse() {
+    std::ifstream in(path_, std::ios::binary);
+    if (!in) fail(0, std::string("cannot open the file (") + std::strerror(errno) + ")");
+    std::vector<std::string_view> tokens;
+    std::string raw;
+    long number = 0;
+    // The next line that is not blank or a comment; false at the end of the file.
+    auto next = [&]() {
+      while (std::getline(in, raw)) {
+        ++number;
+        core::text::split(raw, tokens);
+        if (!tokens.empty() && tokens[0].front() != '#') return true;
+      }
+      if (in.bad()) fail(0, "read error after line " + std::to_string(number));
+      return false;
+    };
+    if (!std::getline(in, raw)) fail(1, "empty file (expected the line '" + std::string(kMagic) + " 1')");
+    number = 1;
+    core::text::split(raw, tokens);
+    std::int64_t version = 0;
+    if (tokens.size() != 2 || tokens[0] != kMagic || !core::text::parse_int64(tokens[1], version)) {
+      fail(1, "not a tubempc scenario file (the first line must be '" + std::string(kMagic) + " " +
+                  std::to_string(kScenarioFormatVersion) + "')");
+    }
+    if (version != kScenarioFormatVersion) {
+      fail(1, "format version " + std::to_string(version) + " is not supported (this reader reads version " +
+                  std::to_string(kScenarioFormatVersion) + ")");
+    }
+    while (next()) {
+      const std::string name(tokens[0]);
+      Record rec;
+      rec.line = number;
+      if (records_.count(name) != 0) {
+        fail(number, name + ": repeated record (first on line " + std::to_string(records_[name].line) + ")");
+      }
+      if (tokens.size() == 2 && tokens[1] == "text") {
+        rec.is_text = true;
+        if (!next()) fail(rec.line, name + ": the file ends before the text value");
+        const std::size_t b = raw.find_first_not_of(" \t\r\v\f");
+        const std::size_t e = raw.find_last_not_of(" \t\r\v\f");
+        rec.text = raw.substr(b, e - b + 1);
+        rec.row_lines.push_back(number);
+      } else if (tokens.size() == 3) {
+        std::int64_t rows = 0, cols = 0;
+        if (!core::text::parse_int64(tokens[1], rows) || !core::text::parse_int64(tokens[2], cols) || rows < 0 ||
+            cols < 0 || rows > 10'000'000 || cols > 10'000) {
+          fail(number, name + ": bad size '" + std::string(tokens[1]) + " " + std::string(tokens[2]) +
+                           "' (expected '<rows> <cols>', non-negative integers)");
+        }
+        if ((rows == 0) != (cols == 0)) fail(number, name + ": an empty matrix is written '0 0'");
+        rec.values.resize(rows, cols);
+        for (Eigen::Index i = 0; i < rows; ++i) {
+          if (!next()) {
+            fail(rec.line, name + ": the file ends after " + std::to_string(i) + " of " + std::to_string(rows) +
+                               " rows");
+          }
+          if (tokens.size() != static_cast<std::size_t>(cols)) {
+            fail(number, name + ": row " + std::to_string(i) + ": expected " + std::to_string(cols) +
+                             " values, got " + std::to_string(tokens.size()));
+          }
+          for (Eigen::Index j = 0; j < cols; ++j) {
+            double v = 0.0;
+            const std::string_view t = tokens[static_cast<std::size_t>(j)];
+            if (!core::text::parse_double(t, v)) {
+              fail(number, name + ": row " + std::to_string(i) + ", column " + std::to_string(j) + ": bad number '" +
+                               std::string(t.substr(0, 40)) + "'");
+            }
+            if (std::isnan(v)) {
+              fail(number, name + ": row " + std::to_string(i) + ", column " + std::to_string(j) + ": NaN");
+            }
+            if (std::isinf(v) && rec.first_infinite_line == 0) rec.first_infinite_line = number;
+            rec.values(i, j) = v;
+          }
+          rec.row_lines.push_back(number);
+        }
+      } else {
+        fail(number, "bad record header '" + std::string(raw.substr(0, 80)) +
+                         "' (expected '<name> <rows> <cols>' or '<name> text')");
+      }
+      records_.emplace(name, std::move(rec));
+    }
+  }
+
+  // The record `name`, or null if it is absent and optional.
+  Record* find(const std::string& name, bool required) {
+    const auto it = records_.find(name);
+    if (it == records_.end()) {
+      if (required) fail(0, name + ": missing record");
+      return nullptr;
+    }
+    it->second.used = true;
+    return &it->second;
+  }
+
+  // A numeric record of the given size (rows < 0: any number of rows); `allow_empty` also takes 0 x 0.
+  Record* numeric(const std::string& name, Eigen::Index rows, Eigen::Index cols, bool required = true,
+                  bool allow_empty = false, bool allow_infinite = false) {
+    Record* r = find(name, required);
+    if (r == nullptr) return nullptr;
+    if (r->is_text) fail(r->line, name + ": expected a numeric record, got a text record");
+    const Eigen::Index n = r->values.rows(), m = r->values.cols();
+    const bool empty_ok = allow_empty && n == 0 && m == 0;
+    if (!empty_ok && ((rows >= 0 && n != rows) || m != cols)) {
+      fail(r->line, name + ": expected size " + (rows >= 0 ? std::to_string(rows) : std::string("<rows>")) + " x " +
+                        std::to_string(cols) + (allow_empty ? " (or 0 x 0)" : "") + ", got " + std::to_string(n) +
+                        " x " + std::to_string(m));
+    }
+    if (!allow_infinite && r->first_infinite_line > 0) fail(r->first_infinite_line, name + ": infinite value");
+    return r;
+  }
+
+  Eigen::MatrixXd matrix(const std::string& name, Eigen::Index rows, Eigen::Index cols) {
+    return numeric(name, rows, cols)->values;
+  }
+
+  void optional_matrix(const std::string& name, Eigen::Index rows, Eigen::Index cols, Eigen::MatrixXd& out) {
+    if (Record* r = numeric(name, rows, cols, false, true)) out = r->values;
+  }
+
+  template <int N>
+  Eigen::Matrix<double, N, 1> vector(const std::string& name) {
+    return numeric(name, N, 1)->values;
+  }
+
+  double scalar(const std::string& name) { return numeric(name, 1, 1)->values(0, 0); }
+
+  void optional_scalar(const std::string& name, double& out, bool allow_infinite = false) {
+    if (Record* r = numeric(name, 1, 1, false, false, allow_infinite)) out = r->values(0, 0);
+  }
+
+  double positive(const std::string& name) {
+    const double v = scalar(name);
+    if (!(v > 0.0)) fail(records_[name].row_lines[0], name + ": must be > 0, got " + format_double(v));
+    return v;
+  }
+
+  void integer(const std::string& name, int& out, bool required = true) {
+    Record* r = numeric(name, 1, 1, required);
+    if (r == nullptr) return;
+    const double v = r->values(0, 0);
+    if (v != std::floor(v) || v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max()) {
+      fail(r->row_lines[0], name + ": expected an integer, got " + format_double(v));
+    }
+    out = static_cast<int>(v);
+  }
+
+  void flag(const std::string& name, bool& out, bool required = true) {
+    Record* r = numeric(name, 1, 1, required);
+    if (r == nullptr) return;
+    const double v = r->values(0, 0);
+    if (v != 0.0 && v != 1.0) fail(r->row_lines[0], name + ": expected 0 or 1, got " + format_double(v));
+    out = v == 1.0;
+  }
+
+  std::string text(const std::string& name) {
+    Record* r = find(name, true);
+    if (!r->is_text) fail(r->line, name + ": expected a text record ('" + name + " text')");
+    return r->text;
+  }
+
+  template <typename E>
+  void option(const std::string& name, const Options<E>& options, E& out, bool required = true) {
+    Record* r = find(name, required);
+    if (r == nullptr) return;
+    if (!r->is_text) fail(r->line, name + ": expected a text record ('" + name + " text')");
+    std::string known;
+    for (const auto& [text, value] : options) {
+      if (r->text == text) {
+        out = value;
+        return;
+      }
+      known += (known.empty() ? "'" : ", '") + std::string(text) + "'";
+    }
+    fail(r->row_lines[0], name + ": unknown value '" + r->text.substr(0, 40) + "' (known: " + known + ")");
+  }
+
+  // Runs a validate() of the core and reports its message against the file.
+  template <typename F>
+  void validated(const std::string& what, F&& check) const {
+    try {
+      check();
+    } catch (const std::invalid_argument& e) {
+      fail(0, what + ": " + e.what());
+    }
+  }
+
+  void check_all_used() const {
+    for (const auto& [name, rec] : records_) {
+      if (!rec.used) fail(rec.line, name + ": unknown record name (format version 1)");
+    }
+  }
+
+  long line_of(const std::string& name) const { return records_.at(name).line; }
+
+ private:
+  std::string path_;
+  std::map<std::string, Record> records_;
+};
+
+void read_body(Reader& r, const std::string& prefix, BodyModel& body) {
+  dynamics::ModelParams& p = body.params;
+  p.mu_sun = r.scalar(prefix + "mu_sun");
+  p.orbit_radius = r.scalar(prefix + "orbit_radius");
+  p.beta_srp = r.scalar(prefix + "beta_srp");
+  r.flag(prefix + "srp_enabled", p.srp_enabled);
+  p.inertia_B = r.matrix(prefix + "inertia_B", 3, 3);
+  p.spin_rate = r.scalar(prefix + "spin_rate");
+  p.spin_angle0 = r.scalar(prefix + "spin_angle0");
+  r.option(prefix + "kinematics", kKinematics, p.kinematics);
+  p.glide_slope_angle = r.scalar(prefix + "glide_slope_angle");
+  p.los_angle = r.scalar(prefix + "los_angle");
+  p.boresight_B = r.vector<3>(prefix + "boresight_B");
+  body.density = r.positive(prefix + "density");
+  body.shape = r.text(prefix + "shape");
+  body.shape_unit_scale = r.positive(prefix + "shape_unit_scale");
+  r.validated(prefix + "* (ModelParams)", [&] { p.validate(); });
+}
+
+// ---- writer ----------------------------------------------------------------------------------
+
+class Writer {
+ public:
+  explicit Writer(std::ostream& out) : out_(out) {}
+
+  void matrix(const std::string& name, const Eigen::MatrixXd& m) {
+    out_ << name << ' ' << m.rows() << ' ' << m.cols() << '\n';
+    for (Eigen::Index i = 0; i < m.rows(); ++i) {
+      for (Eigen::Index j = 0; j < m.cols(); ++j) out_ << (j ? " " : "") << format_double(m(i, j));
+      out_ << '\n';
+    }
+  }
+  void scalar(const std::string& name, double v) { matrix(name, Eigen::MatrixXd::Constant(1, 1, v)); }
+  void text(const std::string& name, const std::string& value) {
+    const bool blank = value.find_first_not_of(" \t\r\v\f") == std::string::npos;
+    if (blank || value.find('\n') != std::string::npos || value.front() == '#' || std::isspace(
+        static_cast<unsigned char>(value.front())) || std::isspace(static_cast<unsigned char>(value.back()))) {
+      throw std::invalid_argument("write_scenario: " + name + ": a text value must be one non-empty line without "
+                                  "leading '#' or surrounding blanks, got '" + value + "'");
+    }
+    out_ << name << " text\n" << value << '\n';
+  }
+
+ private:
+  std::ostream& out_;
+};
+
+void write_body(Writer& w, const std::string& prefix, const BodyModel& body) {
+  const dynamics::ModelParams& p = body.params;
+  w.scalar(prefix + "mu_sun", p.mu_sun);
+  w.scalar(prefix + "orbit_radius", p.orbit_radius);
+  w.scalar(prefix + "beta_srp", p.beta_srp);
+  w.scalar(prefix + "srp_enabled", p.srp_enabled ? 1.0 : 0.0);
+  w.matrix(prefix + "inertia_B", p.inertia_B);
+  w.scalar(prefix + "spin_rate", p.spin_rate);
+  w.scalar(prefix + "spin_angle0", p.spin_angle0);
+  w.text(prefix + "kinematics", option_name(kKinematics, p.kinematics));
+  w.scalar(prefix + "glide_slope_angle", p.glide_slope_angle);
+  w.scalar(prefix + "los_angle", p.los_angle);
+  w.matrix(prefix + "boresight_B", p.boresight_B);
+  w.scalar(prefix + "density", body.density);
+  w.text(prefix + "shape", body.shape);
+  w.scalar(prefix + "shape_unit_scale", body.shape_unit_scale);
+}
+
+void require_size(const char* name, const Eigen::MatrixXd& m, Eigen::Index rows, Eigen::Index cols) {
+  if ((rows >= 0 && m.rows() != rows) || m.cols() != cols) {
+    throw std::invalid_argument("write_scenario: " + std::string(name) + " has size " + std::to_string(m.rows()) +
+                                " x " + std::to_string(m.cols()) + ", expected " +
+                                (rows >= 0 ? std::to_string(rows) : std::string("<rows>")) + " x " +
+                                std::to_string(cols));
+  }
+}
+
+}  // namespace
+
+std::string Scenario::resolve(const std::string& path) const {
+  const std::filesystem::path p(path);
+  if (directory.empty() || p.is_absolute()) return path;
+  return (std::filesystem::path(directory) / p).string();
+}
+
+Scenario read_scenario(const std::string& path) {
+  Reader r(path);
+  r.parse();
+  Scenario s;
+  s.directory = std::filesystem::path(path).parent_path().string();
+  read_body(r, "model.", s.controller);
+  read_body(r, "truth.", s.truth);
+
+  dynamics::PropagatorSettings& ps = s.propagator;
+  r.option("propagator.method", kIntegrators, ps.method);
+  r.integer("propagator.substeps", ps.substeps);
+  ps.rtol = r.scalar("propagator.rtol");
+  ps.atol = r.scalar("propagator.atol");
+  r.integer("propagator.max_steps", ps.max_steps);
+  ps.initial_step = r.scalar("propagator.initial_step");
+  r.validated("propagator.* (PropagatorSettings)", [&] { ps.validate(); });
+
+  mpc::Settings& st = s.settings;
+  r.integer("mpc.horizon", st.horizon);
+  st.dt = r.scalar("mpc.dt");
+  st.Q = r.matrix("mpc.Q", dynamics::kNx, dynamics::kNx);
+  st.R = r.matrix("mpc.R", dynamics::kNu, dynamics::kNu);
+  st.u_max = r.matrix("mpc.u_max", dynamics::kNu, 1);
+  r.option("mpc.input_cost", kInputCosts, st.input_cost);
+  st.scp_eps = r.scalar("mpc.scp_eps");
+  r.option("mpc.initial_condition", kInitialConditions, st.initial_condition, false);
+  r.integer("mpc.scp_max_iterations", st.scp_max_iterations, false);
+  r.optional_scalar("mpc.trust_region", st.trust_region, true);
+  r.optional_scalar("mpc.qp_eps_abs", st.qp_eps_abs);
+  r.optional_scalar("mpc.qp_eps_rel", st.qp_eps_rel);
+  r.integer("mpc.qp_max_iterations", st.qp_max_iterations, false);
+  r.optional_scalar("mpc.qp_inaccurate_tol", st.qp_inaccurate_tol);
+  r.optional_scalar("mpc.time_limit", st.time_limit, true);
+  r.flag("mpc.soft_state_constraints", st.soft_state_constraints, false);
+  r.flag("mpc.soft_terminal", st.soft_terminal, false);
+  r.optional_scalar("mpc.soft_penalty", st.soft_penalty);
+  r.optional_scalar("mpc.riccati_tol", st.riccati_tol);
+  r.integer("mpc.riccati_max_iterations", st.riccati_max_iterations, false);
+  r.option("mpc.kkt_solver", kKktSolvers, st.kkt_solver, false);
+  r.flag("mpc.qp_scale_cost", st.qp_scale_cost, false);
+  r.optional_matrix("mpc.A_structure", dynamics::kNx, dynamics::kNx, st.A_structure);
+  r.optional_matrix("mpc.B_structure", dynamics::kNx, dynamics::kNu, st.B_structure);
+  r.optional_matrix("mpc.G_structure", 2, dynamics::kNx, st.G_structure);
+  r.validated("mpc.* (mpc::Settings)", [&] { st.validate(dynamics::kNx, dynamics::kNu); });
+
+  s.reference.t0 = r.scalar("reference.t0");
+  s.reference.z = r.matrix("reference.z", -1, dynamics::kNx).transpose();
+  const Eigen::Index T = s.reference.z.cols() - 1;
+  if (T < 1) r.fail(r.line_of("reference.z"), "reference.z: needs at least 2 nodes (T >= 1), got " +
+                                                  std::to_string(T + 1));
+  s.reference.u = r.matrix("reference.u", T, dynamics::kNu).transpose();
+  s.tube.K = r.matrix("tube.K", dynamics::kNu, dynamics::kNx);
+  s.tube.Pe = r.matrix("tube.Pe", dynamics::kNx, dynamics::kNx);
+  s.x0 = r.vector<dynamics::kNx>("mission.x0");
+  s.xf = r.vector<dynamics::kNx>("mission.xf");
+  r.check_all_used();
+  return s;
+}
+
+void write_scenario(const std::string& path, const Scenario& s, const std::string& comment) {
+  const mpc::Settings& st = s.settings;
+  require_size("settings.Q", st.Q, dynamics::kNx, dynamics::kNx);
+  require_size("settings.R", st.R, dynamics::kNu, dynamics::kNu);
+  require_size("settings.u_max", st.u_max, dynamics::kNu, 1);
+  require_size("reference.z", s.reference.z, dynamics::kNx, s.reference.z.cols());
+  require_size("reference.u", s.reference.u, dynamics::kNu, s.reference.z.cols() - 1);
+  require_size("tube.K", s.tube.K, dynamics::kNu, dynamics::kNx);
+  require_size("tube.Pe", s.tube.Pe, dynamics::kNx, dynamics::kNx);
+
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) throw std::runtime_error(path + ": cannot open for writing (" + std::strerror(errno) + ")");
+  out << kMagic << ' ' << kScenarioFormatVersion << '\n';
+  std::size_t start = 0;
+  while (!comment.empty() && start <= comment.size()) {
+    const std::size_t end = comment.find('\n', start);
+    out << "# " << comment.substr(start, end == std::string::npos ? std::string::npos : end - start) << '\n';
+    if (end == std::string::npos) break;
+    start = end + 1;
+  }
+  Writer w(out);
+  write_body(w, "model.", s.controller);
+  write_body(w, "truth.", s.truth);
+  const dynamics::PropagatorSettings& ps = s.propagator;
+  w.text("propagator.method", option_name(kIntegrators, ps.method));
+  w.scalar("propagator.substeps", ps.substeps);
+  w.scalar("propagator.rtol", ps.rtol);
+  w.scalar("propagator.atol", ps.atol);
+  w.scalar("propagator.max_steps", ps.max_steps);
+  w.scalar("propagator.initial_step", ps.initial_step);
+  w.scalar("mpc.horizon", st.horizon);
+  w.scalar("mpc.dt", st.dt);
+  w.matrix("mpc.Q", st.Q);
+  w.matrix("mpc.R", st.R);
+  w.matrix("mpc.u_max", st.u_max);
+  w.text("mpc.input_cost", option_name(kInputCosts, st.input_cost));
+  w.scalar("mpc.scp_eps", st.scp_eps);
+  w.text("mpc.initial_condition", option_name(kInitialConditions, st.initial_condition));
+  w.scalar("mpc.scp_max_iterations", st.scp_max_iterations);
+  w.scalar("mpc.trust_region", st.trust_region);
+  w.scalar("mpc.qp_eps_abs", st.qp_eps_abs);
+  w.scalar("mpc.qp_eps_rel", st.qp_eps_rel);
+  w.scalar("mpc.qp_max_iterations", st.qp_max_iterations);
+  w.scalar("mpc.qp_inaccurate_tol", st.qp_inaccurate_tol);
+  w.scalar("mpc.time_limit", st.time_limit);
+  w.scalar("mpc.soft_state_constraints", st.soft_state_constraints ? 1.0 : 0.0);
+  w.scalar("mpc.soft_terminal", st.soft_terminal ? 1.0 : 0.0);
+  w.scalar("mpc.soft_penalty", st.soft_penalty);
+  w.scalar("mpc.riccati_tol", st.riccati_tol);
+  w.scalar("mpc.riccati_max_iterations", st.riccati_max_iterations);
+  w.text("mpc.kkt_solver", option_name(kKktSolvers, st.kkt_solver));
+  w.scalar("mpc.qp_scale_cost", st.qp_scale_cost ? 1.0 : 0.0);
+  w.matrix("mpc.A_structure", st.A_structure);
+  w.matrix("mpc.B_structure", st.B_structure);
+  w.matrix("mpc.G_structure", st.G_structure);
+  w.scalar("reference.t0", s.reference.t0);
+  w.matrix("reference.z", s.reference.z.transpose());
+  w.matrix("reference.u", s.reference.u.transpose());
+  w.matrix("tube.K", s.tube.K);
+  w.matrix("tube.Pe", s.tube.Pe);
+  w.matrix("mission.x0", s.x0);
+  w.matrix("mission.xf", s.xf);
+  out.close();
+  if (!out) throw std::runtime_error(path + ": write failed (" + std::strerror(errno) + ")");
+}
+
+}  // namespace tubempc::io

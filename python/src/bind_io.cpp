@@ -1,0 +1,47 @@
+// Bindings of the scenario file (tubempc::io, cpp/include/tubempc/io/scenario.hpp) as tubempc._core.io.
+// The member types (ModelParams, PropagatorSettings, mpc::Settings, Reference, Tube) are bound by
+// bind_dynamics and bind_mpc, which must run first.
+#include <pybind11/eigen.h>
+#include <pybind11/stl.h>
+
+#include <string>
+
+#include "bindings.hpp"
+#include "tubempc/io/scenario.hpp"
+
+namespace py = pybind11;
+
+namespace tubempc::python {
+
+void bind_io(py::module_& m) {
+  auto s = m.def_submodule("io", "Scenario files (format 'tubempc-scenario 1'; see tubempc/io/scenario.hpp)");
+  s.attr("FORMAT_VERSION") = io::kScenarioFormatVersion;
+
+  py::class_<io::BodyModel>(s, "BodyModel", "One 6-DOF model of a scenario: dynamics constants, density, shape file")
+      .def(py::init<>())
+      .def_readwrite("params", &io::BodyModel::params, "dynamics.ModelParams (SI)")
+      .def_readwrite("density", &io::BodyModel::density, "asteroid density (kg/m^3)")
+      .def_readwrite("shape", &io::BodyModel::shape, "shape file as written (relative to Scenario.directory or absolute)")
+      .def_readwrite("shape_unit_scale", &io::BodyModel::shape_unit_scale, "metres per unit of the shape file");
+
+  py::class_<io::Scenario>(s, "Scenario", "Contents of a scenario file (see tubempc/io/scenario.hpp)")
+      .def(py::init<>())
+      .def_readwrite("directory", &io::Scenario::directory, "folder of the file read")
+      .def_readwrite("controller", &io::Scenario::controller, "the MPC's model (records model.*)")
+      .def_readwrite("truth", &io::Scenario::truth, "the simulated plant (records truth.*)")
+      .def_readwrite("propagator", &io::Scenario::propagator, "dynamics.PropagatorSettings of the truth")
+      .def_readwrite("settings", &io::Scenario::settings, "mpc.Settings")
+      .def_readwrite("reference", &io::Scenario::reference, "mpc.Reference: z (12, T+1), u (6, T), t0 (s)")
+      .def_readwrite("tube", &io::Scenario::tube, "mpc.Tube: K (6, 12), Pe (12, 12)")
+      .def_readwrite("x0", &io::Scenario::x0, "initial state (12): m, m/s, rad, rad/s")
+      .def_readwrite("xf", &io::Scenario::xf, "target state (12)")
+      .def_property_readonly("mission_steps", &io::Scenario::mission_steps, "T (steps)")
+      .def("resolve", &io::Scenario::resolve, py::arg("path"), "path relative to directory (unless absolute)");
+
+  s.def("read_scenario", &io::read_scenario, py::arg("path"),
+        "Reads and validates a scenario file; ValueError '<path>:<line>: <record>: <what>'.");
+  s.def("write_scenario", &io::write_scenario, py::arg("path"), py::arg("scenario"), py::arg("comment") = "",
+        "Writes a scenario file with every record (the C++ writer).");
+}
+
+}  // namespace tubempc::python

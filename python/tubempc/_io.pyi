@@ -1,0 +1,38 @@
+"""Type stubs of tubempc._core.io: scenario files (see cpp/include/tubempc/io/scenario.hpp)."""
+
+import numpy as np
+import numpy.typing as npt
+
+from ._dynamics import ModelParams, PropagatorSettings
+from ._mpc import Reference, Settings, Tube
+
+_Arr = npt.NDArray[np.float64]
+
+__all__ = ["FORMAT_VERSION", "BodyModel", "Scenario", "read_scenario", "write_scenario"]
+
+FORMAT_VERSION: int
+
+class BodyModel:
+    params: ModelParams
+    density: float
+    shape: str
+    shape_unit_scale: float
+    def __init__(self) -> None: ...
+
+class Scenario:
+    directory: str
+    controller: BodyModel
+    truth: BodyModel
+    propagator: PropagatorSettings
+    settings: Settings
+    reference: Reference
+    tube: Tube
+    x0: _Arr
+    xf: _Arr
+    def __init__(self) -> None: ...
+    @property
+    def mission_steps(self) -> int: ...
+    def resolve(self, path: str) -> str: ...
+
+def read_scenario(path: str) -> Scenario: ...
+def write_scenario(path: str, scenario: Scenario, comment: str = "") -> None: ...

@@ -1,0 +1,161 @@
+"""The same closed loop from C++ and from Python: a scenario exported by ``tubempc export-scenario``
+flown by the C++ example (``examples/cpp/closed_loop``, the core embedded through CMake) and by the
+same loop written in Python over the bindings (``_core.mpc.TubeMPC.step`` and the truth propagation
+``_core.dynamics.ProximityModel.propagate``, same settings, no disturbance). Both read the one
+scenario file, so they fly the same mission with the same code; the per-step MPC times show what the
+bindings add (argument conversion, the StepResult copy, the GIL) and should otherwise match within
+the machine's noise. The two loops run alternately ``--repeats`` times.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import _core
+from ._machine import machine_info
+
+DESCRIPTION = "closed loop of an exported scenario: the C++ example binary against the same loop through the bindings"
+
+_EXAMPLE = Path("examples") / "cpp" / "closed_loop" / "closed_loop"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--config", help="scenario TOML (default: the packaged paper scenario)")
+    parser.add_argument("--example", type=Path,
+                        help="the closed_loop binary (default: the newest build/*/examples/cpp/closed_loop/closed_loop "
+                             "under the current directory, from a build with TUBEMPC_BUILD_EXAMPLES=ON)")
+    parser.add_argument("--repeats", type=int, default=3, help="runs of each loop, alternating (default 3)")
+    parser.add_argument("--out", type=Path, default=Path("results/bench_embed"),
+                        help="folder for the scenario, the example's outputs and embed.json (default results/bench_embed)")
+    parser.add_argument("--cache-dir", type=Path, help="reference-trajectory cache (default: OUT/cache)")
+    parser.add_argument("--json", type=Path, help="also write the figures to this JSON file")
+
+
+def find_example(explicit: Path | None) -> Path:
+    """The closed_loop binary: ``explicit``, or the newest one in a build folder under the current directory."""
+    if explicit is not None:
+        if not explicit.is_file():
+            raise FileNotFoundError(f"--example {explicit}: no such file")
+        return explicit
+    found = sorted(Path.cwd().glob(f"build/*/{_EXAMPLE}"), key=lambda p: p.stat().st_mtime)
+    if not found:
+        raise FileNotFoundError(
+            "no closed_loop binary under build/*/; build it (cmake -DTUBEMPC_BUILD_EXAMPLES=ON, or "
+            "cmake -S examples/cpp/closed_loop against an installed tubempc) and pass --example PATH")
+    return found[-1]
+
+
+def python_loop(scenario_path: str | Path) -> dict[str, Any]:
+    """The loop of ``examples/cpp/closed_loop`` written over the bindings; times in s per step."""
+    s = _core.io.read_scenario(str(scenario_path))
+
+    def model(body: Any) -> Any:
+        shape = _core.gravity.load_shape(s.resolve(body.shape), body.shape_unit_scale)
+        return _core.dynamics.ProximityModel(_core.gravity.PolyhedronGravity(shape, body.density), body.params)
+
+    controller_model, truth = model(s.controller), model(s.truth)
+    t_setup = time.perf_counter()
+    ctrl = _core.mpc.TubeMPC(_core.mpc.LinearizedProximityModel(controller_model), s.settings)
+    ctrl.setup(s.reference)
+    setup_s = time.perf_counter() - t_setup
+    T, dt, t0 = s.mission_steps, s.settings.dt, s.reference.t0
+    p, tube, zbar = s.propagator, s.tube, np.asarray(s.reference.z)
+    no_disturbance = np.zeros(6)
+    x = np.asarray(s.x0, dtype=np.float64)
+    state = _core.dynamics.state_to_truth(x)
+    time_step, time_mpc, time_internal = np.zeros(T), np.zeros(T), np.zeros(T)
+    statuses: dict[str, int] = {}
+    scp = 0
+    for k in range(T):
+        a = time.perf_counter()
+        r = ctrl.step(k, x, tube)
+        u = r.u
+        b = time.perf_counter()
+        prop = truth.propagate(t0 + k * dt, state, u, dt, p.method, p.substeps, p.rtol, p.atol, p.max_steps,
+                               p.initial_step, no_disturbance, None)
+        x = _core.dynamics.truth_to_state(prop.state, zbar[6:9, k + 1])
+        state = _core.dynamics.state_to_truth(x)
+        c = time.perf_counter()
+        if prop.status != _core.dynamics.PropagationStatus.Success:
+            raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
+        time_step[k], time_mpc[k], time_internal[k] = c - a, b - a, r.timings.total
+        statuses[str(r.status)] = statuses.get(str(r.status), 0) + 1
+        scp += r.scp_iterations
+    return {"steps": T, "setup_s": setup_s, "scp_iterations": scp, "statuses": statuses,
+            "final_state": x.tolist(), "time_step_s": time_step.tolist(), "time_mpc_s": time_mpc.tolist(),
+            "time_mpc_internal_s": time_internal.tolist()}
+
+
+def cpp_loop(example: Path, scenario_path: Path, json_path: Path) -> dict[str, Any]:
+    """Runs the example binary on the scenario; its JSON output (same fields as python_loop's)."""
+    proc = subprocess.run([str(example), str(scenario_path), "--json", str(json_path)], capture_output=True,
+                          text=True, check=False)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{example} exited with {proc.returncode}:\n{proc.stdout}{proc.stderr}")
+    result: dict[str, Any] = json.loads(json_path.read_text(encoding="utf-8"))
+    return result
+
+
+def _stats(values: Any) -> dict[str, float]:
+    a = np.asarray(values, dtype=np.float64)
+    return {"median": float(np.median(a)), "p99": float(np.percentile(a, 99)), "max": float(a.max())}
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..config import load_config
+    from ..export import export_scenario
+
+    if args.repeats < 1:
+        raise SystemExit("--repeats must be >= 1")
+    info = machine_info()
+    print(f"machine: {info['cpu']} ({info['cores']} cores), Python {info['python']}")
+    example = find_example(args.example)
+    out: Path = args.out
+    cfg = load_config(args.config)
+    scenario = export_scenario(cfg, out / "scenario", cache_dir=args.cache_dir or out / "cache")
+    print(f"scenario: {scenario}; example: {example}")
+    runs: list[dict[str, Any]] = []
+    for i in range(args.repeats):
+        for loop in ("cpp", "python"):
+            r = (cpp_loop(example, scenario, out / f"cpp_run{i}.json") if loop == "cpp" else python_loop(scenario))
+            runs.append({"loop": loop, "run": i, "statuses": r["statuses"], "scp_iterations": r["scp_iterations"],
+                         "final_state": r["final_state"], "step": _stats(r["time_step_s"]),
+                         "mpc": _stats(r["time_mpc_s"]), "mpc_internal": _stats(r["time_mpc_internal_s"]),
+                         **({"allocations_mpc": r["allocations_mpc"], "allocations_truth": r["allocations_truth"]}
+                            if loop == "cpp" else {})})
+    print(f"{'loop':8s} {'run':>3s}  {'MPC step median':>15s} {'p99':>8s} {'max':>8s}   {'whole step median':>17s} "
+          f"{'p99':>8s}   [ms]   statuses")
+    for r in runs:
+        print(f"{r['loop']:8s} {r['run']:3d}  {1e3 * r['mpc']['median']:15.3f} {1e3 * r['mpc']['p99']:8.3f} "
+              f"{1e3 * r['mpc']['max']:8.3f}   {1e3 * r['step']['median']:17.3f} {1e3 * r['step']['p99']:8.3f}   "
+              f"{r['statuses']}")
+    summary: dict[str, Any] = {}
+    for loop in ("cpp", "python"):
+        mine = [r for r in runs if r["loop"] == loop]
+        summary[loop] = {key: {stat: float(np.median([r[key][stat] for r in mine])) for stat in ("median", "p99", "max")}
+                         for key in ("mpc", "mpc_internal", "step")}
+    finals = np.array([r["final_state"] for r in runs])
+    spread = float(np.max(np.abs(finals - finals[0])))
+    ratio = summary["python"]["mpc"]["median"] / summary["cpp"]["mpc"]["median"]
+    print(f"median over runs, MPC step: C++ {1e3 * summary['cpp']['mpc']['median']:.3f} ms (p99 "
+          f"{1e3 * summary['cpp']['mpc']['p99']:.3f}), Python bindings {1e3 * summary['python']['mpc']['median']:.3f} ms "
+          f"(p99 {1e3 * summary['python']['mpc']['p99']:.3f}); Python / C++ = {ratio:.3f}")
+    print(f"largest difference between the runs' final states: {spread:.3g} (0: every run flew the same trajectory)")
+    allocations = [r["allocations_mpc"] for r in runs if r["loop"] == "cpp"]
+    print(f"C++ example: heap allocations in the MPC step after setup: {max(allocations)}")
+    result = {"machine": info, "config": str(out / "scenario" / "config.toml"), "scenario": str(scenario),
+              "example": str(example), "repeats": args.repeats, "runs": runs, "summary": summary,
+              "python_over_cpp_mpc_median": ratio, "final_state_spread": spread}
+    text = json.dumps(result, indent=2) + "\n"
+    (out / "embed.json").write_text(text, encoding="utf-8")
+    print(f"wrote {out / 'embed.json'} (configuration: {out / 'scenario' / 'config.toml'})")
+    if args.json is not None:
+        args.json.write_text(text, encoding="utf-8")
+    return 0

@@ -1,0 +1,126 @@
+"""Scenario files: Python writes (tubempc.export), C++ reads (tubempc._core.io), bit for bit."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tubempc import _core
+from tubempc.cli import main
+from tubempc.closed_loop import Scenario, _mpc_settings, build_scenario, simulate
+from tubempc.config import load_config
+from tubempc.export import initial_tube, read_scenario
+
+
+def _same_bits(a: Any, b: Any) -> bool:
+    x, y = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    return x.shape == y.shape and x.tobytes() == y.tobytes()
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Scenario]:
+    cache = tmp_path_factory.mktemp("cache")
+    out = tmp_path_factory.mktemp("scenario")
+    assert main(["export-scenario", "--out", str(out), "--cache-dir", str(cache)]) == 0
+    return out / "scenario.txt", build_scenario(load_config(), cache_dir=cache)
+
+
+def test_cpp_reads_what_python_wrote_bit_for_bit(exported: tuple[Path, Scenario]) -> None:
+    path, scn = exported
+    s = read_scenario(str(path))
+    assert s.directory == str(path.parent)
+    assert s.mission_steps == scn.n_steps == 300
+    for body, model, shape_file in ((s.controller, scn.model, "shape.obj"), (s.truth, scn.truth, "shape.obj")):
+        expected = model.config()
+        params = body.params
+        for name in ("mu_sun", "orbit_radius", "beta_srp", "spin_rate", "spin_angle0", "glide_slope_angle",
+                     "los_angle", "inertia_B", "boresight_B"):
+            assert _same_bits(getattr(params, name), expected[name]), name
+        assert params.srp_enabled == expected["srp_enabled"]
+        assert params.kinematics.name.lower() == expected["kinematics"]
+        assert body.density == model.gravity.density
+        assert body.shape == shape_file and body.shape_unit_scale == 1.0
+    # The shape file holds the controller's mesh exactly (metres, 17 digits), read by the C++ loader.
+    mesh = _core.gravity.load_shape(s.resolve(s.controller.shape), s.controller.shape_unit_scale)
+    assert _same_bits(mesh.vertices, scn.shape.vertices) and np.array_equal(mesh.faces, scn.shape.faces)
+
+    expected_settings = _mpc_settings(scn.config, scn)
+    for name in ("horizon", "dt", "Q", "R", "u_max", "scp_eps", "input_cost", "initial_condition",
+                 "scp_max_iterations", "trust_region", "qp_eps_abs", "qp_eps_rel", "qp_max_iterations",
+                 "qp_inaccurate_tol", "time_limit", "soft_state_constraints", "soft_terminal", "soft_penalty",
+                 "riccati_tol", "riccati_max_iterations", "kkt_solver", "qp_scale_cost", "A_structure",
+                 "B_structure", "G_structure"):
+        a, b = getattr(s.settings, name), getattr(expected_settings, name)
+        assert (a == b) if isinstance(a, (bool, int, _core.mpc.InputCost, _core.mpc.InitialCondition,
+                                           _core.mpc.KktSolver)) else _same_bits(a, b), name
+    assert s.propagator.method == _core.dynamics.Integrator.RK4
+    assert s.propagator.substeps == scn.config.simulation.substeps
+    assert _same_bits(s.reference.z, scn.reference.x.T) and _same_bits(s.reference.u, scn.reference.u.T)
+    assert s.reference.t0 == 0.0
+    assert _same_bits(s.x0, scn.x0) and _same_bits(s.xf, scn.xf)
+    K, Pe = initial_tube(scn)
+    assert _same_bits(s.tube.K, K) and _same_bits(s.tube.Pe, Pe)
+
+
+def test_tube_is_the_closed_loops_first_tube(exported: tuple[Path, Scenario]) -> None:
+    path, scn = exported
+    s = read_scenario(str(path))
+    rec = simulate(scn, "tbmpc", seed=0, max_steps=1, tube_threads=1).arrays
+    assert _same_bits(s.tube.K, rec["K"][0])
+    assert _same_bits(s.tube.Pe[:6, :6], rec["Pe_p"][0]) and _same_bits(s.tube.Pe[6:, 6:], rec["Pe_r"][0])
+
+
+def test_cpp_writer_writes_the_same_text(exported: tuple[Path, Scenario], tmp_path: Path) -> None:
+    path, _ = exported
+    again = tmp_path / "again.txt"
+    _core.io.write_scenario(str(again), read_scenario(str(path)))
+
+    def records(p: Path) -> list[str]:
+        return [line for line in p.read_text().splitlines() if not line.startswith("#")]
+
+    assert records(again) == records(path)
+
+
+def test_malformed_scenario_names_file_line_and_record(exported: tuple[Path, Scenario], tmp_path: Path) -> None:
+    path, _ = exported
+    lines = path.read_text().splitlines()
+    at = lines.index("mpc.dt 1 1") + 1
+    lines[at] = "two"
+    bad = tmp_path / "bad.txt"
+    bad.write_text("\n".join(lines) + "\n")
+    message = f"{bad}:{at + 1}: mpc.dt: row 0, column 0: bad number 'two'"
+    with pytest.raises(ValueError, match="^" + re.escape(message) + "$"):
+        read_scenario(str(bad))
+    with pytest.raises(ValueError, match=r"missing\.txt: cannot open the file"):
+        read_scenario(str(tmp_path / "missing.txt"))
+
+
+def test_cpp_shape_loader_matches_python_loader(tmp_path: Path) -> None:
+    from tubempc.shapes import bennu_like_shape, load_shape, save_shape
+
+    shape = bennu_like_shape(n_subdivisions=4)
+    save_shape(tmp_path / "s.tab", shape, unit="km")
+    py, cpp = load_shape(tmp_path / "s.tab", unit="km"), _core.gravity.load_shape(str(tmp_path / "s.tab"), 1000.0)
+    assert _same_bits(py.vertices, cpp.vertices) and np.array_equal(py.faces, cpp.faces)
+    _core.gravity.save_obj(str(tmp_path / "c.obj"), shape, 1.0)
+    assert _same_bits(load_shape(tmp_path / "c.obj", unit="m").vertices, shape.vertices)
+    (tmp_path / "bad.obj").write_text("v 0 0 0\nv 1 0 nan\n")
+    with pytest.raises(ValueError, match=r"bad\.obj:2: vertex: non-finite number 'nan'"):
+        _core.gravity.load_shape(str(tmp_path / "bad.obj"), 1.0)
+
+
+def test_bindings_loop_flies_the_exported_mission(exported: tuple[Path, Scenario]) -> None:
+    from tubempc.benchmarks.embed import find_example, python_loop
+
+    path, scn = exported
+    r = python_loop(path)
+    assert r["steps"] == 300 and r["statuses"] == {"solved": 300}
+    final = np.asarray(r["final_state"])
+    assert np.linalg.norm(final[:3] - scn.xf[:3]) < 0.05  # m, undisturbed
+    assert np.all(np.asarray(r["time_mpc_s"]) > 0.0)
+    with pytest.raises(FileNotFoundError, match="no such file"):
+        find_example(path.parent / "no_such_binary")
