@@ -252,7 +252,7 @@ TEST_F(ScenarioFile, ErrorsNameFileLineAndRecord) {
                "propagator.substeps: expected an integer, got 8.5");
   expect_error("propagator.substeps 1 1\n8", "propagator.substeps 1 1\n0", 0, "propagator.* (PropagatorSettings): ");
   const long soft = line_of("mpc.soft_terminal 1 1");
-  expect_error("mpc.soft_terminal 1 1\n0", "mpc.soft_terminal 1 1\n2", soft + 1, "mpc.soft_terminal: expected 0 or 1");
+  expect_error("mpc.soft_terminal 1 1\n1", "mpc.soft_terminal 1 1\n2", soft + 1, "mpc.soft_terminal: expected 0 or 1");
   expect_error("mpc.u_max 6 1\n0.55000000000000004", "mpc.u_max 6 1\n-0.5", 0, "mpc.* (mpc::Settings): ");
   expect_error("mpc.trust_region 1 1\ninf", "mpc.trust_region 1 1\nnan", line_of("mpc.trust_region 1 1") + 1, "NaN");
   const long u = line_of("reference.u 3 6");
