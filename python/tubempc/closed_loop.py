@@ -257,7 +257,10 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
                     (des_r, idents[1], _R, slice(3, 6), None if tubes is None else tubes[1]),
                 ):
                     alpha_prev = prev.alpha if prev is not None and prev.feasible else None
-                    jobs.append(pool.submit(des.design, Ad[sl, sl], Bd[sl, su], ident.P_W, alpha_prev))
+                    if alpha_prev is not None and k % cfg.tube.alpha_search_period != 0:
+                        jobs.append(pool.submit(des.design_fixed_alpha, Ad[sl, sl], Bd[sl, su], ident.P_W, alpha_prev))
+                    else:
+                        jobs.append(pool.submit(des.design, Ad[sl, sl], Bd[sl, su], ident.P_W, alpha_prev))
                 new = [j.result() for j in jobs]
                 kept = []
                 for i, (res, des) in enumerate(zip(new, (des_p, des_r), strict=True)):

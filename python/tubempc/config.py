@@ -270,11 +270,15 @@ class Tube:
     """Tube design (paper Eq. 25; tube.py). weighting: "mpc" takes C = [Q^1/2; 0], B2 = [0; R^1/2]
     from the MPC weights (the paper's choice); "normalized" weights Tr(Pe) by the inverse prior
     disturbance variances and Tr(Z) by 1/u_max^2, so the two terms are of one scale (project
-    option). max_solves: cap on LMI solves per subsystem and step when warm-started."""
+    option). max_solves: cap on LMI solves per subsystem and step when warm-started.
+    alpha_search_period (TBMPC-FFA; project option): the warm alpha search runs every this many
+    steps; in between the tube is re-designed at the last alpha (one SDP solve per subsystem).
+    1 searches at every step."""
 
     weighting: str = field(metadata=_opt("mpc", "normalized"))
     input_weight: float = field(metadata=_num(check=_POS))
     max_solves: int = field(metadata=_int(check=_GE1))
+    alpha_search_period: int = field(metadata=_int(check=_GE1))
 
 
 @dataclass(frozen=True, eq=False)
