@@ -47,6 +47,7 @@ Scenario sample(int T) {
   s.settings.R = Eigen::VectorXd::LinSpaced(6, 1e3, 1e4).asDiagonal();
   s.settings.u_max = (Eigen::VectorXd(6) << 0.55, 0.55, 0.55, 3.0, 3.0, 3.0).finished();
   s.settings.input_cost = tubempc::mpc::InputCost::FromReference;
+  s.settings.soft_terminal = true;  // set explicitly: the error test below edits its record
   s.settings.G_structure = Eigen::MatrixXd::Ones(2, 12);
   s.reference.t0 = 0.25;
   s.reference.z = filled(12, T + 1, 1.0, 1e3);
@@ -252,7 +253,7 @@ TEST_F(ScenarioFile, ErrorsNameFileLineAndRecord) {
                "propagator.substeps: expected an integer, got 8.5");
   expect_error("propagator.substeps 1 1\n8", "propagator.substeps 1 1\n0", 0, "propagator.* (PropagatorSettings): ");
   const long soft = line_of("mpc.soft_terminal 1 1");
-  expect_error("mpc.soft_terminal 1 1\n0", "mpc.soft_terminal 1 1\n2", soft + 1, "mpc.soft_terminal: expected 0 or 1");
+  expect_error("mpc.soft_terminal 1 1\n1", "mpc.soft_terminal 1 1\n2", soft + 1, "mpc.soft_terminal: expected 0 or 1");
   expect_error("mpc.u_max 6 1\n0.55000000000000004", "mpc.u_max 6 1\n-0.5", 0, "mpc.* (mpc::Settings): ");
   expect_error("mpc.trust_region 1 1\ninf", "mpc.trust_region 1 1\nnan", line_of("mpc.trust_region 1 1") + 1, "NaN");
   const long u = line_of("reference.u 3 6");
