@@ -47,6 +47,7 @@ Scenario sample(int T) {
   s.settings.R = Eigen::VectorXd::LinSpaced(6, 1e3, 1e4).asDiagonal();
   s.settings.u_max = (Eigen::VectorXd(6) << 0.55, 0.55, 0.55, 3.0, 3.0, 3.0).finished();
   s.settings.input_cost = tubempc::mpc::InputCost::FromReference;
+  s.settings.soft_terminal = true;  // set explicitly: the error test below edits its record
   s.settings.G_structure = Eigen::MatrixXd::Ones(2, 12);
   s.reference.t0 = 0.25;
   s.reference.z = filled(12, T + 1, 1.0, 1e3);
