@@ -388,6 +388,7 @@ Scenario read_scenario(const std::string& path) {
   r.integer("mpc.riccati_max_iterations", st.riccati_max_iterations, false);
   r.option("mpc.kkt_solver", kKktSolvers, st.kkt_solver, false);
   r.flag("mpc.qp_scale_cost", st.qp_scale_cost, false);
+  r.integer("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations, false);
   r.optional_matrix("mpc.A_structure", dynamics::kNx, dynamics::kNx, st.A_structure);
   r.optional_matrix("mpc.B_structure", dynamics::kNx, dynamics::kNu, st.B_structure);
   r.optional_matrix("mpc.G_structure", 2, dynamics::kNx, st.G_structure);
@@ -459,6 +460,7 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   w.scalar("mpc.riccati_max_iterations", st.riccati_max_iterations);
   w.text("mpc.kkt_solver", option_name(kKktSolvers, st.kkt_solver));
   w.scalar("mpc.qp_scale_cost", st.qp_scale_cost ? 1.0 : 0.0);
+  w.scalar("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations);
   w.matrix("mpc.A_structure", st.A_structure);
   w.matrix("mpc.B_structure", st.B_structure);
   w.matrix("mpc.G_structure", st.G_structure);

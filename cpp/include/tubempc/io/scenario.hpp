@@ -44,7 +44,7 @@
 ///   | `mpc.input_cost` | text | `paper` or `from_reference` |
 ///   | `mpc.scp_eps` | 1 1 | SCP threshold (state units) |
 ///   | `mpc.initial_condition` (opt.) | text | `whitened_box` or `exact` |
-///   | `mpc.scp_max_iterations`, `mpc.qp_max_iterations`, `mpc.riccati_max_iterations` (opt.) | 1 1 | integers |
+///   | `mpc.scp_max_iterations`, `mpc.qp_max_iterations`, `mpc.riccati_max_iterations`, `mpc.qp_preconditioner_iterations` (opt.) | 1 1 | integers |
 ///   | `mpc.trust_region` (opt., may be `inf`), `mpc.time_limit` (opt., s, may be `inf`) | 1 1 | |
 ///   | `mpc.qp_eps_abs`, `mpc.qp_eps_rel`, `mpc.qp_inaccurate_tol`, `mpc.soft_penalty`, `mpc.riccati_tol` (opt.) | 1 1 | |
 ///   | `mpc.soft_state_constraints`, `mpc.soft_terminal`, `mpc.qp_scale_cost` (opt.) | 1 1 | 0 or 1 |
