@@ -93,8 +93,8 @@ struct Settings {
   Eigen::MatrixXd Q;                   ///< State weight (n_x x n_x, symmetric PSD); empty -> identity.
   Eigen::MatrixXd R;                   ///< Input weight (n_u x n_u, symmetric PD); empty -> identity.
   Eigen::VectorXd u_max;               ///< True input bounds |u_i| <= u_max_i (input units); required.
-  InputCost input_cost = InputCost::Paper;
-  InitialCondition initial_condition = InitialCondition::WhitenedBox;
+  InputCost input_cost = InputCost::Paper;  ///< Input part of the stage cost.
+  InitialCondition initial_condition = InitialCondition::WhitenedBox;  ///< How z_0 relates to x_k.
   double scp_eps = 1e-3;               ///< SCP stops when max_i ||z*_i - z_lin_i||_inf < scp_eps (state units).
   int scp_max_iterations = 10;         ///< Cap on SCP iterations per step.
   double trust_region = std::numeric_limits<double>::infinity();  ///< |z_i - z_lin_i|_inf bound (i >= 1); inf: off.
@@ -113,8 +113,8 @@ struct Settings {
   double soft_penalty = 1e6;           ///< L1 penalty weight of the slacks (cost units per constraint unit).
   double riccati_tol = 1e-10;          ///< Relative convergence tolerance of the DARE doubling.
   int riccati_max_iterations = 100;    ///< Cap on DARE doubling iterations.
-  Backend backend = Backend::PiqpSparse;
-  KktSolver kkt_solver = KktSolver::SparseLdlt;
+  Backend backend = Backend::PiqpSparse;         ///< QP solver.
+  KktSolver kkt_solver = KktSolver::SparseLdlt;  ///< Factorisation of PIQP's KKT systems.
   /// PIQP also scales the cost in its equilibration (on by default): the shrinking-horizon QPs, whose
   /// terminal-equality multipliers reach ~1e6, need ~14 interior-point iterations instead of 200+
   /// (PIQP >= 0.7; `tubempc bench mpc` reports the optimum's agreement with Clarabel). With soft
@@ -126,7 +126,9 @@ struct Settings {
   /// != 0 are stored in the QP, the others are structural zeros the model must respect (a nonzero there
   /// makes the step fall back with failure ModelStructure). Empty: dense. Sparser patterns make the KKT
   /// factorisation cheaper (e.g. block-diagonal translational/rotational subsystems).
-  Eigen::MatrixXd A_structure, B_structure, G_structure;
+  Eigen::MatrixXd A_structure;  ///< Pattern of A (n_x x n_x) or empty (dense).
+  Eigen::MatrixXd B_structure;  ///< Pattern of B (n_x x n_u) or empty (dense).
+  Eigen::MatrixXd G_structure;  ///< Pattern of G (n_c x n_x) or empty (dense).
 
   /// Throws std::invalid_argument naming the offending field; n_x, n_u are the plant's sizes.
   void validate(int nx, int nu) const;
@@ -167,25 +169,32 @@ struct StepResult {
   int qp_iterations = 0;               ///< Interior-point iterations summed over the step's QPs.
   double scp_residual = 0.0;           ///< Final max_i ||z*_i - z_lin_i||_inf (state units).
   double objective = 0.0;              ///< Nominal cost of the applied plan's last QP (incl. constant).
-  Timings timings;
+  Timings timings;                     ///< Wall-clock split of the step (s).
 };
 
 /// The last QP built, in PIQP's form (see the file comment). P is the full symmetric matrix.
 struct QpData {
-  Eigen::SparseMatrix<double> P;
-  Eigen::VectorXd q;
-  Eigen::SparseMatrix<double> A;
-  Eigen::VectorXd b;
-  Eigen::SparseMatrix<double> G;
-  Eigen::VectorXd h_l, h_u;  ///< +-inf where a side is absent.
-  Eigen::VectorXd x_l, x_u;  ///< +-inf where a side is absent.
+  Eigen::SparseMatrix<double> P;  ///< Hessian (n_w x n_w, symmetric, both triangles).
+  Eigen::VectorXd q;              ///< Linear cost (n_w).
+  Eigen::SparseMatrix<double> A;  ///< Equality rows: initial condition and dynamics.
+  Eigen::VectorXd b;              ///< Equality right-hand side.
+  Eigen::SparseMatrix<double> G;  ///< Inequality rows: tightened state constraints (and soft-terminal rows).
+  Eigen::VectorXd h_l;            ///< Lower side of G w (-inf where absent).
+  Eigen::VectorXd h_u;            ///< Upper side of G w (+inf where absent).
+  Eigen::VectorXd x_l;            ///< Lower variable bounds (-inf where absent).
+  Eigen::VectorXd x_u;            ///< Upper variable bounds (+inf where absent).
   double constant = 0.0;     ///< Cost = 1/2 w^T P w + q^T w + constant.
 };
 
 /// Primal-dual solution of the last QP. Stationarity: P w + q + A^T y + G^T (z_u - z_l) + z_bu - z_bl = 0,
 /// z_l, z_u, z_bl, z_bu >= 0 and complementary to the lower/upper sides.
 struct QpSolution {
-  Eigen::VectorXd w, y, z_l, z_u, z_bl, z_bu;
+  Eigen::VectorXd w;     ///< Primal solution (n_w).
+  Eigen::VectorXd y;     ///< Multipliers of A w = b.
+  Eigen::VectorXd z_l;   ///< Multipliers of h_l <= G w.
+  Eigen::VectorXd z_u;   ///< Multipliers of G w <= h_u.
+  Eigen::VectorXd z_bl;  ///< Multipliers of x_l <= w.
+  Eigen::VectorXd z_bu;  ///< Multipliers of w <= x_u.
 };
 
 /// Stabilising solution X of the discrete algebraic Riccati equation
@@ -224,6 +233,7 @@ class TubeMPC {
   /// The last QP's primal-dual solution (copies; allocates).
   QpSolution qp_solution() const;
 
+  /// The validated settings.
   const Settings& settings() const { return settings_; }
   /// Terminal weight P (n_x x n_x) computed by setup.
   const Eigen::MatrixXd& terminal_weight() const;
