@@ -593,9 +593,11 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     const bool staged = i < n;
     const bool terminal_cost = i == N && !terminal_phase;
     const bool soft_end = i == N && terminal_phase && s.soft_terminal;
-    // Stage, terminal (zbar_{k+N}) and soft-end (zbar_T = x_f) costs are all ||dz_i||^2_W.
+    // Stage, terminal (zbar_{k+N}, W = P_term) and soft-end (zbar_T = x_f, W = Q) costs are all
+    // ||dz_i||^2_W. The soft end takes Q: the exact penalty already holds z_N at x_f, and P_term's
+    // rate entries (~1e8) would only worsen the KKT conditioning there.
     if (staged || terminal_cost || soft_end)
-      write_block(m.P, m.posP_z[i], staged ? m.Q : m.P_term, 2.0, i < N ? m.mQ : m.mP);
+      write_block(m.P, m.posP_z[i], terminal_cost ? m.P_term : m.Q, 2.0, i < N ? m.mQ : m.mP);
     else
       zero_block(m.P, m.posP_z[i]);
     m.q.segment(m.iz(i), nx).setZero();

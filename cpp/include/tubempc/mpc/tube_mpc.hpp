@@ -24,7 +24,9 @@
 ///    constraints, t (n_x, only with a soft terminal constraint) those of the terminal equality
 ///    (|z_N - x_f| <= t, cost soft_penalty 1^T t + ||t||^2 in the shrinking phase; ||t||^2 before).
 /// The cost is sum_{i < n} ||z_i - zbar_{k+i}||^2_Q + ||v_i||^2_R (or ||v_i - u_ref_{k+i}||^2_R), plus
-/// ||z_N - zbar_{k+N}||^2_P while k + N < T; the QP's P is twice the weights and the constant dropped
+/// ||z_N - zbar_{k+N}||^2_P while k + N < T (with a soft terminal constraint, ||z_N - x_f||^2_Q
+/// after: P's angular-rate entries, ~1e8 on the Bennu scenario, stalled PIQP there); the QP's P is
+/// twice the weights and the constant dropped
 /// from the QP is `QpData::constant` (nonzero only with InputCost::FromReference). Constraints: the
 /// linearised dynamics, the model's state constraints tightened by sqrt(a^T Pe a) at nodes 0..n, the
 /// input box tightened by sqrt(K_i Pe K_i^T), and the SCP trust region |z_i - z_lin_i| <= r (i >= 1).
@@ -104,8 +106,8 @@ struct Settings {
   double qp_inaccurate_tol = 1e-5;     ///< A capped QP with relative residuals below this is accepted.
   double time_limit = 1.0;             ///< Wall-clock budget of one step (s); exceeded -> fallback.
   bool soft_state_constraints = false; ///< Exact L1 penalty on state-constraint violations.
-  /// Exact L1 penalty on z_N - x_f in the shrinking phase (default; plus the terminal weight on
-  /// z_N - x_f). The penalty is exact: the minimiser is the hard constraint's (the paper's Problem 3)
+  /// Exact L1 penalty on z_N - x_f in the shrinking phase (default; plus ||z_N - x_f||^2_Q). The
+  /// penalty is exact: the minimiser is the hard constraint's (the paper's Problem 3)
   /// whenever soft_penalty exceeds the terminal multipliers, and the step still returns a plan when
   /// the hard terminal set is out of reach. With the hard equality (false) PIQP's interior point needs
   /// hundreds of iterations on the last steps, whose terminal multipliers reach ~1e6.
