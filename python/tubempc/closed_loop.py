@@ -34,7 +34,7 @@ from .dynamics import ProximityModel
 from .identification import ForgettingFactorIdentifier, measured_reference_deviation
 from .reference import ReferenceSettings, ReferenceTrajectory, load_or_generate_reference
 from .shapes import Shape, bennu_like_shape, load_shape
-from .tube import TubeDesigner, TubeResult
+from .tube import TubeDesigner, TubeResult, tube_still_valid
 
 __all__ = ["METHODS", "Scenario", "SimulationResult", "build_scenario", "simulate"]
 
@@ -236,6 +236,8 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
     rec["x"][0] = x
     rec["g"][0] = [scn.truth.glide_slope(x)[0], scn.truth.line_of_sight(x)[0]]
     tubes: tuple[TubeResult, TubeResult] | None = None
+    margin = cfg.tube.redesign_margin if method == "ffa" else 0.0
+    designed_for: list[Array] = [ident.P_W for ident in idents]  # the P_W each tube was designed for
     pool = cf.ThreadPoolExecutor(max_workers=max(1, min(2, int(tube_threads))))
     bar = None
     if progress:
@@ -248,22 +250,36 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
         for k in range(n_run):
             t_k = k * dt
             t0 = time.perf_counter()
-            # 1. tube update (TBMPC: once from the prior; FFA: every step from the identified P_W)
+            # 1. tube update (TBMPC: once from the prior; FFA: from the identified P_W, every step
+            #    unless the current tube is still certified for it; README, readings)
             if tubes is None or method == "ffa":
                 Ad, Bd, _ = scn.model.discretize(t_k, zbar[k], ubar[k], dt)
-                jobs = []
-                for des, ident, sl, su, prev in (
-                    (des_p, idents[0], _P, slice(0, 3), None if tubes is None else tubes[0]),
-                    (des_r, idents[1], _R, slice(3, 6), None if tubes is None else tubes[1]),
-                ):
+                search = k % cfg.tube.alpha_search_period == 0
+                jobs: list[cf.Future[TubeResult] | None] = []
+                for i, (des, ident, sl, su) in enumerate(((des_p, idents[0], _P, slice(0, 3)),
+                                                          (des_r, idents[1], _R, slice(3, 6)))):
+                    prev = None if tubes is None else tubes[i]
+                    A_s, B_s, P_W = Ad[sl, sl], Bd[sl, su], ident.P_W
+                    if (prev is not None and not search and margin > 0.0
+                            and tube_still_valid(prev, A_s, B_s, P_W, designed_for[i], margin)):
+                        jobs.append(None)
+                        continue
+                    designed_for[i] = (1.0 + margin) * P_W
                     alpha_prev = prev.alpha if prev is not None and prev.feasible else None
-                    if alpha_prev is not None and k % cfg.tube.alpha_search_period != 0:
-                        jobs.append(pool.submit(des.design_fixed_alpha, Ad[sl, sl], Bd[sl, su], ident.P_W, alpha_prev))
+                    if alpha_prev is not None and not search:
+                        jobs.append(pool.submit(des.design_fixed_alpha, A_s, B_s, designed_for[i], alpha_prev))
                     else:
-                        jobs.append(pool.submit(des.design, Ad[sl, sl], Bd[sl, su], ident.P_W, alpha_prev))
-                new = [j.result() for j in jobs]
-                kept = []
-                for i, (res, des) in enumerate(zip(new, (des_p, des_r), strict=True)):
+                        jobs.append(pool.submit(des.design, A_s, B_s, designed_for[i], alpha_prev))
+                kept: list[TubeResult] = []
+                names = []
+                for i, (job, des) in enumerate(zip(jobs, (des_p, des_r), strict=True)):
+                    if job is None:
+                        assert tubes is not None
+                        kept.append(tubes[i])
+                        names.append("KEPT")
+                        continue
+                    res = job.result()
+                    names.append(res.status.name)
                     if res.feasible:
                         kept.append(res)
                     elif des.last_feasible is not None:
@@ -274,7 +290,7 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
                         raise RuntimeError(f"initial tube design infeasible ({res.status.name}); "
                                            "check identification priors and input limits")
                 tubes = (kept[0], kept[1])
-                result.tube_statuses.append("/".join(r.status.name for r in new))
+                result.tube_statuses.append("/".join(names))
             assert tubes is not None
             K, Pe = _block_tube(*tubes)
             t1 = time.perf_counter()

@@ -273,12 +273,16 @@ class Tube:
     option). max_solves: cap on LMI solves per subsystem and step when warm-started.
     alpha_search_period (TBMPC-FFA; project option): the warm alpha search runs every this many
     steps; in between the tube is re-designed at the last alpha (one SDP solve per subsystem).
-    1 searches at every step."""
+    1 searches at every step. redesign_margin (TBMPC-FFA; project option) delta >= 0: the tube is
+    designed for (1 + delta) P_W and kept between alpha searches while it stays invariant for the
+    identified P_W and P_W has not shrunk below P_W_design / (1 + delta)^2 in every direction;
+    0 re-designs at every step as the paper does."""
 
     weighting: str = field(metadata=_opt("mpc", "normalized"))
     input_weight: float = field(metadata=_num(check=_POS))
     max_solves: int = field(metadata=_int(check=_GE1))
     alpha_search_period: int = field(metadata=_int(check=_GE1))
+    redesign_margin: float = field(metadata=_num(check=_NONNEG))
 
 
 @dataclass(frozen=True, eq=False)

@@ -140,7 +140,7 @@ def generate_reference(
         Bblk = sp.block_diag(list(Bd), format="csr")
         sel_next = sp.eye(nX, format="csr")[12:]
         sel_prev = sp.eye(nX, format="csr")[:-12]
-        Glos = sp.block_diag([g[None, :] for g in G_los], format="csr")
+        Glos: sp.csr_array | sp.csr_matrix = sp.block_diag([g[None, :] for g in G_los], format="csr")
         Xm = cp.reshape(x, (T + 1, 12), order="C")
         Um = cp.reshape(u, (T, 6), order="C")
         cons = [

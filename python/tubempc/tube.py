@@ -485,6 +485,29 @@ def lmi_residual(
     return float(np.linalg.eigvalsh(_sym(M * np.outer(s, s))).max())
 
 
+def tube_still_valid(
+    tube: TubeResult,
+    A: ArrayLike,
+    B: ArrayLike,
+    P_W: ArrayLike,
+    P_W_design: ArrayLike,
+    margin: float,
+) -> bool:
+    """Whether a tube designed for ``P_W_design`` may stand for the identified ``P_W``.
+
+    It must still be robustly invariant for x+ = A x + B u + w, w^T P_W^-1 w <= 1 (the LMI (*)
+    recomputed: ``lmi_residual <= 0``), and not too large: the largest generalised eigenvalue of
+    (P_W, P_W_design) at least 1 / (1 + margin)^2, else a fresh design would be smaller.
+    """
+    if tube.K is None or tube.Pe is None or not tube.feasible:
+        return False
+    if lmi_residual(A, B, tube.K, tube.Pe, P_W, tube.alpha) > 0.0:
+        return False
+    L = np.linalg.cholesky(_sym(np.asarray(P_W_design, dtype=np.float64)))
+    X = np.linalg.solve(L, np.linalg.solve(L, np.asarray(P_W, dtype=np.float64)).T)
+    return bool(np.linalg.eigvalsh(0.5 * (X + X.T)).max() >= 1.0 / (1.0 + margin) ** 2)
+
+
 def sample_invariance(
     A: ArrayLike,
     B: ArrayLike,

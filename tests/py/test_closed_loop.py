@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +52,24 @@ def test_short_closed_loop(scenario, method: str) -> None:  # type: ignore[no-un
     assert len(res.tube_statuses) == (6 if method == "ffa" else 1)
     # the identification saw the measured inputs: its covariance left the prior
     assert not np.allclose(a["S_p"][-1], np.diag(cfg.identification.S0_p.diagonal()))
+
+
+def test_ffa_keeps_a_tube_only_between_designs(scenario) -> None:  # type: ignore[no-untyped-def]
+    cfg = scenario.config
+    period = cfg.tube.alpha_search_period
+    for margin in (0.0, 0.5):
+        scn = dataclasses.replace(scenario, config=cfg.with_overrides({"tube.redesign_margin": margin}))
+        res = simulate(scn, "ffa", seed=3, max_steps=12)
+        kept = [i for i, s in enumerate(res.tube_statuses) if "KEPT" in s]
+        assert bool(kept) == (margin > 0.0), res.tube_statuses
+        assert all(i % period != 0 for i in kept)  # the alpha search always designs
+        a = res.arrays
+        assert np.all(a["excursion"] <= 1.0)
+        for i in kept:  # a kept subsystem tube is the previous step's
+            sub = res.tube_statuses[i].split("/")
+            for j, name in enumerate(("Pe_p", "Pe_r")):
+                if sub[j] == "KEPT":
+                    np.testing.assert_array_equal(a[name][i], a[name][i - 1])
 
 
 def test_summary_and_results_file(scenario, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]

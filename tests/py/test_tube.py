@@ -13,6 +13,7 @@ from tubempc.tube import (
     lmi_residual,
     sample_invariance,
     support,
+    tube_still_valid,
 )
 
 DT = 2.0
@@ -193,3 +194,27 @@ def test_dual_slope_matches_finite_difference() -> None:
         mid = d._evaluate(s)
         fd = (d._evaluate(s + h).value - d._evaluate(s - h).value) / (2.0 * h)
         assert mid.slope == pytest.approx(fd, rel=2e-3, abs=1e-6 * abs(mid.value))
+
+
+def test_tube_kept_only_while_certified() -> None:
+    """A tube designed for (1 + d) P_W stands for P_W and anything it still bounds, not beyond."""
+    d = 0.1
+    PW_design = (1.0 + d) * PW_TRANS
+    r = _trans().design(A_DI, B_TRANS, PW_design)
+    assert r.K is not None and r.Pe is not None
+    assert tube_still_valid(r, A_DI, B_TRANS, PW_TRANS, PW_design, d)
+    # kept => invariant for the identified P_W, checked by sampling (independent of the LMI)
+    rng = np.random.default_rng(5)
+    assert sample_invariance(A_DI, B_TRANS, r.K, r.Pe, PW_TRANS, 4000, rng) <= 1.0
+    # a P_W that grew past the design (in one direction only) is not bounded any more
+    grown = PW_design.copy()
+    grown[0, 0] *= 1.5
+    assert not tube_still_valid(r, A_DI, B_TRANS, grown, PW_design, d)
+    # a P_W that shrank by more than (1 + d)^2 in every direction asks for a smaller tube
+    assert not tube_still_valid(r, A_DI, B_TRANS, PW_design / 1.3, PW_design, d)
+    assert tube_still_valid(r, A_DI, B_TRANS, PW_design / 1.15, PW_design, d)
+    # a different linearisation that breaks invariance is caught too
+    assert not tube_still_valid(r, 1.05 * A_DI, B_TRANS, PW_TRANS, PW_design, d)
+    # no tube, nothing to keep
+    none = TubeResult(None, None, 0.5, float("inf"), TubeStatus.INFEASIBLE, float("nan"), 0.0, 1)
+    assert not tube_still_valid(none, A_DI, B_TRANS, PW_TRANS, PW_design, d)
