@@ -129,6 +129,8 @@ void bind_mpc(py::module_& m) {
       .def_readwrite("kkt_solver", &mpc::Settings::kkt_solver)
       .def_readwrite("qp_scale_cost", &mpc::Settings::qp_scale_cost)
       .def_readwrite("qp_preconditioner_iterations", &mpc::Settings::qp_preconditioner_iterations)
+      .def_readwrite("qp_reg_lower_limit", &mpc::Settings::qp_reg_lower_limit)
+      .def_readwrite("qp_retry_reg_lower_limit", &mpc::Settings::qp_retry_reg_lower_limit)
       .def_readwrite("A_structure", &mpc::Settings::A_structure)
       .def_readwrite("B_structure", &mpc::Settings::B_structure)
       .def_readwrite("G_structure", &mpc::Settings::G_structure)

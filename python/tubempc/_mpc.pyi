@@ -63,6 +63,8 @@ class Settings:
     kkt_solver: KktSolver
     qp_scale_cost: bool
     qp_preconditioner_iterations: int
+    qp_reg_lower_limit: float
+    qp_retry_reg_lower_limit: float
     A_structure: _Arr
     B_structure: _Arr
     G_structure: _Arr

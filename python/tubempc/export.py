@@ -167,6 +167,8 @@ def write_scenario(path: str | Path, *, controller: tuple[Mapping[str, Any], flo
         w.text("mpc.kkt_solver", _KKT_SOLVERS[s.kkt_solver.name])
         w.scalar("mpc.qp_scale_cost", 1.0 if s.qp_scale_cost else 0.0)
         w.scalar("mpc.qp_preconditioner_iterations", s.qp_preconditioner_iterations)
+        w.scalar("mpc.qp_reg_lower_limit", s.qp_reg_lower_limit)
+        w.scalar("mpc.qp_retry_reg_lower_limit", s.qp_retry_reg_lower_limit)
         w.matrix("mpc.A_structure", s.A_structure)
         w.matrix("mpc.B_structure", s.B_structure)
         w.matrix("mpc.G_structure", s.G_structure)

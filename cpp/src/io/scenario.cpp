@@ -389,6 +389,8 @@ Scenario read_scenario(const std::string& path) {
   r.option("mpc.kkt_solver", kKktSolvers, st.kkt_solver, false);
   r.flag("mpc.qp_scale_cost", st.qp_scale_cost, false);
   r.integer("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations, false);
+  r.optional_scalar("mpc.qp_reg_lower_limit", st.qp_reg_lower_limit);
+  r.optional_scalar("mpc.qp_retry_reg_lower_limit", st.qp_retry_reg_lower_limit);
   r.optional_matrix("mpc.A_structure", dynamics::kNx, dynamics::kNx, st.A_structure);
   r.optional_matrix("mpc.B_structure", dynamics::kNx, dynamics::kNu, st.B_structure);
   r.optional_matrix("mpc.G_structure", 2, dynamics::kNx, st.G_structure);
@@ -461,6 +463,8 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   w.text("mpc.kkt_solver", option_name(kKktSolvers, st.kkt_solver));
   w.scalar("mpc.qp_scale_cost", st.qp_scale_cost ? 1.0 : 0.0);
   w.scalar("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations);
+  w.scalar("mpc.qp_reg_lower_limit", st.qp_reg_lower_limit);
+  w.scalar("mpc.qp_retry_reg_lower_limit", st.qp_retry_reg_lower_limit);
   w.matrix("mpc.A_structure", st.A_structure);
   w.matrix("mpc.B_structure", st.B_structure);
   w.matrix("mpc.G_structure", st.G_structure);

@@ -159,6 +159,10 @@ void Settings::validate(int nx, int nu) const {
   if (G_structure.size() != 0 && G_structure.cols() != nx) fail("G_structure", "must be empty or n_c x n_x");
   if (riccati_max_iterations < 1) fail("riccati_max_iterations", "must be >= 1");
   if (qp_preconditioner_iterations < 0) fail("qp_preconditioner_iterations", "must be >= 0");
+  if (!(qp_reg_lower_limit > 0.0) || !std::isfinite(qp_reg_lower_limit))
+    fail("qp_reg_lower_limit", "must be finite and > 0");
+  if (!(qp_retry_reg_lower_limit >= 0.0) || !std::isfinite(qp_retry_reg_lower_limit))
+    fail("qp_retry_reg_lower_limit", "must be finite and >= 0 (0: no retry)");
 #ifndef PIQP_HAS_BLASFEO
   if (kkt_solver == KktSolver::SparseMultistage)
     fail("kkt_solver", "SparseMultistage needs PIQP built with BLASFEO, which this build is not");
@@ -461,6 +465,7 @@ void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_termina
   ps.kkt_solver = settings_.kkt_solver == KktSolver::SparseMultistage ? piqp::KKTSolver::sparse_multistage
                                                                        : piqp::KKTSolver::sparse_ldlt;
   ps.compute_timings = false;
+  ps.reg_lower_limit = settings_.qp_reg_lower_limit;
   ps.preconditioner_scale_cost = settings_.qp_scale_cost;
   ps.preconditioner_iter = settings_.qp_preconditioner_iterations;
   m.solver.setup(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u);
@@ -609,7 +614,7 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   if (m.off_t >= 0) {
     const int r0 = (N + 1) * nc;
     m.q.segment(m.off_t, nx).setConstant(terminal_phase ? s.soft_penalty : 0.0);
-    m.x_l.segment(m.off_t, nx).setZero();
+    m.x_l.segment(m.off_t, nx).setConstant(-kInf);  // t >= 0 follows from |dz_N| <= t: no redundant bound
     const double sign[4] = {1.0, -1.0, 1.0, 1.0};  // dz_N - t <= 0, dz_N + t >= 0 (zbar_T = x_f)
     for (int blk = 0; blk < 4; ++blk)
       for (int j = 0; j < nx; ++j) m.G.valuePtr()[m.posG_term[blk * nx + j]] = terminal_phase ? sign[blk] : 0.0;
@@ -728,16 +733,28 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     // Solve.
     t0 = Clock::now();
     m.solver.update(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u);
-    const piqp::Status qs = m.solver.solve();
-    res.timings.solve += seconds_since(t0);
+    piqp::Status qs = m.solver.solve();
     const auto& r = m.solver.result();
-    res.scp_iterations = it + 1;
     res.qp_iterations += static_cast<int>(r.info.iter);
+    const auto capped_inaccurate = [&] {
+      return qs == piqp::Status::PIQP_MAX_ITER_REACHED && r.info.primal_res_rel <= s.qp_inaccurate_tol &&
+             r.info.dual_res_rel <= s.qp_inaccurate_tol;
+    };
+    if ((qs == piqp::Status::PIQP_NUMERICS || (qs == piqp::Status::PIQP_MAX_ITER_REACHED && !capped_inaccurate())) &&
+        s.qp_retry_reg_lower_limit > 0.0 && seconds_since(t_start) < s.time_limit) {
+      // One retry with a higher regularisation floor (same data, same solver: no allocation).
+      piqp::Settings<double>& ps = m.solver.settings();
+      ps.reg_lower_limit = s.qp_retry_reg_lower_limit;
+      qs = m.solver.solve();
+      ps.reg_lower_limit = s.qp_reg_lower_limit;
+      res.qp_iterations += static_cast<int>(r.info.iter);
+    }
+    res.timings.solve += seconds_since(t0);
+    res.scp_iterations = it + 1;
     if (qs == piqp::Status::PIQP_INVALID_SETTINGS) return fallback(Status::NotSolved);
     if (qs == piqp::Status::PIQP_PRIMAL_INFEASIBLE || qs == piqp::Status::PIQP_DUAL_INFEASIBLE)
       return fallback(Status::Infeasible);
-    if (qs == piqp::Status::PIQP_MAX_ITER_REACHED && r.info.primal_res_rel <= s.qp_inaccurate_tol &&
-        r.info.dual_res_rel <= s.qp_inaccurate_tol) {
+    if (capped_inaccurate()) {
       inaccurate = true;
     } else if (qs != piqp::Status::PIQP_SOLVED) {
       return fallback(qs == piqp::Status::PIQP_NUMERICS ? Status::NumericalError : Status::NotSolved);

@@ -49,6 +49,8 @@ Scenario sample(int T) {
   s.settings.input_cost = tubempc::mpc::InputCost::FromReference;
   s.settings.soft_terminal = true;  // set explicitly: the error test below edits its record
   s.settings.qp_preconditioner_iterations = 4;  // not the default: the round trip must carry it
+  s.settings.qp_reg_lower_limit = 3e-9;
+  s.settings.qp_retry_reg_lower_limit = 0.0;
   s.settings.G_structure = Eigen::MatrixXd::Ones(2, 12);
   s.reference.t0 = 0.25;
   s.reference.z = filled(12, T + 1, 1.0, 1e3);
@@ -188,6 +190,8 @@ TEST_F(ScenarioFile, RoundTripIsBitExact) {
   EXPECT_EQ(sb.kkt_solver, sa.kkt_solver);
   EXPECT_EQ(sb.qp_scale_cost, sa.qp_scale_cost);
   EXPECT_EQ(sb.qp_preconditioner_iterations, sa.qp_preconditioner_iterations);
+  EXPECT_EQ(sb.qp_reg_lower_limit, sa.qp_reg_lower_limit);
+  EXPECT_EQ(sb.qp_retry_reg_lower_limit, sa.qp_retry_reg_lower_limit);
   EXPECT_EQ(sb.A_structure.size(), 0);
   EXPECT_EQ(sb.B_structure.size(), 0);
   expect_same_bits(sa.G_structure, sb.G_structure, "G_structure");

@@ -161,6 +161,19 @@ TEST(TubeMPCSettings, ValidateNamesTheField) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("qp_preconditioner_iterations"), std::string::npos);
   }
+  for (double bad : {0.0, -1e-8, std::numeric_limits<double>::quiet_NaN()}) {
+    s = di_settings(10, 0.5);
+    s.qp_reg_lower_limit = bad;
+    try {
+      s.validate(2, 1);
+      FAIL() << "no exception for " << bad;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("qp_reg_lower_limit"), std::string::npos);
+    }
+  }
+  s = di_settings(10, 0.5);
+  s.qp_retry_reg_lower_limit = -1.0;
+  EXPECT_THROW(s.validate(2, 1), std::invalid_argument);
 }
 
 // KKT conditions of the QP PIQP returned, evaluated independently from the exported data.

@@ -124,6 +124,13 @@ struct Settings {
   /// it off there if QPs stop at the iteration cap (status SolvedInaccurate).
   bool qp_scale_cost = true;
   int qp_preconditioner_iterations = 10;  ///< Ruiz equilibration iterations of PIQP (>= 0).
+  double qp_reg_lower_limit = 1e-10;  ///< Floor of PIQP's proximal regularisation (> 0; PIQP's default).
+  /// A QP that ends at the iteration cap (beyond qp_inaccurate_tol) or in a numerical error is solved
+  /// once more with this regularisation floor before the step falls back (0: no retry). A few
+  /// terminal-phase QPs of the Bennu mission lose KKT accuracy at 1e-10 and stall at the cap; with
+  /// 1e-8 they solve in ~16 iterations (the floor does not move the optimum; as a default it slows the
+  /// last iterations of other QPs, hence a retry).
+  double qp_retry_reg_lower_limit = 1e-8;
   /// Optional structural patterns of the model's A (n_x x n_x), B (n_x x n_u) and G (n_c x n_x): entries
   /// != 0 are stored in the QP, the others are structural zeros the model must respect (a nonzero there
   /// makes the step fall back with failure ModelStructure). Empty: dense. Sparser patterns make the KKT
