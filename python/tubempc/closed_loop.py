@@ -4,7 +4,8 @@ Each control step k (dt = 2 s, T = t_f / dt steps):
 
 1. tube update (both subsystems, in two threads): TBMPC keeps the tube designed at k = 0 from the
    prior covariances (paper Table 1); TBMPC-FFA re-designs it from the identified covariance,
-   P_W = pw_scale * S^_k (paper Eq. 25, warm-started alpha);
+   P_W = pw_scale * S^_k (paper Eq. 25, warm-started alpha), for (1 + tube.redesign_margin) P_W,
+   and between alpha searches keeps the previous tube while `tube_still_valid` certifies it;
 2. the C++ tube MPC step (Problems 2 and 3, SCP about the shifted plan, PIQP) from the measured
    state x_k, with the ancillary law u = v0* + K (x_k - z0*) saturated at the true limits;
 3. truth propagation of the 13-state (quaternion attitude) with the truth model (which may differ
