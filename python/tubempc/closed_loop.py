@@ -256,7 +256,7 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
             if tubes is None or method == "ffa":
                 Ad, Bd, _ = scn.model.discretize(t_k, zbar[k], ubar[k], dt)
                 search = k % cfg.tube.alpha_search_period == 0
-                jobs: list[cf.Future[TubeResult] | None] = []
+                jobs: list[tuple[cf.Future[TubeResult], Array] | None] = []
                 for i, (des, ident, sl, su) in enumerate(((des_p, idents[0], _P, slice(0, 3)),
                                                           (des_r, idents[1], _R, slice(3, 6)))):
                     prev = None if tubes is None else tubes[i]
@@ -265,12 +265,13 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
                             and tube_still_valid(prev, A_s, B_s, P_W, designed_for[i], margin)):
                         jobs.append(None)
                         continue
-                    designed_for[i] = (1.0 + margin) * P_W
+                    P_design = (1.0 + margin) * P_W
                     alpha_prev = prev.alpha if prev is not None and prev.feasible else None
                     if alpha_prev is not None and not search:
-                        jobs.append(pool.submit(des.design_fixed_alpha, A_s, B_s, designed_for[i], alpha_prev))
+                        future = pool.submit(des.design_fixed_alpha, A_s, B_s, P_design, alpha_prev)
                     else:
-                        jobs.append(pool.submit(des.design, A_s, B_s, designed_for[i], alpha_prev))
+                        future = pool.submit(des.design, A_s, B_s, P_design, alpha_prev)
+                    jobs.append((future, P_design))
                 kept: list[TubeResult] = []
                 names = []
                 for i, (job, des) in enumerate(zip(jobs, (des_p, des_r), strict=True)):
@@ -279,10 +280,11 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
                         kept.append(tubes[i])
                         names.append("KEPT")
                         continue
-                    res = job.result()
+                    res = job[0].result()
                     names.append(res.status.name)
                     if res.feasible:
                         kept.append(res)
+                        designed_for[i] = job[1]
                     elif des.last_feasible is not None:
                         kept.append(des.last_feasible)
                     elif tubes is not None:

@@ -44,6 +44,7 @@ from typing import Any
 
 import cvxpy as cp
 import numpy as np
+import scipy.linalg
 from cvxpy.atoms.affine.bmat import bmat as _cp_bmat
 from cvxpy.atoms.affine.trace import trace as _cp_trace
 from cvxpy.expressions.expression import Expression
@@ -503,9 +504,12 @@ def tube_still_valid(
         return False
     if lmi_residual(A, B, tube.K, tube.Pe, P_W, tube.alpha) > 0.0:
         return False
-    L = np.linalg.cholesky(_sym(np.asarray(P_W_design, dtype=np.float64)))
-    X = np.linalg.solve(L, np.linalg.solve(L, np.asarray(P_W, dtype=np.float64)).T)
-    return bool(np.linalg.eigvalsh(0.5 * (X + X.T)).max() >= 1.0 / (1.0 + margin) ** 2)
+    ratios = scipy.linalg.eigh(
+        _sym(np.asarray(P_W, dtype=np.float64)),
+        _sym(np.asarray(P_W_design, dtype=np.float64)),
+        eigvals_only=True,
+    )
+    return bool(ratios.max() >= 1.0 / (1.0 + margin) ** 2)
 
 
 def sample_invariance(
