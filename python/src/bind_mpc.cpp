@@ -128,6 +128,7 @@ void bind_mpc(py::module_& m) {
       .def_readwrite("backend", &mpc::Settings::backend)
       .def_readwrite("kkt_solver", &mpc::Settings::kkt_solver)
       .def_readwrite("qp_scale_cost", &mpc::Settings::qp_scale_cost)
+      .def_readwrite("reuse_linearization", &mpc::Settings::reuse_linearization)
       .def_readwrite("qp_preconditioner_iterations", &mpc::Settings::qp_preconditioner_iterations)
       .def_readwrite("qp_reg_lower_limit", &mpc::Settings::qp_reg_lower_limit)
       .def_readwrite("qp_retry_reg_lower_limit", &mpc::Settings::qp_retry_reg_lower_limit)
@@ -164,6 +165,7 @@ void bind_mpc(py::module_& m) {
       .def_readonly("horizon", &mpc::StepResult::horizon)
       .def_readonly("scp_iterations", &mpc::StepResult::scp_iterations)
       .def_readonly("qp_iterations", &mpc::StepResult::qp_iterations)
+      .def_readonly("model_evaluations", &mpc::StepResult::model_evaluations)
       .def_readonly("scp_residual", &mpc::StepResult::scp_residual)
       .def_readonly("objective", &mpc::StepResult::objective)
       .def_readonly("timings", &mpc::StepResult::timings);

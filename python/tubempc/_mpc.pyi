@@ -62,6 +62,7 @@ class Settings:
     backend: Backend
     kkt_solver: KktSolver
     qp_scale_cost: bool
+    reuse_linearization: bool
     qp_preconditioner_iterations: int
     qp_reg_lower_limit: float
     qp_retry_reg_lower_limit: float
@@ -109,6 +110,8 @@ class StepResult:
     def scp_iterations(self) -> int: ...
     @property
     def qp_iterations(self) -> int: ...
+    @property
+    def model_evaluations(self) -> int: ...
     @property
     def scp_residual(self) -> float: ...
     @property

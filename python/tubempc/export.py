@@ -166,6 +166,7 @@ def write_scenario(path: str | Path, *, controller: tuple[Mapping[str, Any], flo
         w.scalar("mpc.riccati_max_iterations", s.riccati_max_iterations)
         w.text("mpc.kkt_solver", _KKT_SOLVERS[s.kkt_solver.name])
         w.scalar("mpc.qp_scale_cost", 1.0 if s.qp_scale_cost else 0.0)
+        w.scalar("mpc.reuse_linearization", 1.0 if s.reuse_linearization else 0.0)
         w.scalar("mpc.qp_preconditioner_iterations", s.qp_preconditioner_iterations)
         w.scalar("mpc.qp_reg_lower_limit", s.qp_reg_lower_limit)
         w.scalar("mpc.qp_retry_reg_lower_limit", s.qp_retry_reg_lower_limit)

@@ -52,7 +52,7 @@ def test_cpp_reads_what_python_wrote_bit_for_bit(exported: tuple[Path, Scenario]
     for name in ("horizon", "dt", "Q", "R", "u_max", "scp_eps", "input_cost", "initial_condition",
                  "scp_max_iterations", "trust_region", "qp_eps_abs", "qp_eps_rel", "qp_max_iterations",
                  "qp_inaccurate_tol", "time_limit", "soft_state_constraints", "soft_terminal", "soft_penalty",
-                 "riccati_tol", "riccati_max_iterations", "kkt_solver", "qp_scale_cost",
+                 "riccati_tol", "riccati_max_iterations", "kkt_solver", "qp_scale_cost", "reuse_linearization",
                  "qp_preconditioner_iterations", "qp_reg_lower_limit",
                  "qp_retry_reg_lower_limit", "A_structure", "B_structure", "G_structure"):
         a, b = getattr(s.settings, name), getattr(expected_settings, name)

@@ -388,6 +388,7 @@ Scenario read_scenario(const std::string& path) {
   r.integer("mpc.riccati_max_iterations", st.riccati_max_iterations, false);
   r.option("mpc.kkt_solver", kKktSolvers, st.kkt_solver, false);
   r.flag("mpc.qp_scale_cost", st.qp_scale_cost, false);
+  r.flag("mpc.reuse_linearization", st.reuse_linearization, false);
   r.integer("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations, false);
   r.optional_scalar("mpc.qp_reg_lower_limit", st.qp_reg_lower_limit);
   r.optional_scalar("mpc.qp_retry_reg_lower_limit", st.qp_retry_reg_lower_limit);
@@ -462,6 +463,7 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   w.scalar("mpc.riccati_max_iterations", st.riccati_max_iterations);
   w.text("mpc.kkt_solver", option_name(kKktSolvers, st.kkt_solver));
   w.scalar("mpc.qp_scale_cost", st.qp_scale_cost ? 1.0 : 0.0);
+  w.scalar("mpc.reuse_linearization", st.reuse_linearization ? 1.0 : 0.0);
   w.scalar("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations);
   w.scalar("mpc.qp_reg_lower_limit", st.qp_reg_lower_limit);
   w.scalar("mpc.qp_retry_reg_lower_limit", st.qp_retry_reg_lower_limit);

@@ -267,6 +267,10 @@ struct TubeMPC::Impl {
   Eigen::MatrixXd z_lin, v_lin;  // nx x (N+1), nu x N
   std::vector<Eigen::MatrixXd> Ad, Bd, Gc, Ad_prev, Bd_prev, Gc_prev;
   std::vector<Eigen::VectorXd> cd, hc, cd_prev, hc_prev;
+  // Trajectory of the model data in Ad..hc, and (after a converged step) the step whose data they are
+  // (lin_k, -1: none) with its horizon lin_n: Ad..cd hold nodes 0..lin_n-1, Gc, hc nodes 0..lin_n.
+  Eigen::MatrixXd z_lin_at, v_lin_at;
+  int lin_k = -1, lin_n = 0;
   bool have_plan = false;
   int plan_k = 0;  // time index of z_plan's first node
   Eigen::MatrixXd z_plan, v_plan;  // last applied plan (for the shifted fallback)
@@ -290,6 +294,9 @@ struct TubeMPC::Impl {
     v_lin.setZero(nu, N);
     z_plan = z_lin;
     v_plan = v_lin;
+    z_lin_at = z_lin;
+    v_lin_at = v_lin;
+    lin_k = -1;
     z_star = z_lin;
     z_ref = z_lin;
     v_star = v_lin;
@@ -471,7 +478,10 @@ void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_termina
   m.solver.setup(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u);
 }
 
-void TubeMPC::reset() { impl_->have_plan = false; }
+void TubeMPC::reset() {
+  impl_->have_plan = false;
+  impl_->lin_k = -1;
+}
 
 QpData TubeMPC::qp_data() const {
   const Impl& m = *impl_;
@@ -510,22 +520,49 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   res.timings = Timings{};
   res.scp_iterations = 0;
   res.qp_iterations = 0;
+  res.model_evaluations = 0;
   res.scp_residual = kInf;
   res.failure = Status::Solved;
   const int n = std::min(N, T - k);
   res.horizon = n;
   const bool terminal_phase = k >= T - N;
   const double dt = s.dt;
-  const double t_k = m.ref.t0 + k * dt;
+  // Time of node i: a function of the absolute node index, so that re-used model data are exact.
+  const auto t_node = [&](int i) { return m.ref.t0 + static_cast<double>(k + i) * dt; };
+
+  // Model data of the previous step (converged at k - 1) re-used, shifted by one node: discretisations
+  // of nodes i < n_reuse_d and constraints of nodes i < n_reuse_c (Settings::reuse_linearization).
+  // n_reuse_z: nodes whose linearisation state is the previous one's (its states 1..lin_n).
+  int n_reuse_d = 0, n_reuse_c = 0, n_reuse_z = 0;
+  if (s.reuse_linearization && m.lin_k >= 0 && k == m.lin_k + 1) {
+    n_reuse_z = std::min(n + 1, m.lin_n);
+    n_reuse_d = std::min(n, m.lin_n - 1);
+    n_reuse_c = nc > 0 ? std::min(n + 1, m.lin_n) : 0;
+    std::rotate(m.Ad.begin(), m.Ad.begin() + 1, m.Ad.end());  // swaps: no allocation
+    std::rotate(m.Bd.begin(), m.Bd.begin() + 1, m.Bd.end());
+    std::rotate(m.cd.begin(), m.cd.begin() + 1, m.cd.end());
+    std::rotate(m.Gc.begin(), m.Gc.begin() + 1, m.Gc.end());
+    std::rotate(m.hc.begin(), m.hc.begin() + 1, m.hc.end());
+  }
+  m.lin_k = -1;  // valid again only if this step converges
 
   // Linearisation trajectory: the previous plan shifted to k (usually by one node), completed from
-  // the reference; the reference alone without a usable plan.
+  // the reference; the reference alone without a usable plan. Nodes with re-used data take the
+  // trajectory those data were computed about.
   const int shift = k - m.plan_k;
   const bool use_plan = m.have_plan && shift >= 0 && shift < N;
-  for (int i = 0; i <= N; ++i)
-    m.z_lin.col(i) = use_plan && i + shift <= N ? m.z_plan.col(i + shift) : m.ref.z.col(std::min(k + i, T));
-  for (int i = 0; i < N; ++i)
-    m.v_lin.col(i) = use_plan && i + shift < N ? m.v_plan.col(i + shift) : m.ref.u.col(std::min(k + i, T - 1));
+  for (int i = 0; i <= N; ++i) {
+    if (i < n_reuse_z)
+      m.z_lin.col(i) = m.z_lin_at.col(i + 1);
+    else
+      m.z_lin.col(i) = use_plan && i + shift <= N ? m.z_plan.col(i + shift) : m.ref.z.col(std::min(k + i, T));
+  }
+  for (int i = 0; i < N; ++i) {
+    if (i < n_reuse_d)
+      m.v_lin.col(i) = m.v_lin_at.col(i + 1);
+    else
+      m.v_lin.col(i) = use_plan && i + shift < N ? m.v_plan.col(i + shift) : m.ref.u.col(std::min(k + i, T - 1));
+  }
 
   auto fallback = [&](Status cause) -> const StepResult& {
     res.failure = cause;
@@ -634,18 +671,21 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   double last_delta = kInf;
   for (int it = 0; it < s.scp_max_iterations; ++it) {
     if (it > 0 && seconds_since(t_start) > s.time_limit) return fallback(Status::TimeLimit);
-    // Linearise about (z_lin, v_lin).
+    // Linearise about (z_lin, v_lin) (the first iteration keeps the re-used nodes' data).
     auto t0 = Clock::now();
     bool finite = true;
-    for (int i = 0; i < n; ++i) {
-      model_->discretize(t_k + i * dt, dt, m.z_lin.col(i), m.v_lin.col(i), m.Ad[i], m.Bd[i], m.cd[i]);
+    for (int i = it == 0 ? n_reuse_d : 0; i < n; ++i) {
+      model_->discretize(t_node(i), dt, m.z_lin.col(i), m.v_lin.col(i), m.Ad[i], m.Bd[i], m.cd[i]);
       finite = finite && m.Ad[i].allFinite() && m.Bd[i].allFinite() && m.cd[i].allFinite();
+      ++res.model_evaluations;
     }
-    for (int i = 0; i <= n; ++i) {
+    for (int i = it == 0 ? n_reuse_c : 0; i <= n; ++i) {
       if (nc == 0) break;
-      model_->constraints(t_k + i * dt, m.z_lin.col(i), m.Gc[i], m.hc[i]);
+      model_->constraints(t_node(i), m.z_lin.col(i), m.Gc[i], m.hc[i]);
       finite = finite && m.Gc[i].allFinite() && !m.hc[i].array().isNaN().any() && !(m.hc[i].array() == -kInf).any();
     }
+    m.z_lin_at = m.z_lin;
+    m.v_lin_at = m.v_lin;
     res.timings.linearize += seconds_since(t0);
     if (!finite) return fallback(Status::NumericalError);
     bool structured = true;
@@ -791,6 +831,10 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   res.u = res.u.cwiseMax(-s.u_max).cwiseMin(s.u_max);
   res.status = !converged ? Status::MaxIterations : (inaccurate ? Status::SolvedInaccurate : Status::Solved);
   if (!res.u.allFinite()) return fallback(Status::NumericalError);
+  if (converged) {
+    m.lin_k = k;
+    m.lin_n = n;
+  }
   res.timings.total = seconds_since(t_start);
   return res;
 }

@@ -127,6 +127,7 @@ def run_mission(model: mpc.LinearizedModel, settings: mpc.Settings, reference: m
         wall = time.perf_counter() - t0
         tm = r.timings
         records.append({"k": k, "status": str(r.status), "scp": r.scp_iterations, "qp_iter": r.qp_iterations,
+                        "model_evaluations": r.model_evaluations,
                         "linearize": tm.linearize, "build": tm.build, "solve": tm.solve, "total": tm.total,
                         "python_wall": wall, "horizon": r.horizon})
         if pending and k >= pending[0] and r.status == mpc.Status.Solved:
@@ -178,6 +179,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--plant", choices=("bennu", "stand-in"), default="bennu",
                         help="bennu: the default scenario's 6-DOF model (generated shape, TBMPC's prior tube, "
                              "truth propagation with the scenario's disturbance); stand-in: a 12/6 LTI plant")
+    parser.add_argument("--no-reuse-linearization", action="store_true",
+                        help="call the model at every node in every SCP iteration (mpc::Settings::reuse_linearization "
+                             "off; default: a step re-uses the previous converged step's model data)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", metavar="PATH", help="write the figures as JSON")
 
@@ -217,6 +221,8 @@ def _bennu_plant(args: argparse.Namespace) -> tuple[Any, Any, Any, Any, Callable
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.qp_samples < 1:
+        raise SystemExit("--qp-samples must be >= 1 (the QP sizes and the C++ solution checks use them)")
     dt = 2.0
     info = machine_info()
     print(f"machine: {info['cpu']} ({info['cores']} cores), Python {info['python']}")
@@ -241,6 +247,7 @@ def run(args: argparse.Namespace) -> int:
                       "4 glide-slope planes)")
 
     samples = set(np.linspace(0, args.steps - 1, args.qp_samples).round().astype(int).tolist())
+    settings.reuse_linearization = not args.no_reuse_linearization
     records, qps = run_mission(model, settings, reference, tube, truth, samples)
     final = records.pop()
     statuses: dict[str, int] = {}
@@ -253,12 +260,18 @@ def run(args: argparse.Namespace) -> int:
     print(f"mission: T = {args.steps}, N = {args.horizon}, dt = {dt} s; QP: {n_var} variables, "
           f"{n_eq} equalities, {n_in} inequalities; structure {args.structure}, "
           f"nnz(P, A, G) = {some_qp.P.nnz}, {some_qp.A.nnz}, {some_qp.G.nnz}")
+    evals = [r["model_evaluations"] for r in records]
     print(f"statuses: {statuses}; SCP iterations per step: mean {np.mean([r['scp'] for r in records]):.2f}; "
+          f"model evaluations (nodes discretised) per step: median {np.median(evals):.0f}, mean {np.mean(evals):.1f}; "
+          f"PIQP iterations per QP: median {np.median([r['qp_iter'] / max(1, r['scp']) for r in records]):.1f}; "
           f"final |x - x_f|_inf = {final['final_error_inf']:.3g}")
     out: dict[str, Any] = {"machine": info, "plant": args.plant,
                            "structure": args.structure,
                            "T": args.steps, "N": args.horizon, "qp_size": [n_var, n_eq, n_in],
-                           "statuses": statuses, "final_error_inf": final["final_error_inf"], "step": {}}
+                           "statuses": statuses, "final_error_inf": final["final_error_inf"],
+                           "reuse_linearization": bool(settings.reuse_linearization),
+                           "model_evaluations_mean": float(np.mean(evals)),
+                           "scp_iterations_mean": float(np.mean([r["scp"] for r in records])), "step": {}}
     print(f"{'per step (C++)':24s} {'median':>10s} {'p99':>10s} {'max':>10s}   [ms]")
     for key in ("total", "linearize", "build", "solve", "python_wall"):
         st = _stats([r[key] for r in records])

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
 #include <random>
 #include <stdexcept>
@@ -479,4 +480,109 @@ TEST(TubeMPC, RepeatedAndSkippedStepsUseThePlanShiftedByTheGap) {
   for (int i = 0; i + 3 <= 10; ++i) EXPECT_LT((c.z.col(i) - b.z.col(i + 3)).cwiseAbs().maxCoeff(), 1e-12);
   for (int i = 8; i <= 10; ++i) EXPECT_LT((c.z.col(i) - b.z.col(10)).cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_EQ(c.v(0, 9), 0.0);
+}
+
+namespace {
+
+// Time-varying pendulum theta'' = -w2 (1 + 0.5 sin t) sin(theta) + u with one state-dependent constraint
+// cos(theta_lin) theta + theta' <= 10; records the output of every model call by node time.
+class RecordingPendulum final : public LinearizedModel {
+ public:
+  int nx() const override { return 2; }
+  int nu() const override { return 1; }
+  int n_constraints() const override { return 1; }
+  void discretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x,
+                  const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::MatrixXd> A,
+                  Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const override {
+    const double w = 9.81 * (1.0 + 0.5 * std::sin(t));
+    Eigen::MatrixXd A_c(2, 2), B_c(2, 1);
+    A_c << 0, 1, -w * std::cos(x(0)), 0;
+    B_c << 0, 1;
+    Eigen::VectorXd f(2);
+    f << x(1), -w * std::sin(x(0)) + u(0);
+    Eigen::MatrixXd Ad, Bd;
+    Eigen::VectorXd cd;
+    zoh_discretize(A_c, B_c, f - A_c * x - B_c * u, dt, Ad, Bd, cd);
+    A = Ad;
+    B = Bd;
+    c = cd;
+    dynamics[t] = Ad;
+    ++discretize_calls;
+  }
+  void constraints(double t, const Eigen::Ref<const Eigen::VectorXd>& x, Eigen::Ref<Eigen::MatrixXd> G,
+                   Eigen::Ref<Eigen::VectorXd> h) const override {
+    G << std::cos(x(0)), 1.0;
+    h << 10.0;
+    rows[t] = G;
+  }
+  mutable std::map<double, Eigen::MatrixXd> dynamics, rows;  // latest output per node time
+  mutable int discretize_calls = 0;
+};
+
+}  // namespace
+
+// A step after a converged step calls the model only at the node it appends (none in the shrinking
+// phase); the QP it solves holds exactly the model's data for each node's time (no off-by-one shift),
+// and the plans match those of a controller that calls the model everywhere within the SCP tolerance.
+TEST(TubeMPC, ReusedLinearizationHoldsEachNodesModelData) {
+  auto model = std::make_shared<RecordingPendulum>();
+  auto fresh_model = std::make_shared<RecordingPendulum>();
+  Settings s;
+  s.horizon = 12;
+  s.dt = 0.1;
+  s.u_max = Eigen::VectorXd::Constant(1, 20.0);
+  s.R = 1e-2 * Eigen::MatrixXd::Identity(1, 1);
+  s.Q = 10.0 * Eigen::MatrixXd::Identity(2, 2);
+  s.time_limit = kInf;
+  s.input_cost = InputCost::FromReference;
+  Settings s_fresh = s;
+  s_fresh.reuse_linearization = false;
+  TubeMPC mpc(model, s), fresh(fresh_model, s_fresh);
+  const int T = 30;
+  Eigen::VectorXd x0(2), xf(2);
+  x0 << 0.0, 0.0;
+  xf << 1.0, 0.0;
+  Reference ref = straight_reference(x0, xf, T, 1);
+  ref.t0 = 0.3;
+  const Eigen::MatrixXd A_T = Eigen::MatrixXd::Identity(2, 2) + 0.1 * (Eigen::MatrixXd(2, 2) << 0, 1, 0, 0).finished();
+  const Eigen::MatrixXd B_T = (Eigen::MatrixXd(2, 1) << 0.005, 0.1).finished();
+  mpc.setup(ref, A_T, B_T);
+  fresh.setup(ref, A_T, B_T);
+  const Tube tube = small_tube(2, 1, 1e-8);
+  Eigen::VectorXd x = x0;
+  int reused_steps = 0;
+  for (int k = 0; k < T; ++k) {
+    const int calls_before = model->discretize_calls;
+    const StepResult r = mpc.step(k, x, tube);
+    const StepResult& rf = fresh.step(k, x, tube);
+    ASSERT_EQ(r.status, Status::Solved) << k;
+    ASSERT_EQ(rf.status, Status::Solved) << k;
+    EXPECT_EQ(r.model_evaluations, model->discretize_calls - calls_before);
+    EXPECT_EQ(rf.model_evaluations, rf.horizon * rf.scp_iterations);
+    if (k > 0) {  // the previous step converged: its first iteration calls the model at the appended node only
+      EXPECT_EQ(r.model_evaluations, (r.horizon == s.horizon ? 1 : 0) + (r.scp_iterations - 1) * r.horizon) << k;
+      reused_steps += r.model_evaluations < r.horizon * r.scp_iterations ? 1 : 0;
+    }
+    const QpData qp = mpc.qp_data();
+    for (int i = 0; i < r.horizon; ++i) {
+      const double t = ref.t0 + (k + i) * s.dt;
+      ASSERT_EQ(model->dynamics.count(t), 1u) << k << " " << i;
+      const Eigen::MatrixXd A_qp = -Eigen::MatrixXd(qp.A.block((i + 1) * 2, i * 3, 2, 2));
+      EXPECT_EQ((A_qp - model->dynamics[t]).cwiseAbs().maxCoeff(), 0.0) << k << " " << i;
+    }
+    for (int i = 0; i <= r.horizon; ++i) {
+      const double t = ref.t0 + (k + i) * s.dt;
+      const Eigen::MatrixXd G_qp(qp.G.block(i, i < s.horizon ? i * 3 : s.horizon * 3, 1, 2));
+      EXPECT_EQ((G_qp - model->rows[t]).cwiseAbs().maxCoeff(), 0.0) << k << " " << i;
+    }
+    EXPECT_LT((r.z - rf.z).cwiseAbs().maxCoeff(), 10 * s.scp_eps) << k;
+    EXPECT_LT((r.u - rf.u).cwiseAbs().maxCoeff(), 1e-2 * s.u_max(0)) << k;
+    x = r.z.col(1) + Eigen::Vector2d(1e-5 * ((k % 3) - 1.0), 2e-5 * ((k % 2) - 0.5));
+  }
+  EXPECT_EQ(reused_steps, T - 1);
+  // After reset() or a skipped step the model is called at every node again.
+  mpc.reset();
+  EXPECT_EQ(mpc.step(5, x0, tube).model_evaluations % s.horizon, 0);
+  const StepResult& skipped = mpc.step(7, x0, tube);
+  EXPECT_EQ(skipped.model_evaluations, skipped.horizon * skipped.scp_iterations);
 }

@@ -47,7 +47,7 @@
 ///   | `mpc.scp_max_iterations`, `mpc.qp_max_iterations`, `mpc.riccati_max_iterations`, `mpc.qp_preconditioner_iterations` (opt.) | 1 1 | integers |
 ///   | `mpc.trust_region` (opt., may be `inf`), `mpc.time_limit` (opt., s, may be `inf`) | 1 1 | |
 ///   | `mpc.qp_eps_abs`, `mpc.qp_eps_rel`, `mpc.qp_inaccurate_tol`, `mpc.soft_penalty`, `mpc.riccati_tol`, `mpc.qp_reg_lower_limit`, `mpc.qp_retry_reg_lower_limit` (opt.) | 1 1 | |
-///   | `mpc.soft_state_constraints`, `mpc.soft_terminal`, `mpc.qp_scale_cost` (opt.) | 1 1 | 0 or 1 |
+///   | `mpc.soft_state_constraints`, `mpc.soft_terminal`, `mpc.qp_scale_cost`, `mpc.reuse_linearization` (opt.) | 1 1 | 0 or 1 |
 ///   | `mpc.kkt_solver` (opt.) | text | `sparse_ldlt` or `sparse_multistage` |
 ///   | `mpc.A_structure`, `mpc.B_structure`, `mpc.G_structure` (opt.) | 12 12, 12 6, 2 12 (or 0 0) | model structures |
 ///   | `reference.t0` | 1 1 | time of node 0 (s) |

@@ -34,7 +34,12 @@
 /// cost and free (costed, unused) inputs so the sparsity pattern never changes; in that shrinking
 /// phase (k >= T - N, the paper's Problem 3) z_N = x_f = zbar_T (hard, or L1-penalised).
 /// PIQP (an interior-point method) has no warm start; each step's SCP starts from the previous plan
-/// shifted to k as its linearisation trajectory.
+/// shifted to k as its linearisation trajectory. With Settings::reuse_linearization (default), a step
+/// that follows a converged step by one period starts instead from the previous step's last
+/// linearisation trajectory shifted by one node: it lies within scp_eps of that step's plan (the
+/// convergence test), and its model data are already known, so only the nodes it does not cover
+/// (the appended last node) call the model in the first SCP iteration. The model must then be a
+/// function of its arguments (t, dt, x, u) only; call reset() after changing it.
 #pragma once
 
 #include <Eigen/Dense>
@@ -131,6 +136,12 @@ struct Settings {
   /// 1e-8 they solve in ~16 iterations (the floor does not move the optimum; as a default it slows the
   /// last iterations of other QPs, hence a retry).
   double qp_retry_reg_lower_limit = 1e-8;
+  /// The first SCP iteration of a step that follows a converged step (status Solved or
+  /// SolvedInaccurate) at k - 1 re-uses that step's last model data, shifted by one node, and
+  /// linearises about their trajectory (within scp_eps of the previous plan) instead of the previous
+  /// plan; only nodes without data call the model (StepResult::model_evaluations). Needs a model whose
+  /// output depends on (t, dt, x, u) only. false: every SCP iteration calls the model at every node.
+  bool reuse_linearization = true;
   /// Optional structural patterns of the model's A (n_x x n_x), B (n_x x n_u) and G (n_c x n_x): entries
   /// != 0 are stored in the QP, the others are structural zeros the model must respect (a nonzero there
   /// makes the step fall back with failure ModelStructure). Empty: dense. Sparser patterns make the KKT
@@ -176,6 +187,8 @@ struct StepResult {
                                        ///< last QP's data exactly (a linear plant) and its trust region is
                                        ///< inactive, the loop stops without re-solving (residual 0).
   int qp_iterations = 0;               ///< Interior-point iterations summed over the step's QPs.
+  int model_evaluations = 0;           ///< Nodes discretised by the model in this step (calls of
+                                       ///< LinearizedModel::discretize; see Settings::reuse_linearization).
   double scp_residual = 0.0;           ///< Final max_i ||z*_i - z_lin_i||_inf (state units).
   double objective = 0.0;              ///< Nominal cost of the applied plan's last QP (incl. constant).
   Timings timings;                     ///< Wall-clock split of the step (s).
@@ -234,7 +247,7 @@ class TubeMPC {
   /// outcomes are statuses; wrong sizes or k out of range throw std::invalid_argument.
   const StepResult& step(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k, const Tube& tube);
 
-  /// Forgets the previous plan (the next step re-linearises about the reference).
+  /// Forgets the previous plan and the re-usable model data (the next step linearises about the reference).
   void reset();
 
   /// The last QP built (copies; allocates).
