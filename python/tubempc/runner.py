@@ -64,6 +64,7 @@ def run_summary(scn: Scenario, res: SimulationResult) -> dict[str, Any]:
         "step_time": {name: _stats_ms(a[f"time_{name}"]) for name in
                       ("step", "tube", "mpc", "linearize", "build", "solve", "propagate", "identify")},
         "scp_iterations_mean": float(np.mean(a["scp_iterations"])),
+        "model_evaluations_mean": float(np.mean(a["model_evaluations"])),
         "velocity_convergence_fit": _fit_dict(a),
         "statuses": dict(collections.Counter(res.statuses)),
         "tube_statuses": dict(collections.Counter(res.tube_statuses)),

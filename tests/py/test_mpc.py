@@ -187,3 +187,55 @@ def test_benchmark_mission_runs_and_agrees_with_the_baseline(tmp_path) -> None:
     assert data["cpp_max_kkt_residual"] < 1e-8
     assert data["cpp_max_violation"] < 1e-8
     assert data["baseline"]["cvxpy-piqp"]["median_abs_rel_objective_diff"] < 1e-6
+
+
+class CountingDoubleIntegrator(DoubleIntegrator):
+    """The double integrator, counting discretize calls and recording each call's node time."""
+
+    def __init__(self, dt: float, p_max: float, v_max: float) -> None:
+        super().__init__(dt, p_max, v_max)
+        self.times: list[float] = []
+
+    def discretize(self, t, dt, x_lin, u_lin):
+        self.times.append(t)
+        return super().discretize(t, dt, x_lin, u_lin)
+
+
+def test_reused_linearization_calls_the_model_less_with_identical_plans() -> None:
+    """A linear plant's model data do not depend on the linearisation point: with and without re-use the
+    QPs, hence the plans and SCP iterations, are identical, while a re-using step's first iteration calls
+    the model only at the appended node (time (k + N - 1) dt; none in the shrinking phase)."""
+    dt, T = 0.5, 20
+    plans, evals, times = [], [], []
+    for reuse in (True, False):
+        model = CountingDoubleIntegrator(dt, 1.0, 0.3)
+        s = _settings(False)
+        s.reuse_linearization = reuse
+        ctrl = TubeMPC(model, s)
+        ctrl.setup(_reference(T))
+        model.times.clear()
+        x = np.array([0.05, 0.9, 0.25, -0.1])
+        zs, ev, ts = [], [], []
+        for k in range(T):
+            before = len(model.times)
+            r = ctrl.step(k, x, _tube())
+            assert r.status == mpc.Status.Solved
+            assert r.model_evaluations == len(model.times) - before
+            zs.append(r.z.copy())
+            ev.append((r.model_evaluations, r.horizon, r.scp_iterations))
+            ts.append(model.times[before:])
+            x = model.A @ x + model.B @ r.u
+        plans.append(np.array(zs))
+        evals.append(ev)
+        times.append(ts)
+    np.testing.assert_array_equal(plans[0], plans[1])
+    N = _settings(False).horizon
+    for k, ((e_re, n, it_re), (e_fr, _, it_fr)) in enumerate(zip(evals[0], evals[1], strict=True)):
+        assert it_re == it_fr
+        appended = [(k + N - 1) * dt] if n == N else []
+        if k == 0:
+            assert e_re == e_fr
+        else:
+            assert e_re == e_fr - n + len(appended)
+            assert times[0][k][:len(appended)] == appended
+    assert sum(e for e, _, _ in evals[0]) < 0.6 * sum(e for e, _, _ in evals[1])
