@@ -271,6 +271,8 @@ struct TubeMPC::Impl {
   // (lin_k, -1: none) with its horizon lin_n: Ad..cd hold nodes 0..lin_n-1, Gc, hc nodes 0..lin_n.
   Eigen::MatrixXd z_lin_at, v_lin_at;
   int lin_k = -1, lin_n = 0;
+  // Nodes whose discretisation (N) and constraints (N + 1) the next linearisation evaluates.
+  Eigen::Array<bool, Eigen::Dynamic, 1> eval_d, eval_c;
   bool have_plan = false;
   int plan_k = 0;  // time index of z_plan's first node
   Eigen::MatrixXd z_plan, v_plan;  // last applied plan (for the shifted fallback)
@@ -297,6 +299,8 @@ struct TubeMPC::Impl {
     z_lin_at = z_lin;
     v_lin_at = v_lin;
     lin_k = -1;
+    eval_d.setConstant(N, true);
+    eval_c.setConstant(N + 1, true);
     z_star = z_lin;
     z_ref = z_lin;
     v_star = v_lin;
@@ -546,6 +550,9 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   }
   m.lin_k = -1;  // valid again only if this step converges
 
+  for (int i = 0; i < N; ++i) m.eval_d(i) = i >= n_reuse_d;
+  for (int i = 0; i <= N; ++i) m.eval_c(i) = i >= n_reuse_c;
+
   // Linearisation trajectory: the previous plan shifted to k (usually by one node), completed from
   // the reference; the reference alone without a usable plan. Nodes with re-used data take the
   // trajectory those data were computed about.
@@ -674,13 +681,15 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     // Linearise about (z_lin, v_lin) (the first iteration keeps the re-used nodes' data).
     auto t0 = Clock::now();
     bool finite = true;
-    for (int i = it == 0 ? n_reuse_d : 0; i < n; ++i) {
+    for (int i = 0; i < n; ++i) {
+      if (!m.eval_d(i)) continue;
       model_->discretize(t_node(i), dt, m.z_lin.col(i), m.v_lin.col(i), m.Ad[i], m.Bd[i], m.cd[i]);
       finite = finite && m.Ad[i].allFinite() && m.Bd[i].allFinite() && m.cd[i].allFinite();
       ++res.model_evaluations;
     }
-    for (int i = it == 0 ? n_reuse_c : 0; i <= n; ++i) {
+    for (int i = 0; i <= n; ++i) {
       if (nc == 0) break;
+      if (!m.eval_c(i)) continue;
       model_->constraints(t_node(i), m.z_lin.col(i), m.Gc[i], m.hc[i]);
       finite = finite && m.Gc[i].allFinite() && !m.hc[i].array().isNaN().any() && !(m.hc[i].array() == -kInf).any();
     }
@@ -808,11 +817,21 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
       if (i <= n) delta = std::max(delta, (m.z_star.col(i) - m.z_lin.col(i)).cwiseAbs().maxCoeff());
     }
     for (int i = 0; i < N; ++i) m.v_star.col(i) = r.x.segment(m.iv(i), nu);
+    // Next linearisation point. With reuse_linearization, a node whose plan moved less than scp_eps
+    // (it already meets the convergence test) keeps its model data and their point; the others are
+    // linearised about the new plan.
+    for (int i = 0; i <= N; ++i) {
+      const bool moved = !s.reuse_linearization || i > n ||
+                         (m.z_star.col(i) - m.z_lin.col(i)).cwiseAbs().maxCoeff() >= s.scp_eps;
+      m.eval_c(i) = moved;
+      if (i < N) m.eval_d(i) = moved;
+      if (!moved) continue;
+      m.z_lin.col(i) = m.z_star.col(i);
+      if (i < N) m.v_lin.col(i) = m.v_star.col(i);
+    }
     res.scp_residual = delta;
     last_delta = delta;
     res.objective = r.info.primal_obj + m.constant;
-    m.z_lin = m.z_star;
-    m.v_lin = m.v_star;
     if (delta < s.scp_eps) {
       converged = true;
       break;

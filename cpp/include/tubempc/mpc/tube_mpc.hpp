@@ -34,11 +34,11 @@
 /// cost and free (costed, unused) inputs so the sparsity pattern never changes; in that shrinking
 /// phase (k >= T - N, the paper's Problem 3) z_N = x_f = zbar_T (hard, or L1-penalised).
 /// PIQP (an interior-point method) has no warm start; each step's SCP starts from the previous plan
-/// shifted to k as its linearisation trajectory. With Settings::reuse_linearization (default), a step
-/// that follows a converged step by one period starts instead from the previous step's last
-/// linearisation trajectory shifted by one node: it lies within scp_eps of that step's plan (the
-/// convergence test), and its model data are already known, so only the nodes it does not cover
-/// (the appended last node) call the model in the first SCP iteration. The model must then be a
+/// shifted to k as its linearisation trajectory. With Settings::reuse_linearization (default), model
+/// data whose linearisation point lies within scp_eps of the plan are kept: a step that follows a
+/// converged step by one period starts from that step's last model data shifted by one node (only
+/// the appended last node calls the model), and a later SCP iteration re-linearises only the nodes
+/// whose plan moved by scp_eps or more. The convergence test is unchanged. The model must then be a
 /// function of its arguments (t, dt, x, u) only; call reset() after changing it.
 #pragma once
 
@@ -136,11 +136,15 @@ struct Settings {
   /// 1e-8 they solve in ~16 iterations (the floor does not move the optimum; as a default it slows the
   /// last iterations of other QPs, hence a retry).
   double qp_retry_reg_lower_limit = 1e-8;
-  /// The first SCP iteration of a step that follows a converged step (status Solved or
-  /// SolvedInaccurate) at k - 1 re-uses that step's last model data, shifted by one node, and
-  /// linearises about their trajectory (within scp_eps of the previous plan) instead of the previous
-  /// plan; only nodes without data call the model (StepResult::model_evaluations). Needs a model whose
-  /// output depends on (t, dt, x, u) only. false: every SCP iteration calls the model at every node.
+  /// Re-use of model data whose linearisation point already meets the SCP convergence test:
+  ///  - across steps: the first SCP iteration of a step that follows a converged step (status Solved
+  ///    or SolvedInaccurate) at k - 1 takes that step's last model data, shifted by one node, with
+  ///    their linearisation points (within scp_eps of the previous plan) instead of the previous plan;
+  ///  - across SCP iterations: a node whose plan moved less than scp_eps (inf-norm of the state) keeps
+  ///    its model data and point; the others are linearised about the new plan.
+  /// Only the other nodes call the model (StepResult::model_evaluations). Needs a model whose output
+  /// depends on (t, dt, x, u) only. false: every SCP iteration calls the model at every node about
+  /// the latest plan.
   bool reuse_linearization = true;
   /// Optional structural patterns of the model's A (n_x x n_x), B (n_x x n_u) and G (n_c x n_x): entries
   /// != 0 are stored in the QP, the others are structural zeros the model must respect (a nonzero there
