@@ -179,6 +179,7 @@ def _mpc_settings(cfg: Config, scn: Scenario) -> Any:
     st.u_max = np.r_[[cfg.spacecraft.u_max] * 3, [cfg.spacecraft.T_max] * 3]
     st.scp_eps = cfg.mpc.eps
     st.input_cost = _core.mpc.InputCost.Paper if cfg.mpc.input_cost == "paper" else _core.mpc.InputCost.FromReference
+    st.reuse_linearization = cfg.mpc.linearization == "reuse"
     return st
 
 

@@ -153,7 +153,10 @@ class Mpc:
     """Discretisation, horizon, SCP threshold and weights (PAPER_NOTES "Linearisation",
     "Tube MPC"). Weights are diagonals, dimensionless as in Table 1. kinematics:
     "first_order" (the paper's phi' = w) or "exact" (phi' = Jr^-1(phi) w). input_cost: "paper"
-    (||v||^2_R, the paper's Problem 2) or "deviation" (||v - u_ref||^2_R)."""
+    (||v||^2_R, the paper's Problem 2) or "deviation" (||v - u_ref||^2_R). linearization: "reuse"
+    (model data whose linearisation point lies within eps of the plan are kept, across steps and SCP
+    iterations; mpc::Settings::reuse_linearization) or "every_iteration" (Algorithm 1 literally: every
+    node re-linearised about the latest plan at every SCP iteration)."""
 
     dt: float = field(metadata=_q("s", "time", check=_POS))
     N: int = field(metadata=_int(check=_GE1))
@@ -165,6 +168,7 @@ class Mpc:
     R_r: FloatArray = field(metadata=_num((3,), _POS))
     kinematics: str = field(metadata=_opt("first_order", "exact"))
     input_cost: str = field(metadata=_opt("paper", "deviation"))
+    linearization: str = field(metadata=_opt("reuse", "every_iteration"))
 
     @property
     def n_steps(self) -> int:

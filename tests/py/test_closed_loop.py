@@ -125,3 +125,18 @@ def test_figures_render_from_a_short_run(scenario, tmp_path: Path) -> None:  # t
     ]
     for p in made:
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 10_000
+
+
+def test_reused_linearizations_fly_the_literal_algorithms_loop(scenario) -> None:  # type: ignore[no-untyped-def]
+    """mpc.linearization = "reuse" keeps model data within eps of the plan: far fewer model calls, and
+    the same inputs as re-linearising every node at every SCP iteration (Algorithm 1 literally) to
+    within what the SCP threshold allows."""
+    literal = dataclasses.replace(scenario, config=scenario.config.with_overrides({"mpc.linearization": "every_iteration"}))
+    a = simulate(scenario, "tbmpc", seed=3, max_steps=8).arrays
+    b = simulate(literal, "tbmpc", seed=3, max_steps=8).arrays
+    N = scenario.config.mpc.N
+    np.testing.assert_array_equal(b["model_evaluations"], N * b["scp_iterations"])
+    assert N <= a["model_evaluations"][0] <= b["model_evaluations"][0]  # no previous step to re-use
+    assert a["model_evaluations"][1:].sum() < 0.5 * b["model_evaluations"][1:].sum()
+    np.testing.assert_allclose(a["u"], b["u"], rtol=0, atol=2e-4 * scenario.config.spacecraft.u_max)
+    np.testing.assert_allclose(a["x"], b["x"], rtol=0, atol=1e-6)

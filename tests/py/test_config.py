@@ -48,6 +48,7 @@ def test_default_matches_the_paper(default: Config) -> None:
     # Project defaults where the paper's literal choice is kept selectable (README, "Readings").
     assert c.mpc.eps == 1e-3 and c.mpc.kinematics == "exact" and c.mpc.input_cost == "deviation"
     assert c.with_overrides({"mpc.kinematics": "first_order", "mpc.input_cost": "paper"}).mpc.kinematics == "first_order"
+    assert c.mpc.linearization == "reuse"
     assert c.environment.R == 1.685e11 and c.environment.beta_srp == 1.7744e15
     assert c.environment.mu_sun == 1.32712440018e20
     assert c.asteroid.density == 1260.0 and c.asteroid.G == 6.6743e-11
@@ -154,6 +155,7 @@ def test_overrides(default: Config) -> None:
             "mpc.kinematics",
             "one of",
         ),
+        (r'^linearization = "reuse"', 'linearization = "always"', "mpc.linearization", "one of"),
         (r'^u_max = "0.55 m/s\^2"', "u_max = 0.55", "spacecraft.u_max", "unit"),
         (r"^\[disturbance\]", "[disturbanc]", "disturbanc", "unknown section"),
     ],
