@@ -534,14 +534,13 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   // Time of node i: a function of the absolute node index, so that re-used model data are exact.
   const auto t_node = [&](int i) { return m.ref.t0 + static_cast<double>(k + i) * dt; };
 
-  // Model data of the previous step (converged at k - 1) re-used, shifted by one node: discretisations
-  // of nodes i < n_reuse_d and constraints of nodes i < n_reuse_c (Settings::reuse_linearization).
-  // n_reuse_z: nodes whose linearisation state is the previous one's (its states 1..lin_n).
-  int n_reuse_d = 0, n_reuse_c = 0, n_reuse_z = 0;
+  // Model data of the previous step (converged at k - 1) re-used, shifted by one node
+  // (Settings::reuse_linearization): discretisations of nodes i < n_reuse_d, and linearisation states
+  // and constraints of nodes i < n_reuse_z (the previous step's nodes 1..lin_n).
+  int n_reuse_d = 0, n_reuse_z = 0;
   if (s.reuse_linearization && m.lin_k >= 0 && k == m.lin_k + 1) {
     n_reuse_z = std::min(n + 1, m.lin_n);
     n_reuse_d = std::min(n, m.lin_n - 1);
-    n_reuse_c = nc > 0 ? std::min(n + 1, m.lin_n) : 0;
     std::rotate(m.Ad.begin(), m.Ad.begin() + 1, m.Ad.end());  // swaps: no allocation
     std::rotate(m.Bd.begin(), m.Bd.begin() + 1, m.Bd.end());
     std::rotate(m.cd.begin(), m.cd.begin() + 1, m.cd.end());
@@ -551,7 +550,7 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   m.lin_k = -1;  // valid again only if this step converges
 
   for (int i = 0; i < N; ++i) m.eval_d(i) = i >= n_reuse_d;
-  for (int i = 0; i <= N; ++i) m.eval_c(i) = i >= n_reuse_c;
+  for (int i = 0; i <= N; ++i) m.eval_c(i) = i >= n_reuse_z;
 
   // Linearisation trajectory: the previous plan shifted to k (usually by one node), completed from
   // the reference; the reference alone without a usable plan. Nodes with re-used data take the

@@ -261,7 +261,8 @@ def run(args: argparse.Namespace) -> int:
           f"{n_eq} equalities, {n_in} inequalities; structure {args.structure}, "
           f"nnz(P, A, G) = {some_qp.P.nnz}, {some_qp.A.nnz}, {some_qp.G.nnz}")
     evals = [r["model_evaluations"] for r in records]
-    print(f"statuses: {statuses}; SCP iterations per step: mean {np.mean([r['scp'] for r in records]):.2f}; "
+    scp_mean = float(np.mean([r["scp"] for r in records]))
+    print(f"statuses: {statuses}; SCP iterations per step: mean {scp_mean:.2f}; "
           f"model evaluations (nodes discretised) per step: median {np.median(evals):.0f}, mean {np.mean(evals):.1f}; "
           f"PIQP iterations per QP: median {np.median([r['qp_iter'] / max(1, r['scp']) for r in records]):.1f}; "
           f"final |x - x_f|_inf = {final['final_error_inf']:.3g}")
@@ -271,7 +272,7 @@ def run(args: argparse.Namespace) -> int:
                            "statuses": statuses, "final_error_inf": final["final_error_inf"],
                            "reuse_linearization": bool(settings.reuse_linearization),
                            "model_evaluations_mean": float(np.mean(evals)),
-                           "scp_iterations_mean": float(np.mean([r["scp"] for r in records])), "step": {}}
+                           "scp_iterations_mean": scp_mean, "step": {}}
     print(f"{'per step (C++)':24s} {'median':>10s} {'p99':>10s} {'max':>10s}   [ms]")
     for key in ("total", "linearize", "build", "solve", "python_wall"):
         st = _stats([r[key] for r in records])

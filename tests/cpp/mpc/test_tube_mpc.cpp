@@ -51,20 +51,22 @@ Settings di_settings(int N, double dt) {
   return s;
 }
 
-// Pendulum theta'' = -(g/l) sin(theta) + u, discretised about the linearisation point (ZOH).
+// Pendulum theta'' = -w2 (1 + time_variation sin t) sin(theta) + u, discretised about the linearisation
+// point (ZOH).
 class Pendulum final : public LinearizedModel {
  public:
   int nx() const override { return 2; }
   int nu() const override { return 1; }
   int n_constraints() const override { return 0; }
-  void discretize(double, double dt, const Eigen::Ref<const Eigen::VectorXd>& x,
+  void discretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x,
                   const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::MatrixXd> A,
                   Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const override {
+    const double w = w2 * (1.0 + time_variation * std::sin(t));
     Eigen::MatrixXd A_c(2, 2), B_c(2, 1);
-    A_c << 0, 1, -w2 * std::cos(x(0)), 0;
+    A_c << 0, 1, -w * std::cos(x(0)), 0;
     B_c << 0, 1;
     Eigen::VectorXd f(2);
-    f << x(1), -w2 * std::sin(x(0)) + u(0);
+    f << x(1), -w * std::sin(x(0)) + u(0);
     Eigen::VectorXd c_c = f - A_c * x - B_c * u;
     Eigen::MatrixXd Ad, Bd;
     Eigen::VectorXd cd;
@@ -76,7 +78,26 @@ class Pendulum final : public LinearizedModel {
   void constraints(double, const Eigen::Ref<const Eigen::VectorXd>&, Eigen::Ref<Eigen::MatrixXd>,
                    Eigen::Ref<Eigen::VectorXd>) const override {}
   double w2 = 9.81;
+  double time_variation = 0.0;
 };
+
+// Settings and terminal weight's (A, B) of the pendulum tests (dt = 0.1 s).
+Settings pendulum_settings(int horizon) {
+  Settings s;
+  s.horizon = horizon;
+  s.dt = 0.1;
+  s.u_max = Eigen::VectorXd::Constant(1, 20.0);
+  s.R = 1e-2 * Eigen::MatrixXd::Identity(1, 1);
+  s.Q = 10.0 * Eigen::MatrixXd::Identity(2, 2);
+  s.time_limit = kInf;
+  s.input_cost = InputCost::FromReference;
+  return s;
+}
+
+void setup_pendulum(TubeMPC& mpc, const Reference& ref) {
+  mpc.setup(ref, Eigen::MatrixXd::Identity(2, 2) + 0.1 * (Eigen::MatrixXd(2, 2) << 0, 1, 0, 0).finished(),
+            (Eigen::MatrixXd(2, 1) << 0.005, 0.1).finished());
+}
 
 // Wraps a plant; its constraints can be made contradictory or its dynamics non-finite on demand.
 class Sabotaged final : public LinearizedModel {
@@ -379,15 +400,8 @@ TEST(TubeMPC, SoftConstraintsSolveTheContradictoryProblem) {
 
 TEST(TubeMPC, ScpConvergesOnThePendulum) {
   auto model = std::make_shared<Pendulum>();
-  Settings s;
-  s.horizon = 20;
-  s.dt = 0.1;
-  s.u_max = Eigen::VectorXd::Constant(1, 20.0);
-  s.R = 1e-2 * Eigen::MatrixXd::Identity(1, 1);
-  s.Q = 10.0 * Eigen::MatrixXd::Identity(2, 2);
+  Settings s = pendulum_settings(20);
   s.trust_region = 1.0;
-  s.time_limit = kInf;
-  s.input_cost = InputCost::FromReference;
   TubeMPC mpc(model, s);
   const int T = 40;
   Eigen::VectorXd x0(2), xf(2);
@@ -397,8 +411,7 @@ TEST(TubeMPC, ScpConvergesOnThePendulum) {
   for (int j = 0; j <= T; ++j) ref.z(1, j) = 2.0 / (T * 0.1);
   ref.z(1, 0) = 0.0;
   ref.z(1, T) = 0.0;
-  mpc.setup(ref, Eigen::MatrixXd::Identity(2, 2) + 0.1 * (Eigen::MatrixXd(2, 2) << 0, 1, 0, 0).finished(),
-            (Eigen::MatrixXd(2, 1) << 0.005, 0.1).finished());
+  setup_pendulum(mpc, ref);
   const StepResult& r = mpc.step(0, x0, small_tube(2, 1, 1e-8));
   EXPECT_EQ(r.status, Status::Solved) << to_string(r.status) << " " << to_string(r.failure);
   EXPECT_GE(r.scp_iterations, 2);
@@ -420,8 +433,7 @@ TEST(TubeMPC, ScpConvergesOnThePendulum) {
   Settings s1 = s;
   s1.scp_max_iterations = 1;
   TubeMPC one(model, s1);
-  one.setup(ref, Eigen::MatrixXd::Identity(2, 2) + 0.1 * (Eigen::MatrixXd(2, 2) << 0, 1, 0, 0).finished(),
-            (Eigen::MatrixXd(2, 1) << 0.005, 0.1).finished());
+  setup_pendulum(one, ref);
   EXPECT_EQ(one.step(0, x0, small_tube(2, 1, 1e-8)).status, Status::MaxIterations);
 }
 
@@ -485,29 +497,19 @@ TEST(TubeMPC, RepeatedAndSkippedStepsUseThePlanShiftedByTheGap) {
 
 namespace {
 
-// Time-varying pendulum theta'' = -w2 (1 + 0.5 sin t) sin(theta) + u with one state-dependent constraint
+// Wraps a time-varying pendulum (time_variation 0.5) with one state-dependent constraint
 // cos(theta_lin) theta + theta' <= 10; records the output of every model call by node time.
 class RecordingPendulum final : public LinearizedModel {
  public:
+  RecordingPendulum() { inner_.time_variation = 0.5; }
   int nx() const override { return 2; }
   int nu() const override { return 1; }
   int n_constraints() const override { return 1; }
   void discretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x,
                   const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::MatrixXd> A,
                   Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const override {
-    const double w = 9.81 * (1.0 + 0.5 * std::sin(t));
-    Eigen::MatrixXd A_c(2, 2), B_c(2, 1);
-    A_c << 0, 1, -w * std::cos(x(0)), 0;
-    B_c << 0, 1;
-    Eigen::VectorXd f(2);
-    f << x(1), -w * std::sin(x(0)) + u(0);
-    Eigen::MatrixXd Ad, Bd;
-    Eigen::VectorXd cd;
-    zoh_discretize(A_c, B_c, f - A_c * x - B_c * u, dt, Ad, Bd, cd);
-    A = Ad;
-    B = Bd;
-    c = cd;
-    dynamics[t] = Ad;
+    inner_.discretize(t, dt, x, u, A, B, c);
+    dynamics[t] = A;
     points[t] = x;
     call_times.push_back(t);
     ++discretize_calls;
@@ -522,6 +524,9 @@ class RecordingPendulum final : public LinearizedModel {
   mutable std::map<double, Eigen::VectorXd> points;           // latest linearisation state per node time
   mutable std::vector<double> call_times;                     // node time of every discretize call
   mutable int discretize_calls = 0;
+
+ private:
+  Pendulum inner_;
 };
 
 }  // namespace
@@ -534,14 +539,7 @@ class RecordingPendulum final : public LinearizedModel {
 TEST(TubeMPC, ReusedLinearizationHoldsEachNodesModelData) {
   auto model = std::make_shared<RecordingPendulum>();
   auto fresh_model = std::make_shared<RecordingPendulum>();
-  Settings s;
-  s.horizon = 12;
-  s.dt = 0.1;
-  s.u_max = Eigen::VectorXd::Constant(1, 20.0);
-  s.R = 1e-2 * Eigen::MatrixXd::Identity(1, 1);
-  s.Q = 10.0 * Eigen::MatrixXd::Identity(2, 2);
-  s.time_limit = kInf;
-  s.input_cost = InputCost::FromReference;
+  const Settings s = pendulum_settings(12);
   Settings s_fresh = s;
   s_fresh.reuse_linearization = false;
   TubeMPC mpc(model, s), fresh(fresh_model, s_fresh);
@@ -551,10 +549,8 @@ TEST(TubeMPC, ReusedLinearizationHoldsEachNodesModelData) {
   xf << 1.0, 0.0;
   Reference ref = straight_reference(x0, xf, T, 1);
   ref.t0 = 0.3;
-  const Eigen::MatrixXd A_T = Eigen::MatrixXd::Identity(2, 2) + 0.1 * (Eigen::MatrixXd(2, 2) << 0, 1, 0, 0).finished();
-  const Eigen::MatrixXd B_T = (Eigen::MatrixXd(2, 1) << 0.005, 0.1).finished();
-  mpc.setup(ref, A_T, B_T);
-  fresh.setup(ref, A_T, B_T);
+  setup_pendulum(mpc, ref);
+  setup_pendulum(fresh, ref);
   const Tube tube = small_tube(2, 1, 1e-8);
   Eigen::VectorXd x = x0;
   int reused_steps = 0;
