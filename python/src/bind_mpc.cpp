@@ -98,7 +98,9 @@ void bind_mpc(py::module_& m) {
   py::enum_<mpc::InputCost>(s, "InputCost")
       .value("Paper", mpc::InputCost::Paper)
       .value("FromReference", mpc::InputCost::FromReference);
-  py::enum_<mpc::Backend>(s, "Backend").value("PiqpSparse", mpc::Backend::PiqpSparse);
+  py::enum_<mpc::Backend>(s, "Backend")
+      .value("PiqpSparse", mpc::Backend::PiqpSparse)
+      .value("ActiveSetPiqp", mpc::Backend::ActiveSetPiqp);
   py::enum_<mpc::KktSolver>(s, "KktSolver")
       .value("SparseLdlt", mpc::KktSolver::SparseLdlt)
       .value("SparseMultistage", mpc::KktSolver::SparseMultistage);
@@ -129,6 +131,7 @@ void bind_mpc(py::module_& m) {
       .def_readwrite("kkt_solver", &mpc::Settings::kkt_solver)
       .def_readwrite("qp_scale_cost", &mpc::Settings::qp_scale_cost)
       .def_readwrite("reuse_linearization", &mpc::Settings::reuse_linearization)
+      .def_readwrite("active_set_max_iterations", &mpc::Settings::active_set_max_iterations)
       .def_readwrite("qp_preconditioner_iterations", &mpc::Settings::qp_preconditioner_iterations)
       .def_readwrite("qp_reg_lower_limit", &mpc::Settings::qp_reg_lower_limit)
       .def_readwrite("qp_retry_reg_lower_limit", &mpc::Settings::qp_retry_reg_lower_limit)
@@ -165,6 +168,8 @@ void bind_mpc(py::module_& m) {
       .def_readonly("horizon", &mpc::StepResult::horizon)
       .def_readonly("scp_iterations", &mpc::StepResult::scp_iterations)
       .def_readonly("qp_iterations", &mpc::StepResult::qp_iterations)
+      .def_readonly("active_set_solves", &mpc::StepResult::active_set_solves)
+      .def_readonly("active_set_iterations", &mpc::StepResult::active_set_iterations)
       .def_readonly("model_evaluations", &mpc::StepResult::model_evaluations)
       .def_readonly("scp_residual", &mpc::StepResult::scp_residual)
       .def_readonly("objective", &mpc::StepResult::objective)

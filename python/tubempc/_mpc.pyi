@@ -33,6 +33,7 @@ class InputCost(enum.Enum):
 
 class Backend(enum.Enum):
     PiqpSparse = ...
+    ActiveSetPiqp = ...
 
 class KktSolver(enum.Enum):
     SparseLdlt = ...
@@ -63,6 +64,7 @@ class Settings:
     kkt_solver: KktSolver
     qp_scale_cost: bool
     reuse_linearization: bool
+    active_set_max_iterations: int
     qp_preconditioner_iterations: int
     qp_reg_lower_limit: float
     qp_retry_reg_lower_limit: float
@@ -110,6 +112,10 @@ class StepResult:
     def scp_iterations(self) -> int: ...
     @property
     def qp_iterations(self) -> int: ...
+    @property
+    def active_set_solves(self) -> int: ...
+    @property
+    def active_set_iterations(self) -> int: ...
     @property
     def model_evaluations(self) -> int: ...
     @property

@@ -180,6 +180,7 @@ def _mpc_settings(cfg: Config, scn: Scenario) -> Any:
     st.scp_eps = cfg.mpc.eps
     st.input_cost = _core.mpc.InputCost.Paper if cfg.mpc.input_cost == "paper" else _core.mpc.InputCost.FromReference
     st.reuse_linearization = cfg.mpc.linearization == "reuse"
+    st.backend = _core.mpc.Backend.ActiveSetPiqp if cfg.mpc.qp_solver == "active_set" else _core.mpc.Backend.PiqpSparse
     return st
 
 
@@ -227,7 +228,8 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
         "alpha": np.zeros((T, 2)), "w": np.zeros((T, 12)), "w_true": np.zeros((T, 12)),
         "w_hat": np.zeros((T, 12)), "S_p": np.zeros((T, 6, 6)), "S_r": np.zeros((T, 6, 6)),
         "g": np.zeros((T + 1, 2)), "excursion": np.zeros((T, 2)), "scp_iterations": np.zeros(T),
-        "qp_iterations": np.zeros(T), "model_evaluations": np.zeros(T), "time_tube": np.zeros(T),
+        "qp_iterations": np.zeros(T), "active_set_solves": np.zeros(T), "model_evaluations": np.zeros(T),
+        "time_tube": np.zeros(T),
         "time_linearize": np.zeros(T),
         "time_build": np.zeros(T), "time_solve": np.zeros(T), "time_mpc": np.zeros(T),
         "time_propagate": np.zeros(T), "time_identify": np.zeros(T), "time_step": np.zeros(T),
@@ -338,6 +340,7 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
             rec["S_p"][k], rec["S_r"][k] = idents[0].S_hat, idents[1].S_hat
             rec["scp_iterations"][k], rec["qp_iterations"][k] = step.scp_iterations, step.qp_iterations
             rec["model_evaluations"][k] = step.model_evaluations
+            rec["active_set_solves"][k] = step.active_set_solves
             tm = step.timings
             rec["time_linearize"][k], rec["time_build"][k], rec["time_solve"][k] = tm.linearize, tm.build, tm.solve
             rec["time_tube"][k], rec["time_mpc"][k] = t1 - t0, t2 - t1

@@ -156,7 +156,9 @@ class Mpc:
     (||v||^2_R, the paper's Problem 2) or "deviation" (||v - u_ref||^2_R). linearization: "reuse"
     (model data whose linearisation point lies within eps of the plan are kept, across steps and SCP
     iterations; mpc::Settings::reuse_linearization) or "every_iteration" (Algorithm 1 literally: every
-    node re-linearised about the latest plan at every SCP iteration)."""
+    node re-linearised about the latest plan at every SCP iteration). qp_solver: "active_set" (a
+    primal-dual active set warm-started from the previous QP's active set, PIQP when it does not verify
+    the KKT conditions; mpc::Backend::ActiveSetPiqp) or "piqp" (PIQP's interior point only)."""
 
     dt: float = field(metadata=_q("s", "time", check=_POS))
     N: int = field(metadata=_int(check=_GE1))
@@ -169,6 +171,7 @@ class Mpc:
     kinematics: str = field(metadata=_opt("first_order", "exact"))
     input_cost: str = field(metadata=_opt("paper", "deviation"))
     linearization: str = field(metadata=_opt("reuse", "every_iteration"))
+    qp_solver: str = field(metadata=_opt("active_set", "piqp"))
 
     @property
     def n_steps(self) -> int:

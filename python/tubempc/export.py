@@ -46,6 +46,7 @@ _INTEGRATORS = {"RK4": "rk4", "DOPRI5": "dopri5"}
 _INPUT_COSTS = {"Paper": "paper", "FromReference": "from_reference"}
 _INITIAL_CONDITIONS = {"WhitenedBox": "whitened_box", "Exact": "exact"}
 _KKT_SOLVERS = {"SparseLdlt": "sparse_ldlt", "SparseMultistage": "sparse_multistage"}
+_BACKENDS = {"PiqpSparse": "piqp", "ActiveSetPiqp": "active_set_piqp"}
 
 
 def initial_tube(scn: Scenario) -> tuple[_Arr, _Arr]:
@@ -165,6 +166,8 @@ def write_scenario(path: str | Path, *, controller: tuple[Mapping[str, Any], flo
         w.scalar("mpc.riccati_tol", s.riccati_tol)
         w.scalar("mpc.riccati_max_iterations", s.riccati_max_iterations)
         w.text("mpc.kkt_solver", _KKT_SOLVERS[s.kkt_solver.name])
+        w.text("mpc.backend", _BACKENDS[s.backend.name])
+        w.scalar("mpc.active_set_max_iterations", s.active_set_max_iterations)
         w.scalar("mpc.qp_scale_cost", 1.0 if s.qp_scale_cost else 0.0)
         w.scalar("mpc.reuse_linearization", 1.0 if s.reuse_linearization else 0.0)
         w.scalar("mpc.qp_preconditioner_iterations", s.qp_preconditioner_iterations)

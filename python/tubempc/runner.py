@@ -65,6 +65,7 @@ def run_summary(scn: Scenario, res: SimulationResult) -> dict[str, Any]:
                       ("step", "tube", "mpc", "linearize", "build", "solve", "propagate", "identify")},
         "scp_iterations_mean": float(np.mean(a["scp_iterations"])),
         "model_evaluations_mean": float(np.mean(a["model_evaluations"])),
+        "active_set_qp_fraction": float(np.sum(a["active_set_solves"]) / max(1.0, float(np.sum(a["scp_iterations"])))),
         "velocity_convergence_fit": _fit_dict(a),
         "statuses": dict(collections.Counter(res.statuses)),
         "tube_statuses": dict(collections.Counter(res.tube_statuses)),

@@ -140,3 +140,15 @@ def test_reused_linearizations_fly_the_literal_algorithms_loop(scenario) -> None
     assert a["model_evaluations"][1:].sum() < 0.5 * b["model_evaluations"][1:].sum()
     np.testing.assert_allclose(a["u"], b["u"], rtol=0, atol=2e-4 * scenario.config.spacecraft.u_max)
     np.testing.assert_allclose(a["x"], b["x"], rtol=0, atol=1e-6)
+
+
+def test_active_set_qp_solver_flies_the_interior_points_loop(scenario) -> None:  # type: ignore[no-untyped-def]
+    """mpc.qp_solver = "active_set" (default) solves most QPs by the warm-started active set; the loop
+    flies the same states as PIQP alone ("piqp") to the solvers' tolerances."""
+    piqp = dataclasses.replace(scenario, config=scenario.config.with_overrides({"mpc.qp_solver": "piqp"}))
+    a = simulate(scenario, "tbmpc", seed=3, max_steps=8).arrays
+    b = simulate(piqp, "tbmpc", seed=3, max_steps=8).arrays
+    assert a["active_set_solves"].sum() >= 0.8 * a["scp_iterations"].sum()
+    assert b["active_set_solves"].sum() == 0 and b["qp_iterations"].min() > 0
+    np.testing.assert_allclose(a["u"], b["u"], rtol=0, atol=1e-5 * scenario.config.spacecraft.u_max)
+    np.testing.assert_allclose(a["x"], b["x"], rtol=0, atol=1e-6)

@@ -156,6 +156,7 @@ def test_overrides(default: Config) -> None:
             "one of",
         ),
         (r'^linearization = "reuse"', 'linearization = "always"', "mpc.linearization", "one of"),
+        (r'^qp_solver = "active_set"', 'qp_solver = "osqp"', "mpc.qp_solver", "one of"),
         (r'^u_max = "0.55 m/s\^2"', "u_max = 0.55", "spacecraft.u_max", "unit"),
         (r"^\[disturbance\]", "[disturbanc]", "disturbanc", "unknown section"),
     ],

@@ -53,11 +53,11 @@ def test_cpp_reads_what_python_wrote_bit_for_bit(exported: tuple[Path, Scenario]
                  "scp_max_iterations", "trust_region", "qp_eps_abs", "qp_eps_rel", "qp_max_iterations",
                  "qp_inaccurate_tol", "time_limit", "soft_state_constraints", "soft_terminal", "soft_penalty",
                  "riccati_tol", "riccati_max_iterations", "kkt_solver", "qp_scale_cost", "reuse_linearization",
-                 "qp_preconditioner_iterations", "qp_reg_lower_limit",
+                 "qp_preconditioner_iterations", "qp_reg_lower_limit", "backend", "active_set_max_iterations",
                  "qp_retry_reg_lower_limit", "A_structure", "B_structure", "G_structure"):
         a, b = getattr(s.settings, name), getattr(expected_settings, name)
         assert (a == b) if isinstance(a, (bool, int, _core.mpc.InputCost, _core.mpc.InitialCondition,
-                                           _core.mpc.KktSolver)) else _same_bits(a, b), name
+                                           _core.mpc.KktSolver, _core.mpc.Backend)) else _same_bits(a, b), name
     assert s.propagator.method == _core.dynamics.Integrator.RK4
     assert s.propagator.substeps == scn.config.simulation.substeps
     assert _same_bits(s.reference.z, scn.reference.x.T) and _same_bits(s.reference.u, scn.reference.u.T)

@@ -36,6 +36,8 @@ const Options<mpc::InputCost> kInputCosts = {{"paper", mpc::InputCost::Paper},
                                              {"from_reference", mpc::InputCost::FromReference}};
 const Options<mpc::InitialCondition> kInitialConditions = {{"whitened_box", mpc::InitialCondition::WhitenedBox},
                                                            {"exact", mpc::InitialCondition::Exact}};
+const Options<mpc::Backend> kBackends = {{"piqp", mpc::Backend::PiqpSparse},
+                                         {"active_set_piqp", mpc::Backend::ActiveSetPiqp}};
 const Options<mpc::KktSolver> kKktSolvers = {{"sparse_ldlt", mpc::KktSolver::SparseLdlt},
                                              {"sparse_multistage", mpc::KktSolver::SparseMultistage}};
 
@@ -387,6 +389,8 @@ Scenario read_scenario(const std::string& path) {
   r.optional_scalar("mpc.riccati_tol", st.riccati_tol);
   r.integer("mpc.riccati_max_iterations", st.riccati_max_iterations, false);
   r.option("mpc.kkt_solver", kKktSolvers, st.kkt_solver, false);
+  r.option("mpc.backend", kBackends, st.backend, false);
+  r.integer("mpc.active_set_max_iterations", st.active_set_max_iterations, false);
   r.flag("mpc.qp_scale_cost", st.qp_scale_cost, false);
   r.flag("mpc.reuse_linearization", st.reuse_linearization, false);
   r.integer("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations, false);
@@ -462,6 +466,8 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   w.scalar("mpc.riccati_tol", st.riccati_tol);
   w.scalar("mpc.riccati_max_iterations", st.riccati_max_iterations);
   w.text("mpc.kkt_solver", option_name(kKktSolvers, st.kkt_solver));
+  w.text("mpc.backend", option_name(kBackends, st.backend));
+  w.scalar("mpc.active_set_max_iterations", st.active_set_max_iterations);
   w.scalar("mpc.qp_scale_cost", st.qp_scale_cost ? 1.0 : 0.0);
   w.scalar("mpc.reuse_linearization", st.reuse_linearization ? 1.0 : 0.0);
   w.scalar("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations);

@@ -158,6 +158,8 @@ void Settings::validate(int nx, int nu) const {
     fail("B_structure", "must be empty or n_x x n_u");
   if (G_structure.size() != 0 && G_structure.cols() != nx) fail("G_structure", "must be empty or n_c x n_x");
   if (riccati_max_iterations < 1) fail("riccati_max_iterations", "must be >= 1");
+  if (active_set_max_iterations < 1) fail("active_set_max_iterations", "must be >= 1");
+  if (backend != Backend::PiqpSparse && backend != Backend::ActiveSetPiqp) fail("backend", "is not a known backend");
   if (qp_preconditioner_iterations < 0) fail("qp_preconditioner_iterations", "must be >= 0");
   if (!(qp_reg_lower_limit > 0.0) || !std::isfinite(qp_reg_lower_limit))
     fail("qp_reg_lower_limit", "must be finite and > 0");
@@ -262,6 +264,13 @@ struct TubeMPC::Impl {
   Mask mQ, mP, mR, mA, mB, mG, mL;  // posG_term: the soft-terminal rows' four diagonals
 
   piqp::SparseSolver<double> solver;
+  // Active-set solver, its working set (G rows, then one entry per variable), the set-index map of
+  // a one-node shift (as_shift[j]: entry of the previous step's set that guesses entry j, -1: none),
+  // the step whose final set as_set holds (-1: none) and which solver produced the last QP solution.
+  ActiveSetQp active_set;
+  Eigen::VectorXi as_set, as_prev, as_shift;
+  int as_set_k = -1;
+  bool last_qp_active_set = false;
 
   // Linearisation trajectory and per-node model data.
   Eigen::MatrixXd z_lin, v_lin;  // nx x (N+1), nu x N
@@ -414,6 +423,76 @@ struct TubeMPC::Impl {
     x_l.setConstant(n_var, -kInf);
     x_u.setConstant(n_var, kInf);
   }
+
+  // Active-set solver on the QP's pattern: the variables that may carry bounds are the inputs, s,
+  // sigma, the states with a finite trust region and z_N with the hard terminal constraint.
+  void setup_active_set(const Settings& s) {
+    Eigen::Array<bool, Eigen::Dynamic, 1> boundable = Eigen::Array<bool, Eigen::Dynamic, 1>::Constant(n_var, false);
+    for (int i = 0; i < N; ++i) boundable.segment(iv(i), nu).setConstant(true);
+    if (off_s >= 0) boundable.segment(off_s, nx).setConstant(true);
+    if (off_sigma >= 0) boundable.segment(off_sigma, (N + 1) * nc).setConstant(true);
+    for (int i = 1; i <= N && std::isfinite(s.trust_region); ++i) boundable.segment(iz(i), nx).setConstant(true);
+    if (!s.soft_terminal) boundable.segment(iz(N), nx).setConstant(true);
+    ActiveSetQp::Settings as;
+    as.max_iterations = s.active_set_max_iterations;
+    as.eps_abs = s.qp_eps_abs;
+    as.eps_rel = s.qp_eps_rel;
+    active_set.setup(P, A, G, boundable, as);
+    as_set.setZero(n_in + n_var);
+    as_prev = as_set;
+    as_set_k = -1;
+    // One-node shift: node i's rows and variables take node i + 1's (the last node keeps its own).
+    as_shift.resize(n_in + n_var);
+    for (int j = 0; j < n_in + n_var; ++j) as_shift(j) = j;
+    for (int i = 0; i < N; ++i) {
+      for (int c = 0; c < nc; ++c) as_shift(i * nc + c) = (i + 1) * nc + c;
+      for (int r = 0; r < nx; ++r) as_shift(n_in + iz(i) + r) = n_in + iz(i + 1) + r;
+      if (i + 1 < N)
+        for (int r = 0; r < nu; ++r) as_shift(n_in + iv(i) + r) = n_in + iv(i + 1) + r;
+      if (off_sigma >= 0)
+        for (int c = 0; c < nc; ++c) as_shift(n_in + off_sigma + i * nc + c) = n_in + off_sigma + (i + 1) * nc + c;
+    }
+  }
+
+  // PIQP on the current QP, with one retry at a higher regularisation floor (same data, same solver:
+  // no allocation). Returns Solved, SolvedInaccurate (capped with small residuals) or the failure cause.
+  Status solve_piqp(const Settings& s, StepResult& res, Clock::time_point t_start) {
+    solver.update(P, q, A, b, G, h_l, h_u, x_l, x_u);
+    piqp::Status qs = solver.solve();
+    const auto& r = solver.result();
+    res.qp_iterations += static_cast<int>(r.info.iter);
+    const auto capped_inaccurate = [&] {
+      return qs == piqp::Status::PIQP_MAX_ITER_REACHED && r.info.primal_res_rel <= s.qp_inaccurate_tol &&
+             r.info.dual_res_rel <= s.qp_inaccurate_tol;
+    };
+    if ((qs == piqp::Status::PIQP_NUMERICS || (qs == piqp::Status::PIQP_MAX_ITER_REACHED && !capped_inaccurate())) &&
+        s.qp_retry_reg_lower_limit > 0.0 && seconds_since(t_start) < s.time_limit) {
+      piqp::Settings<double>& ps = solver.settings();
+      ps.reg_lower_limit = s.qp_retry_reg_lower_limit;
+      qs = solver.solve();
+      ps.reg_lower_limit = s.qp_reg_lower_limit;
+      res.qp_iterations += static_cast<int>(r.info.iter);
+    }
+    if (qs == piqp::Status::PIQP_INVALID_SETTINGS) return Status::NotSolved;
+    if (qs == piqp::Status::PIQP_PRIMAL_INFEASIBLE || qs == piqp::Status::PIQP_DUAL_INFEASIBLE) return Status::Infeasible;
+    Status out = Status::Solved;
+    if (capped_inaccurate())
+      out = Status::SolvedInaccurate;
+    else if (qs != piqp::Status::PIQP_SOLVED)
+      return qs == piqp::Status::PIQP_NUMERICS ? Status::NumericalError : Status::NotSolved;
+    active_set_from_piqp();
+    return out;
+  }
+
+  // Active set read off PIQP's multipliers (the warm start of the next QP after a PIQP solve).
+  void active_set_from_piqp() {
+    const auto& r = solver.result();
+    const double scale = std::max({1.0, r.z_l.lpNorm<Eigen::Infinity>(), r.z_u.lpNorm<Eigen::Infinity>(),
+                                   r.z_bl.lpNorm<Eigen::Infinity>(), r.z_bu.lpNorm<Eigen::Infinity>()});
+    const double tol = 1e-6 * scale;
+    for (int i = 0; i < n_in; ++i) as_set(i) = r.z_u(i) > tol ? 1 : (r.z_l(i) > tol ? -1 : 0);
+    for (int j = 0; j < n_var; ++j) as_set(n_in + j) = r.z_bu(j) > tol ? 1 : (r.z_bl(j) > tol ? -1 : 0);
+  }
 };
 
 TubeMPC::TubeMPC(std::shared_ptr<const LinearizedModel> model, Settings settings)
@@ -480,11 +559,13 @@ void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_termina
   ps.preconditioner_scale_cost = settings_.qp_scale_cost;
   ps.preconditioner_iter = settings_.qp_preconditioner_iterations;
   m.solver.setup(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u);
+  m.setup_active_set(settings_);
 }
 
 void TubeMPC::reset() {
   impl_->have_plan = false;
   impl_->lin_k = -1;
+  impl_->as_set_k = -1;
 }
 
 QpData TubeMPC::qp_data() const {
@@ -505,6 +586,8 @@ QpData TubeMPC::qp_data() const {
 }
 
 QpSolution TubeMPC::qp_solution() const {
+  const ActiveSetQp& as = impl_->active_set;
+  if (impl_->last_qp_active_set) return QpSolution{as.w(), as.y(), as.z_l(), as.z_u(), as.z_bl(), as.z_bu()};
   const auto& r = impl_->solver.result();
   return QpSolution{r.x, r.y, r.z_l, r.z_u, r.z_bl, r.z_bu};
 }
@@ -524,6 +607,8 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   res.timings = Timings{};
   res.scp_iterations = 0;
   res.qp_iterations = 0;
+  res.active_set_solves = 0;
+  res.active_set_iterations = 0;
   res.model_evaluations = 0;
   res.scp_residual = kInf;
   res.failure = Status::Solved;
@@ -548,6 +633,14 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     std::rotate(m.hc.begin(), m.hc.begin() + 1, m.hc.end());
   }
   m.lin_k = -1;  // valid again only if this step converges
+  // Active-set guess of the first QP: the previous step's final set shifted by one node.
+  if (m.as_set_k == k - 1) {
+    m.as_prev = m.as_set;
+    for (int j = 0; j < m.as_set.size(); ++j) m.as_set(j) = m.as_prev(m.as_shift(j));
+  } else {
+    m.as_set.setZero();
+  }
+  m.as_set_k = -1;  // valid again only if this step returns a plan
 
   for (int i = 0; i < N; ++i) m.eval_d(i) = i >= n_reuse_d;
   for (int i = 0; i <= N; ++i) m.eval_c(i) = i >= n_reuse_z;
@@ -778,44 +871,32 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     }
     res.timings.build += seconds_since(t0);
 
-    // Solve.
+    // Solve: the active set warm-started from the last QP's set; PIQP if it does not verify.
     t0 = Clock::now();
-    m.solver.update(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u);
-    piqp::Status qs = m.solver.solve();
-    const auto& r = m.solver.result();
-    res.qp_iterations += static_cast<int>(r.info.iter);
-    const auto capped_inaccurate = [&] {
-      return qs == piqp::Status::PIQP_MAX_ITER_REACHED && r.info.primal_res_rel <= s.qp_inaccurate_tol &&
-             r.info.dual_res_rel <= s.qp_inaccurate_tol;
-    };
-    if ((qs == piqp::Status::PIQP_NUMERICS || (qs == piqp::Status::PIQP_MAX_ITER_REACHED && !capped_inaccurate())) &&
-        s.qp_retry_reg_lower_limit > 0.0 && seconds_since(t_start) < s.time_limit) {
-      // One retry with a higher regularisation floor (same data, same solver: no allocation).
-      piqp::Settings<double>& ps = m.solver.settings();
-      ps.reg_lower_limit = s.qp_retry_reg_lower_limit;
-      qs = m.solver.solve();
-      ps.reg_lower_limit = s.qp_reg_lower_limit;
-      res.qp_iterations += static_cast<int>(r.info.iter);
+    m.last_qp_active_set = false;
+    if (s.backend == Backend::ActiveSetPiqp) {
+      m.last_qp_active_set = m.active_set.solve(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u, m.as_set) ==
+                             ActiveSetQp::Status::Solved;
+      res.active_set_iterations += m.active_set.info().iterations;
+      if (m.last_qp_active_set) ++res.active_set_solves;
     }
+    const Status qp_status = m.last_qp_active_set ? Status::Solved : m.solve_piqp(s, res, t_start);
     res.timings.solve += seconds_since(t0);
     res.scp_iterations = it + 1;
-    if (qs == piqp::Status::PIQP_INVALID_SETTINGS) return fallback(Status::NotSolved);
-    if (qs == piqp::Status::PIQP_PRIMAL_INFEASIBLE || qs == piqp::Status::PIQP_DUAL_INFEASIBLE)
-      return fallback(Status::Infeasible);
-    if (capped_inaccurate()) {
+    if (qp_status == Status::SolvedInaccurate)
       inaccurate = true;
-    } else if (qs != piqp::Status::PIQP_SOLVED) {
-      return fallback(qs == piqp::Status::PIQP_NUMERICS ? Status::NumericalError : Status::NotSolved);
-    }
-    if (!r.x.allFinite()) return fallback(Status::NumericalError);
+    else if (qp_status != Status::Solved)
+      return fallback(qp_status);
+    const Eigen::VectorXd& x_qp = m.last_qp_active_set ? m.active_set.w() : m.solver.result().x;
+    if (!x_qp.allFinite()) return fallback(Status::NumericalError);
     if (seconds_since(t_start) > s.time_limit) return fallback(Status::TimeLimit);
 
     double delta = 0.0;
     for (int i = 0; i <= N; ++i) {
-      m.z_star.col(i) = r.x.segment(m.iz(i), nx) + m.z_ref.col(i);
+      m.z_star.col(i) = x_qp.segment(m.iz(i), nx) + m.z_ref.col(i);
       if (i <= n) delta = std::max(delta, (m.z_star.col(i) - m.z_lin.col(i)).cwiseAbs().maxCoeff());
     }
-    for (int i = 0; i < N; ++i) m.v_star.col(i) = r.x.segment(m.iv(i), nu);
+    for (int i = 0; i < N; ++i) m.v_star.col(i) = x_qp.segment(m.iv(i), nu);
     // Next linearisation point. With reuse_linearization, a node whose plan moved less than scp_eps
     // (it already meets the convergence test) keeps its model data and their point; the others are
     // linearised about the new plan.
@@ -830,7 +911,7 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     }
     res.scp_residual = delta;
     last_delta = delta;
-    res.objective = r.info.primal_obj + m.constant;
+    res.objective = (m.last_qp_active_set ? m.active_set.objective() : m.solver.result().info.primal_obj) + m.constant;
     if (delta < s.scp_eps) {
       converged = true;
       break;
@@ -853,6 +934,7 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     m.lin_k = k;
     m.lin_n = n;
   }
+  m.as_set_k = k;
   res.timings.total = seconds_since(t_start);
   return res;
 }

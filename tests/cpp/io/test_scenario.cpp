@@ -52,6 +52,8 @@ Scenario sample(int T) {
   s.settings.qp_reg_lower_limit = 3e-9;
   s.settings.qp_retry_reg_lower_limit = 0.0;
   s.settings.reuse_linearization = false;  // not the default
+  s.settings.backend = tubempc::mpc::Backend::PiqpSparse;  // not the default
+  s.settings.active_set_max_iterations = 5;
   s.settings.G_structure = Eigen::MatrixXd::Ones(2, 12);
   s.reference.t0 = 0.25;
   s.reference.z = filled(12, T + 1, 1.0, 1e3);
@@ -191,6 +193,8 @@ TEST_F(ScenarioFile, RoundTripIsBitExact) {
   EXPECT_EQ(sb.kkt_solver, sa.kkt_solver);
   EXPECT_EQ(sb.qp_scale_cost, sa.qp_scale_cost);
   EXPECT_EQ(sb.reuse_linearization, sa.reuse_linearization);
+  EXPECT_EQ(sb.backend, sa.backend);
+  EXPECT_EQ(sb.active_set_max_iterations, sa.active_set_max_iterations);
   EXPECT_EQ(sb.qp_preconditioner_iterations, sa.qp_preconditioner_iterations);
   EXPECT_EQ(sb.qp_reg_lower_limit, sa.qp_reg_lower_limit);
   EXPECT_EQ(sb.qp_retry_reg_lower_limit, sa.qp_retry_reg_lower_limit);

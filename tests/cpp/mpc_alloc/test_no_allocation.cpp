@@ -90,8 +90,9 @@ void operator delete[](void* p, std::align_val_t) noexcept { operator delete(p);
 void operator delete(void* p, std::size_t, std::align_val_t) noexcept { operator delete(p); }
 void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { operator delete(p); }
 
-// The implementation under test, compiled here with the Eigen guard (its symbols take precedence
+// The implementation under test (the MPC and its active-set QP solver), compiled here with the Eigen guard (its symbols take precedence
 // over the static library's copy).
+#include "../../../cpp/src/mpc/active_set_qp.cpp"
 #include "../../../cpp/src/mpc/tube_mpc.cpp"
 
 #include <gtest/gtest.h>

@@ -44,11 +44,12 @@
 ///   | `mpc.input_cost` | text | `paper` or `from_reference` |
 ///   | `mpc.scp_eps` | 1 1 | SCP threshold (state units) |
 ///   | `mpc.initial_condition` (opt.) | text | `whitened_box` or `exact` |
-///   | `mpc.scp_max_iterations`, `mpc.qp_max_iterations`, `mpc.riccati_max_iterations`, `mpc.qp_preconditioner_iterations` (opt.) | 1 1 | integers |
+///   | `mpc.scp_max_iterations`, `mpc.qp_max_iterations`, `mpc.riccati_max_iterations`, `mpc.qp_preconditioner_iterations`, `mpc.active_set_max_iterations` (opt.) | 1 1 | integers |
 ///   | `mpc.trust_region` (opt., may be `inf`), `mpc.time_limit` (opt., s, may be `inf`) | 1 1 | |
 ///   | `mpc.qp_eps_abs`, `mpc.qp_eps_rel`, `mpc.qp_inaccurate_tol`, `mpc.soft_penalty`, `mpc.riccati_tol`, `mpc.qp_reg_lower_limit`, `mpc.qp_retry_reg_lower_limit` (opt.) | 1 1 | |
 ///   | `mpc.soft_state_constraints`, `mpc.soft_terminal`, `mpc.qp_scale_cost`, `mpc.reuse_linearization` (opt.) | 1 1 | 0 or 1 |
 ///   | `mpc.kkt_solver` (opt.) | text | `sparse_ldlt` or `sparse_multistage` |
+///   | `mpc.backend` (opt.) | text | `active_set_piqp` or `piqp` |
 ///   | `mpc.A_structure`, `mpc.B_structure`, `mpc.G_structure` (opt.) | 12 12, 12 6, 2 12 (or 0 0) | model structures |
 ///   | `reference.t0` | 1 1 | time of node 0 (s) |
 ///   | `reference.z` | T+1 12 | reference states zbar_0..zbar_T, one node per row |

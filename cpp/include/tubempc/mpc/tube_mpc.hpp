@@ -33,8 +33,11 @@
 /// The nodes past the mission's end (k + i > T) are padded with frozen nodes z_{i+1} = z_i, zero state
 /// cost and free (costed, unused) inputs so the sparsity pattern never changes; in that shrinking
 /// phase (k >= T - N, the paper's Problem 3) z_N = x_f = zbar_T (hard, or L1-penalised).
-/// PIQP (an interior-point method) has no warm start; each step's SCP starts from the previous plan
-/// shifted to k as its linearisation trajectory. With Settings::reuse_linearization (default), model
+/// QP solver (Settings::backend): by default a warm-started primal-dual active-set method
+/// (active_set_qp.hpp) whose guess is the previous QP's active set (the previous step's shifted by one
+/// node in a step's first SCP iteration), accepted only when it verifies the KKT conditions; otherwise
+/// PIQP (an interior-point method, which has no warm start) solves the same QP. Each step's SCP starts
+/// from the previous plan shifted to k as its linearisation trajectory. With Settings::reuse_linearization (default), model
 /// data whose linearisation point lies within scp_eps of the plan are kept: a step that follows a
 /// converged step by one period starts from that step's last model data shifted by one node (only
 /// the appended last node calls the model), and a later SCP iteration re-linearises only the nodes
@@ -48,6 +51,7 @@
 #include <memory>
 #include <string>
 
+#include "tubempc/mpc/active_set_qp.hpp"
 #include "tubempc/mpc/linearized_model.hpp"
 
 namespace tubempc::mpc {
@@ -84,7 +88,10 @@ enum class InputCost {
 
 /// QP solver used inside `step`.
 enum class Backend {
-  PiqpSparse,  ///< PIQP's sparse interior-point solver, set up once, updated every QP (default).
+  PiqpSparse,     ///< PIQP's sparse interior-point solver, set up once, updated every QP.
+  /// Warm-started primal-dual active set (ActiveSetQp, at most Settings::active_set_max_iterations
+  /// factorisations); a QP it does not solve to the verified tolerance goes to PIQP (default).
+  ActiveSetPiqp,
 };
 
 /// Factorisation of PIQP's KKT systems.
@@ -120,7 +127,10 @@ struct Settings {
   double soft_penalty = 1e6;           ///< L1 penalty weight of the slacks (cost units per constraint unit).
   double riccati_tol = 1e-10;          ///< Relative convergence tolerance of the DARE doubling.
   int riccati_max_iterations = 100;    ///< Cap on DARE doubling iterations.
-  Backend backend = Backend::PiqpSparse;         ///< QP solver.
+  Backend backend = Backend::ActiveSetPiqp;      ///< QP solver.
+  /// Factorisations the active-set solver may spend on one QP before PIQP takes over (>= 1). Its KKT
+  /// verification uses qp_eps_abs and qp_eps_rel.
+  int active_set_max_iterations = 8;
   KktSolver kkt_solver = KktSolver::SparseLdlt;  ///< Factorisation of PIQP's KKT systems.
   /// PIQP also scales the cost in its equilibration (on by default): the shrinking-horizon QPs, whose
   /// terminal-equality multipliers reach ~1e6, need ~14 interior-point iterations instead of 200+
@@ -190,7 +200,9 @@ struct StepResult {
   int scp_iterations = 0;              ///< QPs solved in this step. When re-linearising reproduces the
                                        ///< last QP's data exactly (a linear plant) and its trust region is
                                        ///< inactive, the loop stops without re-solving (residual 0).
-  int qp_iterations = 0;               ///< Interior-point iterations summed over the step's QPs.
+  int qp_iterations = 0;               ///< PIQP interior-point iterations summed over the step's QPs.
+  int active_set_solves = 0;           ///< QPs of this step solved by the active-set method (the others: PIQP).
+  int active_set_iterations = 0;       ///< Active-set factorisations summed over the step's QPs (incl. failed tries).
   int model_evaluations = 0;           ///< Nodes discretised by the model in this step (calls of
                                        ///< LinearizedModel::discretize; see Settings::reuse_linearization).
   double scp_residual = 0.0;           ///< Final max_i ||z*_i - z_lin_i||_inf (state units).
@@ -256,7 +268,7 @@ class TubeMPC {
 
   /// The last QP built (copies; allocates).
   QpData qp_data() const;
-  /// The last QP's primal-dual solution (copies; allocates).
+  /// The last QP's primal-dual solution, from the solver that solved it (copies; allocates).
   QpSolution qp_solution() const;
 
   /// The validated settings.

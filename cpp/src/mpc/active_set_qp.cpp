@@ -1,0 +1,371 @@
+// Warm-started primal-dual active-set QP solver on a fixed-pattern KKT matrix (see active_set_qp.hpp).
+#include "tubempc/mpc/active_set_qp.hpp"
+
+#include <Eigen/OrderingMethods>
+#include <Eigen/SparseCholesky>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <vector>
+
+namespace tubempc::mpc {
+
+// Eigen's SimplicialLDLT on a matrix already in its fill-reducing order. Its public factorize()
+// copies the matrix into a temporary (one heap allocation per call) before calling
+// factorize_preordered(), which works in the storage sized by analyzePattern().
+struct ActiveSetQp::Ldlt : Eigen::SimplicialLDLT<SpMat, Eigen::Upper, Eigen::NaturalOrdering<int>> {
+  void factorize_ordered(const SpMat& K) { this->template factorize_preordered<true>(K); }
+};
+
+std::string to_string(ActiveSetQp::Status status) {
+  switch (status) {
+    case ActiveSetQp::Status::Solved: return "solved";
+    case ActiveSetQp::Status::MaxIterations: return "max_iterations";
+    case ActiveSetQp::Status::Inaccurate: return "inaccurate";
+    case ActiveSetQp::Status::Singular: return "singular";
+    case ActiveSetQp::Status::InvalidData: return "invalid_data";
+  }
+  return "unknown";
+}
+
+void ActiveSetQp::Settings::validate() const {
+  auto fail = [](const char* field, const char* what) {
+    throw std::invalid_argument(std::string("ActiveSetQp Settings: ") + field + " " + what);
+  };
+  if (max_iterations < 1) fail("max_iterations", "must be >= 1");
+  if (!(eps_abs >= 0.0) || !(eps_rel >= 0.0) || !std::isfinite(eps_abs) || !std::isfinite(eps_rel) ||
+      eps_abs + eps_rel <= 0.0)
+    fail("eps_abs/eps_rel", "must be finite, >= 0 and not both 0");
+  if (!(primal_reg > 0.0) || !std::isfinite(primal_reg)) fail("primal_reg", "must be finite and > 0");
+  if (!(dual_reg > 0.0) || !std::isfinite(dual_reg)) fail("dual_reg", "must be finite and > 0");
+  if (max_refinement < 0) fail("max_refinement", "must be >= 0");
+}
+
+ActiveSetQp::ActiveSetQp() : ldlt_(std::make_unique<Ldlt>()) {}
+ActiveSetQp::~ActiveSetQp() = default;
+
+void ActiveSetQp::setup(const SpMat& P_upper, const SpMat& A, const SpMat& G,
+                        const Eigen::Array<bool, Eigen::Dynamic, 1>& boundable, const Settings& settings) {
+  settings.validate();
+  const int n = static_cast<int>(P_upper.rows());
+  if (P_upper.cols() != n || A.cols() != n || G.cols() != n || boundable.size() != n)
+    throw std::invalid_argument("ActiveSetQp::setup: P must be n x n, A and G must have n columns, boundable n entries");
+  if (!P_upper.isCompressed() || !A.isCompressed() || !G.isCompressed())
+    throw std::invalid_argument("ActiveSetQp::setup: P, A and G must be compressed");
+  settings_ = settings;
+  n_ = n;
+  m_ = static_cast<int>(A.rows());
+  p_ = static_cast<int>(G.rows());
+  const int nb = static_cast<int>(boundable.count());
+  bound_var_.resize(nb);
+  bound_row_.setConstant(n, -1);
+  for (int j = 0, k = 0; j < n; ++j)
+    if (boundable(j)) {
+      bound_var_(k) = j;
+      bound_row_(j) = k++;
+    }
+  const int nk = n + m_ + p_ + nb;
+
+  // Natural-order pattern (upper triangle): P, the diagonal, A^T, G^T and the bound rows.
+  std::vector<Eigen::Triplet<double, int>> trip;
+  trip.reserve(static_cast<std::size_t>(P_upper.nonZeros() + A.nonZeros() + G.nonZeros() + nb + nk));
+  for (int c = 0; c < n; ++c)
+    for (SpMat::InnerIterator it(P_upper, c); it; ++it) {
+      if (it.row() > c) throw std::invalid_argument("ActiveSetQp::setup: P must be stored as its upper triangle");
+      trip.emplace_back(it.row(), c, 1.0);
+    }
+  for (int c = 0; c < n; ++c) {
+    for (SpMat::InnerIterator it(A, c); it; ++it) trip.emplace_back(c, n + it.row(), 1.0);
+    for (SpMat::InnerIterator it(G, c); it; ++it) trip.emplace_back(c, n + m_ + it.row(), 1.0);
+  }
+  for (int k = 0; k < nb; ++k) trip.emplace_back(bound_var_(k), n + m_ + p_ + k, 1.0);
+  for (int d = 0; d < nk; ++d) trip.emplace_back(d, d, 1.0);
+  SpMat natural(nk, nk);
+  natural.setFromTriplets(trip.begin(), trip.end());
+
+  // Fill-reducing ordering of the symmetric pattern (as SimplicialLDLT's default would compute it).
+  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> amd_inv;
+  Eigen::AMDOrdering<int>()(natural, amd_inv);
+  const Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> amd = amd_inv.inverse();
+  perm_ = amd.indices();
+
+  for (auto& t : trip) {
+    const int r = perm_(t.row()), c = perm_(t.col());
+    t = Eigen::Triplet<double, int>(std::min(r, c), std::max(r, c), 0.0);
+  }
+  K_.resize(nk, nk);
+  K_.setFromTriplets(trip.begin(), trip.end());
+  K_.makeCompressed();
+  const auto position = [&](int r, int c) {
+    const int pr = std::min(perm_(r), perm_(c)), pc = std::max(perm_(r), perm_(c));
+    const int* begin = K_.innerIndexPtr() + K_.outerIndexPtr()[pc];
+    const int* end = K_.innerIndexPtr() + K_.outerIndexPtr()[pc + 1];
+    const int* it = std::lower_bound(begin, end, pr);
+    if (it == end || *it != pr) throw std::logic_error("ActiveSetQp: KKT pattern lookup failed");
+    return static_cast<int>(it - K_.innerIndexPtr());
+  };
+  pos_P_.resize(P_upper.nonZeros());
+  pos_A_.resize(A.nonZeros());
+  pos_G_.resize(G.nonZeros());
+  for (int c = 0, k = 0; c < n; ++c)
+    for (SpMat::InnerIterator it(P_upper, c); it; ++it) pos_P_(k++) = position(it.row(), c);
+  for (int c = 0, k = 0; c < n; ++c)
+    for (SpMat::InnerIterator it(A, c); it; ++it) pos_A_(k++) = position(c, n + it.row());
+  for (int c = 0, k = 0; c < n; ++c)
+    for (SpMat::InnerIterator it(G, c); it; ++it) pos_G_(k++) = position(c, n + m_ + it.row());
+  pos_B_.resize(nb);
+  for (int k = 0; k < nb; ++k) pos_B_(k) = position(bound_var_(k), n + m_ + p_ + k);
+  pos_diag_.resize(nk);
+  for (int d = 0; d < nk; ++d) pos_diag_(d) = position(d, d);
+
+  ldlt_ = std::make_unique<Ldlt>();
+  ldlt_->analyzePattern(K_);
+  set_.setZero(p_ + n);
+  rhs_.setZero(nk);
+  sol_.setZero(nk);
+  res_.setZero(nk);
+  tmp_.setZero(nk);
+  corr_.setZero(nk);
+  g_.setZero(p_);
+  w_.setZero(n);
+  y_.setZero(m_);
+  z_l_.setZero(p_);
+  z_u_.setZero(p_);
+  z_bl_.setZero(n);
+  z_bu_.setZero(n);
+  lam_g_.setZero(p_);
+  lam_b_.setZero(nb);
+  info_ = Info{};
+  // One factorisation now sizes the factor's diagonal, which the first factorize would allocate.
+  write_matrix(P_upper, A, G, set_);
+  ldlt_->factorize_ordered(K_);
+}
+
+void ActiveSetQp::write_matrix(const SpMat& P_upper, const SpMat& A, const SpMat& G, const Eigen::VectorXi& active) {
+  double* val = K_.valuePtr();
+  std::fill(val, val + K_.nonZeros(), 0.0);
+  const double* pv = P_upper.valuePtr();
+  for (Eigen::Index k = 0; k < pos_P_.size(); ++k) val[pos_P_(k)] += pv[k];
+  for (int j = 0; j < n_; ++j) val[pos_diag_(j)] += settings_.primal_reg;
+  const double* av = A.valuePtr();
+  for (Eigen::Index k = 0; k < pos_A_.size(); ++k) val[pos_A_(k)] += av[k];
+  for (int i = 0; i < m_; ++i) val[pos_diag_(n_ + i)] = -settings_.dual_reg;
+  for (int c = 0, k = 0; c < n_; ++c)
+    for (SpMat::InnerIterator it(G, c); it; ++it, ++k)
+      if (active(it.row()) != 0) val[pos_G_(k)] += it.value();
+  for (int i = 0; i < p_; ++i) val[pos_diag_(n_ + m_ + i)] = active(i) != 0 ? -settings_.dual_reg : -1.0;
+  for (Eigen::Index k = 0; k < bound_var_.size(); ++k) {
+    const bool on = active(p_ + bound_var_(k)) != 0;
+    val[pos_B_(k)] = on ? 1.0 : 0.0;
+    val[pos_diag_(n_ + m_ + p_ + k)] = on ? -settings_.dual_reg : -1.0;
+  }
+}
+
+// res_ = rhs_ - K0 sol_ with K0 the unregularised KKT matrix of the set `active` (natural order).
+void ActiveSetQp::residual(const SpMat& P_upper, const SpMat& A, const SpMat& G, const Eigen::VectorXi& active) {
+  const int n = n_, m = m_, p = p_;
+  res_ = rhs_;
+  auto w = sol_.head(n);
+  for (int c = 0; c < n; ++c) {
+    for (SpMat::InnerIterator it(P_upper, c); it; ++it) {
+      res_(it.row()) -= it.value() * w(c);
+      if (it.row() != c) res_(c) -= it.value() * w(it.row());
+    }
+    for (SpMat::InnerIterator it(A, c); it; ++it) {
+      res_(c) -= it.value() * sol_(n + it.row());
+      res_(n + it.row()) -= it.value() * w(c);
+    }
+    for (SpMat::InnerIterator it(G, c); it; ++it) {
+      if (active(it.row()) == 0) continue;
+      res_(c) -= it.value() * sol_(n + m + it.row());
+      res_(n + m + it.row()) -= it.value() * w(c);
+    }
+  }
+  for (int i = 0; i < p; ++i)
+    if (active(i) == 0) res_(n + m + i) += sol_(n + m + i);
+  for (Eigen::Index k = 0; k < bound_var_.size(); ++k) {
+    const int j = bound_var_(k);
+    const Eigen::Index r = n + m + p + k;
+    if (active(p + j) != 0) {
+      res_(j) -= sol_(r);
+      res_(r) -= w(j);
+    } else {
+      res_(r) += sol_(r);
+    }
+  }
+}
+
+ActiveSetQp::Status ActiveSetQp::solve(const SpMat& P_upper, const Eigen::VectorXd& q, const SpMat& A,
+                                       const Eigen::VectorXd& b, const SpMat& G, const Eigen::VectorXd& h_l,
+                                       const Eigen::VectorXd& h_u, const Eigen::VectorXd& x_l,
+                                       const Eigen::VectorXd& x_u, Eigen::Ref<Eigen::VectorXi> active) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  const int n = n_, m = m_, p = p_;
+  info_ = Info{};
+  if (P_upper.rows() != n || P_upper.nonZeros() != pos_P_.size() || A.rows() != m || A.nonZeros() != pos_A_.size() ||
+      G.rows() != p || G.nonZeros() != pos_G_.size() || q.size() != n || b.size() != m || h_l.size() != p ||
+      h_u.size() != p || x_l.size() != n || x_u.size() != n || active.size() != p + n)
+    throw std::invalid_argument("ActiveSetQp::solve: sizes or patterns differ from setup");
+  const auto finite_values = [](const SpMat& M) {
+    return Eigen::Map<const Eigen::VectorXd>(M.valuePtr(), M.nonZeros()).allFinite();
+  };
+  bool valid = finite_values(P_upper) && finite_values(A) && finite_values(G) && q.allFinite() && b.allFinite() &&
+               !h_l.array().isNaN().any() && !h_u.array().isNaN().any() && !x_l.array().isNaN().any() &&
+               !x_u.array().isNaN().any() && (h_l.array() <= h_u.array()).all() && (x_l.array() <= x_u.array()).all();
+  for (int j = 0; j < n && valid; ++j)
+    valid = bound_row_(j) >= 0 || (x_l(j) == -inf && x_u(j) == inf);
+  if (!valid) return info_.status = Status::InvalidData;
+
+  // The guess, restricted to sides that exist.
+  for (int i = 0; i < p + n; ++i) {
+    const double lo = i < p ? h_l(i) : x_l(i - p), up = i < p ? h_u(i) : x_u(i - p);
+    const int a = i >= p && bound_row_(i - p) < 0 ? 0 : active(i);
+    set_(i) = a > 0 && up < inf ? 1 : (a < 0 && lo > -inf ? -1 : 0);
+  }
+
+  const double q_norm = q.lpNorm<Eigen::Infinity>();
+  bool repeated = false;
+  while (info_.iterations < settings_.max_iterations) {
+    ++info_.iterations;
+    write_matrix(P_upper, A, G, set_);
+    ldlt_->factorize_ordered(K_);
+    if (ldlt_->info() != Eigen::Success) return info_.status = Status::Singular;
+    rhs_.head(n) = -q;
+    rhs_.segment(n, m) = b;
+    for (int i = 0; i < p; ++i) rhs_(n + m + i) = set_(i) > 0 ? h_u(i) : (set_(i) < 0 ? h_l(i) : 0.0);
+    for (Eigen::Index k = 0; k < bound_var_.size(); ++k) {
+      const int j = bound_var_(k), a = set_(p + j);
+      rhs_(n + m + p + k) = a > 0 ? x_u(j) : (a < 0 ? x_l(j) : 0.0);
+    }
+    // Solve, then refine against the unregularised matrix while the residual keeps shrinking.
+    for (Eigen::Index i = 0; i < rhs_.size(); ++i) tmp_(perm_(i)) = rhs_(i);
+    corr_ = ldlt_->solve(tmp_);
+    for (Eigen::Index i = 0; i < rhs_.size(); ++i) sol_(i) = corr_(perm_(i));
+    const double rhs_norm = rhs_.lpNorm<Eigen::Infinity>();
+    double last = inf;
+    for (int r = 0; r <= settings_.max_refinement; ++r) {
+      residual(P_upper, A, G, set_);
+      const double norm = res_.lpNorm<Eigen::Infinity>();
+      if (!std::isfinite(norm)) return info_.status = Status::Singular;
+      // Accurate enough at a hundredth of the verification tolerance, or stagnating.
+      if (r == settings_.max_refinement || norm <= 1e-2 * settings_.eps_abs + 1e-15 * rhs_norm ||
+          norm > 0.5 * last)
+        break;
+      last = norm;
+      for (Eigen::Index i = 0; i < res_.size(); ++i) tmp_(perm_(i)) = res_(i);
+      corr_ = ldlt_->solve(tmp_);
+      for (Eigen::Index i = 0; i < res_.size(); ++i) sol_(i) += corr_(perm_(i));
+      ++info_.refinements;
+    }
+    w_ = sol_.head(n);
+    y_ = sol_.segment(n, m);
+    for (int i = 0; i < p; ++i) lam_g_(i) = set_(i) != 0 ? sol_(n + m + i) : 0.0;
+    for (Eigen::Index k = 0; k < bound_var_.size(); ++k)
+      lam_b_(k) = set_(p + bound_var_(k)) != 0 ? sol_(n + m + p + k) : 0.0;
+
+    // Set update: drop rows whose multiplier has the wrong sign, add violated rows.
+    g_.noalias() = G * w_;
+    const double dual_scale = std::max({q_norm, y_.lpNorm<Eigen::Infinity>(), lam_g_.lpNorm<Eigen::Infinity>(),
+                                        lam_b_.lpNorm<Eigen::Infinity>()});
+    const double tol_d = settings_.eps_abs + 1e-12 * dual_scale;
+    const auto tol_p = [&](double bound) { return settings_.eps_abs + settings_.eps_rel * std::abs(bound); };
+    // The first kFullUpdates iterations change every such row (the primal-dual active-set step);
+    // later ones only the worst, a wrong-sign multiplier first (this breaks the cycles the full step
+    // can fall into when the Hessian is not an M-matrix).
+    constexpr int kFullUpdates = 3;
+    const bool full = info_.iterations <= kFullUpdates;
+    bool changed = false;
+    int worst = -1, worst_to = 0;
+    double worst_drop = 0.0, worst_add = 0.0;
+    bool worst_is_drop = false;
+    const auto update = [&](int i, double value, double lam, double lo, double up) {
+      const int a = set_(i);
+      int to = a;
+      double score = 0.0;
+      bool drop = false;
+      if (a > 0 && lam < -tol_d) {
+        to = lo == up ? -1 : 0;
+        score = -lam;
+        drop = true;
+      } else if (a < 0 && lam > tol_d) {
+        to = lo == up ? 1 : 0;
+        score = lam;
+        drop = true;
+      } else if (a == 0 && value > up + tol_p(up)) {
+        to = 1;
+        score = value - up;
+      } else if (a == 0 && value < lo - tol_p(lo)) {
+        to = -1;
+        score = lo - value;
+      }
+      if (to == a) return;
+      changed = true;
+      if (full) {
+        set_(i) = to;
+      } else if (drop ? (!worst_is_drop || score > worst_drop) : (!worst_is_drop && score > worst_add)) {
+        worst = i;
+        worst_to = to;
+        worst_is_drop = drop;
+        (drop ? worst_drop : worst_add) = score;
+      }
+    };
+    for (int i = 0; i < p; ++i) update(i, g_(i), lam_g_(i), h_l(i), h_u(i));
+    for (Eigen::Index k = 0; k < bound_var_.size(); ++k) {
+      const int j = bound_var_(k);
+      update(p + j, w_(j), lam_b_(k), x_l(j), x_u(j));
+    }
+    if (worst >= 0) set_(worst) = worst_to;
+    if (!changed) {
+      repeated = true;
+      break;
+    }
+  }
+
+  // Solution in QpSolution's convention, and the KKT residuals of the unregularised problem.
+  z_u_ = lam_g_.cwiseMax(0.0);
+  z_l_ = (-lam_g_).cwiseMax(0.0);
+  z_bu_.setZero();
+  z_bl_.setZero();
+  for (Eigen::Index k = 0; k < bound_var_.size(); ++k) {
+    z_bu_(bound_var_(k)) = std::max(lam_b_(k), 0.0);
+    z_bl_(bound_var_(k)) = std::max(-lam_b_(k), 0.0);
+  }
+  // Stationarity: tmp_ (first n entries) = P w + q + A^T y + G^T lam_g + lam_b.
+  auto stat = tmp_.head(n);
+  stat = q;
+  double pw_norm = 0.0, aty_norm = 0.0, gtl_norm = 0.0;
+  corr_.head(n).setZero();
+  for (int c = 0; c < n; ++c)
+    for (SpMat::InnerIterator it(P_upper, c); it; ++it) {
+      corr_(it.row()) += it.value() * w_(c);
+      if (it.row() != c) corr_(c) += it.value() * w_(it.row());
+    }
+  objective_ = 0.5 * w_.dot(corr_.head(n)) + q.dot(w_);
+  pw_norm = corr_.head(n).lpNorm<Eigen::Infinity>();
+  stat += corr_.head(n);
+  corr_.head(n).noalias() = A.transpose() * y_;
+  aty_norm = corr_.head(n).lpNorm<Eigen::Infinity>();
+  stat += corr_.head(n);
+  corr_.head(n).noalias() = G.transpose() * lam_g_;
+  gtl_norm = corr_.head(n).lpNorm<Eigen::Infinity>();
+  stat += corr_.head(n);
+  stat += z_bu_ - z_bl_;
+  info_.dual_res = stat.lpNorm<Eigen::Infinity>();
+  corr_.head(m).noalias() = A * w_;
+  double primal = (corr_.head(m) - b).lpNorm<Eigen::Infinity>();
+  double primal_scale = std::max({b.lpNorm<Eigen::Infinity>(), w_.lpNorm<Eigen::Infinity>(), g_.lpNorm<Eigen::Infinity>()});
+  for (int i = 0; i < p; ++i) primal = std::max({primal, g_(i) - h_u(i), h_l(i) - g_(i)});
+  for (int j = 0; j < n; ++j) primal = std::max({primal, w_(j) - x_u(j), x_l(j) - w_(j)});
+  info_.primal_res = primal;
+  info_.n_active = static_cast<int>((set_.array() != 0).count());
+  active = set_;
+  const double dual_scale = std::max({pw_norm, q_norm, aty_norm, gtl_norm, lam_b_.lpNorm<Eigen::Infinity>()});
+  if (!repeated) return info_.status = Status::MaxIterations;
+  const bool accurate = std::isfinite(primal) && std::isfinite(info_.dual_res) &&
+                        primal <= settings_.eps_abs + settings_.eps_rel * primal_scale &&
+                        info_.dual_res <= settings_.eps_abs + settings_.eps_rel * dual_scale;
+  return info_.status = accurate ? Status::Solved : Status::Inaccurate;
+}
+
+}  // namespace tubempc::mpc

@@ -1,0 +1,255 @@
+// ActiveSetQp against PIQP (an independent solver) on random QPs, the KKT conditions of its pair
+// checked independently, warm starts, bad data; and the tube MPC with either backend.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <piqp/piqp.hpp>
+#include <random>
+#include <stdexcept>
+
+#include "tubempc/mpc/active_set_qp.hpp"
+#include "tubempc/mpc/tube_mpc.hpp"
+
+using namespace tubempc::mpc;
+using SpMat = ActiveSetQp::SpMat;
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// A random feasible QP: strictly convex cost, equality rows, two-sided G rows and bounds on the first
+// n_bounded variables, all around a feasible point, with a linear cost that makes some rows active.
+struct RandomQp {
+  SpMat P, A, G;
+  Eigen::VectorXd q, b, h_l, h_u, x_l, x_u;
+  Eigen::Array<bool, Eigen::Dynamic, 1> boundable;
+
+  RandomQp(unsigned seed, int n = 30, int m = 8, int p = 12, int n_bounded = 10) {
+    std::mt19937 gen(seed);
+    std::normal_distribution<double> N01;
+    std::uniform_real_distribution<double> U(0.05, 1.0);
+    const auto randn = [&](int r, int c) { return Eigen::MatrixXd(Eigen::MatrixXd::NullaryExpr(r, c, [&] { return N01(gen); })); };
+    const Eigen::MatrixXd M = randn(n, n);
+    const Eigen::MatrixXd H = M * M.transpose() / n + 0.1 * Eigen::MatrixXd::Identity(n, n);
+    P = H.triangularView<Eigen::Upper>().toDenseMatrix().sparseView();
+    const Eigen::VectorXd w0 = randn(n, 1);
+    const Eigen::MatrixXd Ad = randn(m, n), Gd = randn(p, n);
+    A = Ad.sparseView();
+    G = Gd.sparseView();
+    P.makeCompressed();
+    A.makeCompressed();
+    G.makeCompressed();
+    b = Ad * w0;
+    q = 5.0 * randn(n, 1);
+    h_l = Gd * w0;
+    h_u = h_l;
+    for (int i = 0; i < p; ++i) {
+      h_l(i) -= U(gen);
+      h_u(i) += U(gen);
+    }
+    h_l(0) = -kInf;  // one one-sided row
+    x_l = Eigen::VectorXd::Constant(n, -kInf);
+    x_u = Eigen::VectorXd::Constant(n, kInf);
+    boundable = Eigen::Array<bool, Eigen::Dynamic, 1>::Constant(n, false);
+    for (int j = 0; j < n_bounded; ++j) {
+      x_l(j) = w0(j) - U(gen);
+      x_u(j) = w0(j) + U(gen);
+      boundable(j) = true;
+    }
+    boundable(n_bounded) = true;  // may carry bounds but has none here
+  }
+
+  double objective(const Eigen::VectorXd& w) const {
+    const SpMat Pf = P.selfadjointView<Eigen::Upper>();
+    return 0.5 * w.dot(Pf * w) + q.dot(w);
+  }
+};
+
+ActiveSetQp::Settings cold_settings() {
+  ActiveSetQp::Settings s;
+  s.max_iterations = 60;  // from an empty set on random data
+  return s;
+}
+
+}  // namespace
+
+TEST(ActiveSetQp, MatchesPiqpOnRandomQps) {
+  int with_active_rows = 0;
+  for (unsigned seed = 0; seed < 20; ++seed) {
+    RandomQp qp(seed);
+    ActiveSetQp as;
+    as.setup(qp.P, qp.A, qp.G, qp.boundable, cold_settings());
+    Eigen::VectorXi active = Eigen::VectorXi::Zero(qp.G.rows() + qp.P.rows());
+    ASSERT_EQ(as.solve(qp.P, qp.q, qp.A, qp.b, qp.G, qp.h_l, qp.h_u, qp.x_l, qp.x_u, active),
+              ActiveSetQp::Status::Solved)
+        << "seed " << seed << ": " << to_string(as.info().status);
+    with_active_rows += as.info().n_active > 0;
+
+    piqp::SparseSolver<double> piqp;
+    piqp.settings().eps_abs = 1e-10;
+    piqp.settings().eps_rel = 1e-11;
+    piqp.setup(qp.P, qp.q, qp.A, qp.b, qp.G, qp.h_l, qp.h_u, qp.x_l, qp.x_u);
+    ASSERT_EQ(piqp.solve(), piqp::Status::PIQP_SOLVED) << "seed " << seed;
+    const double f_piqp = qp.objective(piqp.result().x);
+    EXPECT_NEAR(as.objective(), f_piqp, 1e-7 * std::max(1.0, std::abs(f_piqp))) << "seed " << seed;
+    EXPECT_NEAR(as.objective(), qp.objective(as.w()), 1e-9 * std::max(1.0, std::abs(f_piqp)));
+    EXPECT_LT((as.w() - piqp.result().x).lpNorm<Eigen::Infinity>(), 1e-6) << "seed " << seed;
+  }
+  EXPECT_GE(with_active_rows, 15);  // the test exercises constraints
+}
+
+TEST(ActiveSetQp, ReturnedPairSatisfiesTheKktConditions) {
+  for (unsigned seed = 100; seed < 110; ++seed) {
+    RandomQp qp(seed);
+    ActiveSetQp as;
+    as.setup(qp.P, qp.A, qp.G, qp.boundable, cold_settings());
+    Eigen::VectorXi active = Eigen::VectorXi::Zero(qp.G.rows() + qp.P.rows());
+    ASSERT_EQ(as.solve(qp.P, qp.q, qp.A, qp.b, qp.G, qp.h_l, qp.h_u, qp.x_l, qp.x_u, active),
+              ActiveSetQp::Status::Solved);
+    const Eigen::VectorXd& w = as.w();
+    const SpMat Pf = qp.P.selfadjointView<Eigen::Upper>();
+    const Eigen::VectorXd stat = Pf * w + qp.q + qp.A.transpose() * as.y() +
+                                 qp.G.transpose() * (as.z_u() - as.z_l()) + as.z_bu() - as.z_bl();
+    EXPECT_LT(stat.lpNorm<Eigen::Infinity>(), 1e-8);
+    EXPECT_LT((qp.A * w - qp.b).lpNorm<Eigen::Infinity>(), 1e-9);
+    const Eigen::VectorXd g = qp.G * w;
+    for (Eigen::Index i = 0; i < g.size(); ++i) {
+      EXPECT_LE(g(i), qp.h_u(i) + 1e-9);
+      EXPECT_GE(g(i), qp.h_l(i) - 1e-9);
+      EXPECT_GE(as.z_u()(i), 0.0);
+      EXPECT_GE(as.z_l()(i), 0.0);
+      if (as.z_u()(i) > 0.0) EXPECT_NEAR(g(i), qp.h_u(i), 1e-9);  // complementarity
+      if (as.z_l()(i) > 0.0) EXPECT_NEAR(g(i), qp.h_l(i), 1e-9);
+    }
+    for (Eigen::Index j = 0; j < w.size(); ++j) {
+      EXPECT_LE(w(j), qp.x_u(j) + 1e-9);
+      EXPECT_GE(w(j), qp.x_l(j) - 1e-9);
+      if (as.z_bu()(j) > 0.0) EXPECT_NEAR(w(j), qp.x_u(j), 1e-9);
+      if (as.z_bl()(j) > 0.0) EXPECT_NEAR(w(j), qp.x_l(j), 1e-9);
+    }
+  }
+}
+
+TEST(ActiveSetQp, WarmStartFromTheOptimalSetTakesOneFactorisation) {
+  RandomQp qp(7);
+  ActiveSetQp as;
+  as.setup(qp.P, qp.A, qp.G, qp.boundable, cold_settings());
+  Eigen::VectorXi active = Eigen::VectorXi::Zero(qp.G.rows() + qp.P.rows());
+  ASSERT_EQ(as.solve(qp.P, qp.q, qp.A, qp.b, qp.G, qp.h_l, qp.h_u, qp.x_l, qp.x_u, active), ActiveSetQp::Status::Solved);
+  const int cold = as.info().iterations;
+  const Eigen::VectorXd w = as.w();
+  ASSERT_GT(as.info().n_active, 0);
+  ASSERT_EQ(as.solve(qp.P, qp.q, qp.A, qp.b, qp.G, qp.h_l, qp.h_u, qp.x_l, qp.x_u, active), ActiveSetQp::Status::Solved);
+  EXPECT_EQ(as.info().iterations, 1);
+  EXPECT_GT(cold, 1);
+  EXPECT_LT((as.w() - w).lpNorm<Eigen::Infinity>(), 1e-10);
+}
+
+TEST(ActiveSetQp, ReportsBadDataAndUnsolvedProblemsAsStatuses) {
+  RandomQp qp(3);
+  ActiveSetQp as;
+  as.setup(qp.P, qp.A, qp.G, qp.boundable, cold_settings());
+  Eigen::VectorXi active = Eigen::VectorXi::Zero(qp.G.rows() + qp.P.rows());
+  const auto solve = [&](const RandomQp& d) {
+    active.setZero();
+    return as.solve(d.P, d.q, d.A, d.b, d.G, d.h_l, d.h_u, d.x_l, d.x_u, active);
+  };
+  RandomQp bad = qp;
+  bad.q(2) = std::nan("");
+  EXPECT_EQ(solve(bad), ActiveSetQp::Status::InvalidData);
+  bad = qp;
+  bad.x_u(25) = 1.0;  // variable 25 was not declared boundable
+  EXPECT_EQ(solve(bad), ActiveSetQp::Status::InvalidData);
+  bad = qp;
+  bad.h_l(3) = bad.h_u(3) + 1.0;
+  EXPECT_EQ(solve(bad), ActiveSetQp::Status::InvalidData);
+  // Infeasible: w_10 >= 1 (its bound) but G row 1 = e_10 with G w <= 0.
+  bad = qp;
+  for (Eigen::Index k = 0; k < bad.G.nonZeros(); ++k) bad.G.valuePtr()[k] = 0.0;
+  bad.G.coeffRef(1, 10) = 1.0;
+  bad.h_l(1) = -kInf;
+  bad.h_u(1) = 0.0;
+  bad.x_l(10) = 1.0;
+  bad.x_u(10) = 2.0;
+  const ActiveSetQp::Status st = solve(bad);
+  EXPECT_NE(st, ActiveSetQp::Status::Solved) << to_string(st);
+  EXPECT_EQ(solve(qp), ActiveSetQp::Status::Solved);  // and the solver is still usable
+
+  ActiveSetQp::Settings s;
+  s.max_iterations = 0;
+  try {
+    s.validate();
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("max_iterations"), std::string::npos);
+  }
+  s = ActiveSetQp::Settings{};
+  s.dual_reg = 0.0;
+  EXPECT_THROW(s.validate(), std::invalid_argument);
+  EXPECT_THROW(as.setup(qp.P, qp.A, qp.G, qp.boundable.head(3), ActiveSetQp::Settings{}), std::invalid_argument);
+}
+
+// The tube MPC with either backend on the same states: the same QPs (a linear plant, no trust
+// region), hence the same optima, on a 12-state, 6-input plant whose input limits and state bound
+// are active, most QPs by the active set and none by it with PiqpSparse.
+TEST(TubeMPC, ActiveSetBackendMatchesPiqp) {
+  const double dt = 2.0;
+  Eigen::MatrixXd A_c = Eigen::MatrixXd::Zero(12, 12), B_c = Eigen::MatrixXd::Zero(12, 6);
+  A_c.block(0, 3, 3, 3).setIdentity();
+  A_c.block(6, 9, 3, 3).setIdentity();
+  B_c.block(3, 0, 3, 3).setIdentity();
+  B_c.block(9, 3, 3, 3) = 1e-3 * Eigen::MatrixXd::Identity(3, 3);
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(2, 12);
+  G(0, 0) = 1.0;   // x <= 52
+  G(1, 3) = -1.0;  // -v_x <= 1.2
+  Eigen::VectorXd h(2);
+  h << 52.0, 1.2;
+  auto model = std::make_shared<LtiModel>(A_c, B_c, Eigen::VectorXd::Zero(12), dt, G, h);
+  const int T = 40;
+  Reference ref;
+  ref.z = Eigen::MatrixXd::Zero(12, T + 1);
+  ref.u = Eigen::MatrixXd::Zero(6, T);
+  for (int j = 0; j <= T; ++j) ref.z(0, j) = 50.0 * (1.0 - static_cast<double>(j) / T);
+  ref.z.block(3, 0, 1, T + 1).setConstant(-50.0 / (T * dt));
+  Tube tube;
+  tube.K = Eigen::MatrixXd::Zero(6, 12);
+  tube.Pe = 1e-4 * Eigen::MatrixXd::Identity(12, 12);
+  std::unique_ptr<TubeMPC> mpc[2];
+  for (int b = 0; b < 2; ++b) {
+    Settings s;
+    s.horizon = 15;
+    s.dt = dt;
+    s.u_max = Eigen::VectorXd::Constant(6, 0.05);
+    s.time_limit = kInf;
+    s.backend = b == 0 ? Backend::ActiveSetPiqp : Backend::PiqpSparse;
+    mpc[b] = std::make_unique<TubeMPC>(model, s);
+    mpc[b]->setup(ref);
+  }
+  Eigen::VectorXd x = ref.z.col(0);
+  x(3) = 0.35;  // moving away: braking at the input limit ends near the position bound
+  Eigen::MatrixXd Ad(12, 12), Bd(12, 6);
+  Eigen::VectorXd c(12);
+  int as_solves[2] = {0, 0}, qps = 0;
+  double max_input = 0.0;
+  for (int k = 0; k < T; ++k) {
+    const StepResult& r = mpc[0]->step(k, x, tube);
+    const StepResult& p = mpc[1]->step(k, x, tube);
+    ASSERT_EQ(r.status, Status::Solved) << "k " << k;
+    ASSERT_EQ(p.status, Status::Solved) << "k " << k;
+    // Both optima to the solvers' tolerances; a 1e-10 error in a soft-terminal slack costs 1e-4 of
+    // objective through its 1e6 L1 penalty.
+    EXPECT_NEAR(r.objective, p.objective, 1e-4) << "k " << k;
+    EXPECT_LT((r.z - p.z).lpNorm<Eigen::Infinity>(), 1e-5) << "k " << k;
+    as_solves[0] += r.active_set_solves;
+    as_solves[1] += p.active_set_solves;
+    qps += r.scp_iterations;
+    max_input = std::max(max_input, r.v.cwiseAbs().maxCoeff());
+    model->discretize(0.0, dt, x, r.u, Ad, Bd, c);
+    x = Ad * x + Bd * r.u + c;
+  }
+  EXPECT_GE(max_input, 0.05 - 1e-9);  // input bounds active
+  EXPECT_GE(as_solves[0], qps * 9 / 10);
+  EXPECT_EQ(as_solves[1], 0);
+}
