@@ -220,10 +220,13 @@ void bind_mpc(py::module_& m) {
       s, "LinearizedProximityModel",
       "The 6-DOF proximity model as the MPC's plant (C++): exact ZOH discretisation and the linearised "
       "[glide slope; line of sight] constraints")
-      .def(py::init([](std::shared_ptr<dynamics::ProximityModel> model) {
-             return std::make_shared<dynamics::LinearizedProximityModel>(std::move(model));
+      .def(py::init([](std::shared_ptr<dynamics::ProximityModel> model, double position_tolerance) {
+             return std::make_shared<dynamics::LinearizedProximityModel>(std::move(model), position_tolerance);
            }),
-           py::arg("model"));
+           py::arg("model"), py::arg("position_tolerance") = 1e-6)
+      .def_property_readonly("position_tolerance", &dynamics::LinearizedProximityModel::position_tolerance,
+                             "Largest change of r_L (m) for which a later SCP iteration keeps the translational "
+                             "blocks (gravity) and re-discretises the attitude only");
 
   s.def("solve_dare", &mpc::solve_dare, py::arg("A"), py::arg("B"), py::arg("Q"), py::arg("R"),
         py::arg("tol") = 1e-10, py::arg("max_iterations") = 100,

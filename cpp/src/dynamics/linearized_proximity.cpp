@@ -1,5 +1,6 @@
 #include "tubempc/dynamics/linearized_proximity.hpp"
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -26,9 +27,14 @@ DiscreteHorizon::DiscreteHorizon(int N) {
   c.resize(static_cast<std::size_t>(N));
 }
 
-LinearizedProximityModel::LinearizedProximityModel(std::shared_ptr<const ProximityModel> model)
-    : model_(std::move(model)) {
+LinearizedProximityModel::LinearizedProximityModel(std::shared_ptr<const ProximityModel> model,
+                                                   double position_tolerance)
+    : model_(std::move(model)), position_tolerance_(position_tolerance) {
   if (!model_) throw std::invalid_argument("LinearizedProximityModel: model must not be null");
+  if (!(position_tolerance >= 0.0) || !std::isfinite(position_tolerance)) {
+    throw std::invalid_argument("LinearizedProximityModel: position_tolerance must be finite and >= 0, got " +
+                                std::to_string(position_tolerance));
+  }
 }
 
 void LinearizedProximityModel::discretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_lin,
@@ -53,6 +59,44 @@ void LinearizedProximityModel::discretize(double t, double dt, const Eigen::Ref<
   A = Ad;
   B = Bd;
   c = cd;
+}
+
+void LinearizedProximityModel::rediscretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_prev,
+                                            const Eigen::Ref<const Eigen::VectorXd>& u_prev,
+                                            const Eigen::Ref<const Eigen::VectorXd>& x_lin,
+                                            const Eigen::Ref<const Eigen::VectorXd>& u_lin,
+                                            Eigen::Ref<Eigen::MatrixXd> A, Eigen::Ref<Eigen::MatrixXd> B,
+                                            Eigen::Ref<Eigen::VectorXd> c) const {
+  check_size(x_prev.rows(), 1, kNx, 1, "x_prev");
+  check_size(u_prev.rows(), 1, kNu, 1, "u_prev");
+  check_size(x_lin.rows(), 1, kNx, 1, "x_lin");
+  check_size(u_lin.rows(), 1, kNu, 1, "u_lin");
+  check_size(A.rows(), A.cols(), kNx, kNx, "A");
+  check_size(B.rows(), B.cols(), kNx, kNu, "B");
+  check_size(c.rows(), 1, kNx, 1, "c");
+  const bool keep_translation =
+      !model_->extra_acceleration() && x_prev.allFinite() && x_lin.allFinite() &&
+      (x_lin.head<3>() - x_prev.head<3>()).cwiseAbs().maxCoeff() <= position_tolerance_ &&
+      A.topLeftCorner<6, 6>().allFinite() && B.topLeftCorner<6, 3>().allFinite() && c.head<6>().allFinite() &&
+      A.topRightCorner<6, 6>().isZero(0.0) && A.bottomLeftCorner<6, 6>().isZero(0.0) &&
+      B.topRightCorner<6, 3>().isZero(0.0) && B.bottomLeftCorner<6, 3>().isZero(0.0);
+  if (!keep_translation) {
+    discretize(t, dt, x_lin, u_lin, A, B, c);
+    return;
+  }
+  Eigen::Matrix<double, 6, 6> Ad_r;
+  Eigen::Matrix<double, 6, 3> Bd_r;
+  Eigen::Matrix<double, 6, 1> cd_r;
+  const DiscretizationStatus st = model_->discretize_rotation(
+      dt, x_lin.segment<3>(6), x_lin.segment<3>(9), u_lin.segment<3>(3), Ad_r, Bd_r, cd_r);
+  if (st != DiscretizationStatus::Ok || !std::isfinite(t)) {
+    throw std::domain_error(std::string("LinearizedProximityModel::rediscretize: ") +
+                            to_string(st == DiscretizationStatus::Ok ? DiscretizationStatus::NonFiniteInput : st) +
+                            " at t = " + std::to_string(t));
+  }
+  A.bottomRightCorner<6, 6>() = Ad_r;
+  B.bottomRightCorner<6, 3>() = Bd_r;
+  c.tail<6>() = cd_r;
 }
 
 void LinearizedProximityModel::constraints(double /*t*/, const Eigen::Ref<const Eigen::VectorXd>& x_lin,

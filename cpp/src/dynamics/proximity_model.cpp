@@ -212,17 +212,32 @@ void ProximityModel::linearize(double t, const StateVector& x, const InputVector
   A.block<3, 3>(3, 3) = da_dv;
   B.block<3, 3>(3, 0).setIdentity();
 
+  // Attitude.
+  Eigen::Matrix<double, 6, 1> f_r;
+  Eigen::Matrix<double, 6, 6> A_r;
+  Eigen::Matrix<double, 6, 3> B_r;
+  rotational_jacobians(phi, w, T, f_r, A_r, B_r);
+  f_out.segment<6>(6) = f_r;
+  A.block<6, 6>(6, 6) = A_r;
+  B.block<6, 3>(6, 3) = B_r;
+}
+
+void ProximityModel::rotational_jacobians(const Eigen::Vector3d& phi, const Eigen::Vector3d& w,
+                                          const Eigen::Vector3d& T, Eigen::Matrix<double, 6, 1>& f_r,
+                                          Eigen::Matrix<double, 6, 6>& A_r, Eigen::Matrix<double, 6, 3>& B_r) const {
+  A_r.setZero();
+  B_r.setZero();
   // Kinematics.
   if (params_.kinematics == Kinematics::Paper) {
-    f_out.segment<3>(6) = w;
-    A.block<3, 3>(6, 9).setIdentity();
+    f_r.head<3>() = w;
+    A_r.block<3, 3>(0, 3).setIdentity();
   } else {
     Eigen::Matrix3d Jr_inv;
     Eigen::Matrix3d dh_dphi;
     right_jacobian_inverse_and_derivative(phi, w, Jr_inv, dh_dphi);
-    f_out.segment<3>(6) = Jr_inv * w;
-    A.block<3, 3>(6, 6) = dh_dphi;
-    A.block<3, 3>(6, 9) = Jr_inv;
+    f_r.head<3>() = Jr_inv * w;
+    A_r.block<3, 3>(0, 0) = dh_dphi;
+    A_r.block<3, 3>(0, 3) = Jr_inv;
   }
 
   // Rotational dynamics g = J^-1 (T - Om x J Om) + w x w_LI, Om = w + w_LI, w_LI = Exp(phi)^T n z.
@@ -233,11 +248,11 @@ void ProximityModel::linearize(double t, const StateVector& x, const InputVector
   const Eigen::Vector3d Om = w + w_LI;
   const Eigen::Matrix3d& J = params_.inertia_B;
   const Eigen::Vector3d JOm = J * Om;
-  f_out.segment<3>(9) = J_inv_ * (T - Om.cross(JOm)) + w.cross(w_LI);
+  f_r.tail<3>() = J_inv_ * (T - Om.cross(JOm)) + w.cross(w_LI);
   const Eigen::Matrix3d dgdOm = -J_inv_ * (math::skew(Om) * J - math::skew(JOm));
-  A.block<3, 3>(9, 9) = dgdOm - math::skew(w_LI);
-  A.block<3, 3>(9, 6) = (dgdOm + math::skew(w)) * math::skew(w_LI) * math::right_jacobian(phi);
-  B.block<3, 3>(9, 3) = J_inv_;
+  A_r.block<3, 3>(3, 3) = dgdOm - math::skew(w_LI);
+  A_r.block<3, 3>(3, 0) = (dgdOm + math::skew(w)) * math::skew(w_LI) * math::right_jacobian(phi);
+  B_r.block<3, 3>(3, 0) = J_inv_;
 }
 
 DiscretizationStatus ProximityModel::discretize(double t, double dt, const StateVector& x_ref,
@@ -282,6 +297,29 @@ DiscretizationStatus ProximityModel::discretize(double t, double dt, const State
   Bd.topLeftCorner<6, 3>() = Bd_p;
   Bd.bottomRightCorner<6, 3>() = Bd_r;
   cd << cd_p, cd_r;
+  return DiscretizationStatus::Ok;
+}
+
+DiscretizationStatus ProximityModel::discretize_rotation(double dt, const Eigen::Vector3d& phi,
+                                                         const Eigen::Vector3d& omega_BL_B, const Eigen::Vector3d& T_B,
+                                                         Eigen::Matrix<double, 6, 6>& Ad_r,
+                                                         Eigen::Matrix<double, 6, 3>& Bd_r,
+                                                         Eigen::Matrix<double, 6, 1>& cd_r) const {
+  if (!std::isfinite(dt) || !phi.allFinite() || !omega_BL_B.allFinite() || !T_B.allFinite()) {
+    return DiscretizationStatus::NonFiniteInput;
+  }
+  if (params_.kinematics == Kinematics::Exact && phi.norm() >= 2.0 * kPi - 1e-6) {
+    return DiscretizationStatus::NonFiniteResult;  // Jr^-1 singular
+  }
+  Eigen::Matrix<double, 6, 1> f_r;
+  Eigen::Matrix<double, 6, 6> A_r;
+  Eigen::Matrix<double, 6, 3> B_r;
+  rotational_jacobians(phi, omega_BL_B, T_B, f_r, A_r, B_r);
+  if (!f_r.allFinite() || !A_r.allFinite()) return DiscretizationStatus::NonFiniteResult;
+  Eigen::Matrix<double, 6, 1> x_r;
+  x_r << phi, omega_BL_B;
+  const Eigen::Matrix<double, 6, 1> c_r = f_r - A_r * x_r - B_r * T_B;
+  if (!zoh_discretize<6, 3>(A_r, B_r, c_r, dt, Ad_r, Bd_r, cd_r)) return DiscretizationStatus::NonFiniteResult;
   return DiscretizationStatus::Ok;
 }
 

@@ -775,7 +775,11 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     bool finite = true;
     for (int i = 0; i < n; ++i) {
       if (!m.eval_d(i)) continue;
-      model_->discretize(t_node(i), dt, m.z_lin.col(i), m.v_lin.col(i), m.Ad[i], m.Bd[i], m.cd[i]);
+      if (it > 0)  // the node holds data about (z_lin_at, v_lin_at) for the same time: the model may keep parts
+        model_->rediscretize(t_node(i), dt, m.z_lin_at.col(i), m.v_lin_at.col(i), m.z_lin.col(i), m.v_lin.col(i),
+                             m.Ad[i], m.Bd[i], m.cd[i]);
+      else
+        model_->discretize(t_node(i), dt, m.z_lin.col(i), m.v_lin.col(i), m.Ad[i], m.Bd[i], m.cd[i]);
       finite = finite && m.Ad[i].allFinite() && m.Bd[i].allFinite() && m.cd[i].allFinite();
       ++res.model_evaluations;
     }

@@ -45,7 +45,15 @@ TEST(NoAllocation, DiscretizeConstraintsAndHorizon) {
   const Eigen::VectorXd x = X.col(0);
   const Eigen::VectorXd u = U.col(0);
 
+  Eigen::VectorXd x_attitude = x;
+  x_attitude(6) += 0.01;
+  Eigen::VectorXd x_moved = x;
+  x_moved(0) += 1.0;
+
   const long before = g_allocations.load();
+  lin.discretize(10.0, 2.0, x, u, A, B, c);
+  lin.rediscretize(10.0, 2.0, x, u, x_attitude, u, A, B, c);  // attitude half only
+  lin.rediscretize(10.0, 2.0, x_attitude, u, x_moved, u, A, B, c);  // full
   lin.discretize(10.0, 2.0, x, u, A, B, c);
   lin.constraints(10.0, x, G, h);
   const DiscretizationStatus st = lin.discretize_horizon(0.0, 2.0, X, U, horizon);

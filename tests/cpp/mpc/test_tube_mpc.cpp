@@ -511,8 +511,19 @@ class RecordingPendulum final : public LinearizedModel {
     inner_.discretize(t, dt, x, u, A, B, c);
     dynamics[t] = A;
     points[t] = x;
+    inputs[t] = u;
     call_times.push_back(t);
     ++discretize_calls;
+  }
+  // Counts the calls whose incoming data and point are not this node's latest model output.
+  void rediscretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_prev,
+                    const Eigen::Ref<const Eigen::VectorXd>& u_prev, const Eigen::Ref<const Eigen::VectorXd>& x,
+                    const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::MatrixXd> A,
+                    Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const override {
+    ++rediscretize_calls;
+    const bool known = dynamics.count(t) == 1;
+    if (!known || !(dynamics[t] == A) || !(points[t] == x_prev) || !(inputs[t] == u_prev)) ++rediscretize_mismatches;
+    discretize(t, dt, x, u, A, B, c);
   }
   void constraints(double t, const Eigen::Ref<const Eigen::VectorXd>& x, Eigen::Ref<Eigen::MatrixXd> G,
                    Eigen::Ref<Eigen::VectorXd> h) const override {
@@ -521,9 +532,9 @@ class RecordingPendulum final : public LinearizedModel {
     rows[t] = G;
   }
   mutable std::map<double, Eigen::MatrixXd> dynamics, rows;  // latest output per node time
-  mutable std::map<double, Eigen::VectorXd> points;           // latest linearisation state per node time
+  mutable std::map<double, Eigen::VectorXd> points, inputs;   // latest linearisation point per node time
   mutable std::vector<double> call_times;                     // node time of every discretize call
-  mutable int discretize_calls = 0;
+  mutable int discretize_calls = 0, rediscretize_calls = 0, rediscretize_mismatches = 0;
 
  private:
   Pendulum inner_;
@@ -535,7 +546,7 @@ class RecordingPendulum final : public LinearizedModel {
 // (none in the shrinking phase), later iterations only where the plan moved by scp_eps or more; the QP
 // holds exactly the model's latest data for each node's time (no off-by-one shift), taken about points
 // within scp_eps of the converged plan, and the plans match those of a controller that calls the model
-// everywhere within the SCP tolerance.
+// everywhere within the SCP tolerance. Re-discretisations receive the node's current data and their point.
 TEST(TubeMPC, ReusedLinearizationHoldsEachNodesModelData) {
   auto model = std::make_shared<RecordingPendulum>();
   auto fresh_model = std::make_shared<RecordingPendulum>();
@@ -587,6 +598,9 @@ TEST(TubeMPC, ReusedLinearizationHoldsEachNodesModelData) {
     x = r.z.col(1) + Eigen::Vector2d(1e-5 * ((k % 3) - 1.0), 2e-5 * ((k % 2) - 0.5));
   }
   EXPECT_EQ(reused_steps, T - 1);
+  // Later SCP iterations hand the model the node's current data and the point they were taken about.
+  EXPECT_GT(model->rediscretize_calls, 0);
+  EXPECT_EQ(model->rediscretize_mismatches, 0);
   // After reset() or a skipped step the first iteration calls the model at every node again.
   for (const int k : {5, 7}) {
     if (k == 5) mpc.reset();

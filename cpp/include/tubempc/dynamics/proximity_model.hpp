@@ -193,6 +193,22 @@ class ProximityModel {
   DiscretizationStatus discretize(double t, double dt, const StateVector& x_ref, const InputVector& u_ref,
                                   StateMatrix& Ad, InputMatrix& Bd, StateVector& cd) const;
 
+  /// The attitude half of `discretize` (rows and columns 6-11 of Ad, rows 6-11 and columns 3-5 of
+  /// Bd, entries 6-11 of cd). Attitude and translation are decoupled in this model and the attitude
+  /// dynamics do not depend on t, so this equals the corresponding blocks of `discretize` at any t
+  /// (to rounding). Allocation-free; statuses as `discretize`.
+  /// @param dt         step length (s).
+  /// @param phi        linearisation rotation vector of q_B/L (rad).
+  /// @param omega_BL_B linearisation angular velocity of B relative to L, in B (rad/s).
+  /// @param T_B        linearisation torque, in B (N m).
+  /// @param Ad_r       receives the attitude block of Ad (6 x 6).
+  /// @param Bd_r       receives the torque block of Bd (6 x 3).
+  /// @param cd_r       receives the attitude part of cd (rad, rad/s).
+  /// @return DiscretizationStatus::Ok, or why the outputs are not usable.
+  DiscretizationStatus discretize_rotation(double dt, const Eigen::Vector3d& phi, const Eigen::Vector3d& omega_BL_B,
+                                           const Eigen::Vector3d& T_B, Eigen::Matrix<double, 6, 6>& Ad_r,
+                                           Eigen::Matrix<double, 6, 3>& Bd_r, Eigen::Matrix<double, 6, 1>& cd_r) const;
+
   /// Derivative of the 13-dimensional truth state [r, v, q_B/L, w] with the quaternion kinematics
   /// q' = 1/2 q (x) [w; 0] and C_BL = R(q)^T; disturbance = [acceleration in L (m/s^2); angular
   /// acceleration in B (rad/s^2)] added to v' and w'. No finiteness check (the propagator checks).
@@ -211,6 +227,10 @@ class ProximityModel {
   Eigen::Vector3d phi_dot(const Eigen::Vector3d& phi, const Eigen::Vector3d& omega_BL_B) const;
 
  private:
+  // [phi', omega'] and its Jacobians with respect to [phi, omega] and T.
+  void rotational_jacobians(const Eigen::Vector3d& phi, const Eigen::Vector3d& w, const Eigen::Vector3d& T,
+                            Eigen::Matrix<double, 6, 1>& f_r, Eigen::Matrix<double, 6, 6>& A_r,
+                            Eigen::Matrix<double, 6, 3>& B_r) const;
   void translational(double t, const Eigen::Vector3d& r, const Eigen::Vector3d& v, const Eigen::Vector3d& u_p,
                      Eigen::Vector3d& a_L, Eigen::Matrix3d* da_dr, Eigen::Matrix3d* da_dv) const;
   Eigen::Vector3d rotational(const Eigen::Matrix3d& C_BL, const Eigen::Vector3d& w,

@@ -43,11 +43,11 @@ class ActiveSetQp {
 
   /// Settings; `validate()` throws std::invalid_argument naming the field.
   struct Settings {
-    int max_iterations = 8;        ///< Factorisations (active-set iterations) per solve (>= 1).
+    int max_iterations = 12;       ///< Factorisations (active-set iterations) per solve (>= 1).
     double eps_abs = 1e-8;         ///< Absolute tolerance of the KKT verification.
     double eps_rel = 1e-9;         ///< Relative tolerance of the KKT verification (and of the set updates).
     double primal_reg = 1e-9;      ///< rho: regularisation of the Hessian block (> 0).
-    double dual_reg = 1e-9;        ///< delta: regularisation of the constraint blocks (> 0).
+    double dual_reg = 1e-12;       ///< delta: regularisation of the constraint blocks (> 0).
     int max_refinement = 10;       ///< Iterative-refinement steps per factorisation (>= 0).
     /// Throws std::invalid_argument naming the offending field.
     void validate() const;

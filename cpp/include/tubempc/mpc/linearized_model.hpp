@@ -34,6 +34,29 @@ class LinearizedModel {
                           const Eigen::Ref<const Eigen::VectorXd>& u_lin, Eigen::Ref<Eigen::MatrixXd> A,
                           Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const = 0;
 
+  /// Re-discretises a node about (x_lin, u_lin) when A, B, c hold its discretisation over the same
+  /// [t, t + dt] about (x_prev, u_prev), as in the sequential convex iterations of the tube MPC.
+  /// An implementation may keep the parts of A, B, c that do not depend on what changed (and must
+  /// document any tolerance it applies); the default calls `discretize`.
+  /// @param t      start time of the step (s).
+  /// @param dt     step length (s).
+  /// @param x_prev linearisation state of the data in A, B, c (n_x).
+  /// @param u_prev linearisation input of the data in A, B, c (n_u).
+  /// @param x_lin  new linearisation state (n_x).
+  /// @param u_lin  new linearisation input (n_u).
+  /// @param A      holds A about (x_prev, u_prev); receives A about (x_lin, u_lin) (n_x x n_x).
+  /// @param B      likewise B (n_x x n_u).
+  /// @param c      likewise c (n_x).
+  virtual void rediscretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_prev,
+                            const Eigen::Ref<const Eigen::VectorXd>& u_prev,
+                            const Eigen::Ref<const Eigen::VectorXd>& x_lin,
+                            const Eigen::Ref<const Eigen::VectorXd>& u_lin, Eigen::Ref<Eigen::MatrixXd> A,
+                            Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const {
+    (void)x_prev;
+    (void)u_prev;
+    discretize(t, dt, x_lin, u_lin, A, B, c);
+  }
+
   /// Linearised state constraints at (t, x_lin): G x <= h.
   /// @param t     time (s).
   /// @param x_lin linearisation state (n_x).
