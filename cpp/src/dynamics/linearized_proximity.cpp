@@ -75,7 +75,7 @@ void LinearizedProximityModel::rediscretize(double t, double dt, const Eigen::Re
   check_size(B.rows(), B.cols(), kNx, kNu, "B");
   check_size(c.rows(), 1, kNx, 1, "c");
   const bool keep_translation =
-      !model_->extra_acceleration() && x_prev.allFinite() && x_lin.allFinite() &&
+      std::isfinite(t) && !model_->extra_acceleration() && x_prev.allFinite() && x_lin.allFinite() &&
       (x_lin.head<3>() - x_prev.head<3>()).cwiseAbs().maxCoeff() <= position_tolerance_ &&
       A.topLeftCorner<6, 6>().allFinite() && B.topLeftCorner<6, 3>().allFinite() && c.head<6>().allFinite() &&
       A.topRightCorner<6, 6>().isZero(0.0) && A.bottomLeftCorner<6, 6>().isZero(0.0) &&
@@ -89,9 +89,8 @@ void LinearizedProximityModel::rediscretize(double t, double dt, const Eigen::Re
   Eigen::Matrix<double, 6, 1> cd_r;
   const DiscretizationStatus st = model_->discretize_rotation(
       dt, x_lin.segment<3>(6), x_lin.segment<3>(9), u_lin.segment<3>(3), Ad_r, Bd_r, cd_r);
-  if (st != DiscretizationStatus::Ok || !std::isfinite(t)) {
-    throw std::domain_error(std::string("LinearizedProximityModel::rediscretize: ") +
-                            to_string(st == DiscretizationStatus::Ok ? DiscretizationStatus::NonFiniteInput : st) +
+  if (st != DiscretizationStatus::Ok) {
+    throw std::domain_error(std::string("LinearizedProximityModel::rediscretize: ") + to_string(st) +
                             " at t = " + std::to_string(t));
   }
   A.bottomRightCorner<6, 6>() = Ad_r;

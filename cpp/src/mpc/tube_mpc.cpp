@@ -265,7 +265,7 @@ struct TubeMPC::Impl {
 
   piqp::SparseSolver<double> solver;
   // Active-set solver, its working set (G rows, then one entry per variable), the set-index map of
-  // a one-node shift (as_shift[j]: entry of the previous step's set that guesses entry j, -1: none),
+  // a one-node shift (as_shift[j]: entry of the previous step's set that guesses entry j),
   // the step whose final set as_set holds (-1: none) and which solver produced the last QP solution.
   ActiveSetQp active_set;
   Eigen::VectorXi as_set, as_prev, as_shift;

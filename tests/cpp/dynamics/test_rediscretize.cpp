@@ -153,7 +153,7 @@ TEST(Rediscretize, ExtraAccelerationAndCoupledDataUseDiscretize) {
   EXPECT_EQ(max_abs(m.A - full(plain, 1.0, x0, u0).A), 0.0);
 }
 
-TEST(Rediscretize, RejectsBadToleranceAndSizes) {
+TEST(Rediscretize, RejectsBadToleranceSizesAndTime) {
   const auto model = std::make_shared<const ProximityModel>(cluster(), fast_frames(Kinematics::Paper));
   for (const double tol : {-1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
     try {
@@ -167,6 +167,8 @@ TEST(Rediscretize, RejectsBadToleranceAndSizes) {
   Node n = full(lin, 0.0, state(), input());
   const Eigen::VectorXd short_x = Eigen::VectorXd::Zero(11);
   EXPECT_THROW(lin.rediscretize(0.0, 2.0, short_x, input(), state(), input(), n.A, n.B, n.c), std::invalid_argument);
+  EXPECT_THROW(lin.rediscretize(std::nan(""), 2.0, state(), input(), state(), input(), n.A, n.B, n.c),
+               std::domain_error);
 }
 
 }  // namespace

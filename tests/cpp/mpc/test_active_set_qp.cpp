@@ -67,10 +67,16 @@ struct RandomQp {
   }
 };
 
-ActiveSetQp::Settings cold_settings() {
+// Sets `as` up for qp (60 factorisations: cold starts on random data) and returns an empty working set.
+Eigen::VectorXi set_up_cold(ActiveSetQp& as, const RandomQp& qp) {
   ActiveSetQp::Settings s;
-  s.max_iterations = 60;  // from an empty set on random data
-  return s;
+  s.max_iterations = 60;
+  as.setup(qp.P, qp.A, qp.G, qp.boundable, s);
+  return Eigen::VectorXi::Zero(qp.G.rows() + qp.P.rows());
+}
+
+ActiveSetQp::Status solve(ActiveSetQp& as, const RandomQp& d, Eigen::VectorXi& active) {
+  return as.solve(d.P, d.q, d.A, d.b, d.G, d.h_l, d.h_u, d.x_l, d.x_u, active);
 }
 
 }  // namespace
@@ -80,9 +86,8 @@ TEST(ActiveSetQp, MatchesPiqpOnRandomQps) {
   for (unsigned seed = 0; seed < 20; ++seed) {
     RandomQp qp(seed);
     ActiveSetQp as;
-    as.setup(qp.P, qp.A, qp.G, qp.boundable, cold_settings());
-    Eigen::VectorXi active = Eigen::VectorXi::Zero(qp.G.rows() + qp.P.rows());
-    ASSERT_EQ(as.solve(qp.P, qp.q, qp.A, qp.b, qp.G, qp.h_l, qp.h_u, qp.x_l, qp.x_u, active),
+    Eigen::VectorXi active = set_up_cold(as, qp);
+    ASSERT_EQ(solve(as, qp, active),
               ActiveSetQp::Status::Solved)
         << "seed " << seed << ": " << to_string(as.info().status);
     with_active_rows += as.info().n_active > 0;
@@ -104,9 +109,8 @@ TEST(ActiveSetQp, ReturnedPairSatisfiesTheKktConditions) {
   for (unsigned seed = 100; seed < 110; ++seed) {
     RandomQp qp(seed);
     ActiveSetQp as;
-    as.setup(qp.P, qp.A, qp.G, qp.boundable, cold_settings());
-    Eigen::VectorXi active = Eigen::VectorXi::Zero(qp.G.rows() + qp.P.rows());
-    ASSERT_EQ(as.solve(qp.P, qp.q, qp.A, qp.b, qp.G, qp.h_l, qp.h_u, qp.x_l, qp.x_u, active),
+    Eigen::VectorXi active = set_up_cold(as, qp);
+    ASSERT_EQ(solve(as, qp, active),
               ActiveSetQp::Status::Solved);
     const Eigen::VectorXd& w = as.w();
     const SpMat Pf = qp.P.selfadjointView<Eigen::Upper>();
@@ -135,13 +139,12 @@ TEST(ActiveSetQp, ReturnedPairSatisfiesTheKktConditions) {
 TEST(ActiveSetQp, WarmStartFromTheOptimalSetTakesOneFactorisation) {
   RandomQp qp(7);
   ActiveSetQp as;
-  as.setup(qp.P, qp.A, qp.G, qp.boundable, cold_settings());
-  Eigen::VectorXi active = Eigen::VectorXi::Zero(qp.G.rows() + qp.P.rows());
-  ASSERT_EQ(as.solve(qp.P, qp.q, qp.A, qp.b, qp.G, qp.h_l, qp.h_u, qp.x_l, qp.x_u, active), ActiveSetQp::Status::Solved);
+  Eigen::VectorXi active = set_up_cold(as, qp);
+  ASSERT_EQ(solve(as, qp, active), ActiveSetQp::Status::Solved);
   const int cold = as.info().iterations;
   const Eigen::VectorXd w = as.w();
   ASSERT_GT(as.info().n_active, 0);
-  ASSERT_EQ(as.solve(qp.P, qp.q, qp.A, qp.b, qp.G, qp.h_l, qp.h_u, qp.x_l, qp.x_u, active), ActiveSetQp::Status::Solved);
+  ASSERT_EQ(solve(as, qp, active), ActiveSetQp::Status::Solved);
   EXPECT_EQ(as.info().iterations, 1);
   EXPECT_GT(cold, 1);
   EXPECT_LT((as.w() - w).lpNorm<Eigen::Infinity>(), 1e-10);
@@ -150,21 +153,20 @@ TEST(ActiveSetQp, WarmStartFromTheOptimalSetTakesOneFactorisation) {
 TEST(ActiveSetQp, ReportsBadDataAndUnsolvedProblemsAsStatuses) {
   RandomQp qp(3);
   ActiveSetQp as;
-  as.setup(qp.P, qp.A, qp.G, qp.boundable, cold_settings());
-  Eigen::VectorXi active = Eigen::VectorXi::Zero(qp.G.rows() + qp.P.rows());
-  const auto solve = [&](const RandomQp& d) {
+  Eigen::VectorXi active = set_up_cold(as, qp);
+  const auto solve_cold = [&](const RandomQp& d) {
     active.setZero();
-    return as.solve(d.P, d.q, d.A, d.b, d.G, d.h_l, d.h_u, d.x_l, d.x_u, active);
+    return solve(as, d, active);
   };
   RandomQp bad = qp;
   bad.q(2) = std::nan("");
-  EXPECT_EQ(solve(bad), ActiveSetQp::Status::InvalidData);
+  EXPECT_EQ(solve_cold(bad), ActiveSetQp::Status::InvalidData);
   bad = qp;
   bad.x_u(25) = 1.0;  // variable 25 was not declared boundable
-  EXPECT_EQ(solve(bad), ActiveSetQp::Status::InvalidData);
+  EXPECT_EQ(solve_cold(bad), ActiveSetQp::Status::InvalidData);
   bad = qp;
   bad.h_l(3) = bad.h_u(3) + 1.0;
-  EXPECT_EQ(solve(bad), ActiveSetQp::Status::InvalidData);
+  EXPECT_EQ(solve_cold(bad), ActiveSetQp::Status::InvalidData);
   // Infeasible: w_10 >= 1 (its bound) but G row 1 = e_10 with G w <= 0.
   bad = qp;
   for (Eigen::Index k = 0; k < bad.G.nonZeros(); ++k) bad.G.valuePtr()[k] = 0.0;
@@ -173,9 +175,9 @@ TEST(ActiveSetQp, ReportsBadDataAndUnsolvedProblemsAsStatuses) {
   bad.h_u(1) = 0.0;
   bad.x_l(10) = 1.0;
   bad.x_u(10) = 2.0;
-  const ActiveSetQp::Status st = solve(bad);
+  const ActiveSetQp::Status st = solve_cold(bad);
   EXPECT_NE(st, ActiveSetQp::Status::Solved) << to_string(st);
-  EXPECT_EQ(solve(qp), ActiveSetQp::Status::Solved);  // and the solver is still usable
+  EXPECT_EQ(solve_cold(qp), ActiveSetQp::Status::Solved);  // and the solver is still usable
 
   ActiveSetQp::Settings s;
   s.max_iterations = 0;
