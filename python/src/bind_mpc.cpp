@@ -223,7 +223,7 @@ void bind_mpc(py::module_& m) {
       .def(py::init([](std::shared_ptr<dynamics::ProximityModel> model, double position_tolerance) {
              return std::make_shared<dynamics::LinearizedProximityModel>(std::move(model), position_tolerance);
            }),
-           py::arg("model"), py::arg("position_tolerance") = 1e-6)
+           py::arg("model"), py::arg("position_tolerance") = 0.1)
       .def_property_readonly("position_tolerance", &dynamics::LinearizedProximityModel::position_tolerance,
                              "Largest change of r_L (m) for which a later SCP iteration keeps the translational "
                              "blocks (gravity) and re-discretises the attitude only");

@@ -180,10 +180,12 @@ def test_benchmark_mission_runs_and_agrees_with_the_baseline(tmp_path) -> None:
     bench.add_arguments(parser)
     out = tmp_path / "bench.json"
     # The whole 600 s mission: shorter ones make the reference exceed the input limits.
-    args = parser.parse_args(["--plant", "stand-in", "--qp-samples", "3", "--solvers", "cvxpy-piqp", "--json", str(out)])
-    assert bench.run(args) == 0
+    args = parser.parse_args(["--plant", "stand-in", "--qp-samples", "3", "--solvers", "cvxpy-piqp", "--repeats", "2",
+                              "--json", str(out)])
+    assert bench.run(args) == 0  # the repeated flight must end in the same state, or run raises
     data = json.loads(out.read_text())
     assert data["statuses"] == {"solved": 300}
+    assert len(data["runs"]) == 2 and all(r["total"]["p99"] >= r["total"]["median"] > 0.0 for r in data["runs"])
     assert data["cpp_max_kkt_residual"] < 1e-8
     assert data["cpp_max_violation"] < 1e-8
     assert data["baseline"]["cvxpy-piqp"]["median_abs_rel_objective_diff"] < 1e-6

@@ -2,7 +2,6 @@
 #include "tubempc/mpc/active_set_qp.hpp"
 
 #include <Eigen/OrderingMethods>
-#include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -10,13 +9,6 @@
 #include <vector>
 
 namespace tubempc::mpc {
-
-// Eigen's SimplicialLDLT on a matrix already in its fill-reducing order. Its public factorize()
-// copies the matrix into a temporary (one heap allocation per call) before calling
-// factorize_preordered(), which works in the storage sized by analyzePattern().
-struct ActiveSetQp::Ldlt : Eigen::SimplicialLDLT<SpMat, Eigen::Upper, Eigen::NaturalOrdering<int>> {
-  void factorize_ordered(const SpMat& K) { this->template factorize_preordered<true>(K); }
-};
 
 std::string to_string(ActiveSetQp::Status status) {
   switch (status) {
@@ -41,9 +33,6 @@ void ActiveSetQp::Settings::validate() const {
   if (!(dual_reg > 0.0) || !std::isfinite(dual_reg)) fail("dual_reg", "must be finite and > 0");
   if (max_refinement < 0) fail("max_refinement", "must be >= 0");
 }
-
-ActiveSetQp::ActiveSetQp() : ldlt_(std::make_unique<Ldlt>()) {}
-ActiveSetQp::~ActiveSetQp() = default;
 
 void ActiveSetQp::setup(const SpMat& P_upper, const SpMat& A, const SpMat& G,
                         const Eigen::Array<bool, Eigen::Dynamic, 1>& boundable, const Settings& settings) {
@@ -119,12 +108,16 @@ void ActiveSetQp::setup(const SpMat& P_upper, const SpMat& A, const SpMat& G,
   pos_diag_.resize(nk);
   for (int d = 0; d < nk; ++d) pos_diag_(d) = position(d, d);
 
-  ldlt_ = std::make_unique<Ldlt>();
-  ldlt_->analyzePattern(K_);
+  ldlt_.analyze(K_);
+  K_factored_.setConstant(K_.nonZeros(), std::numeric_limits<double>::quiet_NaN());
+  changed_.setZero(nk);
+  reg_.setZero(nk);
   set_.setZero(p_ + n);
   rhs_.setZero(nk);
   sol_.setZero(nk);
-  res_.setZero(nk);
+  rhs_p_.setZero(nk);
+  sol_p_.setZero(nk);
+  res_p_.setZero(nk);
   tmp_.setZero(nk);
   corr_.setZero(nk);
   g_.setZero(p_);
@@ -137,9 +130,6 @@ void ActiveSetQp::setup(const SpMat& P_upper, const SpMat& A, const SpMat& G,
   lam_g_.setZero(p_);
   lam_b_.setZero(nb);
   info_ = Info{};
-  // One factorisation now sizes the factor's diagonal, which the first factorize would allocate.
-  write_matrix(P_upper, A, G, set_);
-  ldlt_->factorize_ordered(K_);
 }
 
 void ActiveSetQp::write_matrix(const SpMat& P_upper, const SpMat& A, const SpMat& G, const Eigen::VectorXi& active) {
@@ -147,53 +137,62 @@ void ActiveSetQp::write_matrix(const SpMat& P_upper, const SpMat& A, const SpMat
   std::fill(val, val + K_.nonZeros(), 0.0);
   const double* pv = P_upper.valuePtr();
   for (Eigen::Index k = 0; k < pos_P_.size(); ++k) val[pos_P_(k)] += pv[k];
-  for (int j = 0; j < n_; ++j) val[pos_diag_(j)] += settings_.primal_reg;
+  const double rho = settings_.primal_reg, delta = settings_.dual_reg;
+  for (int j = 0; j < n_; ++j) {
+    val[pos_diag_(j)] += rho;
+    reg_(perm_(j)) = rho;
+  }
   const double* av = A.valuePtr();
   for (Eigen::Index k = 0; k < pos_A_.size(); ++k) val[pos_A_(k)] += av[k];
-  for (int i = 0; i < m_; ++i) val[pos_diag_(n_ + i)] = -settings_.dual_reg;
+  for (int i = 0; i < m_; ++i) {
+    val[pos_diag_(n_ + i)] = -delta;
+    reg_(perm_(n_ + i)) = -delta;
+  }
   for (int c = 0, k = 0; c < n_; ++c)
     for (SpMat::InnerIterator it(G, c); it; ++it, ++k)
       if (active(it.row()) != 0) val[pos_G_(k)] += it.value();
-  for (int i = 0; i < p_; ++i) val[pos_diag_(n_ + m_ + i)] = active(i) != 0 ? -settings_.dual_reg : -1.0;
+  // Inactive rows keep -1 on the diagonal in K0 too (their multiplier is then 0).
+  for (int i = 0; i < p_; ++i) {
+    const bool on = active(i) != 0;
+    val[pos_diag_(n_ + m_ + i)] = on ? -delta : -1.0;
+    reg_(perm_(n_ + m_ + i)) = on ? -delta : 0.0;
+  }
   for (Eigen::Index k = 0; k < bound_var_.size(); ++k) {
     const bool on = active(p_ + bound_var_(k)) != 0;
+    const int d = n_ + m_ + p_ + static_cast<int>(k);
     val[pos_B_(k)] = on ? 1.0 : 0.0;
-    val[pos_diag_(n_ + m_ + p_ + k)] = on ? -settings_.dual_reg : -1.0;
+    val[pos_diag_(d)] = on ? -delta : -1.0;
+    reg_(perm_(d)) = on ? -delta : 0.0;
   }
 }
 
-// res_ = rhs_ - K0 sol_ with K0 the unregularised KKT matrix of the set `active` (natural order).
-void ActiveSetQp::residual(const SpMat& P_upper, const SpMat& A, const SpMat& G, const Eigen::VectorXi& active) {
-  const int n = n_, m = m_, p = p_;
-  res_ = rhs_;
-  auto w = sol_.head(n);
-  for (int c = 0; c < n; ++c) {
-    for (SpMat::InnerIterator it(P_upper, c); it; ++it) {
-      res_(it.row()) -= it.value() * w(c);
-      if (it.row() != c) res_(c) -= it.value() * w(it.row());
+// Factorises K_, recomputing only the rows of the factor that depend on the columns whose values
+// changed since the last factorisation (an active-set change touches a few columns).
+bool ActiveSetQp::factorize() {
+  const double* val = K_.valuePtr();
+  double* old = K_factored_.data();
+  const int* outer = K_.outerIndexPtr();
+  int n_changed = 0;
+  for (int c = 0; c < K_.cols(); ++c)
+    if (!std::equal(val + outer[c], val + outer[c + 1], old + outer[c])) {
+      changed_(n_changed++) = c;
+      std::copy(val + outer[c], val + outer[c + 1], old + outer[c]);
     }
-    for (SpMat::InnerIterator it(A, c); it; ++it) {
-      res_(c) -= it.value() * sol_(n + it.row());
-      res_(n + it.row()) -= it.value() * w(c);
+  return ldlt_.refactorize(K_, changed_.head(n_changed));
+}
+
+// res_p_ = rhs_p_ - K0 sol_p_ with K0 = K_ - diag(reg_) the unregularised KKT matrix (permuted order).
+void ActiveSetQp::residual() {
+  res_p_ = rhs_p_ + reg_.cwiseProduct(sol_p_);
+  const int* Kp = K_.outerIndexPtr();
+  const int* Ki = K_.innerIndexPtr();
+  const double* Kx = K_.valuePtr();
+  for (int c = 0; c < K_.cols(); ++c)
+    for (int e = Kp[c]; e < Kp[c + 1]; ++e) {
+      const int r = Ki[e];
+      res_p_(r) -= Kx[e] * sol_p_(c);
+      if (r != c) res_p_(c) -= Kx[e] * sol_p_(r);
     }
-    for (SpMat::InnerIterator it(G, c); it; ++it) {
-      if (active(it.row()) == 0) continue;
-      res_(c) -= it.value() * sol_(n + m + it.row());
-      res_(n + m + it.row()) -= it.value() * w(c);
-    }
-  }
-  for (int i = 0; i < p; ++i)
-    if (active(i) == 0) res_(n + m + i) += sol_(n + m + i);
-  for (Eigen::Index k = 0; k < bound_var_.size(); ++k) {
-    const int j = bound_var_(k);
-    const Eigen::Index r = n + m + p + k;
-    if (active(p + j) != 0) {
-      res_(j) -= sol_(r);
-      res_(r) -= w(j);
-    } else {
-      res_(r) += sol_(r);
-    }
-  }
 }
 
 ActiveSetQp::Status ActiveSetQp::solve(const SpMat& P_upper, const Eigen::VectorXd& q, const SpMat& A,
@@ -229,8 +228,7 @@ ActiveSetQp::Status ActiveSetQp::solve(const SpMat& P_upper, const Eigen::Vector
   while (info_.iterations < settings_.max_iterations) {
     ++info_.iterations;
     write_matrix(P_upper, A, G, set_);
-    ldlt_->factorize_ordered(K_);
-    if (ldlt_->info() != Eigen::Success) return info_.status = Status::Singular;
+    if (!factorize()) return info_.status = Status::Singular;
     rhs_.head(n) = -q;
     rhs_.segment(n, m) = b;
     for (int i = 0; i < p; ++i) rhs_(n + m + i) = set_(i) > 0 ? h_u(i) : (set_(i) < 0 ? h_l(i) : 0.0);
@@ -239,25 +237,25 @@ ActiveSetQp::Status ActiveSetQp::solve(const SpMat& P_upper, const Eigen::Vector
       rhs_(n + m + p + k) = a > 0 ? x_u(j) : (a < 0 ? x_l(j) : 0.0);
     }
     // Solve, then refine against the unregularised matrix while the residual keeps shrinking.
-    for (Eigen::Index i = 0; i < rhs_.size(); ++i) tmp_(perm_(i)) = rhs_(i);
-    corr_ = ldlt_->solve(tmp_);
-    for (Eigen::Index i = 0; i < rhs_.size(); ++i) sol_(i) = corr_(perm_(i));
+    for (Eigen::Index i = 0; i < rhs_.size(); ++i) rhs_p_(perm_(i)) = rhs_(i);
+    sol_p_ = rhs_p_;
+    ldlt_.solve_in_place(sol_p_);
     const double rhs_norm = rhs_.lpNorm<Eigen::Infinity>();
     double last = inf;
     for (int r = 0; r <= settings_.max_refinement; ++r) {
-      residual(P_upper, A, G, set_);
-      const double norm = res_.lpNorm<Eigen::Infinity>();
+      residual();
+      const double norm = res_p_.lpNorm<Eigen::Infinity>();
       if (!std::isfinite(norm)) return info_.status = Status::Singular;
       // Accurate enough at a hundredth of the verification tolerance, or stagnating.
       if (r == settings_.max_refinement || norm <= 1e-2 * settings_.eps_abs + 1e-15 * rhs_norm ||
           norm > 0.5 * last)
         break;
       last = norm;
-      for (Eigen::Index i = 0; i < res_.size(); ++i) tmp_(perm_(i)) = res_(i);
-      corr_ = ldlt_->solve(tmp_);
-      for (Eigen::Index i = 0; i < res_.size(); ++i) sol_(i) += corr_(perm_(i));
+      ldlt_.solve_in_place(res_p_);
+      sol_p_ += res_p_;
       ++info_.refinements;
     }
+    for (Eigen::Index i = 0; i < sol_.size(); ++i) sol_(i) = sol_p_(perm_(i));
     w_ = sol_.head(n);
     y_ = sol_.segment(n, m);
     for (int i = 0; i < p; ++i) lam_g_(i) = set_(i) != 0 ? sol_(n + m + i) : 0.0;

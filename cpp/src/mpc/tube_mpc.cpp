@@ -875,13 +875,18 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     }
     res.timings.build += seconds_since(t0);
 
-    // Solve: the active set warm-started from the last QP's set; PIQP if it does not verify.
+    // Solve: the active set warm-started from the last QP's set, then once more from the empty set
+    // if that guess led it astray (it can make dependent rows active); PIQP if neither verifies.
     t0 = Clock::now();
     m.last_qp_active_set = false;
     if (s.backend == Backend::ActiveSetPiqp) {
-      m.last_qp_active_set = m.active_set.solve(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u, m.as_set) ==
-                             ActiveSetQp::Status::Solved;
-      res.active_set_iterations += m.active_set.info().iterations;
+      const bool warm = (m.as_set.array() != 0).any();
+      for (int attempt = 0; attempt < (warm ? 2 : 1) && !m.last_qp_active_set; ++attempt) {
+        if (attempt == 1) m.as_set.setZero();
+        m.last_qp_active_set = m.active_set.solve(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u, m.as_set) ==
+                               ActiveSetQp::Status::Solved;
+        res.active_set_iterations += m.active_set.info().iterations;
+      }
       if (m.last_qp_active_set) ++res.active_set_solves;
     }
     const Status qp_status = m.last_qp_active_set ? Status::Solved : m.solve_piqp(s, res, t_start);

@@ -186,6 +186,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--backend", choices=("active-set", "piqp"), default="active-set",
                         help="QP solver of the step: the warm-started active set with PIQP when it does not verify "
                              "(default, mpc::Backend::ActiveSetPiqp) or PIQP alone")
+    parser.add_argument("--repeats", type=int, default=1,
+                        help="fly the mission this many times and report the spread of the per-run medians and "
+                             "p99s (the machine's speed drifts between runs; default 1)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", metavar="PATH", help="write the figures as JSON")
 
@@ -227,11 +230,16 @@ def _bennu_plant(args: argparse.Namespace) -> tuple[Any, Any, Any, Any, Callable
 def run(args: argparse.Namespace) -> int:
     if args.qp_samples < 1:
         raise SystemExit("--qp-samples must be >= 1 (the QP sizes and the C++ solution checks use them)")
+    if args.repeats < 1:
+        raise SystemExit("--repeats must be >= 1")
     dt = 2.0
     info = machine_info()
     print(f"machine: {info['cpu']} ({info['cores']} cores), Python {info['python']}")
     if args.plant == "bennu":
         model, settings, reference, tube, truth = _bennu_plant(args)
+
+        def fresh_truth() -> Callable[[int, Arr, Arr], Arr]:
+            return _bennu_plant(args)[4]
         plant_text = ("plant: the default scenario's 6-DOF model (generated Bennu-like shape, polyhedral gravity, "
                       "exact ZOH), TBMPC's prior tube, truth = RK4 propagation + the scenario's disturbance")
     else:
@@ -241,11 +249,16 @@ def run(args: argparse.Namespace) -> int:
             declare_block_structure(settings, model.constraints(0.0, np.zeros(12))[0])
         reference = hermite_reference(X0, XF, args.steps, dt)
         tube = lqr_tube(Ad, Bd, settings)
-        rng = np.random.default_rng(args.seed)
         scale = np.r_[np.full(6, args.disturbance), np.full(6, 1e-2 * args.disturbance)]
 
-        def truth(k: int, x: Arr, u: Arr) -> Arr:
-            return np.asarray(Ad @ x + Bd @ u + rng.uniform(-1.0, 1.0, size=12) * scale, dtype=np.float64)
+        def fresh_truth() -> Callable[[int, Arr, Arr], Arr]:
+            rng = np.random.default_rng(args.seed)
+
+            def truth(k: int, x: Arr, u: Arr) -> Arr:
+                return np.asarray(Ad @ x + Bd @ u + rng.uniform(-1.0, 1.0, size=12) * scale, dtype=np.float64)
+            return truth
+
+        truth = fresh_truth()
 
         plant_text = ("plant: 12-state/6-input stand-in (Hill/CW translation + linearised rigid body, "
                       "4 glide-slope planes)")
@@ -255,6 +268,14 @@ def run(args: argparse.Namespace) -> int:
     settings.backend = mpc.Backend.ActiveSetPiqp if args.backend == "active-set" else mpc.Backend.PiqpSparse
     records, qps = run_mission(model, settings, reference, tube, truth, samples)
     final = records.pop()
+    # Further flights of the same (deterministic) mission, for the timings' spread between runs.
+    repeat_records = []
+    for _ in range(args.repeats - 1):
+        again, _qps = run_mission(model, settings, reference, tube, fresh_truth(), set())
+        again_final = again.pop()
+        if again_final["final_error_inf"] != final["final_error_inf"]:
+            raise RuntimeError("a repeated mission ended in a different state: the benchmark is not deterministic")
+        repeat_records.append(again)
     statuses: dict[str, int] = {}
     for r in records:
         statuses[r["status"]] = statuses.get(r["status"], 0) + 1
@@ -296,6 +317,19 @@ def run(args: argparse.Namespace) -> int:
     out["step"]["solve_per_qp"] = per_qp
     print(f"  {'solve per QP':22s} {1e3 * per_qp['median']:10.3f} {1e3 * per_qp['p99']:10.3f} "
           f"{1e3 * per_qp['max']:10.3f}")
+    if repeat_records:
+        runs = []
+        for recs in [records, *repeat_records]:
+            run_stats = {key: _stats([r[key] for r in recs]) for key in ("total", "linearize", "solve")}
+            run_stats["solve_per_qp"] = _stats([r["solve"] / max(1, r["scp"]) for r in recs])
+            runs.append(run_stats)
+        out["runs"] = runs
+        print(f"over {len(runs)} flights of the mission (same steps; the spread is the machine's), per-run "
+              f"[ms]:     median min-max      p99 min-max")
+        for key in ("total", "linearize", "solve_per_qp"):
+            med = [1e3 * r[key]["median"] for r in runs]
+            p99 = [1e3 * r[key]["p99"] for r in runs]
+            print(f"  {key:22s} {min(med):10.3f} - {max(med):6.3f} {min(p99):10.3f} - {max(p99):6.3f}")
 
     print(f"baseline on {len(qps)} of the mission's QPs (the last QP of each sampled step); C++: max "
           f"violation {own_viol:.1e}, max relative KKT stationarity residual {final['max_kkt_residual']:.1e}")

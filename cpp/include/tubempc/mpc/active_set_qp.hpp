@@ -15,15 +15,19 @@
 /// The KKT matrix [[P + rho I, A^T, C^T], [A, -delta I, 0], [C, 0, -D]] (C: the rows of G and the
 /// bound rows of the variables that may carry bounds; inactive rows have C_i = 0 and D_ii = 1, so
 /// their multiplier is 0) keeps one sparsity pattern for every active set: its fill-reducing (AMD)
-/// ordering and symbolic analysis are done once by `setup`, and `solve` allocates nothing.
+/// ordering and symbolic analysis are done once by `setup`, and `solve` allocates nothing. Each
+/// factorisation recomputes only the rows of L that depend on the columns whose values changed
+/// (PartialLdlt, partial_ldlt.hpp): the first of a solve is complete when the QP's data changed, the
+/// following ones, after a change of a few rows of the set, recompute a small part of the factor.
 /// The regularisations rho and delta make the matrix quasi-definite (an LDL^T exists for any
 /// ordering); iterative refinement against the unregularised matrix removes their effect.
 #pragma once
 
 #include <Eigen/Dense>
 #include <Eigen/SparseCore>
-#include <memory>
 #include <string>
+
+#include "tubempc/mpc/partial_ldlt.hpp"
 
 namespace tubempc::mpc {
 
@@ -63,10 +67,7 @@ class ActiveSetQp {
     double dual_res = 0.0;     ///< |P w + q + A^T y + G^T (z_u - z_l) + z_bu - z_bl|_inf.
   };
 
-  ActiveSetQp();   ///< Empty solver; call setup before solve.
-  ~ActiveSetQp();  ///< Releases the factorisation.
-  ActiveSetQp(const ActiveSetQp&) = delete;
-  ActiveSetQp& operator=(const ActiveSetQp&) = delete;
+  ActiveSetQp() = default;  ///< Empty solver; call setup before solve.
 
   /// Fixes the pattern: P (n x n, upper triangle, compressed), A (m x n), G (p x n), and which
   /// variables may carry a finite bound (`boundable`, n). Values are ignored. Allocates.
@@ -95,9 +96,9 @@ class ActiveSetQp {
   const Settings& settings() const { return settings_; }
 
  private:
-  struct Ldlt;
   void write_matrix(const SpMat& P_upper, const SpMat& A, const SpMat& G, const Eigen::VectorXi& active);
-  void residual(const SpMat& P_upper, const SpMat& A, const SpMat& G, const Eigen::VectorXi& active);
+  bool factorize();
+  void residual();
 
   Settings settings_;
   int n_ = 0, m_ = 0, p_ = 0;
@@ -106,9 +107,14 @@ class ActiveSetQp {
   SpMat K_;                     // KKT upper triangle in the permuted order
   Eigen::VectorXi perm_;        // natural index -> permuted index
   Eigen::VectorXi pos_P_, pos_A_, pos_G_, pos_B_, pos_diag_;  // value positions in K_
-  std::unique_ptr<Ldlt> ldlt_;
+  PartialLdlt ldlt_;
+  Eigen::VectorXd K_factored_;  // K_'s values at the last factorisation
+  Eigen::VectorXi changed_;     // columns of K_ changed since then
+  Eigen::VectorXd reg_;         // K_ = K0 + diag(reg_), K0 the unregularised KKT matrix (permuted order)
   Eigen::VectorXi set_;         // working copy of the active set (p + n)
-  Eigen::VectorXd rhs_, sol_, res_, tmp_, corr_, g_;
+  Eigen::VectorXd rhs_, sol_;   // KKT right-hand side and solution (natural order)
+  Eigen::VectorXd rhs_p_, sol_p_, res_p_;  // the same and the residual (permuted order)
+  Eigen::VectorXd tmp_, corr_, g_;
   Eigen::VectorXd w_, y_, z_l_, z_u_, z_bl_, z_bu_, lam_g_, lam_b_;
   double objective_ = 0.0;
   Info info_;

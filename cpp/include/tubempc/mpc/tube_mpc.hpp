@@ -35,7 +35,8 @@
 /// phase (k >= T - N, the paper's Problem 3) z_N = x_f = zbar_T (hard, or L1-penalised).
 /// QP solver (Settings::backend): by default a warm-started primal-dual active-set method
 /// (active_set_qp.hpp) whose guess is the previous QP's active set (the previous step's shifted by one
-/// node in a step's first SCP iteration), accepted only when it verifies the KKT conditions; otherwise
+/// node in a step's first SCP iteration), accepted only when it verifies the KKT conditions; if that
+/// guess fails, once more from the empty set (a wrong guess can make dependent rows active); otherwise
 /// PIQP (an interior-point method, which has no warm start) solves the same QP. Each step's SCP starts
 /// from the previous plan shifted to k as its linearisation trajectory. With Settings::reuse_linearization (default), model
 /// data whose linearisation point lies within scp_eps of the plan are kept: a step that follows a
@@ -90,7 +91,8 @@ enum class InputCost {
 enum class Backend {
   PiqpSparse,     ///< PIQP's sparse interior-point solver, set up once, updated every QP.
   /// Warm-started primal-dual active set (ActiveSetQp, at most Settings::active_set_max_iterations
-  /// factorisations); a QP it does not solve to the verified tolerance goes to PIQP (default).
+  /// factorisations per try; a second try from the empty set when the warm start fails); a QP it does
+  /// not solve to the verified tolerance goes to PIQP (default).
   ActiveSetPiqp,
 };
 
@@ -128,7 +130,8 @@ struct Settings {
   double riccati_tol = 1e-10;          ///< Relative convergence tolerance of the DARE doubling.
   int riccati_max_iterations = 100;    ///< Cap on DARE doubling iterations.
   Backend backend = Backend::ActiveSetPiqp;      ///< QP solver.
-  /// Factorisations the active-set solver may spend on one QP before PIQP takes over (>= 1). Its KKT
+  /// Factorisations the active-set solver may spend on each of its (at most two) tries on one QP
+  /// before PIQP takes over (>= 1). Its KKT
   /// verification uses qp_eps_abs and qp_eps_rel.
   int active_set_max_iterations = 12;
   KktSolver kkt_solver = KktSolver::SparseLdlt;  ///< Factorisation of PIQP's KKT systems.
