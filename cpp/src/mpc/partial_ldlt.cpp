@@ -3,7 +3,6 @@
 
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
-#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
