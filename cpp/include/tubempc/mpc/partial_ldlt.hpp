@@ -6,8 +6,8 @@
 /// The factorisation is up-looking: row k of L and D_kk depend only on column k of the matrix's
 /// upper triangle and on the rows of k's descendants in the elimination tree. When an active-set
 /// iteration changes a few columns of the KKT matrix, only those rows and their ancestors in the
-/// tree change, and `refactorize` recomputes them alone (in the tube MPC's KKT matrix, typically 10
-/// to 300 of 1226 rows). Eigen's SimplicialLDLT (the same algorithm, without the partial step) does
+/// tree change, and `refactorize` recomputes them alone (in the tube MPC's KKT matrix, 10 to 30 of
+/// 1226 rows on the mission QPs inspected; the tree is up to 555 rows deep). Eigen's SimplicialLDLT (the same algorithm, without the partial step) does
 /// the symbolic analysis. The row patterns of L, each in the order Eigen visits it, and the storage
 /// slot of every entry are then fixed, so every entry is computed by the same operations in the same
 /// order as Eigen's factorisation, with no elimination-tree traversal and no allocation.
