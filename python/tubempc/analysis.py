@@ -1,5 +1,6 @@
 """Monte Carlo campaigns (paper Table 4, Figures 17-18) and the forgetting-factor sweep (Table 3,
-Figures 15-16), on top of :mod:`tubempc.closed_loop` and :mod:`tubempc.campaign`."""
+Figures 15-16), on top of :mod:`tubempc.scenario`, :mod:`tubempc.closed_loop`, :mod:`tubempc.metrics`
+and :mod:`tubempc.campaign`."""
 
 from __future__ import annotations
 
@@ -14,9 +15,10 @@ import numpy as np
 
 from . import figures
 from .campaign import CampaignResult, run_campaign
-from .closed_loop import METHODS, Scenario, build_scenario, simulate
+from .closed_loop import simulate
 from .config import Config
-from .runner import run_summary
+from .metrics import run_metrics
+from .scenario import METHODS, Scenario, build_scenario
 
 __all__ = ["montecarlo", "montecarlo_summary", "sweep"]
 
@@ -39,15 +41,14 @@ def _montecarlo_run(cfg: Config, cache_dir: str, runs_dir: str, methods: tuple[s
     out: dict[str, Any] = {}
     arrays: dict[str, np.ndarray] = {}
     for m in methods:
-        res = simulate(scn, m, seed, max_steps=max_steps, tube_threads=tube_threads)
-        s = run_summary(scn, res)
+        rec = simulate(scn, m, seed, max_steps=max_steps, tube_threads=tube_threads)
+        s = run_metrics(rec, cfg.mpc.dt, scn.xf)
         out[m] = {k: s[k] for k in ("J_p", "J_r", "control_effort", "terminal_error", "rms_error",
                                     "max_tube_excursion", "steps_outside_tube", "constraint_violations", "statuses",
                                     "run_time_s")}
-        a = res.arrays
-        arrays[f"{m}_error"] = (a["x"][:-1] - a["z"]).astype(np.float32)
+        arrays[f"{m}_error"] = (rec.x[:-1] - rec.z).astype(np.float32)
         arrays[f"{m}_half_width"] = np.sqrt(np.concatenate(
-            [np.diagonal(a["Pe_p"], axis1=1, axis2=2), np.diagonal(a["Pe_r"], axis1=1, axis2=2)], axis=1)).astype(np.float32)
+            [np.diagonal(rec.Pe_p, axis1=1, axis2=2), np.diagonal(rec.Pe_r, axis1=1, axis2=2)], axis=1)).astype(np.float32)
     path = Path(runs_dir) / f"run_{index:05d}.npz"
     tmp = path.with_name(f".{path.name}.tmp.npz")
     np.savez_compressed(tmp, allow_pickle=False, **arrays)
@@ -145,20 +146,20 @@ def sweep(cfg: Config, lambdas_p: list[float], lambdas_r: list[float] | None, ou
     cfg.save(out / "config.toml")
     scn = build_scenario(cfg, cache_dir=out / "cache")
     rows: dict[str, Any] = {}
-    res = simulate(scn, "tbmpc", seed, progress=progress)
-    rows["TBMPC"] = run_summary(scn, res)
-    err_x: dict[str, np.ndarray] = {"TBMPC": res.arrays["x"][:, 0] - res.arrays["zbar"][:, 0]}
-    err_phi: dict[str, np.ndarray] = {"TBMPC": res.arrays["x"][:, 6] - res.arrays["zbar"][:, 6]}
-    tube_x = {"TBMPC": np.sqrt(res.arrays["Pe_p"][:, 0, 0])}
-    tube_phi = {"TBMPC": np.sqrt(res.arrays["Pe_r"][:, 0, 0])}
+    rec = simulate(scn, "tbmpc", seed, progress=progress)
+    rows["TBMPC"] = run_metrics(rec, cfg.mpc.dt, scn.xf)
+    err_x: dict[str, np.ndarray] = {"TBMPC": rec.x[:, 0] - rec.zbar[:, 0]}
+    err_phi: dict[str, np.ndarray] = {"TBMPC": rec.x[:, 6] - rec.zbar[:, 6]}
+    tube_x = {"TBMPC": np.sqrt(rec.Pe_p[:, 0, 0])}
+    tube_phi = {"TBMPC": np.sqrt(rec.Pe_r[:, 0, 0])}
     for lp, lr in pairs:
         label = f"FFA lambda_p={lp:g}, lambda_r={lr:g}"
         r = simulate(scn, "ffa", seed, progress=progress, lambda_p=lp, lambda_r=lr)
-        rows[label] = {**run_summary(scn, r), "lambda_p": lp, "lambda_r": lr}
-        err_x[label] = r.arrays["x"][:, 0] - r.arrays["zbar"][:, 0]
-        err_phi[label] = r.arrays["x"][:, 6] - r.arrays["zbar"][:, 6]
-        tube_x[label] = np.sqrt(r.arrays["Pe_p"][:, 0, 0])
-        tube_phi[label] = np.sqrt(r.arrays["Pe_r"][:, 0, 0])
+        rows[label] = {**run_metrics(r, cfg.mpc.dt, scn.xf), "lambda_p": lp, "lambda_r": lr}
+        err_x[label] = r.x[:, 0] - r.zbar[:, 0]
+        err_phi[label] = r.x[:, 6] - r.zbar[:, 6]
+        tube_x[label] = np.sqrt(r.Pe_p[:, 0, 0])
+        tube_phi[label] = np.sqrt(r.Pe_r[:, 0, 0])
     summary = {"seed": seed, "config_hash": cfg.hash(), "rows": rows}
     (out / "sweep.json").write_text(json.dumps(summary, indent=1, sort_keys=True))
     t = np.arange(cfg.mpc.n_steps + 1) * cfg.mpc.dt

@@ -1,10 +1,8 @@
 """Figures equivalent to the paper's Figures 3-18, drawn with matplotlib (Agg) from result arrays.
 
-Every function takes the arrays of a closed-loop result (see :mod:`tubempc.closed_loop`; names and
-shapes: ``t`` (T+1,), ``x``/``zbar`` (T+1, 12), ``z`` (T, 12) nominal initial states, ``z_plan``
-(T, N+1, 12) predicted horizons, ``u``/``v`` (T, 6), ``Pe_p``/``Pe_r`` (T, 6, 6), ``w``/``w_hat``
-(T, 12), ``S_p``/``S_r`` (T, 6, 6), ``g`` (T+1, 2) constraint values) and returns a Figure, which
-:func:`save` writes as PNG. Units are SI and written on every axis.
+Every function takes closed-loop records by method (:class:`tubempc.results.RunRecord`, which
+declares each array's shape and unit) and returns a Figure, which :func:`save` writes as PNG. Units
+are SI and written on every axis.
 """
 
 from __future__ import annotations
@@ -21,6 +19,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from .metrics import ConvergenceFit
+from .results import RunRecord
 
 __all__ = [
     "constraints",
@@ -36,7 +35,6 @@ __all__ = [
     "tube_projections",
 ]
 
-Result = Mapping[str, Any]
 _STATE_LABELS = [
     ("x (m)", "y (m)", "z (m)"),
     ("vx (m/s)", "vy (m/s)", "vz (m/s)"),
@@ -65,18 +63,18 @@ def _cone_surface(ax: Any, half_angle: float, height: float, color: str, label: 
     ax.plot([], [], color=color, alpha=0.4, label=label)
 
 
-def trajectory_3d(results: Mapping[str, Result], glide_slope_rad: float, every: int = 25) -> Figure:
+def trajectory_3d(results: Mapping[str, RunRecord], glide_slope_rad: float, every: int = 25) -> Figure:
     """Fig. 3: actual trajectories in L with the glide-slope cone and predicted horizons."""
     fig = plt.figure(figsize=(7.5, 6.5))
     ax = fig.add_subplot(projection="3d")
-    ref = next(iter(results.values()))["zbar"]
+    ref = next(iter(results.values())).zbar
     _cone_surface(ax, glide_slope_rad, float(np.max(ref[:, 2])) * 1.05, "tab:green", "glide-slope cone")
     ax.plot(ref[:, 0], ref[:, 1], ref[:, 2], "k--", lw=1, label="reference")
     for name, r in results.items():
-        x = r["x"]
+        x = r.x
         ax.plot(x[:, 0], x[:, 1], x[:, 2], color=_COLORS.get(name), lw=1.5, label=f"{name} actual")
-        for k in range(0, r["z_plan"].shape[0], every):
-            zp = r["z_plan"][k]
+        for k in range(0, r.z_plan.shape[0], every):
+            zp = r.z_plan[k]
             ax.plot(zp[:, 0], zp[:, 1], zp[:, 2], color=_COLORS.get(name), lw=0.6, alpha=0.5)
     ax.scatter(*ref[0, :3], color="g", s=30, label="start")
     ax.scatter(*ref[-1, :3], color="r", s=30, label="landing site")
@@ -110,40 +108,40 @@ def _finish_state_grid(fig: Figure, axes: Any, ylabel_prefix: str = "", title_pr
     return fig
 
 
-def states(results: Mapping[str, Result]) -> Figure:
+def states(results: Mapping[str, RunRecord]) -> Figure:
     """Figs. 4-5: the 12 states against the reference."""
     fig, axes = _state_grid()
     for name, r in results.items():
-        t = r["t"]
+        t = r.t
         for g in range(4):
             for i in range(3):
-                axes[g, i].plot(t, r["x"][:, 3 * g + i], color=_COLORS.get(name), lw=1.2, label=name)
+                axes[g, i].plot(t, r.x[:, 3 * g + i], color=_COLORS.get(name), lw=1.2, label=name)
     ref = next(iter(results.values()))
     for j in range(12):
-        axes[j // 3, j % 3].plot(ref["t"], ref["zbar"][:, j], "k--", lw=0.8, label="reference")
+        axes[j // 3, j % 3].plot(ref.t, ref.zbar[:, j], "k--", lw=0.8, label="reference")
     return _finish_state_grid(fig, axes, "", "")
 
 
-def errors(results: Mapping[str, Result]) -> Figure:
+def errors(results: Mapping[str, RunRecord]) -> Figure:
     """Figs. 6-7: tracking errors x - zbar per state."""
     fig, axes = _state_grid()
     for name, r in results.items():
-        e = r["x"] - r["zbar"]
+        e = r.x - r.zbar
         for g in range(4):
             for i in range(3):
-                axes[g, i].plot(r["t"], e[:, 3 * g + i], color=_COLORS.get(name), lw=1.0, label=name)
+                axes[g, i].plot(r.t, e[:, 3 * g + i], color=_COLORS.get(name), lw=1.0, label=name)
     return _finish_state_grid(fig, axes, "error ", "tracking error, ")
 
 
-def controls(results: Mapping[str, Result], u_max: float, T_max: float) -> Figure:
+def controls(results: Mapping[str, RunRecord], u_max: float, T_max: float) -> Figure:
     """Fig. 8: commanded acceleration (L) and torque (B) with their limits."""
     fig, axes = plt.subplots(2, 3, figsize=(12, 6), sharex=True)
     labels = [("u_x (m/s^2)", "u_y (m/s^2)", "u_z (m/s^2)"), ("T_x (N m)", "T_y (N m)", "T_z (N m)")]
     for name, r in results.items():
-        t = r["t"][:-1]
+        t = r.t[:-1]
         for g in range(2):
             for i in range(3):
-                axes[g, i].step(t, r["u"][:, 3 * g + i], where="post", color=_COLORS.get(name), lw=1.0, label=name)
+                axes[g, i].step(t, r.u[:, 3 * g + i], where="post", color=_COLORS.get(name), lw=1.0, label=name)
     for g, lim in enumerate((u_max, T_max)):
         for i in range(3):
             ax = axes[g, i]
@@ -159,31 +157,31 @@ def controls(results: Mapping[str, Result], u_max: float, T_max: float) -> Figur
     return fig
 
 
-def disturbances(results: Mapping[str, Result], pw_scale: float = 9.0) -> Figure:
+def disturbances(results: Mapping[str, RunRecord], pw_scale: float = 9.0) -> Figure:
     """Figs. 9-11: measured exogenous inputs w with the identified mean and sqrt(scale) sigma bounds."""
     fig, axes = _state_grid()
     k_sigma = float(np.sqrt(pw_scale))
     for name, r in results.items():
-        t = r["t"][1:]
-        S = np.concatenate([np.diagonal(r["S_p"], axis1=1, axis2=2), np.diagonal(r["S_r"], axis1=1, axis2=2)], axis=1)
+        t = r.t[1:]
+        S = np.concatenate([np.diagonal(r.S_p, axis1=1, axis2=2), np.diagonal(r.S_r, axis1=1, axis2=2)], axis=1)
         for j in range(12):
             ax = axes[j // 3, j % 3]
             c = _COLORS.get(name)
-            ax.plot(t, r["w"][:, j], color=c, lw=0.6, alpha=0.7, label=f"{name} w")
+            ax.plot(t, r.w[:, j], color=c, lw=0.6, alpha=0.7, label=f"{name} w")
             bound = k_sigma * np.sqrt(S[:, j])
-            ax.plot(t, r["w_hat"][:, j] + bound, color=c, lw=1.0, ls="--", label=f"{name} ±{k_sigma:.0f} sigma")
-            ax.plot(t, r["w_hat"][:, j] - bound, color=c, lw=1.0, ls="--")
+            ax.plot(t, r.w_hat[:, j] + bound, color=c, lw=1.0, ls="--", label=f"{name} ±{k_sigma:.0f} sigma")
+            ax.plot(t, r.w_hat[:, j] - bound, color=c, lw=1.0, ls="--")
     return _finish_state_grid(fig, axes, "w ", None, "Exogenous inputs per step and identified bounds", 7)
 
 
-def tube_projections(results: Mapping[str, Result]) -> Figure:
+def tube_projections(results: Mapping[str, RunRecord]) -> Figure:
     """Fig. 12 (and 10): error x - z against the tube's half-widths sqrt(Pe_ii) per state."""
     fig, axes = _state_grid()
     for name, r in results.items():
-        t = r["t"][:-1]
-        e = r["x"][:-1] - r["z"]
-        half = np.sqrt(np.concatenate([np.diagonal(r["Pe_p"], axis1=1, axis2=2),
-                                       np.diagonal(r["Pe_r"], axis1=1, axis2=2)], axis=1))
+        t = r.t[:-1]
+        e = r.x[:-1] - r.z
+        half = np.sqrt(np.concatenate([np.diagonal(r.Pe_p, axis1=1, axis2=2),
+                                       np.diagonal(r.Pe_r, axis1=1, axis2=2)], axis=1))
         for j in range(12):
             ax = axes[j // 3, j % 3]
             c = _COLORS.get(name)
@@ -192,12 +190,12 @@ def tube_projections(results: Mapping[str, Result]) -> Figure:
     return _finish_state_grid(fig, axes, "", None, "Actual minus nominal state inside the tube projections", 7)
 
 
-def constraints(results: Mapping[str, Result]) -> Figure:
+def constraints(results: Mapping[str, RunRecord]) -> Figure:
     """Fig. 13: glide-slope and line-of-sight constraint values g (feasible when g <= 0)."""
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     for name, r in results.items():
         for j, title in enumerate(("glide slope", "line of sight")):
-            axes[j].plot(r["t"], r["g"][:, j], color=_COLORS.get(name), label=name)
+            axes[j].plot(r.t, r.g[:, j], color=_COLORS.get(name), label=name)
             axes[j].set_title(f"{title}: g(x) <= 0")
     for ax in axes:
         ax.axhline(0.0, color="r", ls=":")

@@ -10,16 +10,22 @@ Definitions used throughout (the paper gives no index range; this is the project
   the translational delta-v = sum_k ||u_p(k)|| dt is reported beside it.
 - terminal error per state group = ||x_g(T) - x_f,g||_2; RMS error per state group =
   sqrt(mean_k ||x_g(k) - zbar_g(k)||^2) over k = 0..T.
-- tube excursion = max_k e_k^T Pe_k^-1 e_k with e_k = x_k - z_k per subsystem (<= 1 inside the tube).
+- tube excursion = e^T Pe_k^-1 e with e = x_{k+1} - z*_{1|k} per subsystem, the error one step after the
+  plan, which robust invariance bounds by 1 (> 1: outside the tube).
 """
 
 from __future__ import annotations
 
+import collections
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 from scipy.optimize import minimize_scalar
+
+if TYPE_CHECKING:
+    from .results import RunRecord
 
 __all__ = [
     "GROUPS",
@@ -28,10 +34,19 @@ __all__ = [
     "fit_exponential_convergence",
     "performance_index",
     "rms_error",
+    "run_metrics",
+    "step_time_stats",
+    "steps_outside_tube",
     "summarize",
     "terminal_error",
     "tube_excursion",
+    "velocity_convergence",
 ]
+
+#: Tube excursions above 1 + this count as outside the tube (round-off of the e^T Pe^-1 e evaluation).
+EXCURSION_TOLERANCE = 1e-9
+#: Step phases whose wall times a run records (``RunRecord.time_<phase>``).
+STEP_PHASES = ("step", "tube", "mpc", "linearize", "build", "solve", "propagate", "identify")
 
 Array = npt.NDArray[np.float64]
 
@@ -150,3 +165,56 @@ def summarize(
         "terminal_error": terminal_error(x, x_f),
         "rms_error": rms_error(x, zbar),
     }
+
+
+def steps_outside_tube(excursion: Array) -> int:
+    """Steps whose excursion (T, 2) exceeds 1 in either subsystem (1 + EXCURSION_TOLERANCE)."""
+    return int(np.sum(np.any(np.asarray(excursion) > 1.0 + EXCURSION_TOLERANCE, axis=1)))
+
+
+def step_time_stats(seconds: Array) -> dict[str, float]:
+    """Median, 99th percentile, mean and maximum of per-step wall times, in milliseconds."""
+    ms = 1e3 * np.asarray(seconds, dtype=float)
+    return {"median_ms": float(np.median(ms)), "p99_ms": float(np.percentile(ms, 99)),
+            "mean_ms": float(np.mean(ms)), "max_ms": float(np.max(ms))}
+
+
+def velocity_convergence(t: Array, x: Array, zbar: Array) -> tuple[Array, Array, ConvergenceFit]:
+    """Theorem 2 envelope of ||v - vbar|| (m/s) fitted from its largest value on (paper Figure 14):
+    the times, the error norms from there and the fit."""
+    err = np.linalg.norm(x[:, 3:6] - zbar[:, 3:6], axis=1)
+    k0 = int(np.argmax(err))
+    return t[k0:], err[k0:], fit_exponential_convergence(err[k0:])
+
+
+def _fit_dict(rec: RunRecord) -> dict[str, float]:
+    try:
+        _, _, fit = velocity_convergence(rec.t, rec.x, rec.zbar)
+    except ValueError:  # too short, or no error at all
+        return {}
+    return {"C_e0_m_per_s": fit.C * fit.e0, "rho": fit.rho, "ebar_m_per_s": fit.ebar}
+
+
+def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> dict[str, Any]:
+    """Every scalar result of one closed-loop run (JSON-ready): :func:`summarize`, the tube
+    excursions, the constraint violations of the actual trajectory, step-time statistics, solver
+    figures, statuses and the velocity-convergence fit."""
+    s: dict[str, Any] = summarize(rec.x, rec.zbar, rec.u, dt, x_f)
+    g = rec.g
+    s.update({
+        "max_tube_excursion": {"translation": float(rec.excursion[:, 0].max()),
+                               "rotation": float(rec.excursion[:, 1].max())},
+        "steps_outside_tube": steps_outside_tube(rec.excursion),
+        "constraint_violations": {"glide_slope_steps": int(np.sum(g[:, 0] > 0)), "los_steps": int(np.sum(g[:, 1] > 0)),
+                                  "max_glide_slope_g_m": float(g[:, 0].max()), "max_los_g_m": float(g[:, 1].max())},
+        "step_time": {name: step_time_stats(getattr(rec, f"time_{name}")) for name in STEP_PHASES},
+        "scp_iterations_mean": float(np.mean(rec.scp_iterations)),
+        "model_evaluations_mean": float(np.mean(rec.model_evaluations)),
+        "active_set_qp_fraction": float(np.sum(rec.active_set_solves) / max(1.0, float(np.sum(rec.scp_iterations)))),
+        "velocity_convergence_fit": _fit_dict(rec),
+        "statuses": dict(collections.Counter(rec.statuses)),
+        "tube_statuses": dict(collections.Counter(rec.tube_statuses)),
+        "run_time_s": rec.wall_time_s,
+        "seed": rec.seed,
+    })
+    return s

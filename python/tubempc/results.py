@@ -1,23 +1,112 @@
-"""Self-describing HDF5 result files: arrays, the configuration and the seed in one file.
+"""The record of a closed-loop run and its self-describing HDF5 file.
 
-Layout: every array is a dataset at the root (``/x``, ``/u``, ...; units in the dataset attribute
-``units`` when given), and the root attributes hold ``config`` (JSON of the full configuration),
-``seed``, ``method``, ``tubempc_version`` and ``metadata`` (JSON of anything else, e.g. metrics).
+:class:`RunRecord` declares every array of a run once, with its shape and unit; :func:`save_record`
+writes it (the one writer) and :func:`load_record` reads it back (the one reader).
+
+File layout: every array is a dataset at the root (``/x``, ``/u``, ...; units in the dataset attribute
+``units``), and the root attributes hold ``config`` (JSON of the full configuration), ``seed``,
+``method``, ``tubempc_version`` and ``metadata`` (JSON of anything else, e.g. metrics).
+:func:`save_result` / :func:`load_result` are the generic layer underneath.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import h5py
 import numpy as np
+import numpy.typing as npt
 
 from . import __version__
 
-__all__ = ["load_result", "save_result"]
+__all__ = ["RunRecord", "load_record", "load_result", "save_record", "save_result"]
+
+Array = npt.NDArray[np.float64]
+_STATE = "[m, m/s, rad, rad/s]"  # x = [r_L, v_L, phi, omega_BL_B]
+_INPUT = "[m/s^2 (L), N m (B)]"  # u = [u_p, T]
+
+
+def _array(shape: tuple[str | int, ...], unit: str, doc: str) -> Any:
+    """A declared array of the record: shape in the symbols T (steps) and N (horizon), unit, meaning."""
+    return field(default_factory=lambda: np.zeros(0), metadata={"shape": shape, "unit": unit, "doc": doc})
+
+
+@dataclass
+class RunRecord:
+    """Every array of one closed-loop run, declared once with its shape (T steps, horizon N) and unit,
+    plus the per-step statuses and the run's facts."""
+
+    method: str
+    seed: int
+    t: Array = _array(("T+1",), "s", "time of each state x_k")
+    x: Array = _array(("T+1", 12), _STATE, "measured state x_k")
+    zbar: Array = _array(("T+1", 12), _STATE, "reference state")
+    ubar: Array = _array(("T", 6), _INPUT, "reference input")
+    z: Array = _array(("T", 12), _STATE, "nominal state z*_0|k of the step's plan")
+    z_plan: Array = _array(("T", "N+1", 12), _STATE, "the step's nominal plan z*_{0..N|k}")
+    u: Array = _array(("T", 6), _INPUT, "applied input (ancillary law, saturated)")
+    v: Array = _array(("T", 6), _INPUT, "nominal input v*_0|k")
+    K: Array = _array(("T", 6, 12), "[m/s^2, N m] per state unit", "ancillary gain")
+    Pe_p: Array = _array(("T", 6, 6), "[m, m/s]^2", "translational tube shape")
+    Pe_r: Array = _array(("T", 6, 6), "[rad, rad/s]^2", "rotational tube shape")
+    alpha: Array = _array(("T", 2), "1", "tube contraction alpha (translation, rotation)")
+    w: Array = _array(("T", 12), _STATE, "measured exogenous input w_k")
+    w_true: Array = _array(("T", 12), _STATE, "simulated additive disturbance")
+    w_hat: Array = _array(("T", 12), _STATE, "identified disturbance mean after step k")
+    S_p: Array = _array(("T", 6, 6), "[m, m/s]^2", "identified translational covariance after step k")
+    S_r: Array = _array(("T", 6, 6), "[rad, rad/s]^2", "identified rotational covariance after step k")
+    g: Array = _array(("T+1", 2), "m", "glide-slope and line-of-sight constraint values (> 0: violated)")
+    excursion: Array = _array(("T", 2), "1", "tube excursion e^T Pe^-1 e of x_{k+1} - z*_1|k (> 1: outside)")
+    scp_iterations: Array = _array(("T",), "1", "SCP iterations (QPs) of the step")
+    qp_iterations: Array = _array(("T",), "1", "QP solver iterations of the step")
+    active_set_solves: Array = _array(("T",), "1", "QPs of the step solved by the active set")
+    model_evaluations: Array = _array(("T",), "1", "model linearisations of the step")
+    time_tube: Array = _array(("T",), "s", "wall time of the tube update")
+    time_linearize: Array = _array(("T",), "s", "wall time of the MPC's linearisation")
+    time_build: Array = _array(("T",), "s", "wall time of the MPC's QP assembly")
+    time_solve: Array = _array(("T",), "s", "wall time of the MPC's QP solves")
+    time_mpc: Array = _array(("T",), "s", "wall time of the MPC step")
+    time_propagate: Array = _array(("T",), "s", "wall time of the truth propagation")
+    time_identify: Array = _array(("T",), "s", "wall time of the identification")
+    time_step: Array = _array(("T",), "s", "wall time of the whole control step")
+    statuses: list[str] = field(default_factory=list)  # MPC step status per step
+    failures: list[str] = field(default_factory=list)  # cause of each fallback ("solved": none)
+    tube_statuses: list[str] = field(default_factory=list)  # per tube update: "<translation>/<rotation>"
+    wall_time_s: float = 0.0
+
+    @staticmethod
+    def array_fields() -> list[dataclasses.Field[Any]]:
+        """The declared arrays (fields with a shape and a unit)."""
+        return [f for f in dataclasses.fields(RunRecord) if "shape" in f.metadata]
+
+    @classmethod
+    def allocate(cls, method: str, seed: int, n_steps: int, horizon: int) -> RunRecord:
+        """A record of zeros for T = ``n_steps`` steps and horizon N = ``horizon``."""
+        sizes = {"T": n_steps, "T+1": n_steps + 1, "N+1": horizon + 1}
+        arrays = {f.name: np.zeros(tuple(sizes.get(d, d) for d in f.metadata["shape"]))  # type: ignore[misc]
+                  for f in cls.array_fields()}
+        return cls(method=method, seed=seed, **arrays)
+
+    def truncate(self, n_run: int) -> None:
+        """Cuts every array to the first ``n_run`` steps (a run stopped early)."""
+        for f in self.array_fields():
+            keep = n_run + 1 if f.metadata["shape"][0] == "T+1" else n_run
+            setattr(self, f.name, getattr(self, f.name)[:keep])
+
+    @property
+    def n_steps(self) -> int:
+        """Number of steps recorded."""
+        return int(self.u.shape[0])
+
+    @staticmethod
+    def units() -> dict[str, str]:
+        """Unit of every declared array."""
+        return {f.name: f.metadata["unit"] for f in RunRecord.array_fields()}
 
 
 def save_result(
@@ -78,3 +167,32 @@ def load_result(path: str | Path) -> dict[str, Any]:
             if "units" in ds.attrs:
                 out["units"][name] = str(ds.attrs["units"])
     return out
+
+
+def save_record(path: str | Path, record: RunRecord, *, config: Mapping[str, Any],
+                metadata: Mapping[str, Any] | None = None) -> Path:
+    """Writes a run's record (every declared array with its unit, the statuses, the configuration
+    and the seed) to an HDF5 file; returns the path."""
+    arrays: dict[str, Any] = {f.name: getattr(record, f.name) for f in RunRecord.array_fields()}
+    arrays.update(status=np.array(record.statuses), failure=np.array(record.failures),
+                  tube_status=np.array(record.tube_statuses))
+    meta = {"wall_time_s": record.wall_time_s, **(metadata or {})}
+    return save_result(path, arrays, config=config, seed=record.seed, method=record.method, units=RunRecord.units(),
+                       metadata=meta)
+
+
+def load_record(path: str | Path) -> tuple[RunRecord, dict[str, Any]]:
+    """Reads a file written by :func:`save_record`: the record and the file's ``config``, ``metadata``
+    and ``tubempc_version``."""
+    raw = load_result(path)
+    missing = [f.name for f in RunRecord.array_fields() if f.name not in raw]
+    if missing:
+        raise ValueError(f"{path}: not a run record (missing arrays {missing})")
+    arrays = {f.name: np.asarray(raw[f.name], dtype=np.float64) for f in RunRecord.array_fields()}
+    meta = raw["metadata"]
+    record = RunRecord(method=raw["method"], seed=-1 if raw["seed"] is None else raw["seed"], **arrays,
+                       statuses=[str(v) for v in raw.get("status", [])],
+                       failures=[str(v) for v in raw.get("failure", [])],
+                       tube_statuses=[str(v) for v in raw.get("tube_status", [])],
+                       wall_time_s=float(meta.get("wall_time_s", 0.0)))
+    return record, {k: raw[k] for k in ("config", "metadata", "tubempc_version")}

@@ -8,10 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tubempc.closed_loop import build_scenario, simulate
+from tubempc.closed_loop import simulate
 from tubempc.config import load_config
-from tubempc.results import load_result
+from tubempc.results import RunRecord, load_record, save_record
 from tubempc.runner import run_summary
+from tubempc.scenario import build_scenario
 
 
 @pytest.fixture(scope="module")
@@ -35,23 +36,23 @@ def test_reference_meets_boundary_and_constraints(scenario) -> None:  # type: ig
 @pytest.mark.parametrize("method", ["tbmpc", "ffa"])
 def test_short_closed_loop(scenario, method: str) -> None:  # type: ignore[no-untyped-def]
     res = simulate(scenario, method, seed=3, max_steps=6)
-    a = res.arrays
-    assert a["x"].shape == (7, 12) and a["u"].shape == (6, 6)
+    a = res  # the run record
+    assert a.x.shape == (7, 12) and a.u.shape == (6, 6)
     for name in ("x", "u", "v", "z", "Pe_p", "Pe_r", "K", "w", "S_p", "S_r"):
-        assert np.all(np.isfinite(a[name])), name
+        assert np.all(np.isfinite(getattr(a, name))), name
     assert all(s in ("solved", "solved_inaccurate", "max_iterations") for s in res.statuses), res.statuses
-    assert np.all(a["excursion"] <= 1.0)
+    assert np.all(a.excursion <= 1.0)
     # inputs within the true limits; the state stays near the reference
     cfg = scenario.config
-    assert np.all(np.abs(a["u"][:, :3]) <= cfg.spacecraft.u_max + 1e-12)
-    assert np.all(np.abs(a["u"][:, 3:]) <= cfg.spacecraft.T_max + 1e-12)
-    assert np.max(np.abs(a["x"][:, :3] - a["zbar"][:7, :3])) < 1.0
+    assert np.all(np.abs(a.u[:, :3]) <= cfg.spacecraft.u_max + 1e-12)
+    assert np.all(np.abs(a.u[:, 3:]) <= cfg.spacecraft.T_max + 1e-12)
+    assert np.max(np.abs(a.x[:, :3] - a.zbar[:7, :3])) < 1.0
     # TBMPC keeps the tube of step 0; TBMPC-FFA re-designs it from the identified covariance
-    changed = not np.allclose(a["Pe_p"][0], a["Pe_p"][-1])
+    changed = not np.allclose(a.Pe_p[0], a.Pe_p[-1])
     assert changed == (method == "ffa")
     assert len(res.tube_statuses) == (6 if method == "ffa" else 1)
     # the identification saw the measured inputs: its covariance left the prior
-    assert not np.allclose(a["S_p"][-1], np.diag(cfg.identification.S0_p.diagonal()))
+    assert not np.allclose(a.S_p[-1], np.diag(cfg.identification.S0_p.diagonal()))
 
 
 def test_ffa_keeps_a_tube_only_between_designs(scenario) -> None:  # type: ignore[no-untyped-def]
@@ -63,34 +64,35 @@ def test_ffa_keeps_a_tube_only_between_designs(scenario) -> None:  # type: ignor
         kept = [i for i, s in enumerate(res.tube_statuses) if "KEPT" in s]
         assert bool(kept) == (margin > 0.0), res.tube_statuses
         assert all(i % period != 0 for i in kept)  # the alpha search always designs
-        a = res.arrays
-        assert np.all(a["excursion"] <= 1.0)
+        a = res  # the run record
+        assert np.all(a.excursion <= 1.0)
         for i in kept:  # a kept subsystem tube is the previous step's
             sub = res.tube_statuses[i].split("/")
             for j, name in enumerate(("Pe_p", "Pe_r")):
                 if sub[j] == "KEPT":
-                    np.testing.assert_array_equal(a[name][i], a[name][i - 1])
+                    np.testing.assert_array_equal(getattr(a, name)[i], getattr(a, name)[i - 1])
 
 
 def test_summary_and_results_file(scenario, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
-    from tubempc.results import save_result
-
     res = simulate(scenario, "ffa", seed=4, max_steps=3)
     s = run_summary(scenario, res)
     assert set(s) >= {"J_p", "J_r", "terminal_error", "rms_error", "max_tube_excursion", "constraint_violations",
                       "step_time", "statuses"}
-    path = save_result(tmp_path / "ffa.h5", res.arrays, config=scenario.config.to_dict(), seed=4, method="ffa")
-    back = load_result(path)
-    np.testing.assert_array_equal(back["x"], res.arrays["x"])
-    assert back["seed"] == 4 and back["config"]["mpc"]["N"] == 30
+    path = save_record(tmp_path / "ffa.h5", res, config=scenario.config.to_dict(), metadata=s)
+    back, info = load_record(path)
+    for f in RunRecord.array_fields():  # every declared array comes back with its declared rank
+        np.testing.assert_array_equal(getattr(back, f.name), getattr(res, f.name))
+        assert getattr(back, f.name).ndim == len(f.metadata["shape"]), f.name
+    assert back.statuses == res.statuses and back.tube_statuses == res.tube_statuses and back.seed == 4
+    assert info["config"]["mpc"]["N"] == 30 and info["metadata"]["J_p"] == s["J_p"]
 
 
 def test_same_seed_same_run(scenario) -> None:  # type: ignore[no-untyped-def]
-    a = simulate(scenario, "ffa", seed=11, max_steps=3).arrays
-    b = simulate(scenario, "ffa", seed=11, max_steps=3).arrays
-    c = simulate(scenario, "ffa", seed=12, max_steps=3).arrays
-    np.testing.assert_array_equal(a["x"], b["x"])
-    assert not np.array_equal(a["x"], c["x"])
+    a = simulate(scenario, "ffa", seed=11, max_steps=3)
+    b = simulate(scenario, "ffa", seed=11, max_steps=3)
+    c = simulate(scenario, "ffa", seed=12, max_steps=3)
+    np.testing.assert_array_equal(a.x, b.x)
+    assert not np.array_equal(a.x, c.x)
 
 
 def test_model_mismatch_changes_the_truth_only(tmp_path: Path) -> None:
@@ -102,17 +104,17 @@ def test_model_mismatch_changes_the_truth_only(tmp_path: Path) -> None:
     s1 = build_scenario(mis, cache_dir=tmp_path)
     np.testing.assert_array_equal(s0.reference.x, s1.reference.x)
     assert s1.truth.gravity.density == pytest.approx(1.1 * s1.model.gravity.density)
-    a0 = simulate(s0, "ffa", seed=2, max_steps=4).arrays
-    a1 = simulate(s1, "ffa", seed=2, max_steps=4).arrays
-    assert np.all(np.isfinite(a1["x"])) and not np.allclose(a0["x"][1:], a1["x"][1:])
+    a0 = simulate(s0, "ffa", seed=2, max_steps=4)
+    a1 = simulate(s1, "ffa", seed=2, max_steps=4)
+    assert np.all(np.isfinite(a1.x)) and not np.allclose(a0.x[1:], a1.x[1:])
     # the identified input sees the mismatch: the residual grows
-    assert np.linalg.norm(a1["w"][:, :6] - a1["w_true"][:, :6]) > np.linalg.norm(a0["w"][:, :6] - a0["w_true"][:, :6])
+    assert np.linalg.norm(a1.w[:, :6] - a1.w_true[:, :6]) > np.linalg.norm(a0.w[:, :6] - a0.w_true[:, :6])
 
 
 def test_figures_render_from_a_short_run(scenario, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     from tubempc import figures
 
-    runs = {m: simulate(scenario, m, seed=1, max_steps=3).arrays for m in ("tbmpc", "ffa")}
+    runs = {m: simulate(scenario, m, seed=1, max_steps=3) for m in ("tbmpc", "ffa")}
     cfg = scenario.config
     made = [
         figures.save(figures.trajectory_3d(runs, cfg.constraints.glide_slope_angle, every=1), tmp_path / "a.png"),
@@ -132,23 +134,23 @@ def test_reused_linearizations_fly_the_literal_algorithms_loop(scenario) -> None
     the same inputs as re-linearising every node at every SCP iteration (Algorithm 1 literally) to
     within what the SCP threshold allows."""
     literal = dataclasses.replace(scenario, config=scenario.config.with_overrides({"mpc.linearization": "every_iteration"}))
-    a = simulate(scenario, "tbmpc", seed=3, max_steps=8).arrays
-    b = simulate(literal, "tbmpc", seed=3, max_steps=8).arrays
+    a = simulate(scenario, "tbmpc", seed=3, max_steps=8)
+    b = simulate(literal, "tbmpc", seed=3, max_steps=8)
     N = scenario.config.mpc.N
-    np.testing.assert_array_equal(b["model_evaluations"], N * b["scp_iterations"])
-    assert N <= a["model_evaluations"][0] <= b["model_evaluations"][0]  # no previous step to re-use
-    assert a["model_evaluations"][1:].sum() < 0.5 * b["model_evaluations"][1:].sum()
-    np.testing.assert_allclose(a["u"], b["u"], rtol=0, atol=2e-4 * scenario.config.spacecraft.u_max)
-    np.testing.assert_allclose(a["x"], b["x"], rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(b.model_evaluations, N * b.scp_iterations)
+    assert N <= a.model_evaluations[0] <= b.model_evaluations[0]  # no previous step to re-use
+    assert a.model_evaluations[1:].sum() < 0.5 * b.model_evaluations[1:].sum()
+    np.testing.assert_allclose(a.u, b.u, rtol=0, atol=2e-4 * scenario.config.spacecraft.u_max)
+    np.testing.assert_allclose(a.x, b.x, rtol=0, atol=1e-6)
 
 
 def test_active_set_qp_solver_flies_the_interior_points_loop(scenario) -> None:  # type: ignore[no-untyped-def]
     """mpc.qp_solver = "active_set" (default) solves most QPs by the warm-started active set; the loop
     flies the same states as PIQP alone ("piqp") to the solvers' tolerances."""
     piqp = dataclasses.replace(scenario, config=scenario.config.with_overrides({"mpc.qp_solver": "piqp"}))
-    a = simulate(scenario, "tbmpc", seed=3, max_steps=8).arrays
-    b = simulate(piqp, "tbmpc", seed=3, max_steps=8).arrays
-    assert a["active_set_solves"].sum() >= 0.8 * a["scp_iterations"].sum()
-    assert b["active_set_solves"].sum() == 0 and b["qp_iterations"].min() > 0
-    np.testing.assert_allclose(a["u"], b["u"], rtol=0, atol=1e-5 * scenario.config.spacecraft.u_max)
-    np.testing.assert_allclose(a["x"], b["x"], rtol=0, atol=1e-6)
+    a = simulate(scenario, "tbmpc", seed=3, max_steps=8)
+    b = simulate(piqp, "tbmpc", seed=3, max_steps=8)
+    assert a.active_set_solves.sum() >= 0.8 * a.scp_iterations.sum()
+    assert b.active_set_solves.sum() == 0 and b.qp_iterations.min() > 0
+    np.testing.assert_allclose(a.u, b.u, rtol=0, atol=1e-5 * scenario.config.spacecraft.u_max)
+    np.testing.assert_allclose(a.x, b.x, rtol=0, atol=1e-6)

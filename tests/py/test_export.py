@@ -1,4 +1,4 @@
-"""Scenario files: Python writes (tubempc.export), C++ reads (tubempc._core.io), bit for bit."""
+"""Scenario files: the C++ core writes (tubempc.export through _core.io) and reads them, bit for bit."""
 
 from __future__ import annotations
 
@@ -11,9 +11,10 @@ import pytest
 
 from tubempc import _core
 from tubempc.cli import main
-from tubempc.closed_loop import Scenario, _mpc_settings, build_scenario, simulate
+from tubempc.closed_loop import simulate
 from tubempc.config import load_config
-from tubempc.export import initial_tube, read_scenario
+from tubempc.export import read_scenario
+from tubempc.scenario import Scenario, build_scenario, initial_tube, mpc_settings
 
 
 def _same_bits(a: Any, b: Any) -> bool:
@@ -29,7 +30,7 @@ def exported(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Scenario]:
     return out / "scenario.txt", build_scenario(load_config(), cache_dir=cache)
 
 
-def test_cpp_reads_what_python_wrote_bit_for_bit(exported: tuple[Path, Scenario]) -> None:
+def test_scenario_file_holds_the_closed_loops_inputs_bit_for_bit(exported: tuple[Path, Scenario]) -> None:
     path, scn = exported
     s = read_scenario(str(path))
     assert s.directory == str(path.parent)
@@ -48,7 +49,7 @@ def test_cpp_reads_what_python_wrote_bit_for_bit(exported: tuple[Path, Scenario]
     mesh = _core.gravity.load_shape(s.resolve(s.controller.shape), s.controller.shape_unit_scale)
     assert _same_bits(mesh.vertices, scn.shape.vertices) and np.array_equal(mesh.faces, scn.shape.faces)
 
-    expected_settings = _mpc_settings(scn.config, scn)
+    expected_settings = mpc_settings(scn)
     for name in ("horizon", "dt", "Q", "R", "u_max", "scp_eps", "input_cost", "initial_condition",
                  "scp_max_iterations", "trust_region", "qp_eps_abs", "qp_eps_rel", "qp_max_iterations",
                  "qp_inaccurate_tol", "time_limit", "soft_state_constraints", "soft_terminal", "soft_penalty",
@@ -70,12 +71,12 @@ def test_cpp_reads_what_python_wrote_bit_for_bit(exported: tuple[Path, Scenario]
 def test_tube_is_the_closed_loops_first_tube(exported: tuple[Path, Scenario]) -> None:
     path, scn = exported
     s = read_scenario(str(path))
-    rec = simulate(scn, "tbmpc", seed=0, max_steps=1, tube_threads=1).arrays
-    assert _same_bits(s.tube.K, rec["K"][0])
-    assert _same_bits(s.tube.Pe[:6, :6], rec["Pe_p"][0]) and _same_bits(s.tube.Pe[6:, 6:], rec["Pe_r"][0])
+    rec = simulate(scn, "tbmpc", seed=0, max_steps=1, tube_threads=1)
+    assert _same_bits(s.tube.K, rec.K[0])
+    assert _same_bits(s.tube.Pe[:6, :6], rec.Pe_p[0]) and _same_bits(s.tube.Pe[6:, 6:], rec.Pe_r[0])
 
 
-def test_cpp_writer_writes_the_same_text(exported: tuple[Path, Scenario], tmp_path: Path) -> None:
+def test_written_file_reads_back_to_the_same_text(exported: tuple[Path, Scenario], tmp_path: Path) -> None:
     path, _ = exported
     again = tmp_path / "again.txt"
     _core.io.write_scenario(str(again), read_scenario(str(path)))

@@ -194,26 +194,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _bennu_plant(args: argparse.Namespace) -> tuple[Any, Any, Any, Any, Callable[[int, Arr, Arr], Arr]]:
-    """The default scenario's controller, reference, TBMPC tube and truth (tubempc.closed_loop)."""
-    from ..closed_loop import _block_tube, _mpc_settings, _tube_designers, build_scenario
+    """The default scenario's controller, reference, TBMPC tube and truth (tubempc.scenario)."""
     from ..config import load_config
     from ..disturbances import AdditiveDisturbance
+    from ..scenario import build_scenario, initial_tube, mpc_settings
 
     cfg = load_config()
     scn = build_scenario(cfg)
-    settings = _mpc_settings(cfg, scn)
+    settings = mpc_settings(scn)
     if args.structure == "dense":
         empty = np.zeros((0, 0))
         settings.A_structure, settings.B_structure, settings.G_structure = empty, empty, empty
     steps = min(args.steps, scn.n_steps)
     ref = scn.reference
     reference = mpc.Reference(ref.x[: steps + 1].T.copy(), ref.u[:steps].T.copy(), 0.0)
-    des_p, des_r = _tube_designers(cfg)
-    Ad, Bd, _ = scn.model.discretize(0.0, ref.x[0], ref.u[0], cfg.mpc.dt)
-    ident = cfg.identification
-    tp = des_p.design(Ad[:6, :6], Bd[:6, :3], ident.pw_scale * ident.S0_p)
-    tr = des_r.design(Ad[6:, 6:], Bd[6:, 3:], ident.pw_scale * ident.S0_r)
-    K, Pe = _block_tube(tp, tr)
+    K, Pe = initial_tube(scn)
     dist = AdditiveDisturbance(cfg.disturbance.S_p, cfg.disturbance.S_r, seed=args.seed)
 
     def truth(k: int, x: Arr, u: Arr) -> Arr:

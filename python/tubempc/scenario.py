@@ -1,0 +1,246 @@
+"""The scenario: everything a closed-loop run needs that follows from the configuration alone.
+
+Data flow of the package: configuration (:mod:`tubempc.config`) -> scenario (this module: models,
+shape, boundary states, reference, MPC settings, tube designers, identifiers, TBMPC's initial tube)
+-> closed loop (:mod:`tubempc.closed_loop`) -> run record (:mod:`tubempc.results`) -> metrics
+(:mod:`tubempc.metrics`) -> report (:mod:`tubempc.report`). Every mapping from a configuration
+option to a C++ setting lives here, once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _core
+from .config import Config
+from .dynamics import ProximityModel
+from .identification import ForgettingFactorIdentifier
+from .reference import ReferenceSettings, ReferenceTrajectory, load_or_generate_reference
+from .shapes import Shape, bennu_like_shape, load_shape
+from .tube import TubeDesigner, TubeResult
+
+__all__ = [
+    "METHODS",
+    "Scenario",
+    "block_tube",
+    "build_scenario",
+    "identifiers",
+    "initial_tube",
+    "model_params",
+    "model_structure",
+    "mpc_settings",
+    "propagator_options",
+    "propagator_settings",
+    "scenario_shape",
+    "tube_designers",
+]
+
+Array = npt.NDArray[np.float64]
+METHODS = ("tbmpc", "ffa")
+P_STATES, R_STATES = slice(0, 6), slice(6, 12)  # translational x_p = [r_L, v_L], rotational x_r = [phi, omega_BL_B]
+P_INPUTS, R_INPUTS = slice(0, 3), slice(3, 6)  # u_p (m/s^2, L), T (N m, B)
+
+
+@dataclass
+class Scenario:
+    """Everything a closed-loop run needs that does not depend on the method or the seed.
+
+    ``model`` is the controller's model, ``truth`` the simulated plant (it may differ in density, SRP
+    and shape resolution); ``x0``, ``xf`` the boundary states [r_L (m), v_L (m/s), phi (rad),
+    omega_BL_B (rad/s)]; ``reference`` the fixed-time reference trajectory (paper Section 3.1).
+    """
+
+    config: Config
+    shape: Shape
+    shape_source: str
+    model: ProximityModel
+    truth: ProximityModel
+    x0: Array
+    xf: Array
+    reference: ReferenceTrajectory
+
+    @property
+    def n_steps(self) -> int:
+        """Number of control steps T = t_f / dt."""
+        return int(self.reference.u.shape[0])
+
+
+def model_params(cfg: Config, srp_scale: float = 1.0) -> dict[str, Any]:
+    """Parameters of :class:`tubempc.dynamics.ProximityModel` for a configuration (SI units);
+    ``srp_scale`` multiplies the SRP constant (the truth's mismatch). The density is the gravity's.
+    """
+    e, a, s, c = cfg.environment, cfg.asteroid, cfg.spacecraft, cfg.constraints
+    return {
+        "mu_sun": e.mu_sun,
+        "orbit_radius": e.R,
+        "beta_srp": e.beta_srp * srp_scale,
+        "inertia_B": np.asarray(s.J).tolist(),
+        "spin_rate": a.spin_sign * 2.0 * np.pi / a.spin_period,
+        "kinematics": "paper" if cfg.mpc.kinematics == "first_order" else "exact",
+        "glide_slope_angle": c.glide_slope_angle,
+        "los_angle": c.los_angle,
+        "boresight_B": np.asarray(s.boresight_B, dtype=float).tolist(),
+    }
+
+
+def scenario_shape(cfg: Config, subdivisions: int | None = None) -> tuple[Shape, str]:
+    """The asteroid's shape and a description of where it came from.
+
+    ``asteroid.shape = "generated"`` (or ``subdivisions``) gives the generated Bennu-like body
+    (:func:`tubempc.shapes.bennu_like_shape`); otherwise the file, relative paths taken against the
+    configuration file's folder, read in kilometres.
+    """
+    src = cfg.asteroid.shape
+    if src == "generated" or subdivisions:
+        n = subdivisions or 12
+        return bennu_like_shape(n_subdivisions=n), f"generated bennu_like_shape(n_subdivisions={n})"
+    path = Path(src)
+    if not path.is_absolute() and cfg.source not in ("<memory>", ""):
+        path = Path(cfg.source).parent / path
+    return load_shape(path, unit="km"), str(path)
+
+
+def boundary_states(cfg: Config, shape: Shape) -> tuple[Array, Array]:
+    """x0 and x_f (12,) of the configuration; ``boundary.terminal = "altitude"`` moves r_f along its
+    direction to ``terminal_altitude`` above the shape's surface."""
+    b = cfg.boundary
+    x0 = np.concatenate([b.r0, b.v0, b.phi0, b.w0])
+    rf = np.asarray(b.rf, dtype=float)
+    if b.terminal == "altitude":
+        d = rf / np.linalg.norm(rf)
+        surface = float(np.max(np.asarray(shape.vertices) @ d))
+        rf = d * (surface + b.terminal_altitude)
+    return x0, np.concatenate([rf, b.vf, b.phi_f, b.wf])
+
+
+def build_scenario(cfg: Config, shape_path: str | Path | None = None, cache_dir: str | Path | None = None) -> Scenario:
+    """The controller's and the truth's models and the reference trajectory for a configuration.
+
+    ``shape_path`` overrides ``asteroid.shape``; ``cache_dir`` keeps generated references on disk.
+    """
+    if shape_path is not None:
+        cfg = cfg.with_overrides({"asteroid.shape": str(shape_path)})
+    shape, shape_src = scenario_shape(cfg)
+    gravity = _core.gravity.PolyhedronGravity(shape.vertices, shape.faces, cfg.asteroid.density)
+    model = ProximityModel(gravity, model_params(cfg))
+    sim = cfg.simulation
+    truth_shape = shape if sim.truth_shape_subdivisions == 0 else scenario_shape(cfg, sim.truth_shape_subdivisions)[0]
+    truth_gravity = _core.gravity.PolyhedronGravity(truth_shape.vertices, truth_shape.faces,
+                                                    cfg.asteroid.density * sim.density_scale)
+    truth = ProximityModel(truth_gravity, model_params(cfg, sim.srp_scale))
+    x0, xf = boundary_states(cfg, shape)
+    frac = sim.reference_input_fraction
+    key = {"model": model_params(cfg), "shape": shape_src, "n_faces": len(shape.faces),
+           "volume": float(shape.volume), "density": cfg.asteroid.density}
+    ref = load_or_generate_reference(
+        model, x0, xf, cache_dir=cache_dir, key_extra=key, dt=cfg.mpc.dt, n_steps=cfg.mpc.n_steps,
+        u_max=frac * cfg.spacecraft.u_max, T_max=frac * cfg.spacecraft.T_max,
+        glide_slope_angle=cfg.constraints.glide_slope_angle, settings=ReferenceSettings())
+    return Scenario(cfg, shape, shape_src, model, truth, x0, xf, ref)
+
+
+def model_structure(scn: Scenario) -> tuple[Array, Array, Array]:
+    """Nonzero patterns of the model's A (12, 12), B (12, 6) and G (2, 12) over the reference."""
+    ref, dt = scn.reference, scn.config.mpc.dt
+    Ad, Bd, _ = scn.model.discretize(0.0, ref.x[:-1], ref.u, dt)
+    G = np.array([scn.model.constraints(k * dt, ref.x[k])[0] for k in range(0, len(ref.x), 10)])
+    return ((np.abs(Ad) > 0).any(axis=0).astype(float), (np.abs(Bd) > 0).any(axis=0).astype(float),
+            (np.abs(G) > 0).any(axis=0).astype(float))
+
+
+def mpc_settings(scn: Scenario) -> Any:
+    """The C++ tube MPC's settings (``_core.mpc.Settings``) of the closed loop: horizon, dt, weights,
+    input bounds, SCP threshold, input cost, linearisation re-use, QP solver and the model's declared
+    structure; the core's defaults for the rest."""
+    cfg = scn.config
+    m = cfg.mpc
+    st = _core.mpc.Settings()
+    st.A_structure, st.B_structure, st.G_structure = model_structure(scn)
+    st.horizon = m.N
+    st.dt = m.dt
+    st.Q = np.diag(np.concatenate([m.Q_p, m.Q_r]))
+    st.R = np.diag(np.concatenate([m.R_p, m.R_r]))
+    st.u_max = np.r_[[cfg.spacecraft.u_max] * 3, [cfg.spacecraft.T_max] * 3]
+    st.scp_eps = m.eps
+    st.input_cost = _core.mpc.InputCost.Paper if m.input_cost == "paper" else _core.mpc.InputCost.FromReference
+    st.reuse_linearization = m.linearization == "reuse"
+    st.backend = _core.mpc.Backend.ActiveSetPiqp if m.qp_solver == "active_set" else _core.mpc.Backend.PiqpSparse
+    return st
+
+
+def propagator_options(cfg: Config) -> dict[str, Any]:
+    """Keyword arguments of :meth:`tubempc.dynamics.ProximityModel.propagate` for the truth."""
+    sim = cfg.simulation
+    if sim.integrator == "rk4":
+        return {"method": "rk4", "substeps": sim.substeps}
+    return {"method": "dopri", "rtol": sim.rtol}
+
+
+def propagator_settings(cfg: Config) -> Any:
+    """The same truth propagator as ``_core.dynamics.PropagatorSettings`` (for scenario files)."""
+    sim = cfg.simulation
+    prop = _core.dynamics.PropagatorSettings()
+    if sim.integrator == "rk4":
+        prop.method, prop.substeps = _core.dynamics.Integrator.RK4, sim.substeps
+    else:
+        prop.method, prop.rtol = _core.dynamics.Integrator.DOPRI5, sim.rtol
+    return prop
+
+
+def tube_designers(cfg: Config) -> tuple[TubeDesigner, TubeDesigner]:
+    """LMI tube designers of the translational and rotational subsystems (paper Eq. 25).
+
+    ``tube.weighting = "normalized"``: Q = inverse prior variances, R = input_weight / u_max^2;
+    ``"mpc"``: the MPC weights.
+    """
+    m, s, t = cfg.mpc, cfg.spacecraft, cfg.tube
+    if t.weighting == "mpc":
+        Qp, Rp, Qr, Rr = np.diag(m.Q_p), np.diag(m.R_p), np.diag(m.Q_r), np.diag(m.R_r)
+    else:
+        ident = cfg.identification
+        Qp = np.diag(1.0 / np.diag(ident.S0_p))
+        Qr = np.diag(1.0 / np.diag(ident.S0_r))
+        Rp = t.input_weight * np.eye(3) / s.u_max**2
+        Rr = t.input_weight * np.eye(3) / s.T_max**2
+    return (TubeDesigner(Q=Qp, R=Rp, u_max=s.u_max, max_solves=t.max_solves),
+            TubeDesigner(Q=Qr, R=Rr, u_max=s.T_max, max_solves=t.max_solves))
+
+
+def identifiers(cfg: Config, lambda_p: float | None = None,
+                lambda_r: float | None = None) -> tuple[ForgettingFactorIdentifier, ForgettingFactorIdentifier]:
+    """Forgetting-factor identifiers of both subsystems at their prior (paper Eq. 26-29);
+    ``lambda_p``/``lambda_r`` override the configuration's forgetting factors."""
+    ident = cfg.identification
+    common = {"prior_weight": ident.prior_weight, "eig_floor": ident.eig_floor, "pw_scale": ident.pw_scale}
+    return (ForgettingFactorIdentifier(lambda_p or ident.lambda_p, ident.w0_p, ident.S0_p, **common),
+            ForgettingFactorIdentifier(lambda_r or ident.lambda_r, ident.w0_r, ident.S0_r, **common))
+
+
+def block_tube(tp: TubeResult, tr: TubeResult) -> tuple[Array, Array]:
+    """The MPC's tube from the subsystems': K (6, 12) and Pe (12, 12), block diagonal."""
+    K = np.zeros((6, 12))
+    Pe = np.zeros((12, 12))
+    K[P_INPUTS, P_STATES], K[R_INPUTS, R_STATES] = tp.K, tr.K
+    Pe[P_STATES, P_STATES], Pe[R_STATES, R_STATES] = tp.Pe, tr.Pe
+    return K, Pe
+
+
+def initial_tube(scn: Scenario) -> tuple[Array, Array]:
+    """TBMPC's tube (K (6, 12), Pe (12, 12)): designed at k = 0 from the identification prior
+    P_W = pw_scale S^_0 about the reference's first node, as the closed loop does."""
+    cfg = scn.config
+    Ad, Bd, _ = scn.model.discretize(0.0, scn.reference.x[0], scn.reference.u[0], cfg.mpc.dt)
+    results = []
+    for des, ident, sx, su in zip(tube_designers(cfg), identifiers(cfg), (P_STATES, R_STATES), (P_INPUTS, R_INPUTS),
+                                  strict=True):
+        res = des.design(Ad[sx, sx], Bd[sx, su], ident.P_W, None)
+        if not res.feasible:
+            raise RuntimeError(f"initial tube design infeasible ({res.status.name}); "
+                               "check identification priors and input limits")
+        results.append(res)
+    return block_tube(results[0], results[1])

@@ -1,0 +1,104 @@
+"""Which tube each control step flies with (paper Algorithm 1, step 1; README "readings").
+
+TBMPC designs its tube once, at k = 0, from the identification prior and keeps it. TBMPC-FFA
+re-designs it from the identified P_W: every ``alpha_search_period`` steps with a warm alpha search,
+in between at the last alpha; with ``margin`` > 0 it designs for (1 + margin) P_W and keeps the
+current tube (status ``KEPT``) while :func:`tubempc.tube.tube_still_valid` certifies it for the step's
+linearisation and P_W. A failed design falls back to the designer's last feasible tube, else to the
+current one; a failed first design is an error.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from .tube import TubeDesigner, TubeResult, tube_still_valid
+
+__all__ = ["TubeUpdatePolicy"]
+
+Array = npt.NDArray[np.float64]
+
+
+class TubeUpdatePolicy:
+    """The tube of each subsystem, step by step.
+
+    ``designers``: one :class:`tubempc.tube.TubeDesigner` per subsystem; ``adaptive``: False for
+    TBMPC (design once), True for TBMPC-FFA; ``margin``: design for (1 + margin) P_W and keep a
+    certified tube (FFA only); ``alpha_search_period``: steps between warm alpha searches;
+    ``threads``: subsystems designed in parallel threads (1: one after the other).
+    """
+
+    def __init__(self, designers: Sequence[TubeDesigner], *, adaptive: bool, margin: float = 0.0,
+                 alpha_search_period: int = 1, threads: int = 2) -> None:
+        if alpha_search_period < 1:
+            raise ValueError(f"alpha_search_period must be >= 1, got {alpha_search_period}")
+        if margin < 0.0:
+            raise ValueError(f"margin must be >= 0, got {margin}")
+        self.designers = list(designers)
+        self.adaptive = adaptive
+        self.margin = margin if adaptive else 0.0
+        self.alpha_search_period = alpha_search_period
+        self.tubes: list[TubeResult] | None = None
+        self._designed_for: list[Array | None] = [None] * len(self.designers)  # the P_W of each tube
+        self._pool = cf.ThreadPoolExecutor(max_workers=max(1, min(len(self.designers), int(threads))))
+
+    def close(self) -> None:
+        """Stops the design threads."""
+        self._pool.shutdown()
+
+    def __enter__(self) -> TubeUpdatePolicy:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def update(self, k: int, A: Sequence[Array], B: Sequence[Array],
+               P_W: Sequence[Array]) -> tuple[list[TubeResult], str | None]:
+        """The tubes for step ``k`` given each subsystem's discretised (A, B) about the reference and
+        identified P_W. Returns the tubes and the step's status ("<status>/<status>", None when the
+        policy did not look at the tubes: TBMPC after k = 0)."""
+        if self.tubes is not None and not self.adaptive:
+            return self.tubes, None
+        search = k % self.alpha_search_period == 0
+        jobs: list[tuple[cf.Future[TubeResult], Array] | None] = []
+        for i, des in enumerate(self.designers):
+            prev = None if self.tubes is None else self.tubes[i]
+            designed_for = self._designed_for[i]
+            if (prev is not None and designed_for is not None and not search and self.margin > 0.0
+                    and tube_still_valid(prev, A[i], B[i], P_W[i], designed_for, self.margin)):
+                jobs.append(None)
+                continue
+            P_design = (1.0 + self.margin) * P_W[i]
+            alpha_prev = prev.alpha if prev is not None and prev.feasible else None
+            if alpha_prev is not None and not search:
+                future = self._pool.submit(des.design_fixed_alpha, A[i], B[i], P_design, alpha_prev)
+            else:
+                future = self._pool.submit(des.design, A[i], B[i], P_design, alpha_prev)
+            jobs.append((future, P_design))
+        tubes: list[TubeResult] = []
+        names: list[str] = []
+        for i, job in enumerate(jobs):
+            if job is None:
+                assert self.tubes is not None
+                tubes.append(self.tubes[i])
+                names.append("KEPT")
+                continue
+            res = job[0].result()
+            names.append(res.status.name)
+            last = self.designers[i].last_feasible
+            if res.feasible:
+                tubes.append(res)
+                self._designed_for[i] = job[1]
+            elif last is not None:
+                tubes.append(last)
+            elif self.tubes is not None:
+                tubes.append(self.tubes[i])
+            else:
+                raise RuntimeError(f"initial tube design infeasible ({res.status.name}); "
+                                   "check identification priors and input limits")
+        self.tubes = tubes
+        return tubes, "/".join(names)
