@@ -1,0 +1,49 @@
+"""Package layout rules: no module imports a private name of another. Exceptions: the compiled
+extension `_core` and its type stubs (`_dynamics.pyi`, ...: a stub with no module beside it), and
+dunders such as `__version__`."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import tubempc
+
+PACKAGE = Path(tubempc.__file__).parent
+
+
+def _private(name: str) -> bool:
+    if not name.startswith("_") or (name.startswith("__") and name.endswith("__")) or name == "_core":
+        return False
+    stub_only = (PACKAGE / f"{name}.pyi").exists() and not (PACKAGE / f"{name}.py").exists()
+    return not stub_only
+
+
+def _private_imports(path: Path) -> list[str]:
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom):
+            module = node.module or ""
+            if node.level == 0 and not module.startswith("tubempc"):
+                continue  # third-party
+            for alias in node.names:
+                private_module = any(_private(p) for p in module.split("."))
+                if _private(alias.name) or private_module:
+                    found.append(f"{path.relative_to(PACKAGE)}:{node.lineno}: from {'.' * node.level}{module} "
+                                 f"import {alias.name}")
+    return found
+
+
+def test_no_module_imports_a_private_name_of_another() -> None:
+    offenders = [hit for path in sorted(PACKAGE.rglob("*.py")) for hit in _private_imports(path)]
+    assert offenders == []
+
+
+def test_the_checker_sees_a_private_import(tmp_path: Path) -> None:
+    bad = PACKAGE / "benchmarks" / "__layout_probe__.py"
+    try:
+        bad.write_text("from ..closed_loop import _Plant\nfrom ._secret import helper\n", encoding="utf-8")
+        hits = _private_imports(bad)
+    finally:
+        bad.unlink()
+    assert len(hits) == 2 and "_Plant" in hits[0] and "_secret" in hits[1]

@@ -1,0 +1,115 @@
+"""The tube-update policy alone, with scripted designers (no SDP): which tube each step flies with."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tubempc.tube import TubeDesigner, TubeResult, TubeStatus
+from tubempc.tube_policy import TubeUpdatePolicy
+
+A = np.array([[1.0, 1.0], [0.0, 1.0]])  # double integrator, dt = 1
+B = np.array([[0.5], [1.0]])
+K = np.array([[-1.0, -1.5]])  # deadbeat: A + B K is nilpotent
+A_K = A + B @ K
+# Pe_1 = A_K Pe_1 A_K^T / 0.9 + I / 0.1 (nilpotent: two terms): s Pe_1 is invariant for P_W <= s I at alpha 0.9.
+PE_1 = A_K @ np.eye(2) @ A_K.T / 0.9 / 0.1 + np.eye(2) / 0.1
+
+
+def _tube(scale: float, alpha: float = 0.9, status: TubeStatus = TubeStatus.OPTIMAL) -> TubeResult:
+    ok = status in (TubeStatus.OPTIMAL, TubeStatus.OPTIMAL_INACCURATE)
+    return TubeResult(K=K if ok else None, Pe=scale * PE_1 if ok else None, alpha=alpha, objective=scale,
+                      status=status, lmi_residual=-1.0, solve_time_s=0.0, n_solves=1)
+
+
+class ScriptedDesigner(TubeDesigner):
+    """Returns the scripted results in order and records each call (search or fixed alpha)."""
+
+    def __init__(self, results: list[TubeResult]) -> None:
+        self.results = list(results)
+        self.calls: list[tuple[str, Any, float | None]] = []
+        self.last_feasible: TubeResult | None = None
+
+    def _next(self) -> TubeResult:
+        r = self.results.pop(0)
+        if r.feasible:
+            self.last_feasible = r
+        return r
+
+    def design(self, A: Any, B: Any, P_W: Any, alpha_prev: float | None = None) -> TubeResult:  # type: ignore[override]
+        self.calls.append(("search", np.asarray(P_W).copy(), alpha_prev))
+        return self._next()
+
+    def design_fixed_alpha(self, A: Any, B: Any, P_W: Any, alpha: float) -> TubeResult:  # type: ignore[override]
+        self.calls.append(("fixed", np.asarray(P_W).copy(), alpha))
+        return self._next()
+
+
+def _update(policy: TubeUpdatePolicy, k: int, P_W: float) -> tuple[list[TubeResult], str | None]:
+    return policy.update(k, [A], [B], [P_W * np.eye(2)])
+
+
+def test_tbmpc_designs_once_and_keeps_the_tube() -> None:
+    des = ScriptedDesigner([_tube(1.0)])
+    with TubeUpdatePolicy([des], adaptive=False, margin=0.5, alpha_search_period=3, threads=1) as policy:
+        first, status = _update(policy, 0, 0.01)
+        assert status == "OPTIMAL" and len(des.calls) == 1 and des.calls[0][0] == "search"
+        np.testing.assert_array_equal(des.calls[0][1], 0.01 * np.eye(2))  # no margin for TBMPC
+        for k in range(1, 5):
+            tubes, status = _update(policy, k, 100.0)  # whatever P_W says, TBMPC keeps its tube
+            assert status is None and tubes[0] is first[0]
+    assert len(des.calls) == 1
+
+
+def test_ffa_searches_alpha_periodically_and_keeps_certified_tubes() -> None:
+    # a generous tube (Pe = 10 I) stays invariant for the small P_W: kept between alpha searches
+    des = ScriptedDesigner([_tube(10.0, 0.9), _tube(10.0, 0.8)])
+    with TubeUpdatePolicy([des], adaptive=True, margin=0.2, alpha_search_period=3, threads=1) as policy:
+        statuses = [_update(policy, k, 1e-3)[1] for k in range(4)]
+    assert statuses == ["OPTIMAL", "KEPT", "KEPT", "OPTIMAL"]
+    assert [c[0] for c in des.calls] == ["search", "search"]
+    assert des.calls[1][2] == 0.9  # warm-started from the previous alpha
+    np.testing.assert_allclose(des.calls[0][1], 1.2e-3 * np.eye(2))  # designed for (1 + margin) P_W
+
+
+def test_ffa_redesigns_at_the_last_alpha_when_the_tube_is_no_longer_certified() -> None:
+    # P_W grows by 100x: the kept tube is no longer invariant, so a fixed-alpha design runs
+    des = ScriptedDesigner([_tube(0.02, 0.9), _tube(2.0, 0.9)])
+    with TubeUpdatePolicy([des], adaptive=True, margin=0.2, alpha_search_period=10, threads=1) as policy:
+        _update(policy, 0, 1e-3)
+        tubes, status = _update(policy, 1, 1e-1)
+    assert status == "OPTIMAL" and [c[0] for c in des.calls] == ["search", "fixed"]
+    assert des.calls[1][2] == 0.9 and tubes[0].Pe is not None and tubes[0].Pe[0, 0] == 2.0 * PE_1[0, 0]
+
+
+def test_a_failed_design_falls_back_to_the_last_feasible_tube() -> None:
+    good = _tube(0.02, 0.9)
+    des = ScriptedDesigner([good, _tube(0.0, status=TubeStatus.INFEASIBLE)])
+    with TubeUpdatePolicy([des], adaptive=True, margin=0.0, alpha_search_period=1, threads=1) as policy:
+        _update(policy, 0, 1e-3)
+        tubes, status = _update(policy, 1, 1e3)
+    assert status == "INFEASIBLE" and tubes[0] is good
+
+
+def test_an_infeasible_first_design_is_an_error() -> None:
+    des = ScriptedDesigner([_tube(0.0, status=TubeStatus.INFEASIBLE)])
+    with TubeUpdatePolicy([des], adaptive=True, threads=1) as policy, pytest.raises(RuntimeError, match="initial tube"):
+        _update(policy, 0, 1e-3)
+
+
+def test_subsystems_are_independent_and_statuses_joined() -> None:
+    p = ScriptedDesigner([_tube(10.0), _tube(10.0)])
+    r = ScriptedDesigner([_tube(0.02), _tube(3.0)])
+    with TubeUpdatePolicy([p, r], adaptive=True, margin=0.2, alpha_search_period=5, threads=2) as policy:
+        policy.update(0, [A, A], [B, B], [1e-3 * np.eye(2), 1e-3 * np.eye(2)])
+        tubes, status = policy.update(1, [A, A], [B, B], [1e-3 * np.eye(2), 1e-1 * np.eye(2)])
+    assert status == "KEPT/OPTIMAL" and tubes[1].Pe is not None and tubes[1].Pe[0, 0] == 3.0 * PE_1[0, 0]
+
+
+def test_bad_settings_are_rejected() -> None:
+    with pytest.raises(ValueError, match="alpha_search_period"):
+        TubeUpdatePolicy([], adaptive=True, alpha_search_period=0)
+    with pytest.raises(ValueError, match="margin"):
+        TubeUpdatePolicy([], adaptive=True, margin=-0.1)
