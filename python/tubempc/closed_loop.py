@@ -133,7 +133,7 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     cfg = scn.config
-    T, dt, N = scn.n_steps, cfg.mpc.dt, cfg.mpc.N
+    T, dt, N = scn.n_steps, cfg.mpc.dt, cfg.mpc.horizon
     ref = scn.reference
     ctrl = _core.mpc.TubeMPC(_core.mpc.LinearizedProximityModel(scn.model.core), mpc_settings(scn))
     ctrl.setup(_core.mpc.Reference(ref.x.T.copy(), ref.u.T.copy(), 0.0))

@@ -15,6 +15,7 @@ import importlib.resources
 import json
 import math
 import tomllib
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -117,16 +118,14 @@ class Asteroid:
     """Bennu gravity, spin and shape (PAPER_NOTES "Gravity").
 
     shape: "generated" or a path to a shape file (relative paths are relative to the TOML
-    file); shape_mean_radius is the mean radius of the generated shape. spin_sign: +1 for a
-    spin along +z_L (= z_A), -1 along -z_L.
+    file). spin_sign: +1 for a spin along +z_L (= z_A), -1 along -z_L. The gravitational constant
+    is the core's (``tubempc.GRAVITATIONAL_CONSTANT``, CODATA 2018).
     """
 
-    G: float = field(metadata=_q("m^3/(kg*s^2)", "gravitational constant", check=_POS))
     density: float = field(metadata=_q("kg/m^3", "density", check=_POS))
     spin_period: float = field(metadata=_q("s", "time", check=_POS))
     spin_sign: int = field(metadata=_int(check=_SIGN))
     shape: str = field(metadata=_opt())
-    shape_mean_radius: float = field(metadata=_q("m", "length", check=_POS))
 
 
 @dataclass(frozen=True, eq=False)
@@ -151,25 +150,25 @@ class Constraints:
 @dataclass(frozen=True, eq=False)
 class Mpc:
     """Discretisation, horizon, SCP threshold and weights (PAPER_NOTES "Linearisation",
-    "Tube MPC"). Weights are diagonals, dimensionless as in Table 1. kinematics:
-    "first_order" (the paper's phi' = w) or "exact" (phi' = Jr^-1(phi) w). input_cost: "paper"
-    (||v||^2_R, the paper's Problem 2) or "deviation" (||v - u_ref||^2_R). linearization: "reuse"
-    (model data whose linearisation point lies within eps of the plan are kept, across steps and SCP
-    iterations; mpc::Settings::reuse_linearization) or "every_iteration" (Algorithm 1 literally: every
-    node re-linearised about the latest plan at every SCP iteration). qp_solver: "active_set" (a
-    primal-dual active set warm-started from the previous QP's active set, PIQP when it does not verify
-    the KKT conditions; mpc::Backend::ActiveSetPiqp) or "piqp" (PIQP's interior point only)."""
+    "Tube MPC"). Weights are diagonals, dimensionless as in Table 1. horizon: N (nodes). scp_eps:
+    the SCP stop on ||z* - z_ref|| (inf-norm). kinematics: "first_order" (the paper's phi' = w) or
+    "exact" (phi' = Jr^-1(phi) w). input_cost: "absolute" (||v||^2_R, the paper's Problem 2) or
+    "deviation" (||v - u_ref||^2_R). linearization: "reuse" (model data whose linearisation point
+    lies within scp_eps of the plan are kept, across steps and SCP iterations) or "every_iteration"
+    (Algorithm 1 literally: every node re-linearised about the latest plan at every SCP iteration).
+    qp_solver: "active_set" (a primal-dual active set warm-started from the previous QP's active set,
+    PIQP when it does not verify the KKT conditions) or "piqp" (PIQP's interior point only)."""
 
     dt: float = field(metadata=_q("s", "time", check=_POS))
-    N: int = field(metadata=_int(check=_GE1))
+    horizon: int = field(metadata=_int(check=_GE1))
     t_f: float = field(metadata=_q("s", "time", check=_POS))
-    eps: float = field(metadata=_num(check=_POS))
+    scp_eps: float = field(metadata=_num(check=_POS))
     Q_p: FloatArray = field(metadata=_num((6,), _NONNEG))
     Q_r: FloatArray = field(metadata=_num((6,), _NONNEG))
     R_p: FloatArray = field(metadata=_num((3,), _POS))
     R_r: FloatArray = field(metadata=_num((3,), _POS))
     kinematics: str = field(metadata=_opt("first_order", "exact"))
-    input_cost: str = field(metadata=_opt("paper", "deviation"))
+    input_cost: str = field(metadata=_opt("absolute", "deviation"))
     linearization: str = field(metadata=_opt("reuse", "every_iteration"))
     qp_solver: str = field(metadata=_opt("active_set", "piqp"))
 
@@ -248,7 +247,6 @@ class Disturbance:
     per-axis squared semi-axes S_*, plus actuator mismatch. Project defaults, not the
     paper's (which does not give its realisation)."""
 
-    model: str = field(metadata=_opt("ellipsoid_uniform"))
     seed: int = field(metadata=_int(check=(lambda v: v >= 0, ">= 0")))
     S_p_position: FloatArray = field(metadata=_q("m^2", "length^2", (3,), _NONNEG))
     S_p_velocity: FloatArray = field(
@@ -295,13 +293,13 @@ class Tube:
 @dataclass(frozen=True, eq=False)
 class Simulation:
     """Truth simulation (project options; PAPER_NOTES "Attitude": the truth integrates the
-    quaternion). integrator "rk4" with ``substeps`` per control step or "dopri" (adaptive, rtol).
+    quaternion). integrator "rk4" with ``substeps`` per control step or "dopri5" (adaptive, rtol).
     Model mismatch between the controller and the truth: truth density = density_scale *
     asteroid.density, truth SRP = srp_scale * beta_srp, truth shape resolution
     ``truth_shape_subdivisions`` (0: the controller's shape). reference_input_fraction: the
     reference trajectory may use this fraction of u_max and T_max (margin for the tube)."""
 
-    integrator: str = field(metadata=_opt("rk4", "dopri"))
+    integrator: str = field(metadata=_opt("rk4", "dopri5"))
     substeps: int = field(metadata=_int(check=_GE1))
     rtol: float = field(metadata=_num(check=_POS))
     density_scale: float = field(metadata=_num(check=_POS))
@@ -513,9 +511,49 @@ def _parse_quantity(spec: _Spec, raw: Any, where: str) -> Any:
 _S = TypeVar("_S")
 
 
-def _parse_section(cls: type[_S], raw: Any, where: str) -> _S:
+class ConfigDeprecationWarning(FutureWarning):
+    """A configuration file uses an old spelling (still read) or a field that is now ignored."""
+
+
+#: Old field names (section, old) -> new name; read with a warning.
+RENAMED_FIELDS: dict[tuple[str, str], str] = {("mpc", "N"): "horizon", ("mpc", "eps"): "scp_eps"}
+#: Old option values (section, field, old) -> new value; read with a warning.
+RENAMED_VALUES: dict[tuple[str, str, str], str] = {
+    ("mpc", "input_cost", "paper"): "absolute",
+    ("simulation", "integrator", "dopri"): "dopri5",
+}
+#: Fields that nothing read; ignored with a warning.
+REMOVED_FIELDS: frozenset[tuple[str, str]] = frozenset(
+    {("asteroid", "G"), ("asteroid", "shape_mean_radius"), ("disturbance", "model")})
+
+
+def _upgrade(section: str, raw: Mapping[str, Any], where: str) -> dict[str, Any]:
+    """The section with old spellings replaced (each with a ConfigDeprecationWarning)."""
+    out: dict[str, Any] = {}
+    for key, value in raw.items():
+        if (section, key) in REMOVED_FIELDS:
+            warnings.warn(f"{where}.{key}: the field is no longer used and is ignored; remove it",
+                          ConfigDeprecationWarning, stacklevel=4)
+            continue
+        new = RENAMED_FIELDS.get((section, key))
+        if new is not None:
+            if new in raw:
+                raise ConfigError(f"{where}.{key}: old name of {new}, which is also given; keep only {new}")
+            warnings.warn(f"{where}.{key}: renamed to {new}; read as {new}", ConfigDeprecationWarning, stacklevel=4)
+            key = new
+        if isinstance(value, str) and (section, key, value) in RENAMED_VALUES:
+            new_value = RENAMED_VALUES[(section, key, value)]
+            warnings.warn(f"{where}.{key}: value {value!r} renamed to {new_value!r}; read as {new_value!r}",
+                          ConfigDeprecationWarning, stacklevel=4)
+            value = new_value
+        out[key] = value
+    return out
+
+
+def _parse_section(cls: type[_S], section: str, raw: Any, where: str) -> _S:
     if not isinstance(raw, Mapping):
         raise ConfigError(f"{where}: expected a table, got {raw!r}")
+    raw = _upgrade(section, raw, where)
     names = [f.name for f in fields(cls)]  # type: ignore[arg-type]
     unknown = sorted(set(raw) - set(names))
     if unknown:
@@ -542,7 +580,7 @@ def _parse(data: Mapping[str, Any], source: str) -> Config:
     if missing:
         raise ConfigError(f"{source}: {missing[0]}: missing section")
     sections: dict[str, Any] = {
-        name: _parse_section(cls, data[name], f"{source}: {name}")
+        name: _parse_section(cls, name, data[name], f"{source}: {name}")
         for name, cls in _SECTIONS.items()
     }
     config = Config(**sections, source=source)
@@ -556,9 +594,9 @@ def _check_consistency(c: Config) -> None:
         raise ConfigError(
             f"{c.source}: mpc.t_f: {c.mpc.t_f} s is not a multiple of mpc.dt = {c.mpc.dt} s"
         )
-    if c.mpc.N > c.mpc.n_steps:
+    if c.mpc.horizon > c.mpc.n_steps:
         raise ConfigError(
-            f"{c.source}: mpc.N: horizon {c.mpc.N} exceeds t_f / dt = {c.mpc.n_steps} steps"
+            f"{c.source}: mpc.horizon: horizon {c.mpc.horizon} exceeds t_f / dt = {c.mpc.n_steps} steps"
         )
 
 
@@ -587,12 +625,16 @@ __all__ = [
     "Asteroid",
     "Boundary",
     "Config",
+    "ConfigDeprecationWarning",
     "ConfigError",
     "Constraints",
     "Disturbance",
     "Environment",
     "Identification",
     "Mpc",
+    "RENAMED_FIELDS",
+    "RENAMED_VALUES",
+    "REMOVED_FIELDS",
     "Spacecraft",
     "load_config",
 ]

@@ -161,13 +161,13 @@ def mpc_settings(scn: Scenario) -> Any:
     m = cfg.mpc
     st = _core.mpc.Settings()
     st.A_structure, st.B_structure, st.G_structure = model_structure(scn)
-    st.horizon = m.N
+    st.horizon = m.horizon
     st.dt = m.dt
     st.Q = np.diag(np.concatenate([m.Q_p, m.Q_r]))
     st.R = np.diag(np.concatenate([m.R_p, m.R_r]))
     st.u_max = np.r_[[cfg.spacecraft.u_max] * 3, [cfg.spacecraft.T_max] * 3]
-    st.scp_eps = m.eps
-    st.input_cost = _core.mpc.InputCost.Paper if m.input_cost == "paper" else _core.mpc.InputCost.FromReference
+    st.scp_eps = m.scp_eps
+    st.input_cost = _core.mpc.InputCost.Paper if m.input_cost == "absolute" else _core.mpc.InputCost.FromReference
     st.reuse_linearization = m.linearization == "reuse"
     st.backend = _core.mpc.Backend.ActiveSetPiqp if m.qp_solver == "active_set" else _core.mpc.Backend.PiqpSparse
     return st
@@ -178,7 +178,7 @@ def propagator_options(cfg: Config) -> dict[str, Any]:
     sim = cfg.simulation
     if sim.integrator == "rk4":
         return {"method": "rk4", "substeps": sim.substeps}
-    return {"method": "dopri", "rtol": sim.rtol}
+    return {"method": "dopri5", "rtol": sim.rtol}
 
 
 def propagator_settings(cfg: Config) -> Any:

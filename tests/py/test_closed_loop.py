@@ -84,7 +84,7 @@ def test_summary_and_results_file(scenario, tmp_path: Path) -> None:  # type: ig
         np.testing.assert_array_equal(getattr(back, f.name), getattr(res, f.name))
         assert getattr(back, f.name).ndim == len(f.metadata["shape"]), f.name
     assert back.statuses == res.statuses and back.tube_statuses == res.tube_statuses and back.seed == 4
-    assert info["config"]["mpc"]["N"] == 30 and info["metadata"]["J_p"] == s["J_p"]
+    assert info["config"]["mpc"]["horizon"] == 30 and info["metadata"]["J_p"] == s["J_p"]
 
 
 def test_same_seed_same_run(scenario) -> None:  # type: ignore[no-untyped-def]
@@ -136,7 +136,7 @@ def test_reused_linearizations_fly_the_literal_algorithms_loop(scenario) -> None
     literal = dataclasses.replace(scenario, config=scenario.config.with_overrides({"mpc.linearization": "every_iteration"}))
     a = simulate(scenario, "tbmpc", seed=3, max_steps=8)
     b = simulate(literal, "tbmpc", seed=3, max_steps=8)
-    N = scenario.config.mpc.N
+    N = scenario.config.mpc.horizon
     np.testing.assert_array_equal(b.model_evaluations, N * b.scp_iterations)
     assert N <= a.model_evaluations[0] <= b.model_evaluations[0]  # no previous step to re-use
     assert a.model_evaluations[1:].sum() < 0.5 * b.model_evaluations[1:].sum()

@@ -3,11 +3,12 @@
 import math
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
-from tubempc.config import Config, ConfigError, load_config
+from tubempc.config import Config, ConfigDeprecationWarning, ConfigError, load_config
 
 
 @pytest.fixture(scope="module")
@@ -42,16 +43,16 @@ def test_default_matches_the_paper(default: Config) -> None:
     assert (
         c.mpc.t_f == 600.0
         and c.mpc.dt == 2.0
-        and c.mpc.N == 30
+        and c.mpc.horizon == 30
         and c.mpc.n_steps == 300
     )
     # Project defaults where the paper's literal choice is kept selectable (README, "Readings").
-    assert c.mpc.eps == 1e-3 and c.mpc.kinematics == "exact" and c.mpc.input_cost == "deviation"
-    assert c.with_overrides({"mpc.kinematics": "first_order", "mpc.input_cost": "paper"}).mpc.kinematics == "first_order"
+    assert c.mpc.scp_eps == 1e-3 and c.mpc.kinematics == "exact" and c.mpc.input_cost == "deviation"
+    assert c.with_overrides({"mpc.kinematics": "first_order", "mpc.input_cost": "absolute"}).mpc.kinematics == "first_order"
     assert c.mpc.linearization == "reuse"
     assert c.environment.R == 1.685e11 and c.environment.beta_srp == 1.7744e15
     assert c.environment.mu_sun == 1.32712440018e20
-    assert c.asteroid.density == 1260.0 and c.asteroid.G == 6.6743e-11
+    assert c.asteroid.density == 1260.0
     assert c.asteroid.spin_period == pytest.approx(4.296 * 3600.0, rel=1e-15)
     assert c.spacecraft.u_max == 0.55 and c.spacecraft.T_max == 3.0
     np.testing.assert_array_equal(c.spacecraft.J, np.diag([2750.0, 2750.0, 2030.0]))
@@ -146,9 +147,9 @@ def test_overrides(default: Config) -> None:
         ),
         (r"^Q_p = \[1.0, ", "Q_p = [", "mpc.Q_p", "shape"),
         (r"^lambda_p = 0.96", "lambda_p = 1.0", "identification.lambda_p", "(0, 1)"),
-        (r"^N = 30", "N = 0", "mpc.N", ">= 1"),
+        (r"^horizon = 30", "horizon = 0", "mpc.horizon", ">= 1"),
         (r'^t_f = "600 s"', 't_f = "601 s"', "mpc.t_f", "multiple"),
-        (r"^eps = 1e-3", "eps = nan", "mpc.eps", "non-finite"),
+        (r"^scp_eps = 1e-3", "scp_eps = nan", "mpc.scp_eps", "non-finite"),
         (
             r'^kinematics = "exact"',
             'kinematics = "second"',
@@ -176,3 +177,35 @@ def test_invalid_toml_and_missing_file(tmp_path: Path) -> None:
         load_config(_write(tmp_path, "a = = 1"))
     with pytest.raises(ConfigError, match="cannot read"):
         load_config(tmp_path / "missing.toml")
+
+
+@pytest.mark.parametrize(
+    ("pattern", "repl", "message", "check"),
+    [
+        (r"^horizon = 30", "N = 30", "mpc.N: renamed to horizon", lambda c: c.mpc.horizon == 30),
+        (r"^scp_eps = 1e-3", "eps = 2e-3", "mpc.eps: renamed to scp_eps", lambda c: c.mpc.scp_eps == 2e-3),
+        (r'^input_cost = "deviation"', 'input_cost = "paper"', "value 'paper' renamed to 'absolute'",
+         lambda c: c.mpc.input_cost == "absolute"),
+        (r'^integrator = "rk4"', 'integrator = "dopri"', "value 'dopri' renamed to 'dopri5'",
+         lambda c: c.simulation.integrator == "dopri5"),
+        (r"^\[asteroid\]", '[asteroid]\nG = "6.67430e-11 m^3/(kg s^2)"', "asteroid.G: the field is no longer used",
+         lambda c: not hasattr(c.asteroid, "G")),
+        (r"^seed = 0", 'seed = 0\nmodel = "ellipsoid_uniform"', "disturbance.model: the field is no longer used",
+         lambda c: c.disturbance.seed == 0),
+    ],
+)
+def test_old_spellings_are_read_with_a_warning(tmp_path: Path, pattern: str, repl: str, message: str,
+                                               check: Any) -> None:
+    from tubempc.config import ConfigDeprecationWarning
+
+    p = _write(tmp_path, _edit(_default_text(), pattern, repl))
+    with pytest.warns(ConfigDeprecationWarning, match=re.escape(message)) as caught:
+        c = load_config(p)
+    assert all(str(p) in str(w.message) for w in caught)
+    assert check(c)
+
+
+def test_old_and_new_name_together_is_an_error(tmp_path: Path) -> None:
+    p = _write(tmp_path, _edit(_default_text(), r"^horizon = 30", "horizon = 30\nN = 20"))
+    with pytest.raises(ConfigError, match=r"mpc\.N: old name of horizon, which is also given"):
+        load_config(p)

@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import _core
 from ..dynamics import PointMassGravity, ProximityModel
-from .machine import machine_info
+from ..machine import machine_info
 
 DESCRIPTION = "proximity dynamics: f + Jacobians and 30-node horizon discretisation (goal <= 3 ms)"
 

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from .. import _core
-from .machine import machine_info
+from ..machine import machine_info
 
 DESCRIPTION = "closed loop of an exported scenario: the C++ example binary against the same loop through the bindings"
 

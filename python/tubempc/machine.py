@@ -6,7 +6,7 @@ import os
 import platform
 from typing import Any
 
-from .._core import build_info
+from ._core import build_info
 
 
 def machine_info() -> dict[str, Any]:
