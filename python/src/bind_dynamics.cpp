@@ -191,6 +191,10 @@ void bind_dynamics(py::module_& m) {
       .def_readwrite("glide_slope_angle", &dynamics::ModelParams::glide_slope_angle, "phi_gs (rad)")
       .def_readwrite("los_angle", &dynamics::ModelParams::los_angle, "theta_LOS (rad)")
       .def_readwrite("boresight_B", &dynamics::ModelParams::boresight_B, "b_B in B")
+      .def_readwrite("glide_slope_apex_A", &dynamics::ModelParams::glide_slope_apex_A,
+                     "glide-slope cone apex in A (m); the cone turns with the body")
+      .def_readwrite("glide_slope_axis_A", &dynamics::ModelParams::glide_slope_axis_A,
+                     "glide-slope cone axis in A (normalised on use)")
       .def("validate", &dynamics::ModelParams::validate, "ValueError naming the first bad field.")
       .def("mean_motion", &dynamics::ModelParams::mean_motion, "n = sqrt(mu_sun / R^3) (rad/s)");
 
@@ -231,6 +235,14 @@ void bind_dynamics(py::module_& m) {
       .def_property_readonly("params", &ProximityModel::params)
       .def_property_readonly("mean_motion", &ProximityModel::mean_motion, "n (rad/s)")
       .def("spin_angle", &ProximityModel::spin_angle, py::arg("t"))
+      .def(
+          "glide_slope_cone_L",
+          [](const ProximityModel& m, double t) {
+            Eigen::Vector3d apex_L, axis_L;
+            m.glide_slope_cone_L(t, apex_L, axis_L);
+            return py::make_tuple(apex_L, axis_L);
+          },
+          py::arg("t"), "(apex_L (m), unit axis_L) of the glide-slope cone at time t (s)")
       .def("C_AL", &ProximityModel::C_AL, py::arg("t"))
       .def("q_AL", &ProximityModel::q_AL, py::arg("t"))
       .def(
@@ -343,12 +355,15 @@ void bind_dynamics(py::module_& m) {
       py::arg("x"));
   d.def(
       "glide_slope_constraint",
-      [](const Eigen::Ref<const Eigen::VectorXd>& x, double angle) {
+      [](const Eigen::Ref<const Eigen::VectorXd>& x, double angle, const Eigen::Vector3d& apex_L,
+         const Eigen::Vector3d& axis_L) {
         StateVector grad;
-        const double g = dynamics::glide_slope_constraint(vec<kNx>(x, "x"), angle, &grad);
+        const double g = dynamics::glide_slope_constraint(vec<kNx>(x, "x"), angle, apex_L, axis_L, &grad);
         return py::make_tuple(g, grad);
       },
-      py::arg("x"), py::arg("glide_slope_angle"), "(g = |r| cos(phi_gs) - r.z_L, dg/dx)");
+      py::arg("x"), py::arg("glide_slope_angle"), py::arg("apex_L") = Eigen::Vector3d::Zero().eval(),
+      py::arg("axis_L") = Eigen::Vector3d::UnitZ().eval(),
+      "(g = |r - p| cos(phi_gs) - (r - p).a, dg/dx) for the cone with apex p (m) and unit axis a in L");
   d.def(
       "line_of_sight_constraint",
       [](const Eigen::Ref<const Eigen::VectorXd>& x, double angle, const Eigen::Vector3d& b) {

@@ -182,7 +182,7 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
             _record_step(rec, k, step, tubes, K, w_meas, w_true, idents, (t0, t1, t2, t3, t4))
             x = x_next
             rec.x[k + 1] = x
-            rec.g[k + 1] = [scn.truth.glide_slope(x)[0], scn.truth.line_of_sight(x)[0]]
+            rec.g[k + 1] = [scn.truth.glide_slope(x, (k + 1) * dt)[0], scn.truth.line_of_sight(x)[0]]
             if bar is not None:
                 bar.update()
     finally:

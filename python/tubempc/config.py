@@ -117,15 +117,17 @@ class Environment:
 class Asteroid:
     """Bennu gravity, spin and shape (PAPER_NOTES "Gravity").
 
-    shape: "generated" or a path to a shape file (relative paths are relative to the TOML
-    file). spin_sign: +1 for a spin along +z_L (= z_A), -1 along -z_L. The gravitational constant
-    is the core's (``tubempc.GRAVITATIONAL_CONSTANT``, CODATA 2018).
+    shape: "generated" (the project's Bennu-like body) or a path to a shape file (relative paths
+    are relative to the TOML file) whose coordinates are in ``shape_unit`` ("km" or "m"). spin_sign:
+    +1 for a spin along +z_L (= z_A), -1 along -z_L. The gravitational constant is the core's
+    (``tubempc.GRAVITATIONAL_CONSTANT``, CODATA 2018).
     """
 
     density: float = field(metadata=_q("kg/m^3", "density", check=_POS))
     spin_period: float = field(metadata=_q("s", "time", check=_POS))
     spin_sign: int = field(metadata=_int(check=_SIGN))
     shape: str = field(metadata=_opt())
+    shape_unit: str = field(metadata=_opt("km", "m"))
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,10 +143,15 @@ class Spacecraft:
 
 @dataclass(frozen=True, eq=False)
 class Constraints:
-    """Glide-slope and line-of-sight half-angles (PAPER_NOTES "Constraints")."""
+    """Glide-slope and line-of-sight half-angles (PAPER_NOTES "Constraints"). The glide-slope cone
+    is fixed in the body frame A: glide_slope_apex "centre" (the paper's) or "site" (the landing
+    site's surface point; needs boundary.terminal = "site"); glide_slope_axis "z" (z_A = z_L, the
+    paper's), "normal" (the site's outward surface normal) or "radial" (centre to site)."""
 
     glide_slope_angle: float = field(metadata=_q("rad", "angle", check=_HALF_TURN))
     los_angle: float = field(metadata=_q("rad", "angle", check=_HALF_TURN))
+    glide_slope_apex: str = field(metadata=_opt("centre", "site"))
+    glide_slope_axis: str = field(metadata=_opt("z", "normal", "radial"))
 
 
 @dataclass(frozen=True, eq=False)
@@ -182,8 +189,14 @@ class Mpc:
 class Boundary:
     """Initial and terminal states (Table 2; PAPER_NOTES "Scenario"): r, v in L (m, m/s),
     phi the rotation vector of q_B/L (rad), w = omega_B/L in B (rad/s). terminal: "paper"
-    (rf as given) or "altitude" (rf moved along its direction to terminal_altitude above
-    the surface)."""
+    (rf, vf, phi_f, wf as given, in L), "altitude" (rf moved along its direction to
+    terminal_altitude above the surface) or "site" (a landing site fixed in the body frame A,
+    which moves in L as the body turns: site = "lat_lon" (site_latitude, site_longitude,
+    planetocentric, longitude from x_A about z_A) or "vector" (below site_A, m in A); the surface
+    point is found by ray casting on the shape and the target lies terminal_altitude above it
+    along the local normal; the terminal velocity is the site's). terminal_attitude: "given"
+    (phi_f, wf) or "boresight_down" (boresight along the inward normal, turning with the body;
+    the attitude nearest phi_f)."""
 
     r0: FloatArray = field(metadata=_q("m", "length", (3,)))
     v0: FloatArray = field(metadata=_q("m/s", "velocity", (3,)))
@@ -193,8 +206,13 @@ class Boundary:
     vf: FloatArray = field(metadata=_q("m/s", "velocity", (3,)))
     phi_f: FloatArray = field(metadata=_q("rad", "angle", (3,)))
     wf: FloatArray = field(metadata=_q("rad/s", "angular velocity", (3,)))
-    terminal: str = field(metadata=_opt("paper", "altitude"))
+    terminal: str = field(metadata=_opt("paper", "altitude", "site"))
     terminal_altitude: float = field(metadata=_q("m", "length", check=_POS))
+    site: str = field(metadata=_opt("lat_lon", "vector"))
+    site_A: FloatArray = field(metadata=_q("m", "length", (3,)))
+    site_latitude: float = field(metadata=_q("rad", "angle"))
+    site_longitude: float = field(metadata=_q("rad", "angle"))
+    terminal_attitude: str = field(metadata=_opt("given", "boresight_down"))
 
 
 @dataclass(frozen=True, eq=False)
@@ -297,7 +315,9 @@ class Simulation:
     Model mismatch between the controller and the truth: truth density = density_scale *
     asteroid.density, truth SRP = srp_scale * beta_srp, truth shape resolution
     ``truth_shape_subdivisions`` (0: the controller's shape). reference_input_fraction: the
-    reference trajectory may use this fraction of u_max and T_max (margin for the tube)."""
+    reference trajectory may use this fraction of u_max and T_max (margin for the tube).
+    unconverged_reference: a reference whose SCP did not converge is an "error" (default) or, with
+    "warn", flown with a warning and recorded as such."""
 
     integrator: str = field(metadata=_opt("rk4", "dopri5"))
     substeps: int = field(metadata=_int(check=_GE1))
@@ -306,6 +326,7 @@ class Simulation:
     srp_scale: float = field(metadata=_num(check=_NONNEG))
     truth_shape_subdivisions: int = field(metadata=_int(check=(lambda v: v >= 0, ">= 0")))
     reference_input_fraction: float = field(metadata=_num(check=(lambda v: 0.0 < v <= 1.0, "in (0, 1]")))
+    unconverged_reference: str = field(metadata=_opt("error", "warn"))
 
 
 _SECTIONS: dict[str, type] = {
@@ -338,6 +359,7 @@ class Config:
     tube: Tube
     simulation: Simulation
     source: str = "<memory>"
+    defaulted: tuple[str, ...] = ()  # "section.field" taken from the packaged defaults (not content)
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
         """TOML-ready content in SI units (load(save(c)) == c exactly)."""
@@ -364,7 +386,9 @@ class Config:
                 raise ConfigError(f"{self.source} (override): {key}: unknown field")
             spec = _spec_of(_SECTIONS[section], name)
             data[section][name] = _encode(spec, value) if _is_si(spec, value) else value
-        return _parse(data, f"{self.source} (override)")
+        changed = _parse(data, f"{self.source} (override)")
+        return Config(**{name: getattr(changed, name) for name in _SECTIONS}, source=changed.source,
+                      defaulted=self.defaulted)
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, Config) and self.to_dict() == other.to_dict()
@@ -550,7 +574,8 @@ def _upgrade(section: str, raw: Mapping[str, Any], where: str) -> dict[str, Any]
     return out
 
 
-def _parse_section(cls: type[_S], section: str, raw: Any, where: str) -> _S:
+def _parse_section(cls: type[_S], section: str, raw: Any, where: str, defaults: Mapping[str, Any] | None,
+                   defaulted: list[str]) -> _S:
     if not isinstance(raw, Mapping):
         raise ConfigError(f"{where}: expected a table, got {raw!r}")
     raw = _upgrade(section, raw, where)
@@ -561,8 +586,10 @@ def _parse_section(cls: type[_S], section: str, raw: Any, where: str) -> _S:
             f"{where}.{unknown[0]}: unknown field (known: {', '.join(names)})"
         )
     missing = [n for n in names if n not in raw]
-    if missing:
+    if missing and defaults is None:
         raise ConfigError(f"{where}.{missing[0]}: missing field")
+    raw = {**raw, **{n: defaults[n] for n in missing}} if defaults is not None else raw
+    defaulted.extend(f"{section}.{n}" for n in missing)
     values = {
         f.name: _parse_field(f.metadata["spec"], raw[f.name], f"{where}.{f.name}")
         for f in fields(cls)  # type: ignore[arg-type]
@@ -570,20 +597,30 @@ def _parse_section(cls: type[_S], section: str, raw: Any, where: str) -> _S:
     return cls(**values)
 
 
-def _parse(data: Mapping[str, Any], source: str) -> Config:
+def _packaged_defaults() -> dict[str, Any]:
+    """The packaged default scenario's raw TOML content (the defaults of partial files)."""
+    resource = importlib.resources.files("tubempc").joinpath("data", _DEFAULT)
+    return tomllib.loads(resource.read_text(encoding="utf-8"))
+
+
+def _parse(data: Mapping[str, Any], source: str, defaults: Mapping[str, Any] | None = None) -> Config:
+    """A validated Config from TOML content; with ``defaults`` (raw content of a complete file),
+    missing sections and fields are taken from it and listed in ``Config.defaulted``."""
     unknown = sorted(set(data) - set(_SECTIONS))
     if unknown:
         raise ConfigError(
             f"{source}: {unknown[0]}: unknown section (known: {', '.join(_SECTIONS)})"
         )
     missing = [s for s in _SECTIONS if s not in data]
-    if missing:
+    if missing and defaults is None:
         raise ConfigError(f"{source}: {missing[0]}: missing section")
+    defaulted: list[str] = []
     sections: dict[str, Any] = {
-        name: _parse_section(cls, name, data[name], f"{source}: {name}")
+        name: _parse_section(cls, name, data.get(name, {}), f"{source}: {name}",
+                             None if defaults is None else defaults[name], defaulted)
         for name, cls in _SECTIONS.items()
     }
-    config = Config(**sections, source=source)
+    config = Config(**sections, source=source, defaulted=tuple(defaulted))
     _check_consistency(config)
     return config
 
@@ -594,6 +631,11 @@ def _check_consistency(c: Config) -> None:
         raise ConfigError(
             f"{c.source}: mpc.t_f: {c.mpc.t_f} s is not a multiple of mpc.dt = {c.mpc.dt} s"
         )
+    if c.constraints.glide_slope_apex == "site" and c.boundary.terminal != "site":
+        raise ConfigError(f"{c.source}: constraints.glide_slope_apex: \"site\" needs boundary.terminal = \"site\"")
+    if c.constraints.glide_slope_axis != "z" and c.boundary.terminal != "site":
+        raise ConfigError(f"{c.source}: constraints.glide_slope_axis: {c.constraints.glide_slope_axis!r} needs "
+                          "boundary.terminal = \"site\"")
     if c.mpc.horizon > c.mpc.n_steps:
         raise ConfigError(
             f"{c.source}: mpc.horizon: horizon {c.mpc.horizon} exceeds t_f / dt = {c.mpc.n_steps} steps"
@@ -601,7 +643,9 @@ def _check_consistency(c: Config) -> None:
 
 
 def load_config(path: str | Path | None = None) -> Config:
-    """Load and validate a scenario TOML (None: the packaged bennu_paper.toml)."""
+    """Load and validate a scenario TOML (None: the packaged bennu_paper.toml). A file may leave out
+    sections and fields: they are taken from the packaged bennu_paper.toml and listed in
+    ``Config.defaulted``."""
     if path is None:
         resource = importlib.resources.files("tubempc").joinpath("data", _DEFAULT)
         text, source = (
@@ -618,7 +662,7 @@ def load_config(path: str | Path | None = None) -> Config:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{source}: invalid TOML: {exc}") from exc
-    return _parse(data, source)
+    return _parse(data, source, None if path is None else _packaged_defaults())
 
 
 __all__ = [

@@ -69,7 +69,8 @@ _SCALARS = (
     "glide_slope_angle",
     "los_angle",
 )
-_FIELDS = (*_SCALARS, "srp_enabled", "inertia_B", "kinematics", "boresight_B")
+_VECTORS = ("boresight_B", "glide_slope_apex_A", "glide_slope_axis_A")
+_FIELDS = (*_SCALARS, "srp_enabled", "inertia_B", "kinematics", *_VECTORS)
 
 
 def model_params(config: ModelParams | Mapping[str, Any] | None = None) -> ModelParams:
@@ -99,11 +100,11 @@ def model_params(config: ModelParams | Mapping[str, Any] | None = None) -> Model
                 if J.shape != (3, 3):
                     raise ValueError(f"inertia_B must be 3x3 or 3 principal moments, got shape {J.shape}")
                 p.inertia_B = J
-            elif key == "boresight_B":
+            elif key in _VECTORS:
                 b = np.asarray(value, dtype=float)
                 if b.shape != (3,):
-                    raise ValueError(f"boresight_B must have 3 elements, got shape {b.shape}")
-                p.boresight_B = b
+                    raise ValueError(f"{key} must have 3 elements, got shape {b.shape}")
+                setattr(p, key, b)
             elif key == "srp_enabled":
                 p.srp_enabled = bool(value)
             else:
@@ -118,7 +119,8 @@ def params_to_config(p: ModelParams) -> dict[str, Any]:
     out["srp_enabled"] = bool(p.srp_enabled)
     out["inertia_B"] = np.asarray(p.inertia_B).tolist()
     out["kinematics"] = "exact" if p.kinematics == Kinematics.Exact else "paper"
-    out["boresight_B"] = np.asarray(p.boresight_B).tolist()
+    for key in _VECTORS:
+        out[key] = np.asarray(getattr(p, key)).tolist()
     return out
 
 
@@ -213,9 +215,16 @@ class ProximityModel:
         """Linearised [glide slope; line of sight] at x_lin: G (2, 12), h (2) with G x <= h."""
         return self._impl.constraints(t, _vec(x_lin))
 
-    def glide_slope(self, x: npt.ArrayLike) -> tuple[float, _Arr]:
-        """(g, dg/dx) of g = |r| cos(phi_gs) - r . z_L (<= 0 feasible)."""
-        return glide_slope_constraint(x, self._params.glide_slope_angle)
+    def glide_slope_cone_L(self, t: float) -> tuple[_Arr, _Arr]:
+        """The glide-slope cone at time t (s) in L: apex (m) and unit axis (the cone is fixed in A)."""
+        apex_L, axis_L = self._impl.glide_slope_cone_L(t)
+        return np.asarray(apex_L), np.asarray(axis_L)
+
+    def glide_slope(self, x: npt.ArrayLike, t: float = 0.0) -> tuple[float, _Arr]:
+        """(g, dg/dx) of g = |r - p| cos(phi_gs) - (r - p) . a (<= 0 feasible) for the cone (p, a) at
+        time t (s); the paper's cone (p = 0, a = z_L) does not depend on t."""
+        apex_L, axis_L = self.glide_slope_cone_L(t)
+        return glide_slope_constraint(x, self._params.glide_slope_angle, apex_L, axis_L)
 
     def line_of_sight(self, x: npt.ArrayLike) -> tuple[float, _Arr]:
         """(g, dg/dx) of g = |r| cos(theta_LOS) - r_B . b_B, r_B = -C_BL r_L (<= 0 feasible)."""
@@ -304,10 +313,12 @@ def state_to_truth(x: npt.ArrayLike) -> _Arr:
 
 
 def glide_slope_constraint(
-    x: npt.ArrayLike, glide_slope_angle: float = np.deg2rad(70.0)
+    x: npt.ArrayLike, glide_slope_angle: float = np.deg2rad(70.0), apex_L: npt.ArrayLike = (0.0, 0.0, 0.0),
+    axis_L: npt.ArrayLike = (0.0, 0.0, 1.0),
 ) -> tuple[float, _Arr]:
-    """(g, dg/dx) of g = |r| cos(phi_gs) - r . z_L (<= 0 feasible); ValueError at r = 0."""
-    return _dyn.glide_slope_constraint(_vec(x), glide_slope_angle)
+    """(g, dg/dx) of g = |r - p| cos(phi_gs) - (r - p) . a (<= 0 feasible) for the cone with apex p (m)
+    and unit axis a in L (default: the paper's, apex at the centre, axis z_L); ValueError at r = p."""
+    return _dyn.glide_slope_constraint(_vec(x), glide_slope_angle, _vec(apex_L), _vec(axis_L))
 
 
 def line_of_sight_constraint(

@@ -117,6 +117,10 @@ def generate_reference(
     if x0a.shape != (12,) or xfa.shape != (12,) or not (np.all(np.isfinite(x0a)) and np.all(np.isfinite(xfa))):
         raise ValueError("x0 and xf must be finite 12-vectors")
     T = int(n_steps)
+    cones = [model.glide_slope_cone_L(k * dt) for k in range(T + 1)]
+    apex = np.array([c[0] for c in cones])
+    axis = np.array([c[1] for c in cones])
+    papers_cone = bool(np.all(apex == 0.0) and np.all(axis == [0.0, 0.0, 1.0]))
     X, U = _initial_guess(x0a, xfa, T)
     nX, nU = 12 * (T + 1), 6 * T
     scale = np.tile(STATE_SCALE, T + 1)
@@ -143,11 +147,16 @@ def generate_reference(
         Glos: sp.csr_array | sp.csr_matrix = sp.block_diag([g[None, :] for g in G_los], format="csr")
         Xm = cp.reshape(x, (T + 1, 12), order="C")
         Um = cp.reshape(u, (T, 6), order="C")
+        if papers_cone:  # apex at the centre, axis z_L: |r| cos(phi_gs) <= r_z
+            glide_slope = cp.SOC(Xm[:, 2] / cos_gs, Xm[:, 0:3], axis=1)
+        else:  # the cone fixed in A, at each node's time: |r - p_k| cos(phi_gs) <= (r - p_k) . a_k
+            D = Xm[:, 0:3] - apex
+            glide_slope = cp.SOC(cp.sum(cp.multiply(D, axis), axis=1) / cos_gs, D, axis=1)
         cons = [
             sel_next @ x == Ablk @ (sel_prev @ x) + Bblk @ u + cd.reshape(-1),
             x[:12] == x0a,
             x[-12:] == xfa,
-            cp.SOC(Xm[:, 2] / cos_gs, Xm[:, 0:3], axis=1),
+            glide_slope,
             Glos @ x <= h_los,
             cp.norm(Um[:, 0:3], 2, axis=1) <= u_max,
             cp.norm(Um[:, 3:6], 2, axis=1) <= T_max,

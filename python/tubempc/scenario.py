@@ -9,6 +9,7 @@ option to a C++ setting lives here, once.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -22,11 +23,14 @@ from .dynamics import ProximityModel
 from .identification import ForgettingFactorIdentifier
 from .reference import ReferenceSettings, ReferenceTrajectory, load_or_generate_reference
 from .shapes import Shape, bennu_like_shape, load_shape
+from .site import Site, inside, site_from_lat_lon, site_from_vector, terminal_state
 from .tube import TubeDesigner, TubeResult
 
 __all__ = [
     "METHODS",
     "Scenario",
+    "ScenarioError",
+    "landing_site",
     "block_tube",
     "build_scenario",
     "identifiers",
@@ -46,6 +50,14 @@ P_STATES, R_STATES = slice(0, 6), slice(6, 12)  # translational x_p = [r_L, v_L]
 P_INPUTS, R_INPUTS = slice(0, 3), slice(3, 6)  # u_p (m/s^2, L), T (N m, B)
 
 
+class ScenarioError(ValueError):
+    """A configuration that cannot be flown as stated (the message names the field)."""
+
+
+#: Centre-of-mass offset (m) above which a shape is refused: the model puts the origin of A at it.
+COM_TOLERANCE_FRACTION = 0.01
+
+
 @dataclass
 class Scenario:
     """Everything a closed-loop run needs that does not depend on the method or the seed.
@@ -63,6 +75,7 @@ class Scenario:
     x0: Array
     xf: Array
     reference: ReferenceTrajectory
+    site: Site | None = None
 
     @property
     def n_steps(self) -> int:
@@ -70,11 +83,20 @@ class Scenario:
         return int(self.reference.u.shape[0])
 
 
-def model_params(cfg: Config, srp_scale: float = 1.0) -> dict[str, Any]:
+def model_params(cfg: Config, srp_scale: float = 1.0, site: Site | None = None) -> dict[str, Any]:
     """Parameters of :class:`tubempc.dynamics.ProximityModel` for a configuration (SI units);
     ``srp_scale`` multiplies the SRP constant (the truth's mismatch). The density is the gravity's.
+    ``site``: the landing site when the glide-slope cone is the site's (constraints.glide_slope_*).
     """
     e, a, s, c = cfg.environment, cfg.asteroid, cfg.spacecraft, cfg.constraints
+    cone: dict[str, Any] = {}
+    if c.glide_slope_apex == "site" or c.glide_slope_axis != "z":
+        if site is None:
+            raise ScenarioError(f"{cfg.source}: constraints.glide_slope_apex/axis: the site's cone needs a site")
+        axis = {"z": np.array([0.0, 0.0, 1.0]), "normal": site.normal_A,
+                "radial": site.surface_A / np.linalg.norm(site.surface_A)}[c.glide_slope_axis]
+        apex = site.surface_A if c.glide_slope_apex == "site" else np.zeros(3)
+        cone = {"glide_slope_apex_A": apex.tolist(), "glide_slope_axis_A": axis.tolist()}
     return {
         "mu_sun": e.mu_sun,
         "orbit_radius": e.R,
@@ -85,6 +107,7 @@ def model_params(cfg: Config, srp_scale: float = 1.0) -> dict[str, Any]:
         "glide_slope_angle": c.glide_slope_angle,
         "los_angle": c.los_angle,
         "boresight_B": np.asarray(s.boresight_B, dtype=float).tolist(),
+        **cone,
     }
 
 
@@ -92,22 +115,61 @@ def scenario_shape(cfg: Config, subdivisions: int | None = None) -> tuple[Shape,
     """The asteroid's shape and a description of where it came from.
 
     ``asteroid.shape = "generated"`` (or ``subdivisions``) gives the generated Bennu-like body
-    (:func:`tubempc.shapes.bennu_like_shape`); otherwise the file, relative paths taken against the
-    configuration file's folder, read in kilometres.
+    (:func:`tubempc.shapes.bennu_like_shape`); otherwise the file in ``asteroid.shape_unit``, a
+    relative path taken against the configuration file's folder (the packaged scenarios' folder for
+    a packaged configuration). The shape's centre of mass must be the origin (the model's A frame):
+    an offset over 1 % of its extent is refused.
     """
     src = cfg.asteroid.shape
     if src == "generated" or subdivisions:
         n = subdivisions or 12
         return bennu_like_shape(n_subdivisions=n), f"generated bennu_like_shape(n_subdivisions={n})"
     path = Path(src)
-    if not path.is_absolute() and cfg.source not in ("<memory>", ""):
-        path = Path(cfg.source).parent / path
-    return load_shape(path, unit="km"), str(path)
+    if not path.is_absolute():
+        path = config_folder(cfg) / path
+    shape = load_shape(path, unit=cfg.asteroid.shape_unit)
+    v = np.asarray(shape.vertices)
+    extent = float(np.max(np.linalg.norm(v, axis=1)))
+    offset = float(np.linalg.norm(shape.center_of_mass))
+    if offset > COM_TOLERANCE_FRACTION * extent:
+        raise ScenarioError(
+            f"{cfg.source}: asteroid.shape: {path}: the centre of mass lies {offset:.4g} m from the origin "
+            f"({100 * offset / extent:.2g} % of the body's {extent:.4g} m extent); the model takes the origin of "
+            "the body frame at the centre of mass: translate the mesh (tubempc make-body writes centred meshes)")
+    return shape, str(path)
 
 
-def boundary_states(cfg: Config, shape: Shape) -> tuple[Array, Array]:
-    """x0 and x_f (12,) of the configuration; ``boundary.terminal = "altitude"`` moves r_f along its
-    direction to ``terminal_altitude`` above the shape's surface."""
+def config_folder(cfg: Config) -> Path:
+    """The folder relative paths of a configuration are taken against (its file's; the packaged
+    data folder for the packaged scenarios; the working directory for an in-memory one)."""
+    src = cfg.source.removesuffix(" (override)")
+    if src.startswith("<package>/"):
+        import importlib.resources
+
+        return Path(str(importlib.resources.files("tubempc").joinpath(src.removeprefix("<package>/")))).parent
+    if src in ("<memory>", ""):
+        return Path.cwd()
+    return Path(src).parent
+
+
+def landing_site(cfg: Config, shape: Shape) -> Site | None:
+    """The landing site of ``boundary.terminal = "site"`` (None otherwise)."""
+    b = cfg.boundary
+    if b.terminal != "site":
+        return None
+    try:
+        if b.site == "lat_lon":
+            return site_from_lat_lon(shape, b.site_latitude, b.site_longitude, b.terminal_altitude)
+        return site_from_vector(shape, b.site_A, b.terminal_altitude)
+    except ValueError as exc:
+        raise ScenarioError(f"{cfg.source}: boundary.site: {exc}") from exc
+
+
+def boundary_states(cfg: Config, shape: Shape, model: ProximityModel | None = None,
+                    site: Site | None = None) -> tuple[Array, Array]:
+    """x0 and x_f (12,) of the configuration. ``boundary.terminal = "altitude"`` moves r_f along its
+    direction to ``terminal_altitude`` above the shape's surface; ``"site"`` puts x_f at the site's
+    target at t_f, at rest relative to the surface (``model`` gives the body's rotation)."""
     b = cfg.boundary
     x0 = np.concatenate([b.r0, b.v0, b.phi0, b.w0])
     rf = np.asarray(b.rf, dtype=float)
@@ -115,7 +177,39 @@ def boundary_states(cfg: Config, shape: Shape) -> tuple[Array, Array]:
         d = rf / np.linalg.norm(rf)
         surface = float(np.max(np.asarray(shape.vertices) @ d))
         rf = d * (surface + b.terminal_altitude)
-    return x0, np.concatenate([rf, b.vf, b.phi_f, b.wf])
+    if b.terminal != "site":
+        return x0, np.concatenate([rf, b.vf, b.phi_f, b.wf])
+    if site is None or model is None:
+        raise ScenarioError(f"{cfg.source}: boundary.terminal: \"site\" needs the site and the model")
+    t_f = cfg.mpc.t_f
+    rate = model.params.spin_rate - model.mean_motion
+    xf = terminal_state(site.target_A, site.normal_A, model.C_AL(t_f), rate, cfg.spacecraft.boresight_B, b.phi_f)
+    if b.terminal_attitude == "given":
+        xf[6:9], xf[9:12] = b.phi_f, b.wf
+    return x0, xf
+
+
+def check_boundary(cfg: Config, shape: Shape, model: ProximityModel, x0: Array, xf: Array) -> None:
+    """Refuses boundary states the mission cannot fly: inside the body, or outside a cone at t = 0 or t_f
+    (the terminal state may lie on the glide slope's apex side, up to round-off)."""
+    src = cfg.source
+    checks = (("boundary.r0", "initial position", x0, 0.0), ("boundary (terminal)", "terminal position", xf, cfg.mpc.t_f))
+    for field_name, what, x, t in checks:
+        r_A = np.asarray(model.C_AL(t)) @ x[:3]
+        if inside(shape, r_A)[0] and not (cfg.boundary.terminal == "paper" and what == "terminal position"):
+            raise ScenarioError(f"{src}: {field_name}: the {what} {np.round(x[:3], 3).tolist()} m lies inside the body")
+    g0 = model.glide_slope(x0, 0.0)[0]
+    if g0 > 0.0:
+        raise ScenarioError(f"{src}: boundary.r0: the initial position is outside the glide-slope cone by {g0:.4g} m "
+                            f"(constraints.glide_slope_angle = {np.degrees(cfg.constraints.glide_slope_angle):.4g} deg)")
+    l0 = model.line_of_sight(x0)[0]
+    if l0 > 0.0:
+        raise ScenarioError(f"{src}: boundary.phi0: the initial attitude is outside the line-of-sight cone by {l0:.4g} m "
+                            f"(constraints.los_angle = {np.degrees(cfg.constraints.los_angle):.4g} deg)")
+    lf = model.line_of_sight(xf)[0]
+    if lf > 1e-9:
+        raise ScenarioError(f"{src}: boundary.phi_f: the terminal attitude is outside the line-of-sight cone by "
+                            f"{lf:.4g} m (constraints.los_angle)")
 
 
 def build_scenario(cfg: Config, shape_path: str | Path | None = None, cache_dir: str | Path | None = None) -> Scenario:
@@ -124,24 +218,40 @@ def build_scenario(cfg: Config, shape_path: str | Path | None = None, cache_dir:
     ``shape_path`` overrides ``asteroid.shape``; ``cache_dir`` keeps generated references on disk.
     """
     if shape_path is not None:
-        cfg = cfg.with_overrides({"asteroid.shape": str(shape_path)})
+        cfg = cfg.with_overrides({"asteroid.shape": str(Path(shape_path).resolve())})
     shape, shape_src = scenario_shape(cfg)
+    site = landing_site(cfg, shape)
     gravity = _core.gravity.PolyhedronGravity(shape.vertices, shape.faces, cfg.asteroid.density)
-    model = ProximityModel(gravity, model_params(cfg))
+    model = ProximityModel(gravity, model_params(cfg, site=site))
     sim = cfg.simulation
     truth_shape = shape if sim.truth_shape_subdivisions == 0 else scenario_shape(cfg, sim.truth_shape_subdivisions)[0]
     truth_gravity = _core.gravity.PolyhedronGravity(truth_shape.vertices, truth_shape.faces,
                                                     cfg.asteroid.density * sim.density_scale)
-    truth = ProximityModel(truth_gravity, model_params(cfg, sim.srp_scale))
-    x0, xf = boundary_states(cfg, shape)
+    truth = ProximityModel(truth_gravity, model_params(cfg, sim.srp_scale, site=site))
+    x0, xf = boundary_states(cfg, shape, model, site)
+    check_boundary(cfg, shape, model, x0, xf)
     frac = sim.reference_input_fraction
-    key = {"model": model_params(cfg), "shape": shape_src, "n_faces": len(shape.faces),
+    key = {"model": model_params(cfg, site=site), "shape": shape_src, "n_faces": len(shape.faces),
            "volume": float(shape.volume), "density": cfg.asteroid.density}
-    ref = load_or_generate_reference(
-        model, x0, xf, cache_dir=cache_dir, key_extra=key, dt=cfg.mpc.dt, n_steps=cfg.mpc.n_steps,
-        u_max=frac * cfg.spacecraft.u_max, T_max=frac * cfg.spacecraft.T_max,
-        glide_slope_angle=cfg.constraints.glide_slope_angle, settings=ReferenceSettings())
-    return Scenario(cfg, shape, shape_src, model, truth, x0, xf, ref)
+    try:
+        ref = load_or_generate_reference(
+            model, x0, xf, cache_dir=cache_dir, key_extra=key, dt=cfg.mpc.dt, n_steps=cfg.mpc.n_steps,
+            u_max=frac * cfg.spacecraft.u_max, T_max=frac * cfg.spacecraft.T_max,
+            glide_slope_angle=cfg.constraints.glide_slope_angle, settings=ReferenceSettings())
+    except RuntimeError as exc:
+        raise ScenarioError(
+            f"{cfg.source}: the reference trajectory is infeasible ({exc}): no path from x0 to x_f in mpc.t_f = "
+            f"{cfg.mpc.t_f:g} s within {frac:g} x the input bounds (spacecraft.u_max = {cfg.spacecraft.u_max:g} m/s^2, "
+            f"T_max = {cfg.spacecraft.T_max:g} N m) and the cones; lengthen mpc.t_f, raise the bounds or move the "
+            "boundary states") from exc
+    if not ref.converged:
+        message = (f"{cfg.source}: the reference trajectory did not converge in {ref.iterations} SCP iterations "
+                   f"(largest step {ref.max_step:.3g}, dynamics defect {ref.max_defect:.3g})")
+        if sim.unconverged_reference == "error":
+            raise ScenarioError(message + "; simulation.unconverged_reference = \"warn\" flies it anyway")
+        warnings.warn(message + "; flown anyway (simulation.unconverged_reference = \"warn\")", RuntimeWarning,
+                      stacklevel=2)
+    return Scenario(cfg, shape, shape_src, model, truth, x0, xf, ref, site)
 
 
 def model_structure(scn: Scenario) -> tuple[Array, Array, Array]:

@@ -41,6 +41,7 @@ __all__ = [
     "ShapeError",
     "ShapeRepair",
     "bennu_like_shape",
+    "geodesic_sphere",
     "load_shape",
     "save_icq",
     "save_shape",
@@ -345,8 +346,11 @@ def save_icq(path: str | Path, grid: npt.ArrayLike, unit: str = "km") -> None:
     p.write_text(f"{q}\n" + "".join(f"{x:.17g} {y:.17g} {z:.17g}\n" for x, y, z in rows), encoding="utf-8")
 
 
-def _geodesic_sphere(frequency: int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
+def geodesic_sphere(frequency: int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
     """Unit geodesic sphere: every icosahedron face split into frequency^2 triangles, outward."""
+    if int(frequency) != frequency or frequency < 1:
+        raise ValueError(f"subdivisions must be a positive integer, got {frequency!r}")
+    frequency = int(frequency)
     t = (1.0 + math.sqrt(5.0)) / 2.0
     ico_v = np.array(
         [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t],
@@ -412,7 +416,7 @@ def bennu_like_shape(
         raise ValueError(
             "bennu_like_shape: polar_ratio > 0, diamond_exponent >= 1, ridge_width > 0, |bulge| < 0.5"
         )
-    u, faces = _geodesic_sphere(int(n_subdivisions))
+    u, faces = geodesic_sphere(int(n_subdivisions))
     phi = np.arcsin(np.clip(u[:, 2], -1.0, 1.0))
     lam = np.arctan2(u[:, 1], u[:, 0])
     p = diamond_exponent

@@ -132,7 +132,6 @@ def test_overrides(default: Config) -> None:
             "angle",
         ),
         (r'^dt = "2 s"', 'dt = "2 m"', "mpc.dt", "time"),
-        (r"^u_max = .*$", "", "spacecraft.u_max", "missing field"),
         (
             r"^lambda_p = 0.96",
             "lambda_p = 0.96\nlambda_q = 0.9",
@@ -209,3 +208,14 @@ def test_old_and_new_name_together_is_an_error(tmp_path: Path) -> None:
     p = _write(tmp_path, _edit(_default_text(), r"^horizon = 30", "horizon = 30\nN = 20"))
     with pytest.raises(ConfigError, match=r"mpc\.N: old name of horizon, which is also given"):
         load_config(p)
+
+
+def test_partial_file_takes_the_packaged_defaults_and_says_which(tmp_path: Path) -> None:
+    p = _write(tmp_path, '[mpc]\nhorizon = 20\n\n[spacecraft]\nu_max = "0.4 m/s^2"\n')
+    c = load_config(p)
+    default = load_config()
+    assert c.mpc.horizon == 20 and c.spacecraft.u_max == 0.4 and c.spacecraft.T_max == default.spacecraft.T_max
+    assert "spacecraft.T_max" in c.defaulted and "mpc.dt" in c.defaulted and "boundary.r0" in c.defaulted
+    assert "mpc.horizon" not in c.defaulted and "spacecraft.u_max" not in c.defaulted
+    assert default.defaulted == ()  # the packaged file is complete
+    assert c.with_overrides({"mpc.horizon": 25}).defaulted == c.defaulted

@@ -17,16 +17,18 @@ double checked_norm(const StateVector& x, const char* where) {
 
 }  // namespace
 
-double glide_slope_constraint(const StateVector& x, double glide_slope_angle, StateVector* grad) {
-  const double rn = checked_norm(x, "glide_slope_constraint");
-  const Eigen::Vector3d r = x.head<3>();
+double glide_slope_constraint(const StateVector& x, double glide_slope_angle, const Eigen::Vector3d& apex_L,
+                              const Eigen::Vector3d& axis_L, StateVector* grad) {
+  if (!x.allFinite()) throw std::domain_error("glide_slope_constraint: state is not finite");
+  const Eigen::Vector3d d = x.head<3>() - apex_L;
+  const double dn = d.norm();
+  if (!(dn > 0.0)) throw std::domain_error("glide_slope_constraint: undefined at the cone's apex");
   const double c = std::cos(glide_slope_angle);
   if (grad) {
     grad->setZero();
-    grad->head<3>() = (c / rn) * r;
-    (*grad)(2) -= 1.0;
+    grad->head<3>() = (c / dn) * d - axis_L;
   }
-  return rn * c - r.z();
+  return dn * c - d.dot(axis_L);
 }
 
 double line_of_sight_constraint(const StateVector& x, double los_angle, const Eigen::Vector3d& boresight_B,

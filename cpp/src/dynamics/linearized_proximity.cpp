@@ -98,7 +98,7 @@ void LinearizedProximityModel::rediscretize(double t, double dt, const Eigen::Re
   c.tail<6>() = cd_r;
 }
 
-void LinearizedProximityModel::constraints(double /*t*/, const Eigen::Ref<const Eigen::VectorXd>& x_lin,
+void LinearizedProximityModel::constraints(double t, const Eigen::Ref<const Eigen::VectorXd>& x_lin,
                                            Eigen::Ref<Eigen::MatrixXd> G,
                                            Eigen::Ref<Eigen::VectorXd> h) const {
   check_size(x_lin.rows(), 1, kNx, 1, "x_lin");
@@ -107,7 +107,9 @@ void LinearizedProximityModel::constraints(double /*t*/, const Eigen::Ref<const 
   const StateVector x = x_lin;
   const ModelParams& p = model_->params();
   StateVector grad;
-  const double g_gs = glide_slope_constraint(x, p.glide_slope_angle, &grad);
+  Eigen::Vector3d apex_L, axis_L;
+  model_->glide_slope_cone_L(t, apex_L, axis_L);
+  const double g_gs = glide_slope_constraint(x, p.glide_slope_angle, apex_L, axis_L, &grad);
   G.row(0) = grad.transpose();
   h(0) = linearized_bound(g_gs, grad, x);
   const double g_los = line_of_sight_constraint(x, p.los_angle, p.boresight_B, &grad);

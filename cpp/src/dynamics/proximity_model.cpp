@@ -81,6 +81,10 @@ void ModelParams::validate() const {
   require(lmin > 0.0, "inertia_B", "positive definite (smallest eigenvalue, kg m^2)", lmin);
   const double bn = boresight_B.norm();
   require(std::isfinite(bn) && bn > 1e-12, "boresight_B", "finite and nonzero (norm)", bn);
+  const double an = glide_slope_axis_A.norm();
+  require(std::isfinite(an) && an > 1e-12, "glide_slope_axis_A", "finite and nonzero (norm)", an);
+  const double pn = glide_slope_apex_A.norm();
+  require(std::isfinite(pn), "glide_slope_apex_A", "finite (norm, m)", pn);
   if (kinematics != Kinematics::Paper && kinematics != Kinematics::Exact) {
     throw std::invalid_argument("ModelParams.kinematics: unknown value");
   }
@@ -96,6 +100,7 @@ ProximityModel::ProximityModel(std::shared_ptr<const gravity::GravityModel> grav
   if (!gravity_) throw std::invalid_argument("ProximityModel: gravity model must not be null");
   params_.validate();
   params_.boresight_B.normalize();
+  params_.glide_slope_axis_A.normalize();
   n_ = params_.mean_motion();
   srp_accel_ = params_.srp_enabled ? params_.beta_srp / (params_.orbit_radius * params_.orbit_radius) : 0.0;
   J_inv_ = params_.inertia_B.inverse();
@@ -112,6 +117,12 @@ Eigen::Matrix3d ProximityModel::C_AL(double t) const {
   Eigen::Matrix3d C;
   C << c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0;
   return C;
+}
+
+void ProximityModel::glide_slope_cone_L(double t, Eigen::Vector3d& apex_L, Eigen::Vector3d& axis_L) const {
+  const Eigen::Matrix3d C = C_AL(t);
+  apex_L.noalias() = C.transpose() * params_.glide_slope_apex_A;
+  axis_L.noalias() = C.transpose() * params_.glide_slope_axis_A;
 }
 
 math::Quaternion ProximityModel::q_AL(double t) const {

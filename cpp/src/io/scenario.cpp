@@ -193,6 +193,11 @@ class Reader {
     return numeric(name, N, 1)->values;
   }
 
+  template <int N>
+  void optional_vector(const std::string& name, Eigen::Matrix<double, N, 1>& out) {
+    if (Record* r = numeric(name, N, 1, false)) out = r->values;
+  }
+
   double scalar(const std::string& name) { return numeric(name, 1, 1)->values(0, 0); }
 
   void optional_scalar(const std::string& name, double& out, bool allow_infinite = false) {
@@ -281,6 +286,8 @@ void read_body(Reader& r, const std::string& prefix, BodyModel& body) {
   p.glide_slope_angle = r.scalar(prefix + "glide_slope_angle");
   p.los_angle = r.scalar(prefix + "los_angle");
   p.boresight_B = r.vector<3>(prefix + "boresight_B");
+  r.optional_vector(prefix + "glide_slope_apex_A", p.glide_slope_apex_A);
+  r.optional_vector(prefix + "glide_slope_axis_A", p.glide_slope_axis_A);
   body.density = r.positive(prefix + "density");
   body.shape = r.text(prefix + "shape");
   body.shape_unit_scale = r.positive(prefix + "shape_unit_scale");
@@ -328,6 +335,8 @@ void write_body(Writer& w, const std::string& prefix, const BodyModel& body) {
   w.scalar(prefix + "glide_slope_angle", p.glide_slope_angle);
   w.scalar(prefix + "los_angle", p.los_angle);
   w.matrix(prefix + "boresight_B", p.boresight_B);
+  w.matrix(prefix + "glide_slope_apex_A", p.glide_slope_apex_A);
+  w.matrix(prefix + "glide_slope_axis_A", p.glide_slope_axis_A);
   w.scalar(prefix + "density", body.density);
   w.text(prefix + "shape", body.shape);
   w.scalar(prefix + "shape_unit_scale", body.shape_unit_scale);

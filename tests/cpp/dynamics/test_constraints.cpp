@@ -116,5 +116,71 @@ TEST(Constraints, LinearizedModelRowsAndErrors) {
   EXPECT_THROW(lin.discretize(0.0, 2.0, x_nan, InputVector::Zero(), A, B, c), std::domain_error);
 }
 
+// A cone fixed in the asteroid frame A (apex at a site off the spin axis, axis along its normal) turns
+// with the body: at random times the model's constraint equals the definition evaluated in A, and
+// the linearised row matches finite differences.
+TEST(Constraints, BodyFixedConeFollowsTheRotationAtRandomTimes) {
+  ModelParams p;
+  p.glide_slope_apex_A = Eigen::Vector3d(180.0, -120.0, 90.0);
+  p.glide_slope_axis_A = Eigen::Vector3d(0.8, -0.5, 0.3);
+  const auto model = std::make_shared<const ProximityModel>(testing::bennu_point_mass(), p);
+  const LinearizedProximityModel lin(model);
+  const Eigen::Vector3d a_A = p.glide_slope_axis_A.normalized();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> time(0.0, 20000.0), pos(-600.0, 600.0);
+  Eigen::MatrixXd G(2, 12);
+  Eigen::VectorXd h(2);
+  for (int trial = 0; trial < 50; ++trial) {
+    const double t = time(rng);
+    StateVector x = table2_initial();
+    x.head<3>() = Eigen::Vector3d(pos(rng), pos(rng), pos(rng));
+    // Independent evaluation in A: r_A = Rz(-theta) r_L with theta = (spin_rate - n) t.
+    const double th = p.spin_angle0 + (p.spin_rate - model->mean_motion()) * t;
+    const Eigen::Matrix3d C_AL = Eigen::AngleAxisd(-th, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const Eigen::Vector3d d_A = C_AL * x.head<3>() - p.glide_slope_apex_A;
+    const double g_def = d_A.norm() * std::cos(p.glide_slope_angle) - d_A.dot(a_A);
+    Eigen::Vector3d apex_L, axis_L;
+    model->glide_slope_cone_L(t, apex_L, axis_L);
+    StateVector grad;
+    const double g = glide_slope_constraint(x, p.glide_slope_angle, apex_L, axis_L, &grad);
+    EXPECT_NEAR(g, g_def, 1e-9 * (1.0 + std::abs(g_def)));
+    lin.constraints(t, x, G, h);
+    EXPECT_NEAR(G.row(0).dot(x) - h(0), g, 1e-9 * (1.0 + std::abs(g)));
+    for (int i = 0; i < 3; ++i) {  // central differences of g in r_L
+      StateVector xp = x, xm = x;
+      xp(i) += 1e-4;
+      xm(i) -= 1e-4;
+      const double fd = (glide_slope_constraint(xp, p.glide_slope_angle, apex_L, axis_L) -
+                         glide_slope_constraint(xm, p.glide_slope_angle, apex_L, axis_L)) / 2e-4;
+      EXPECT_NEAR(G(0, i), fd, 1e-6);
+    }
+  }
+  EXPECT_THROW(glide_slope_constraint(table2_initial(), p.glide_slope_angle, table2_initial().head<3>(), a_A),
+               std::domain_error);
+}
+
+// The default cone (apex at the centre, axis z_A = z_L) is the paper's cone at every time, bit for bit.
+TEST(Constraints, DefaultBodyFixedConeIsThePapersConeExactly) {
+  const auto model = std::make_shared<const ProximityModel>(testing::bennu_point_mass());
+  for (double t : {0.0, 137.0, 5000.5, 15466.0}) {
+    Eigen::Vector3d apex_L, axis_L;
+    model->glide_slope_cone_L(t, apex_L, axis_L);
+    StateVector g1, g2;
+    const StateVector x = table2_initial();
+    EXPECT_EQ(glide_slope_constraint(x, 1.2, apex_L, axis_L, &g1), x.head<3>().norm() * std::cos(1.2) - x(2));
+    glide_slope_constraint(x, 1.2, &g2);
+    EXPECT_EQ((g1 - g2).cwiseAbs().maxCoeff(), 0.0);
+  }
+}
+
+TEST(Constraints, ConeAxisMustBeNonzero) {
+  ModelParams p;
+  p.glide_slope_axis_A.setZero();
+  EXPECT_THROW(p.validate(), std::invalid_argument);
+  p.glide_slope_axis_A = Eigen::Vector3d(0, 0, 1);
+  p.glide_slope_apex_A(1) = NAN;
+  EXPECT_THROW(p.validate(), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace tubempc::dynamics

@@ -2,10 +2,12 @@
 /// State constraints of the approach (PAPER_NOTES.md, "Constraints"), each written g(x) <= 0 with
 /// its gradient and its tangent (first-order) linearisation used by the QP.
 ///
-/// - Glide slope (cone about z_L, apex at the asteroid's centre):
-///       g_gs(x) = |r| cos(phi_gs) - r . z_L <= 0.
-///   g_gs is positively homogeneous in r, so its tangent plane passes through the apex and the
-///   linearisation is grad g(x_ref) . x <= 0 (the paper's Eq. 36), an outer approximation of the cone.
+/// - Glide slope (a cone with apex p and unit axis a in L; the paper's: p = 0, a = z_L):
+///       g_gs(x) = |r - p| cos(phi_gs) - (r - p) . a <= 0.
+///   g_gs is positively homogeneous in r - p, so its tangent plane passes through the apex and the
+///   linearisation (the paper's Eq. 36) is an outer approximation of the cone. A cone fixed in the
+///   asteroid frame A (a landing site off the spin axis) gives p and a as functions of time
+///   (ProximityModel::glide_slope_cone_L).
 /// - Line of sight (the project's reading): r_B = -C_BL r_L is the vector from the spacecraft to the
 ///   asteroid centre in B and b_B the unit boresight (default +z_B):
 ///       g_los(x) = |r| cos(theta_LOS) - r_B . b_B = |r| cos(theta_LOS) + r_L . (Exp(phi) b_B) <= 0.
@@ -20,13 +22,26 @@
 
 namespace tubempc::dynamics {
 
-/// Glide-slope constraint g_gs(x) = |r| cos(phi_gs) - r . z_L (<= 0 feasible).
+/// Glide-slope constraint g_gs(x) = |r - p| cos(phi_gs) - (r - p) . a (<= 0 feasible).
 /// @param x                 model state [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)].
 /// @param glide_slope_angle phi_gs (rad).
+/// @param apex_L            cone apex p in L (m).
+/// @param axis_L            cone axis a in L (unit vector).
 /// @param grad              if non-null, receives d g_gs / d x (12; m per state unit).
 /// @return g_gs(x) (m).
+/// @throws std::domain_error at r = p or for a non-finite x.
+double glide_slope_constraint(const StateVector& x, double glide_slope_angle, const Eigen::Vector3d& apex_L,
+                              const Eigen::Vector3d& axis_L, StateVector* grad = nullptr);
+
+/// The paper's glide-slope constraint: apex at the asteroid's centre, axis z_L.
+/// @param x                 model state (see above).
+/// @param glide_slope_angle phi_gs (rad).
+/// @param grad              if non-null, receives d g_gs / d x (12; m per state unit).
+/// @return g_gs(x) = |r| cos(phi_gs) - r . z_L (m).
 /// @throws std::domain_error at r = 0 or for a non-finite x.
-double glide_slope_constraint(const StateVector& x, double glide_slope_angle, StateVector* grad = nullptr);
+inline double glide_slope_constraint(const StateVector& x, double glide_slope_angle, StateVector* grad = nullptr) {
+  return glide_slope_constraint(x, glide_slope_angle, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), grad);
+}
 
 /// Line-of-sight constraint g_los(x) = |r| cos(theta_LOS) - r_B . b_B (<= 0 feasible).
 /// @param x           model state (see glide_slope_constraint).

@@ -74,6 +74,11 @@ struct ModelParams {
   double glide_slope_angle{70.0 * 3.14159265358979323846 / 180.0};  ///< phi_gs (rad), in (0, pi/2)
   double los_angle{80.0 * 3.14159265358979323846 / 180.0};          ///< theta_LOS (rad), in (0, pi/2)
   Eigen::Vector3d boresight_B{0.0, 0.0, 1.0};  ///< camera boresight b_B in B (normalised on use)
+  /// Apex of the glide-slope cone in the asteroid frame A (m). The cone is fixed in A and turns with
+  /// the body; the default (the centre, axis z_A = z_L, the spin axis) is the paper's cone, fixed in L.
+  Eigen::Vector3d glide_slope_apex_A{Eigen::Vector3d::Zero()};
+  /// Axis of the glide-slope cone in A (normalised on use; e.g. the outward surface normal at a site).
+  Eigen::Vector3d glide_slope_axis_A{Eigen::Vector3d::UnitZ()};
 
   /// Checks the ranges given above (finite values, inertia symmetric positive definite, ...).
   /// @throws std::invalid_argument naming the first bad field.
@@ -145,6 +150,11 @@ class ProximityModel {
   /// @param t time (s).
   /// @return C_AL(t), with r_A = C_AL r_L.
   Eigen::Matrix3d C_AL(double t) const;
+  /// The glide-slope cone at time t in L: its apex C_AL^T apex_A (m) and unit axis C_AL^T axis_A.
+  /// @param t      time (s).
+  /// @param apex_L receives the apex in L (m).
+  /// @param axis_L receives the unit axis in L.
+  void glide_slope_cone_L(double t, Eigen::Vector3d& apex_L, Eigen::Vector3d& axis_L) const;
   /// Attitude of A relative to L.
   /// @param t time (s).
   /// @return q_A/L(t) with R(q_A/L) = C_AL (so3.hpp conventions).

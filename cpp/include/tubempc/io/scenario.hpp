@@ -31,10 +31,12 @@
 ///   | `model.glide_slope_angle` | 1 1 | phi_gs (rad) |
 ///   | `model.los_angle` | 1 1 | theta_LOS (rad) |
 ///   | `model.boresight_B` | 3 1 | boresight in B |
+///   | `model.glide_slope_apex_A` | 3 1 | optional (default 0): glide-slope cone apex in A (m) |
+///   | `model.glide_slope_axis_A` | 3 1 | optional (default z_A): glide-slope cone axis in A |
 ///   | `model.density` | 1 1 | asteroid density (kg/m^3) |
 ///   | `model.shape` | text | shape file (gravity/shape_io.hpp), relative to the scenario's folder or absolute |
 ///   | `model.shape_unit_scale` | 1 1 | metres per unit of the shape file |
-///   | `truth.*` | | the same 14 records for the simulated plant (the truth model) |
+///   | `truth.*` | | the same records for the simulated plant (the truth model) |
 ///   | `propagator.method` | text | `rk4` or `dopri5` |
 ///   | `propagator.substeps`, `.rtol`, `.atol`, `.max_steps`, `.initial_step` | 1 1 each | dynamics::PropagatorSettings (s for initial_step) |
 ///   | `mpc.horizon` | 1 1 | N |

@@ -1,0 +1,140 @@
+"""Landing sites on a rotating body: surface points by ray casting, local normals, inside tests and
+the terminal state of a site fixed in the body frame A (PAPER_NOTES "Frames"; README "your own mission").
+
+A site is a surface point s_A of the shape (frame A, m) with its outward normal n_A. The target is
+p_A = s_A + h n_A, ``h`` (m) above the surface. The body turns about z_L = z_A at the rate
+(spin_rate - n) relative to L, so at time t the target sits at r_L(t) = C_AL(t)^T p_A and moves with
+v_L(t) = (spin_rate - n) z_L x r_L(t). Touching down means arriving there at rest relative to the
+surface: the terminal attitude points the boresight b_B along -n_L(t_f) and turns with the body,
+omega_BL_B = C_BL (spin_rate - n) z_L.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from ._core import so3
+from ._core.gravity import Shape
+
+__all__ = ["Site", "inside", "ray_cast", "site_from_lat_lon", "site_from_vector", "surface_normal", "terminal_state"]
+
+Array = npt.NDArray[np.float64]
+
+
+def _triangles(shape: Shape) -> tuple[Array, Array, Array]:
+    v = np.asarray(shape.vertices, dtype=np.float64)
+    f = np.asarray(shape.faces, dtype=np.int64)
+    return v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+
+
+def ray_cast(shape: Shape, direction_A: npt.ArrayLike) -> Array:
+    """The outermost point where the ray from the origin along ``direction_A`` meets the surface (m, A)
+    (Moller-Trumbore on every face). ValueError if the ray misses (not a closed body around 0)."""
+    d = np.asarray(direction_A, dtype=np.float64)
+    if d.shape != (3,) or not np.all(np.isfinite(d)) or np.linalg.norm(d) == 0.0:
+        raise ValueError(f"direction must be a finite nonzero 3-vector, got {d}")
+    d = d / np.linalg.norm(d)
+    a, b, c = _triangles(shape)
+    e1, e2 = b - a, c - a
+    p = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, p)
+    ok = np.abs(det) > 1e-12 * np.einsum("ij,ij->i", e1, e1)
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    s = -a
+    u = np.einsum("ij,ij->i", s, p) * inv
+    q = np.cross(s, e1)
+    v = (q @ d) * inv
+    t = np.einsum("ij,ij->i", e2, q) * inv
+    hit = ok & (u >= -1e-12) & (v >= -1e-12) & (u + v <= 1.0 + 1e-12) & (t > 0.0)
+    if not np.any(hit):
+        raise ValueError(f"the ray from the centre along {d} does not meet the surface")
+    return np.asarray(d * float(np.max(t[hit])), dtype=np.float64)
+
+
+def surface_normal(shape: Shape, point_A: npt.ArrayLike, radius: float) -> Array:
+    """Outward unit normal at a surface point: the area-weighted mean normal of the faces whose
+    centroids lie within ``radius`` (m) of it (the nearest face if none)."""
+    x = np.asarray(point_A, dtype=np.float64)
+    a, b, c = _triangles(shape)
+    area_n = 0.5 * np.cross(b - a, c - a)  # outward for the project's shapes (positive volume)
+    dist = np.linalg.norm((a + b + c) / 3.0 - x, axis=1)
+    near = dist <= radius
+    n = area_n[near].sum(axis=0) if np.any(near) else area_n[int(np.argmin(dist))]
+    return np.asarray(n / np.linalg.norm(n), dtype=np.float64)
+
+
+def inside(shape: Shape, points_A: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+    """Whether each point (m, A) lies inside the closed shape: its winding number, the sum of the
+    faces' signed solid angles over 4 pi (van Oosterom-Strackee), exceeds 1/2."""
+    pts = np.atleast_2d(np.asarray(points_A, dtype=np.float64))
+    a, b, c = _triangles(shape)
+    out = np.empty(len(pts), dtype=bool)
+    for i, x in enumerate(pts):
+        ra, rb, rc = a - x, b - x, c - x
+        la, lb, lc = (np.linalg.norm(r, axis=1) for r in (ra, rb, rc))
+        num = np.einsum("ij,ij->i", ra, np.cross(rb, rc))
+        den = (la * lb * lc + np.einsum("ij,ij->i", ra, rb) * lc + np.einsum("ij,ij->i", rb, rc) * la
+               + np.einsum("ij,ij->i", rc, ra) * lb)
+        out[i] = float(np.sum(2.0 * np.arctan2(num, den))) / (4.0 * np.pi) > 0.5
+    return out
+
+
+@dataclass(frozen=True)
+class Site:
+    """A landing site: surface point ``surface_A`` (m), outward unit ``normal_A`` and the target
+    ``target_A`` = surface + altitude * normal (m), all in the body frame A."""
+
+    surface_A: Array
+    normal_A: Array
+    target_A: Array
+
+
+def _normal_radius(shape: Shape) -> float:
+    """Twice the mean edge length: the patch the local normal averages over (m)."""
+    a, b, _ = _triangles(shape)
+    return 2.0 * float(np.mean(np.linalg.norm(b - a, axis=1)))
+
+
+def site_from_vector(shape: Shape, point_A: npt.ArrayLike, altitude: float) -> Site:
+    """The site below ``point_A`` (m, A): its radial projection onto the surface, ``altitude`` (m) above."""
+    s = ray_cast(shape, point_A)
+    n = surface_normal(shape, s, _normal_radius(shape))
+    return Site(s, n, s + altitude * n)
+
+
+def site_from_lat_lon(shape: Shape, latitude: float, longitude: float, altitude: float) -> Site:
+    """The site at planetocentric ``latitude``, ``longitude`` (rad, about z_A from x_A), ``altitude`` (m)
+    above the surface along the local normal."""
+    d = np.array([np.cos(latitude) * np.cos(longitude), np.cos(latitude) * np.sin(longitude), np.sin(latitude)])
+    return site_from_vector(shape, d, altitude)
+
+
+def terminal_state(target_A: npt.ArrayLike, normal_A: npt.ArrayLike, C_AL: npt.ArrayLike, rate_AL: float,
+                   boresight_B: npt.ArrayLike, attitude_hint: npt.ArrayLike) -> Array:
+    """The touchdown state x_f = [r_L, v_L, phi, omega_BL_B] at the time where C_AL (A from L) holds:
+    at the target, at rest relative to the surface (``rate_AL`` = spin_rate - n, rad/s, about z_L),
+    boresight along -n_L, turning with the body. Of the attitudes with that boresight, the one nearest
+    to exp(``attitude_hint``) (rad) is taken (the minimal rotation from it)."""
+    C = np.asarray(C_AL, dtype=np.float64)
+    r_L = C.T @ np.asarray(target_A, dtype=np.float64)
+    n_L = C.T @ np.asarray(normal_A, dtype=np.float64)
+    w_AL_L = np.array([0.0, 0.0, rate_AL])
+    v_L = np.cross(w_AL_L, r_L)
+    b = np.asarray(boresight_B, dtype=np.float64)
+    b = b / np.linalg.norm(b)
+    R0 = np.asarray(so3.rotation_matrix(so3.exp_map(np.asarray(attitude_hint, dtype=np.float64))))
+    have, want = R0 @ b, -n_L / np.linalg.norm(n_L)
+    axis = np.cross(have, want)
+    s, c = float(np.linalg.norm(axis)), float(np.clip(have @ want, -1.0, 1.0))
+    if s < 1e-12:  # parallel (no turn) or anti-parallel (half turn about any perpendicular)
+        perp = np.cross(have, [1.0, 0.0, 0.0] if abs(have[0]) < 0.9 else [0.0, 1.0, 0.0])
+        align = np.eye(3) if c > 0 else np.asarray(so3.rotation_matrix(so3.exp_map(np.pi * perp / np.linalg.norm(perp))))
+    else:
+        align = np.asarray(so3.rotation_matrix(so3.exp_map(axis / s * np.arctan2(s, c))))
+    R_LB = align @ R0
+    phi = np.asarray(so3.log_map(so3.quat_from_rotation_matrix(R_LB)), dtype=np.float64)
+    w_BL_B = R_LB.T @ w_AL_L
+    return np.concatenate([r_L, v_L, phi, w_BL_B])
