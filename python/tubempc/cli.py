@@ -7,6 +7,7 @@ import importlib.metadata
 import platform
 import sys
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -44,13 +45,58 @@ def _cmd_info(_: argparse.Namespace) -> int:
     return 0
 
 
+def _config(args: argparse.Namespace) -> Any:
+    """The configuration of --config FILE or --scenario NAME (default: the paper's), with --shape-unit."""
+    from .config import load_config
+
+    cfg = load_config(getattr(args, "config", None), scenario=getattr(args, "scenario", None))
+    if getattr(args, "shape_unit", None):
+        cfg = cfg.with_overrides({"asteroid.shape_unit": args.shape_unit})
+    return cfg
+
+
+def _cmd_scenarios(_: argparse.Namespace) -> int:
+    import importlib.resources
+
+    from .config import SCENARIOS
+
+    root = importlib.resources.files("tubempc").joinpath("data")
+    for name, (file, about) in SCENARIOS.items():
+        print(f"{name:14s} {about}\n{'':14s} {root.joinpath(*file.split('/'))}")
+    print("fly one with 'tubempc run --scenario NAME'; copy its TOML to start your own (missing fields are the "
+          "paper's)")
+    return 0
+
+
+def _cmd_make_body(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .bodies import contact_binary_shape, ellipsoid_shape
+    from .shapes import save_shape
+
+    if args.kind == "ellipsoid":
+        if args.axes is None:
+            raise ValueError("make-body ellipsoid: --axes a,b,c (semi-axes, m) is required")
+        shape = ellipsoid_shape(args.axes, args.subdivisions, args.roughness, args.seed)
+    else:
+        if args.body_axes is None or args.head_axes is None or args.separation is None:
+            raise ValueError("make-body contact-binary: --body-axes, --head-axes and --separation are required")
+        shape = contact_binary_shape(args.body_axes, args.head_axes, args.separation, args.subdivisions,
+                                     args.roughness, args.seed)
+    out = Path(args.out)
+    save_shape(out, shape, unit="m")
+    extent = shape.vertices.max(axis=0) - shape.vertices.min(axis=0)
+    print(f"wrote {out}: {len(shape.faces)} faces, extent {extent[0]:.1f} x {extent[1]:.1f} x {extent[2]:.1f} m, "
+          f"volume {shape.volume:.4g} m^3 (OBJ in metres: asteroid.shape_unit = \"m\")")
+    return 0
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from .config import load_config
     from .runner import run_methods
 
-    cfg = load_config(args.config)
+    cfg = _config(args)
     methods = ["tbmpc", "ffa"] if args.method == "both" else [args.method]
     seed = cfg.disturbance.seed if args.seed is None else args.seed
     out = Path(args.out)
@@ -76,7 +122,7 @@ def _cmd_export_scenario(args: argparse.Namespace) -> int:
     from .config import load_config
     from .export import export_scenario, read_scenario
 
-    path = export_scenario(load_config(args.config), Path(args.out),
+    path = export_scenario(_config(args), Path(args.out),
                            cache_dir=Path(args.cache_dir) if args.cache_dir else None)
     scn = read_scenario(str(path))  # the C++ reader validates what was written
     print(f"wrote {path} (T = {scn.mission_steps} steps, N = {scn.settings.horizon}) with "
@@ -105,7 +151,7 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
     from .config import load_config
 
     methods = ("tbmpc", "ffa") if args.method == "both" else (args.method,)
-    s = montecarlo(load_config(args.config), args.runs, Path(args.out), master_seed=args.seed, workers=args.workers,
+    s = montecarlo(_config(args), args.runs, Path(args.out), master_seed=args.seed, workers=args.workers,
                    scheduler=args.scheduler, methods=methods, retry_failed=args.retry_failed, only=args.only,
                    progress=not args.quiet)
     for m, row in s["methods"].items():
@@ -125,7 +171,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from .analysis import sweep
     from .config import load_config
 
-    s = sweep(load_config(args.config), args.lambda_p, args.lambda_r, Path(args.out), seed=args.seed,
+    s = sweep(_config(args), args.lambda_p, args.lambda_r, Path(args.out), seed=args.seed,
               progress=not args.quiet)
     print(f"{'':40s} {'J_p':>8s} {'J_r':>8s} {'|dr(T)| m':>10s} {'RMS r m':>9s}")
     for name, row in s["rows"].items():
@@ -145,16 +191,37 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _scenario_arguments(p: argparse.ArgumentParser) -> None:
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--config", help="scenario TOML (fields left out are the paper scenario's)")
+    group.add_argument("--scenario", help="a packaged scenario by name (see 'tubempc scenarios'; default: bennu-paper)")
+    p.add_argument("--shape-unit", choices=["km", "m"], help="unit of the shape file's coordinates (default: the config's)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="tubempc", description=__doc__)
     parser.add_argument("--version", action="version", version=f"tubempc {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     p_info = sub.add_parser("info", help="report the core's build and the Python dependencies")
     p_info.set_defaults(func=_cmd_info)
-    p_run = sub.add_parser("run", help="closed-loop TBMPC and/or TBMPC-FFA on the paper's Bennu scenario")
-    p_run.add_argument("--config", help="scenario TOML (default: the packaged paper scenario)")
+    p_sc = sub.add_parser("scenarios", help="list the packaged scenarios")
+    p_sc.set_defaults(func=_cmd_scenarios)
+    p_body = sub.add_parser("make-body", help="generate a small-body shape (OBJ in metres) for your own mission")
+    p_body.add_argument("kind", choices=["ellipsoid", "contact-binary"])
+    p_body.add_argument("--axes", type=_floats, help="ellipsoid: semi-axes a,b,c (m)")
+    p_body.add_argument("--body-axes", type=_floats, help="contact binary: the larger lobe's semi-axes (m)")
+    p_body.add_argument("--head-axes", type=_floats, help="contact binary: the smaller lobe's semi-axes (m)")
+    p_body.add_argument("--separation", type=float, help="contact binary: distance of the lobes' centres (m)")
+    p_body.add_argument("--subdivisions", type=int, default=12, help="geodesic resolution n (20 n^2 faces)")
+    p_body.add_argument("--roughness", type=float, default=0.0, help="relative surface roughness in [0, 0.5)")
+    p_body.add_argument("--seed", type=int, default=0, help="roughness seed")
+    p_body.add_argument("--out", required=True, help="OBJ file to write")
+    p_body.set_defaults(func=_cmd_make_body)
+    p_run = sub.add_parser("run", help="closed-loop TBMPC and/or TBMPC-FFA on a scenario (default: the paper's)")
+    _scenario_arguments(p_run)
     p_run.add_argument("--method", choices=["tbmpc", "ffa", "both"], default="both")
-    p_run.add_argument("--shape", help="shape file (OBJ, PDS v/f table, ICQ, PLY, STL) instead of the config's")
+    p_run.add_argument("--shape", help="shape file (OBJ, PDS v/f table, ICQ, PLY, STL) instead of the config's; "
+                                       "a relative path is taken against the working directory")
     p_run.add_argument("--seed", type=int, help="disturbance seed (default: the config's)")
     p_run.add_argument("--out", default="results/run", help="output folder")
     p_run.add_argument("--cache-dir", help="reference-trajectory cache (default: OUT/cache)")
@@ -163,7 +230,7 @@ def build_parser() -> argparse.ArgumentParser:
     p_run.set_defaults(func=_cmd_run)
     p_exp = sub.add_parser("export-scenario",
                            help="write the closed loop's scenario file for C++ programs (examples/cpp/closed_loop)")
-    p_exp.add_argument("--config", help="scenario TOML (default: the packaged paper scenario)")
+    _scenario_arguments(p_exp)
     p_exp.add_argument("--out", required=True, help="output folder (scenario.txt, shape.obj, config.toml)")
     p_exp.add_argument("--cache-dir", help="reference-trajectory cache (default: none)")
     p_exp.set_defaults(func=_cmd_export_scenario)
@@ -172,7 +239,7 @@ def build_parser() -> argparse.ArgumentParser:
     p_mc.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
     p_mc.add_argument("--scheduler", help="Dask scheduler address (tcp://host:port) instead of local processes")
     p_mc.add_argument("--out", default="results/montecarlo")
-    p_mc.add_argument("--config", help="scenario TOML (default: the packaged paper scenario)")
+    _scenario_arguments(p_mc)
     p_mc.add_argument("--seed", type=int, default=0, help="master seed")
     p_mc.add_argument("--method", choices=["tbmpc", "ffa", "both"], default="both")
     p_mc.add_argument("--retry-failed", action="store_true", help="rerun the runs recorded as failed")
@@ -183,7 +250,7 @@ def build_parser() -> argparse.ArgumentParser:
     p_sw.add_argument("--lambda-p", type=_floats, default=[0.96, 0.97, 0.98])
     p_sw.add_argument("--lambda-r", type=_floats, help="one per --lambda-p value (default: the config's)")
     p_sw.add_argument("--out", default="results/sweep")
-    p_sw.add_argument("--config")
+    _scenario_arguments(p_sw)
     p_sw.add_argument("--seed", type=int, default=0)
     p_sw.add_argument("--quiet", action="store_true")
     p_sw.set_defaults(func=_cmd_sweep)

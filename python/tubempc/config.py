@@ -196,7 +196,9 @@ class Boundary:
     point is found by ray casting on the shape and the target lies terminal_altitude above it
     along the local normal; the terminal velocity is the site's). terminal_attitude: "given"
     (phi_f, wf) or "boresight_down" (boresight along the inward normal, turning with the body;
-    the attitude nearest phi_f)."""
+    the attitude nearest phi_f). initial: "given" (r0, v0, phi0, w0) or "hover" (with a site:
+    hovering hover_altitude above the site's surface point along its normal at t = 0, turning
+    with the body, boresight down, the attitude nearest phi0)."""
 
     r0: FloatArray = field(metadata=_q("m", "length", (3,)))
     v0: FloatArray = field(metadata=_q("m/s", "velocity", (3,)))
@@ -213,6 +215,8 @@ class Boundary:
     site_latitude: float = field(metadata=_q("rad", "angle"))
     site_longitude: float = field(metadata=_q("rad", "angle"))
     terminal_attitude: str = field(metadata=_opt("given", "boresight_down"))
+    initial: str = field(metadata=_opt("given", "hover"))
+    hover_altitude: float = field(metadata=_q("m", "length", check=_POS))
 
 
 @dataclass(frozen=True, eq=False)
@@ -636,33 +640,52 @@ def _check_consistency(c: Config) -> None:
     if c.constraints.glide_slope_axis != "z" and c.boundary.terminal != "site":
         raise ConfigError(f"{c.source}: constraints.glide_slope_axis: {c.constraints.glide_slope_axis!r} needs "
                           "boundary.terminal = \"site\"")
+    if c.boundary.initial == "hover" and c.boundary.terminal != "site":
+        raise ConfigError(f"{c.source}: boundary.initial: \"hover\" needs boundary.terminal = \"site\"")
     if c.mpc.horizon > c.mpc.n_steps:
         raise ConfigError(
             f"{c.source}: mpc.horizon: horizon {c.mpc.horizon} exceeds t_f / dt = {c.mpc.n_steps} steps"
         )
 
 
-def load_config(path: str | Path | None = None) -> Config:
-    """Load and validate a scenario TOML (None: the packaged bennu_paper.toml). A file may leave out
-    sections and fields: they are taken from the packaged bennu_paper.toml and listed in
-    ``Config.defaulted``."""
-    if path is None:
-        resource = importlib.resources.files("tubempc").joinpath("data", _DEFAULT)
-        text, source = (
-            resource.read_text(encoding="utf-8"),
-            f"<package>/data/{_DEFAULT}",
-        )
+#: Packaged scenarios (``tubempc scenarios``): name -> (file under tubempc/data, one-line description).
+SCENARIOS: dict[str, tuple[str, str]] = {
+    "bennu-paper": (_DEFAULT, "the paper's landing at Bennu's pole (Tables 1-2); the default"),
+    "bennu-equator": ("scenarios/bennu_equator.toml",
+                      "a site near Bennu's equator, approached from hovering 500 m above it; the cone turns with Bennu"),
+    "itokawa-like": ("scenarios/itokawa_like.toml",
+                     "a generated 535 x 294 x 209 m contact binary (1900 kg/m^3, 12.13 h), a site on its smaller lobe"),
+}
+
+
+def scenario_file(name: str) -> str:
+    """Package-relative file of a packaged scenario; ConfigError naming the known ones."""
+    if name not in SCENARIOS:
+        raise ConfigError(f"unknown scenario {name!r} (known: {', '.join(SCENARIOS)}; see 'tubempc scenarios')")
+    return SCENARIOS[name][0]
+
+
+def load_config(path: str | Path | None = None, *, scenario: str | None = None) -> Config:
+    """Load and validate a scenario TOML: a file, or the packaged scenario ``scenario`` (None and None:
+    the packaged bennu_paper.toml). A file may leave out sections and fields: they are taken from
+    the packaged bennu_paper.toml and listed in ``Config.defaulted``."""
+    if path is not None and scenario is not None:
+        raise ConfigError("give a configuration file or a packaged scenario, not both")
+    packaged = scenario_file(scenario or "bennu-paper") if path is None else None
+    if packaged is not None:
+        resource = importlib.resources.files("tubempc").joinpath("data", *packaged.split("/"))
+        text, source = resource.read_text(encoding="utf-8"), f"<package>/data/{packaged}"
     else:
         source = str(path)
         try:
-            text = Path(path).read_text(encoding="utf-8")
+            text = Path(str(path)).read_text(encoding="utf-8")
         except OSError as exc:
             raise ConfigError(f"{source}: cannot read: {exc}") from exc
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{source}: invalid TOML: {exc}") from exc
-    return _parse(data, source, None if path is None else _packaged_defaults())
+    return _parse(data, source, None if packaged == _DEFAULT else _packaged_defaults())
 
 
 __all__ = [
@@ -677,8 +700,10 @@ __all__ = [
     "Identification",
     "Mpc",
     "RENAMED_FIELDS",
+    "SCENARIOS",
     "RENAMED_VALUES",
     "REMOVED_FIELDS",
     "Spacecraft",
     "load_config",
+    "scenario_file",
 ]

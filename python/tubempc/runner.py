@@ -10,8 +10,12 @@ from __future__ import annotations
 
 import json
 import platform
+import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from . import __version__, figures, metrics
 from .closed_loop import simulate
@@ -27,19 +31,31 @@ def run_summary(scn: Scenario, rec: RunRecord) -> dict[str, Any]:
     return metrics.run_metrics(rec, scn.config.mpc.dt, scn.xf)
 
 
-def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> None:
-    """The run's figures (paper Figures 3-14) as PNG files in ``out``."""
+def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dict[str, str]:
+    """The run's figures (paper Figures 3-14) as PNG files in ``out``. A figure that cannot be drawn
+    is skipped with a warning (the run's results are already written); returns {file: error}."""
     c = scn.config
-    figures.save(figures.trajectory_3d(records, c.constraints.glide_slope_angle), out / "fig03_trajectory.png")
-    figures.save(figures.states(records), out / "fig04_states.png")
-    figures.save(figures.errors(records), out / "fig06_errors.png")
-    figures.save(figures.controls(records, c.spacecraft.u_max, c.spacecraft.T_max), out / "fig08_controls.png")
-    figures.save(figures.disturbances(records, c.identification.pw_scale), out / "fig09_disturbances.png")
-    figures.save(figures.tube_projections(records), out / "fig12_tube.png")
-    figures.save(figures.constraints(records), out / "fig13_constraints.png")
+    jobs: list[tuple[str, Callable[[], Any]]] = [
+        ("fig03_trajectory.png", lambda: figures.trajectory_3d(records, c.constraints.glide_slope_angle)),
+        ("fig04_states.png", lambda: figures.states(records)),
+        ("fig06_errors.png", lambda: figures.errors(records)),
+        ("fig08_controls.png", lambda: figures.controls(records, c.spacecraft.u_max, c.spacecraft.T_max)),
+        ("fig09_disturbances.png", lambda: figures.disturbances(records, c.identification.pw_scale)),
+        ("fig12_tube.png", lambda: figures.tube_projections(records)),
+        ("fig13_constraints.png", lambda: figures.constraints(records)),
+    ]
     for m, r in records.items():
-        t, err, fit = metrics.velocity_convergence(r.t, r.x, r.zbar)
-        figures.save(figures.convergence(t, err, fit, "v - vbar"), out / f"fig14_convergence_{m}.png")
+        jobs.append((f"fig14_convergence_{m}.png",
+                     lambda r=r: figures.convergence(*metrics.velocity_convergence(r.t, r.x, r.zbar), "v - vbar")))
+    failed: dict[str, str] = {}
+    for name, make in jobs:
+        try:
+            figures.save(make(), out / name)
+        except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
+            failed[name] = f"{type(exc).__name__}: {exc}"
+            warnings.warn(f"{out / name}: figure not drawn ({failed[name]}); the run's results are saved",
+                          RuntimeWarning, stacklevel=2)
+    return failed
 
 
 def run_methods(cfg: Config, methods: list[str], seed: int, out: Path, *, shape: str | None = None,
@@ -68,5 +84,8 @@ def run_methods(cfg: Config, methods: list[str], seed: int, out: Path, *, shape:
         summary["comparison"] = {"J_p_reduction_percent": 100.0 * (1.0 - jp_f / jp_t)}
     (out / "summary.json").write_text(json.dumps(summary, indent=1, sort_keys=True))
     if make_figures:
-        save_figures(scn, records, out)
+        failed = save_figures(scn, records, out)
+        if failed:
+            summary["figure_errors"] = failed
+            (out / "summary.json").write_text(json.dumps(summary, indent=1, sort_keys=True))
     return summary
