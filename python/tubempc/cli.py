@@ -1,9 +1,23 @@
-"""Command-line interface: ``tubempc --version``, ``info``, ``run``, ``export-scenario``, ``bench NAME``."""
+"""Command-line interface of tubempc: fly a scenario (``run``), list and make scenarios (``scenarios``,
+``make-body``), analyse (``montecarlo``, ``sweep``, ``report``), export for C++ (``export-scenario``),
+benchmark (``bench NAME``) and report the build (``info``, ``--version``).
+
+Exit status (also in the README):
+  0  done; every run kept its robustness guarantee
+  1  internal error (a bug: rerun with --debug and report the traceback)
+  2  usage error (a bad option or value)
+  3  input error: a configuration, shape or scenario that cannot be flown (the message names the file
+     and field), or an output folder that cannot be written
+  4  done, but a run lost its guarantee: steps outside the tube or fallback steps (see the summary)
+  5  a campaign finished with failed runs
+  130  interrupted (Ctrl-C)
+"""
 
 from __future__ import annotations
 
 import argparse
 import importlib.metadata
+import os
 import platform
 import sys
 from collections.abc import Sequence
@@ -14,6 +28,9 @@ import numpy as np
 from . import __version__, benchmarks, build_info, so3
 
 _PYTHON_PACKAGES = ("numpy", "scipy", "cvxpy", "clarabel", "osqp", "piqp")
+EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INPUT, EXIT_GUARANTEE_LOST, EXIT_FAILED_RUNS, EXIT_INTERRUPTED = 0, 1, 2, 3, 4, 5, 130
+#: Control steps of one run above which ``run`` warns before starting (the default mission has 300).
+LARGE_RUN_STEPS = 3000
 
 
 def _so3_selfcheck(n: int = 1000, seed: int = 0) -> float:
@@ -97,23 +114,46 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from .runner import run_methods
 
     cfg = _config(args)
+    if cfg.defaulted:
+        print(f"{cfg.source}: {len(cfg.defaulted)} fields not given, taken from the packaged paper scenario: "
+              f"{', '.join(cfg.defaulted[:8])}{', ...' if len(cfg.defaulted) > 8 else ''}")
     methods = ["tbmpc", "ffa"] if args.method == "both" else [args.method]
     seed = cfg.disturbance.seed if args.seed is None else args.seed
+    if cfg.mpc.n_steps > LARGE_RUN_STEPS:
+        print(f"warning: {cfg.mpc.n_steps} control steps per run (mpc.t_f / mpc.dt; the paper's mission has 300): "
+              f"expect about {cfg.mpc.n_steps * 0.02 * len(methods) / 60:.0f} min or more and "
+              f"{cfg.mpc.n_steps * cfg.mpc.horizon * 12 * 8 * len(methods) / 1e9:.1f} GB of plans; Ctrl-C stops",
+              file=sys.stderr)
     out = Path(args.out)
     summary = run_methods(cfg, methods, seed, out, shape=args.shape, progress=not args.quiet,
                           cache_dir=Path(args.cache_dir) if args.cache_dir else out / "cache",
                           make_figures=not args.no_figures)
+    ref = summary["reference"]
+    print(f"reference: {'converged' if ref['converged'] else 'NOT converged'} in {ref['iterations']} SCP iterations "
+          f"(dynamics defect {ref['max_defect']:.2g})")
+    lost = []
     for m, s in summary["methods"].items():
         st = s["step_time"]
+        outside, fallbacks = s["steps_outside_tube"], s["fallback_steps"]
         print(f"{m:6s} J_p={s['J_p']:.4g} J_r={s['J_r']:.4g} terminal |dr|={s['terminal_error']['position']:.3g} m "
-              f"max excursion p/r={s['max_tube_excursion']['translation']:.3g}/{s['max_tube_excursion']['rotation']:.3g} "
+              f"steps outside the tube {outside}, fallback steps {fallbacks}, largest excursion p/r "
+              f"{s['max_tube_excursion']['translation']:.3g}/{s['max_tube_excursion']['rotation']:.3g} "
               f"cone violations gs/los={s['constraint_violations']['glide_slope_steps']}/"
               f"{s['constraint_violations']['los_steps']} step median {st['step']['median_ms']:.2f} ms "
               f"(tube {st['tube']['median_ms']:.2f}, mpc {st['mpc']['median_ms']:.2f}) run {s['run_time_s']:.1f} s")
+        if outside or fallbacks:
+            lost.append(m)
+    print("(tube excursion: e^T Pe^-1 e of the error one step after the plan; <= 1 inside the tube, > 1 outside)")
     if "comparison" in summary:
         print(f"TBMPC-FFA J_p is {summary['comparison']['J_p_reduction_percent']:.1f} % below TBMPC's")
+    for name, error in summary.get("figure_errors", {}).items():
+        print(f"figure {name} not drawn: {error}", file=sys.stderr)
     print(f"results in {out}/ (summary.json, <method>.h5, figures)")
-    return 0
+    if lost:
+        print(f"robustness guarantee lost by {', '.join(lost)} (steps outside the tube or fallbacks): exit status "
+              f"{EXIT_GUARANTEE_LOST}", file=sys.stderr)
+        return EXIT_GUARANTEE_LOST
+    return EXIT_OK
 
 
 def _cmd_export_scenario(args: argparse.Namespace) -> int:
@@ -135,6 +175,16 @@ def _floats(text: str) -> list[float]:
         return [float(v) for v in text.split(",") if v.strip()]
     except ValueError as exc:
         raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from exc
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}") from exc
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {value}")
+    return value
 
 
 def _ints(text: str) -> list[int]:
@@ -162,7 +212,7 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         print(f"TBMPC-FFA mean J_p is {s['J_p_mean_reduction_percent']:.1f} % below TBMPC's")
     print(f"{s['runs']} runs done ({s['executed_now']} now, {len(s['failed_runs'])} failed) in {s['wall_time_s']:.1f} s; "
           f"{args.out}/summary.json")
-    return 1 if s["failed_runs"] else 0
+    return EXIT_FAILED_RUNS if s["failed_runs"] else EXIT_OK
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
@@ -201,6 +251,7 @@ def _scenario_arguments(p: argparse.ArgumentParser) -> None:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="tubempc", description=__doc__)
     parser.add_argument("--version", action="version", version=f"tubempc {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show the traceback of an error")
     sub = parser.add_subparsers(dest="command", required=True)
     p_info = sub.add_parser("info", help="report the core's build and the Python dependencies")
     p_info.set_defaults(func=_cmd_info)
@@ -222,7 +273,7 @@ def build_parser() -> argparse.ArgumentParser:
     p_run.add_argument("--method", choices=["tbmpc", "ffa", "both"], default="both")
     p_run.add_argument("--shape", help="shape file (OBJ, PDS v/f table, ICQ, PLY, STL) instead of the config's; "
                                        "a relative path is taken against the working directory")
-    p_run.add_argument("--seed", type=int, help="disturbance seed (default: the config's)")
+    p_run.add_argument("--seed", type=_seed, help="disturbance seed >= 0 (default: the config's)")
     p_run.add_argument("--out", default="results/run", help="output folder")
     p_run.add_argument("--cache-dir", help="reference-trajectory cache (default: OUT/cache)")
     p_run.add_argument("--no-figures", action="store_true")
@@ -240,7 +291,7 @@ def build_parser() -> argparse.ArgumentParser:
     p_mc.add_argument("--scheduler", help="Dask scheduler address (tcp://host:port) instead of local processes")
     p_mc.add_argument("--out", default="results/montecarlo")
     _scenario_arguments(p_mc)
-    p_mc.add_argument("--seed", type=int, default=0, help="master seed")
+    p_mc.add_argument("--seed", type=_seed, default=0, help="master seed >= 0")
     p_mc.add_argument("--method", choices=["tbmpc", "ffa", "both"], default="both")
     p_mc.add_argument("--retry-failed", action="store_true", help="rerun the runs recorded as failed")
     p_mc.add_argument("--only", type=_ints, help="rerun just these run indices (comma-separated)")
@@ -251,7 +302,7 @@ def build_parser() -> argparse.ArgumentParser:
     p_sw.add_argument("--lambda-r", type=_floats, help="one per --lambda-p value (default: the config's)")
     p_sw.add_argument("--out", default="results/sweep")
     _scenario_arguments(p_sw)
-    p_sw.add_argument("--seed", type=int, default=0)
+    p_sw.add_argument("--seed", type=_seed, default=0, help="disturbance seed >= 0")
     p_sw.add_argument("--quiet", action="store_true")
     p_sw.set_defaults(func=_cmd_sweep)
     p_rep = sub.add_parser("report", help="HTML and Markdown report of a results folder")
@@ -268,9 +319,37 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Runs the command line; returns the exit status (module docstring)."""
     args = build_parser().parse_args(argv)
-    return int(args.func(args))
+    try:
+        return int(args.func(args))
+    except KeyboardInterrupt:
+        print("tubempc: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (ValueError, OSError) as exc:  # ConfigError, ShapeError, ScenarioError; unreadable or unwritable paths
+        if args.debug:
+            raise
+        print(f"tubempc: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    except Exception as exc:
+        if args.debug:
+            raise
+        print(f"tubempc: internal error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback)",
+              file=sys.stderr)
+        return EXIT_INTERNAL
+
+
+def entry_point() -> None:
+    """Console script: exits with main()'s status, at once on Ctrl-C (a running LMI or QP solve in a
+    worker thread is not waited for; results already written stay)."""
+    try:
+        status = main()
+    except KeyboardInterrupt:
+        status = EXIT_INTERRUPTED
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status)
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    entry_point()

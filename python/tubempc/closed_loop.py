@@ -158,7 +158,7 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
         bar = tqdm(total=T, desc=method, unit="step", leave=False)
     wall0 = time.perf_counter()
     n_run = T if max_steps is None else max(1, min(int(max_steps), T))
-    try:
+    with policy:
         for k in range(n_run):
             t0 = time.perf_counter()
             tubes, tube_status = _tube_update(scn, policy, k, idents)
@@ -185,10 +185,8 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
             rec.g[k + 1] = [scn.truth.glide_slope(x, (k + 1) * dt)[0], scn.truth.line_of_sight(x)[0]]
             if bar is not None:
                 bar.update()
-    finally:
-        policy.close()
-        if bar is not None:
-            bar.close()
+    if bar is not None:
+        bar.close()
     rec.wall_time_s = time.perf_counter() - wall0
     if n_run < T:
         rec.truncate(n_run)

@@ -206,6 +206,7 @@ def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> dict[str, Any]:
         "max_tube_excursion": {"translation": float(rec.excursion[:, 0].max()),
                                "rotation": float(rec.excursion[:, 1].max())},
         "steps_outside_tube": steps_outside_tube(rec.excursion),
+        "fallback_steps": int(sum(s.startswith("fallback") for s in rec.statuses)),
         "constraint_violations": {"glide_slope_steps": int(np.sum(g[:, 0] > 0)), "los_steps": int(np.sum(g[:, 1] > 0)),
                                   "max_glide_slope_g_m": float(g[:, 0].max()), "max_los_g_m": float(g[:, 1].max())},
         "step_time": {name: step_time_stats(getattr(rec, f"time_{name}")) for name in STEP_PHASES},

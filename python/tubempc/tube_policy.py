@@ -46,15 +46,15 @@ class TubeUpdatePolicy:
         self._designed_for: list[Array | None] = [None] * len(self.designers)  # the P_W of each tube
         self._pool = cf.ThreadPoolExecutor(max_workers=max(1, min(len(self.designers), int(threads))))
 
-    def close(self) -> None:
-        """Stops the design threads."""
-        self._pool.shutdown()
+    def close(self, wait: bool = True) -> None:
+        """Stops the design threads; ``wait=False`` returns at once (a running design finishes alone)."""
+        self._pool.shutdown(wait=wait, cancel_futures=not wait)
 
     def __enter__(self) -> TubeUpdatePolicy:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, exc_type: object, *exc: object) -> None:
+        self.close(wait=exc_type is None)
 
     def update(self, k: int, A: Sequence[Array], B: Sequence[Array],
                P_W: Sequence[Array]) -> tuple[list[TubeResult], str | None]:

@@ -1,0 +1,75 @@
+"""The command line: clean errors with documented exit statuses, the guarantee in the summary and the status."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tubempc.cli import EXIT_GUARANTEE_LOST, EXIT_INPUT, EXIT_OK, main
+
+
+def test_bad_option_value_names_the_option(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        main(["run", "--seed", "-5"])
+    assert info.value.code == 2
+    assert "argument --seed: expected a non-negative integer, got -5" in capsys.readouterr().err
+
+
+def test_input_errors_are_messages_with_file_and_field(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[mpc]\nhorizon = "thirty"\n', encoding="utf-8")
+    assert main(["run", "--config", str(bad), "--out", str(tmp_path / "o")]) == EXIT_INPUT
+    err = capsys.readouterr().err
+    assert err.startswith("tubempc: error: ") and str(bad) in err and "mpc.horizon" in err and "Traceback" not in err
+    assert main(["run", "--scenario", "nope", "--out", str(tmp_path / "o")]) == EXIT_INPUT
+    assert "unknown scenario 'nope'" in capsys.readouterr().err
+    assert main(["run", "--shape", str(tmp_path / "missing.obj"), "--out", str(tmp_path / "o")]) == EXIT_INPUT
+    assert "missing.obj" in capsys.readouterr().err
+
+
+def test_unwritable_output_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    assert main(["export-scenario", "--out", str(blocker / "sub")]) == EXIT_INPUT
+    assert str(blocker) in capsys.readouterr().err
+
+
+def test_debug_shows_the_traceback(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[mpc]\nhorizon = "thirty"\n', encoding="utf-8")
+    with pytest.raises(ValueError, match=r"mpc\.horizon"):
+        main(["--debug", "run", "--config", str(bad)])
+
+
+def test_lost_guarantee_is_reported_and_sets_the_exit_status(tmp_path: Path,
+                                                             capsys: pytest.CaptureFixture[str]) -> None:
+    """A disturbance far beyond the prior: TBMPC's fixed tube is left; the summary and status say so."""
+    cfg = tmp_path / "rough.toml"
+    cfg.write_text('[disturbance]\n'
+                   'S_r_attitude = { value = [4e-4, 4e-4, 4e-4], unit = "rad^2" }\n', encoding="utf-8")
+    status = main(["run", "--config", str(cfg), "--method", "tbmpc", "--out", str(tmp_path / "o"), "--quiet",
+                   "--no-figures"])
+    out = capsys.readouterr()
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    outside = summary["methods"]["tbmpc"]["steps_outside_tube"]
+    assert outside > 0 and status == EXIT_GUARANTEE_LOST
+    assert f"steps outside the tube {outside}" in out.out and "guarantee lost by tbmpc" in out.err
+    assert "<= 1 inside the tube, > 1 outside" in out.out and "reference: converged" in out.out
+
+
+def test_partial_config_says_which_fields_are_defaults(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    cfg = tmp_path / "short.toml"
+    cfg.write_text('[disturbance]\nseed = 3\n', encoding="utf-8")
+    assert main(["run", "--config", str(cfg), "--method", "tbmpc", "--out", str(tmp_path / "o"), "--quiet",
+                 "--no-figures"]) == EXIT_OK
+    assert "taken from the packaged paper scenario" in capsys.readouterr().out
+
+
+def test_module_entry_point_exit_status(tmp_path: Path) -> None:
+    r = subprocess.run([sys.executable, "-m", "tubempc", "run", "--scenario", "nope"], capture_output=True, text=True,
+                       check=False, timeout=120)
+    assert r.returncode == EXIT_INPUT and "unknown scenario" in r.stderr and "Traceback" not in r.stderr
