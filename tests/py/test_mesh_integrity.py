@@ -51,11 +51,11 @@ def test_vertex_pushed_through_the_body(tmp_path: Path) -> None:
 
 def test_two_overlapping_lobes_are_rejected(tmp_path: Path) -> None:
     v, f = _icosahedron()
-    v2 = np.vstack([v, v + [0.8, 0.0, 0.0]])
+    v2 = np.vstack([v, v + np.array([0.8, 0.0, 0.0])])
     f2 = np.vstack([f, f + len(v)])
     _both_reject(_obj(tmp_path / "lobes.obj", v2, f2), "intersects itself")
     # Disjoint lobes are a valid (two-component) body.
-    v3 = np.vstack([v, v + [3.0, 0.0, 0.0]])
+    v3 = np.vstack([v, v + np.array([3.0, 0.0, 0.0])])
     assert load_shape(_obj(tmp_path / "apart.obj", v3, f2), unit="m").volume == pytest.approx(
         2 * trimesh.Trimesh(v, f).volume, rel=1e-12)
 
@@ -72,7 +72,7 @@ def test_flat_body_encloses_no_volume(tmp_path: Path) -> None:
     # Two nearly coincident sheets: volume 1e-14 of the bounding box's diagonal cubed.
     v, f = _icosahedron()
     v[:, 2] *= 1e-14
-    with pytest.raises(ValueError, match="encloses no volume|intersects itself"):
+    with pytest.raises(ValueError, match=r"encloses no volume|intersects itself"):
         Shape(v, f)
 
 
@@ -80,7 +80,7 @@ def test_folded_neighbours_are_rejected() -> None:
     # A tetrahedron's apex moved into the plane of the base, folding two faces onto the base.
     v = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0.2, 0.2, 0.0]])
     f = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]])
-    with pytest.raises(ValueError, match="encloses no volume|intersects itself"):
+    with pytest.raises(ValueError, match=r"encloses no volume|intersects itself"):
         Shape(v, f)
 
 
@@ -92,3 +92,17 @@ def test_non_utf8_bytes_in_errors_are_escaped(tmp_path: Path) -> None:
     assert f"{path}:2:" in str(info.value)
     with pytest.raises(ShapeError, match=":2:"):
         load_shape(path)
+
+
+@pytest.mark.parametrize(("name", "content", "line"), [
+    ("huge.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 9223372036854775808\n", 6),
+    ("digit.icq", "\u0663\n1 2 3\n", 1),
+    ("super.icq", "\u00b2\n1 2 3\n", 1),
+    ("zero.icq", "0\n", 1),
+])
+def test_malformed_integers_raise_shape_error_with_line(tmp_path: Path, name: str, content: str, line: int) -> None:
+    path = tmp_path / name
+    path.write_text(content, encoding="utf-8")
+    with pytest.raises(ShapeError) as info:
+        load_shape(path)
+    assert info.value.line == line and str(info.value).startswith(f"{path}:{line}:")
