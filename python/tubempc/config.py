@@ -518,6 +518,8 @@ def _parse_quantity(spec: _Spec, raw: Any, where: str) -> Any:
         raise ConfigError(
             f"{where}: cannot parse {text!r} as a quantity: {exc}"
         ) from exc
+    if not all(math.isfinite(float(p)) for _, p in q.unit_items()):
+        raise ConfigError(f"{where}: non-finite unit exponent in {text!r}")
     expected = _UREG.Quantity(1.0, spec.unit)
     if q.dimensionality != expected.dimensionality or _angle_power(q) != _angle_power(
         expected
@@ -681,6 +683,9 @@ def load_config(path: str | Path | None = None, *, scenario: str | None = None) 
             text = Path(str(path)).read_text(encoding="utf-8")
         except OSError as exc:
             raise ConfigError(f"{source}: cannot read: {exc}") from exc
+        except UnicodeDecodeError as exc:
+            line = Path(path).read_bytes()[: exc.start].count(b"\n") + 1
+            raise ConfigError(f"{source}:{line}: not UTF-8 text (byte 0x{exc.object[exc.start]:02x})") from exc
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

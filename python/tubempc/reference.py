@@ -9,15 +9,21 @@ state group, shrunk when an iterate's dynamics defect grows). The convex subprob
 cvxpy + Clarabel. Converged when the largest scaled step ||(X - X_prev) / s||_inf falls below ``tol``
 and the nonlinear one-step defect is below ``defect_tol`` (relative to s).
 
-Results are cached on disk keyed by a hash of the model's parameters, the shape's fingerprint, the
-boundary states and the solver settings.
+Results are cached on disk keyed by a hash of the model's parameters, the shape's fingerprint, a hash
+of the gravity model's mesh (vertices and faces, when it has one), the boundary states and the solver
+settings. Cache files are written atomically (a temporary file in the same folder, then a rename); an
+unreadable cache file is regenerated with a warning naming it.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import os
+import tempfile
 import time
+import warnings
+import zipfile
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -70,12 +76,23 @@ class ReferenceTrajectory:
     solve_time_s: float
 
     def save(self, path: Path) -> None:
-        np.savez(path, t=self.t, x=self.x, u=self.u,
-                 meta=json.dumps({k: v for k, v in asdict(self).items() if k not in ("t", "x", "u")}))
+        """Writes an ``.npz`` at exactly ``path``, atomically: a reader sees the old file or the new one."""
+        path = Path(path)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                np.savez(f, t=self.t, x=self.x, u=self.u,
+                         meta=json.dumps({k: v for k, v in asdict(self).items() if k not in ("t", "x", "u")}))
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
 
     @staticmethod
     def load(path: Path) -> ReferenceTrajectory:
-        with np.load(path) as d:
+        with open(path, "rb") as f, np.load(f) as d:
             meta = json.loads(str(d["meta"]))
             return ReferenceTrajectory(t=d["t"], x=d["x"], u=d["u"], **meta)
 
@@ -184,6 +201,17 @@ def generate_reference(
     )
 
 
+def _mesh_digest(model: Any) -> str | None:
+    """SHA-256 of the gravity model's mesh (float64 vertices, int64 faces), None without a mesh."""
+    gravity = getattr(model, "gravity", None)
+    vertices, faces = getattr(gravity, "vertices", None), getattr(gravity, "faces", None)
+    if vertices is None or faces is None:
+        return None
+    h = hashlib.sha256(np.ascontiguousarray(vertices, dtype="<f8").tobytes())
+    h.update(np.ascontiguousarray(faces, dtype="<i8").tobytes())
+    return h.hexdigest()
+
+
 def load_or_generate_reference(
     model: Any,
     x0: npt.ArrayLike,
@@ -196,16 +224,22 @@ def load_or_generate_reference(
     """:func:`generate_reference` with an on-disk cache keyed by everything that determines it.
 
     ``key_extra`` must identify the model (parameters, shape fingerprint, density); the boundary
-    states and keyword arguments are added to the key.
+    states, keyword arguments and a hash of the model's mesh are added to the key. A cache file that
+    cannot be read (truncated, corrupt) is regenerated with a warning naming it.
     """
     settings = kwargs.get("settings") or ReferenceSettings()
     key = json.dumps({"x0": np.asarray(x0, float).tolist(), "xf": np.asarray(xf, float).tolist(),
                       "kwargs": {k: v for k, v in kwargs.items() if k != "settings"},
-                      "settings": asdict(settings), "model": key_extra}, sort_keys=True, default=str)
+                      "settings": asdict(settings), "model": key_extra,
+                      "mesh_sha256": _mesh_digest(model)}, sort_keys=True, default=str)
     digest = hashlib.sha256(key.encode()).hexdigest()[:20]
     path = Path(cache_dir) / f"reference_{digest}.npz" if cache_dir is not None else None
     if path is not None and path.exists():
-        return ReferenceTrajectory.load(path)
+        try:
+            return ReferenceTrajectory.load(path)
+        except (zipfile.BadZipFile, EOFError, OSError, ValueError, KeyError, TypeError) as exc:
+            warnings.warn(f"{path}: unreadable reference cache file ({type(exc).__name__}: {exc}); regenerating it",
+                          RuntimeWarning, stacklevel=2)
     ref = generate_reference(model, x0, xf, **kwargs)
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)

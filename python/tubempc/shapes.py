@@ -15,8 +15,8 @@ Formats (chosen from the extension, or ``fmt=``):
   ``x y z``, cube face f = 0..5, row j = 0..q, column i = 0..q (i fastest). Each grid cell is split
   into two triangles; the vertices the six grids share along the cube's edges are merged, and the
   generated triangles are oriented outward (their winding is ours, not the file's).
-- ``ply``, ``stl``: read with ``trimesh`` (optional dependency); STL's per-triangle vertices are
-  merged.
+- ``ply``, ``stl``: read with ``trimesh`` (a dependency of the package); STL's per-triangle
+  vertices are merged (exactly equal coordinates).
 
 Face indices in OBJ and v/f files are 1-based unless a 0 occurs, in which case they are 0-based.
 ``unit`` is the length unit of the file's coordinates, ``"km"`` (default: PDS and ICQ models) or
@@ -106,6 +106,16 @@ def _text_lines(path: Path) -> list[str]:
     return out
 
 
+_ASCII_INT = re.compile(r"[+-]?[0-9]{1,18}")
+
+
+def _int_token(path: Path, number: int, token: str, what: str) -> int:
+    """An ASCII decimal integer of at most 18 digits (so that it fits an int64), else ShapeError."""
+    if _ASCII_INT.fullmatch(token) is None:
+        raise ShapeError(path, number, f"{what}: {token[:40]!r} is not an integer of at most 18 ASCII digits")
+    return int(token)
+
+
 def _finite_floats(path: Path, number: int, tokens: Sequence[str], what: str) -> list[float]:
     try:
         values = [float(t) for t in tokens]
@@ -163,12 +173,8 @@ def _load_vf(path: Path, scale: float, fmt: str, repair: ShapeRepair) -> Shape:
                 raise ShapeError(
                     path, number, f"face with {len(tokens) - 1} vertices: only triangles are supported"
                 )
-            try:
-                faces.append([int(t.split("/", 1)[0]) for t in tokens[1:]])
-            except ValueError as exc:
-                raise ShapeError(
-                    path, number, f"face: cannot read vertex indices from {line.strip()!r}"
-                ) from exc
+            what = "face: cannot read vertex indices"
+            faces.append([_int_token(path, number, t.split("/", 1)[0], what) for t in tokens[1:]])
             face_lines.append(number)
         elif fmt == "obj" and tag in _OBJ_IGNORED:
             continue
@@ -213,11 +219,11 @@ def _load_icq(path: Path, scale: float, repair: ShapeRepair) -> Shape:
     if not content:
         raise ShapeError(path, 1, "the file is empty")
     first_line, first = content[0]
-    if len(first) != 1 or not first[0].isdigit() or int(first[0]) < 1:
-        raise ShapeError(
-            path, first_line, f"expected the grid size q (a positive integer), got {' '.join(first)!r}"
-        )
-    q = int(first[0])
+    if len(first) != 1:
+        raise ShapeError(path, first_line, f"expected the grid size q alone on the line, got {len(first)} tokens")
+    q = _int_token(path, first_line, first[0], "grid size q")
+    if q < 1:
+        raise ShapeError(path, first_line, f"the grid size q must be >= 1, got {q}")
     expected = 6 * (q + 1) ** 2
     rows = content[1:]
     if len(rows) != expected:
@@ -244,12 +250,7 @@ def _load_icq(path: Path, scale: float, repair: ShapeRepair) -> Shape:
 
 
 def _load_trimesh(path: Path, scale: float, fmt: str, repair: ShapeRepair) -> Shape:
-    try:
-        import trimesh
-    except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise ImportError(
-            f"reading {fmt.upper()} files needs the optional package 'trimesh' (pip install trimesh)"
-        ) from exc
+    import trimesh  # a dependency; imported here because it is slow to import and rarely needed
     _read_nonempty(path)
     try:
         mesh = trimesh.load(path, file_type=fmt, force="mesh", process=False)

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <vector>
+#include <Eigen/Geometry>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -12,6 +15,9 @@ namespace tubempc::gravity {
 namespace {
 
 using Index = Eigen::Index;
+
+constexpr double kMinRelativeVolume = 1e-12;  // smallest |volume| / diagonal^3 of a component
+constexpr double kCoincidentRelative = 1e-9;  // vertices closer than this times the diagonal coincide
 
 [[noreturn]] void fail(const std::string& what) { throw std::invalid_argument("Shape: " + what); }
 
@@ -72,6 +78,192 @@ void check_duplicates(const Faces& f) {
   }
 }
 
+
+// Sign of orient3d(a, b, c, d) = ((b - a) x (c - a)) . (d - a), zero within a relative rounding band.
+int orient_sign(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                const Eigen::Vector3d& d) {
+  const Eigen::Vector3d u = b - a, v = c - a, w = d - a;
+  const double det = u.cross(v).dot(w);
+  const double band = 1e-12 * u.norm() * v.norm() * w.norm();
+  return det > band ? 1 : (det < -band ? -1 : 0);
+}
+
+using Point2 = Eigen::Vector2d;
+
+int orient2_sign(const Point2& a, const Point2& b, const Point2& c) {
+  const Point2 u = b - a, v = c - a;
+  const double det = u.x() * v.y() - u.y() * v.x();
+  const double band = 1e-12 * u.norm() * v.norm();
+  return det > band ? 1 : (det < -band ? -1 : 0);
+}
+
+bool on_segment2(const Point2& p, const Point2& a, const Point2& b) {  // p collinear with (a, b)
+  return p.x() >= std::min(a.x(), b.x()) && p.x() <= std::max(a.x(), b.x()) && p.y() >= std::min(a.y(), b.y()) &&
+         p.y() <= std::max(a.y(), b.y());
+}
+
+// Closed segments (p, q) and (a, b) share a point.
+bool segments_meet2(const Point2& p, const Point2& q, const Point2& a, const Point2& b) {
+  const int o1 = orient2_sign(p, q, a), o2 = orient2_sign(p, q, b);
+  const int o3 = orient2_sign(a, b, p), o4 = orient2_sign(a, b, q);
+  if (o1 * o2 < 0 && o3 * o4 < 0) return true;
+  return (o1 == 0 && on_segment2(a, p, q)) || (o2 == 0 && on_segment2(b, p, q)) ||
+         (o3 == 0 && on_segment2(p, a, b)) || (o4 == 0 && on_segment2(q, a, b));
+}
+
+bool in_triangle2(const Point2& p, const Point2& a, const Point2& b, const Point2& c) {  // closed
+  const int s1 = orient2_sign(a, b, p), s2 = orient2_sign(b, c, p), s3 = orient2_sign(c, a, p);
+  return (s1 >= 0 && s2 >= 0 && s3 >= 0) || (s1 <= 0 && s2 <= 0 && s3 <= 0);
+}
+
+// Closed segment (p, q) and closed triangle (a, b, c) share a point (3-D; coplanar case in the
+// projection that drops the normal's largest component).
+bool segment_meets_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& q, const Eigen::Vector3d& a,
+                            const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const int sp = orient_sign(a, b, c, p), sq = orient_sign(a, b, c, q);
+  if (sp * sq > 0) return false;
+  if (sp == 0 && sq == 0) {
+    Eigen::Index axis = 0;
+    (b - a).cross(c - a).cwiseAbs().maxCoeff(&axis);
+    const int i = axis == 0 ? 1 : 0, k = axis == 2 ? 1 : 2;
+    auto proj = [&](const Eigen::Vector3d& x) { return Point2(x(i), x(k)); };
+    const Point2 p2 = proj(p), q2 = proj(q), a2 = proj(a), b2 = proj(b), c2 = proj(c);
+    return in_triangle2(p2, a2, b2, c2) || in_triangle2(q2, a2, b2, c2) || segments_meet2(p2, q2, a2, b2) ||
+           segments_meet2(p2, q2, b2, c2) || segments_meet2(p2, q2, c2, a2);
+  }
+  const int s1 = orient_sign(p, q, a, b), s2 = orient_sign(p, q, b, c), s3 = orient_sign(p, q, c, a);
+  return (s1 >= 0 && s2 >= 0 && s3 >= 0) || (s1 <= 0 && s2 <= 0 && s3 <= 0);
+}
+
+// Faces j and l intersect other than in the vertices and edge they share (by index).
+bool faces_intersect(const Vertices& v, const Faces& f, Index j, Index l) {
+  auto P = [&](std::int64_t i) -> Eigen::Vector3d { return v.row(i).transpose(); };
+  int shared = 0, sj[3] = {-1, -1, -1}, sl[3] = {-1, -1, -1};  // position of shared corners
+  for (int x = 0; x < 3; ++x) {
+    for (int y = 0; y < 3; ++y) {
+      if (f(j, x) == f(l, y)) {
+        sj[x] = y;
+        sl[y] = x;
+        ++shared;
+      }
+    }
+  }
+  if (shared == 0) {
+    for (int x = 0; x < 3; ++x) {
+      if (segment_meets_triangle(P(f(j, x)), P(f(j, (x + 1) % 3)), P(f(l, 0)), P(f(l, 1)), P(f(l, 2))) ||
+          segment_meets_triangle(P(f(l, x)), P(f(l, (x + 1) % 3)), P(f(j, 0)), P(f(j, 1)), P(f(j, 2)))) {
+        return true;
+      }
+    }
+    return false;
+  }
+  int oj = 0, ol = 0;  // a corner of each face that is not shared
+  while (sj[oj] >= 0) ++oj;
+  while (sl[ol] >= 0) ++ol;
+  if (shared == 1) {  // the edges opposite the shared corner, against the other face
+    int pj = 0, pl = 0;
+    while (sj[pj] < 0) ++pj;
+    while (sl[pl] < 0) ++pl;
+    return segment_meets_triangle(P(f(j, (pj + 1) % 3)), P(f(j, (pj + 2) % 3)), P(f(l, 0)), P(f(l, 1)),
+                                  P(f(l, 2))) ||
+           segment_meets_triangle(P(f(l, (pl + 1) % 3)), P(f(l, (pl + 2) % 3)), P(f(j, 0)), P(f(j, 1)),
+                                  P(f(j, 2)));
+  }
+  // A shared edge (e0, e1): the faces overlap iff they are folded flat onto the same side.
+  const int e0 = (oj + 1) % 3, e1 = (oj + 2) % 3;
+  const Eigen::Vector3d a = P(f(j, e0)), b = P(f(j, e1)), c = P(f(j, oj)), d = P(f(l, ol));
+  if (orient_sign(a, b, c, d) != 0) return false;
+  const Eigen::Vector3d n = (b - a).cross(c - a);
+  return (b - a).cross(d - a).dot(n) > 0.0;
+}
+
+// First pair (j, l), j < l, of faces that intersect (faces_intersect), from a bounding-volume
+// hierarchy of the faces' boxes (median splits); {-1, -1} when there is none.
+std::pair<Index, Index> first_self_intersection(const Vertices& v, const Faces& f) {
+  const Index m = f.rows();
+  std::vector<Eigen::AlignedBox3d> box(static_cast<size_t>(m));
+  for (Index j = 0; j < m; ++j) {
+    Eigen::AlignedBox3d b;
+    for (int k = 0; k < 3; ++k) b.extend(v.row(f(j, k)).transpose());
+    box[static_cast<size_t>(j)] = b;
+  }
+  struct Node {
+    Eigen::AlignedBox3d box;
+    Index begin, end;  // range of `order` (leaf) ...
+    Index left, right;  // ... or children (inner node: left >= 0)
+  };
+  std::vector<Index> order(static_cast<size_t>(m));
+  for (Index j = 0; j < m; ++j) order[static_cast<size_t>(j)] = j;
+  std::vector<Node> nodes;
+  nodes.reserve(static_cast<size_t>(2 * m));
+  constexpr Index kLeaf = 4;
+  std::vector<Index> stack;
+  nodes.push_back({Eigen::AlignedBox3d(), 0, m, -1, -1});
+  stack.push_back(0);
+  while (!stack.empty()) {
+    const Index id = stack.back();
+    stack.pop_back();
+    const Index begin = nodes[static_cast<size_t>(id)].begin, end = nodes[static_cast<size_t>(id)].end;
+    Eigen::AlignedBox3d b;
+    for (Index q = begin; q < end; ++q) b.extend(box[static_cast<size_t>(order[static_cast<size_t>(q)])]);
+    nodes[static_cast<size_t>(id)].box = b;
+    if (end - begin <= kLeaf) continue;
+    Index axis = 0;
+    b.sizes().maxCoeff(&axis);
+    const Index mid = (begin + end) / 2;
+    std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end, [&](Index x, Index y) {
+      return box[static_cast<size_t>(x)].center()(axis) < box[static_cast<size_t>(y)].center()(axis);
+    });
+    const auto left = static_cast<Index>(nodes.size());
+    nodes.push_back({Eigen::AlignedBox3d(), begin, mid, -1, -1});
+    nodes.push_back({Eigen::AlignedBox3d(), mid, end, -1, -1});
+    nodes[static_cast<size_t>(id)].left = left;
+    nodes[static_cast<size_t>(id)].right = left + 1;
+    stack.push_back(left);
+    stack.push_back(left + 1);
+  }
+  for (Index j = 0; j < m; ++j) {
+    const Eigen::AlignedBox3d& bj = box[static_cast<size_t>(j)];
+    stack.assign(1, 0);
+    while (!stack.empty()) {
+      const Node& node = nodes[static_cast<size_t>(stack.back())];
+      stack.pop_back();
+      if (!node.box.intersects(bj)) continue;
+      if (node.left >= 0) {
+        stack.push_back(node.left);
+        stack.push_back(node.right);
+        continue;
+      }
+      for (Index q = node.begin; q < node.end; ++q) {
+        const Index l = order[static_cast<size_t>(q)];
+        if (l > j && box[static_cast<size_t>(l)].intersects(bj) && faces_intersect(v, f, j, l)) return {j, l};
+      }
+    }
+  }
+  return {-1, -1};
+}
+
+// First pair of distinct vertices used by faces closer than `tol` (max-norm), {-1, -1} if none.
+std::pair<Index, Index> first_coincident_vertices(const Vertices& v, const Faces& f, double tol) {
+  std::vector<char> used(static_cast<size_t>(v.rows()), 0);
+  for (Index j = 0; j < f.rows(); ++j) {
+    for (int k = 0; k < 3; ++k) used[static_cast<size_t>(f(j, k))] = 1;
+  }
+  std::vector<Index> ids;
+  for (Index i = 0; i < v.rows(); ++i) {
+    if (used[static_cast<size_t>(i)]) ids.push_back(i);
+  }
+  std::sort(ids.begin(), ids.end(), [&](Index x, Index y) { return v(x, 0) < v(y, 0); });
+  for (size_t a = 0; a < ids.size(); ++a) {
+    for (size_t b = a + 1; b < ids.size() && v(ids[b], 0) - v(ids[a], 0) <= tol; ++b) {
+      if ((v.row(ids[a]) - v.row(ids[b])).cwiseAbs().maxCoeff() <= tol) {
+        return {std::min(ids[a], ids[b]), std::max(ids[a], ids[b])};
+      }
+    }
+  }
+  return {-1, -1};
+}
+
 }  // namespace
 
 Shape::Shape(Vertices vertices_m, Faces faces, ShapeRepair repair)
@@ -120,6 +312,12 @@ Shape::Shape(Vertices vertices_m, Faces faces, ShapeRepair repair)
   std::vector<Index> queue;
   queue.reserve(static_cast<size_t>(m));
   const Eigen::Vector3d o = vertices_.colwise().mean().transpose();
+  // Length scale of the mesh: the diagonal of the bounding box of the vertices used by faces.
+  Eigen::AlignedBox3d bbox;
+  for (Index j = 0; j < m; ++j) {
+    for (int k = 0; k < 3; ++k) bbox.extend(vertices_.row(faces_(j, k)).transpose());
+  }
+  const double diagonal = bbox.diagonal().norm();
   auto signed_volume6 = [&](Index j) {
     const Eigen::Vector3d a = vertices_.row(faces_(j, 0)).transpose() - o;
     const Eigen::Vector3d b = vertices_.row(faces_(j, 1)).transpose() - o;
@@ -154,8 +352,10 @@ Shape::Shape(Vertices vertices_m, Faces faces, ShapeRepair repair)
       const double s = signed_volume6(queue[q]);
       vol6 += flip[static_cast<size_t>(queue[q])] ? -s : s;
     }
-    if (vol6 == 0.0 || !std::isfinite(vol6)) {
-      fail("the component containing face " + std::to_string(seed) + " encloses no volume");
+    if (!(std::abs(vol6) > 6.0 * kMinRelativeVolume * diagonal * diagonal * diagonal)) {
+      fail("the component containing face " + std::to_string(seed) + " encloses no volume (|volume| = " +
+           std::to_string(std::abs(vol6) / 6.0) + " m^3 <= " + std::to_string(kMinRelativeVolume) +
+           " * bounding-box diagonal^3)");
     }
     const bool invert = vol6 < 0.0;
     Index first_flipped = -1;
@@ -181,6 +381,17 @@ Shape::Shape(Vertices vertices_m, Faces faces, ShapeRepair repair)
   }
   for (Index j = 0; j < m; ++j) {
     if (flip[static_cast<size_t>(j)]) std::swap(faces_(j, 1), faces_(j, 2));
+  }
+
+  const double coincident_tol = kCoincidentRelative * diagonal;
+  if (const auto [a, b] = first_coincident_vertices(vertices_, faces_, coincident_tol); a >= 0) {
+    fail("vertex " + std::to_string(b) + " coincides with vertex " + std::to_string(a) + " (closer than " +
+         std::to_string(coincident_tol) + " m, " + std::to_string(kCoincidentRelative) +
+         " * bounding-box diagonal): duplicated vertex");
+  }
+  if (const auto [j, l] = first_self_intersection(vertices_, faces_); j >= 0) {
+    fail("face " + std::to_string(j) + " intersects face " + std::to_string(l) +
+         ": the surface intersects itself");
   }
 
   // Unique edges with face_a traversing v0 -> v1.

@@ -22,8 +22,45 @@ namespace {
 using core::text::parse_double;
 using core::text::parse_int64;
 
+// `s` with every byte that is not part of a valid UTF-8 sequence, and every ASCII control byte,
+// written as \xNN, so that a message quoting file content is valid UTF-8 (Python can decode it).
+std::string printable_utf8(std::string_view s) {
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string out;
+  out.reserve(s.size());
+  auto escape = [&](unsigned char c) { out += {'\\', 'x', kHex[c >> 4], kHex[c & 15]}; };
+  for (std::size_t i = 0; i < s.size();) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    if (c < 0x80) {
+      if (c < 0x20 || c == 0x7f) escape(c); else out += static_cast<char>(c);
+      ++i;
+      continue;
+    }
+    // Length of the sequence and the valid range of its second byte (RFC 3629).
+    std::size_t n = 0;
+    unsigned char lo = 0x80, hi = 0xbf;
+    if (c >= 0xc2 && c <= 0xdf) n = 2;
+    else if (c >= 0xe0 && c <= 0xef) { n = 3; if (c == 0xe0) lo = 0xa0; if (c == 0xed) hi = 0x9f; }
+    else if (c >= 0xf0 && c <= 0xf4) { n = 4; if (c == 0xf0) lo = 0x90; if (c == 0xf4) hi = 0x8f; }
+    bool ok = n > 0 && i + n <= s.size();
+    for (std::size_t k = 1; ok && k < n; ++k) {
+      const auto b = static_cast<unsigned char>(s[i + k]);
+      ok = k == 1 ? (b >= lo && b <= hi) : (b >= 0x80 && b <= 0xbf);
+    }
+    if (ok) {
+      out.append(s.substr(i, n));
+      i += n;
+    } else {
+      escape(c);
+      ++i;
+    }
+  }
+  return out;
+}
+
 [[noreturn]] void fail(const std::string& path, long line, const std::string& what) {
-  throw std::invalid_argument(line > 0 ? path + ":" + std::to_string(line) + ": " + what : path + ": " + what);
+  const std::string where = printable_utf8(path) + (line > 0 ? ":" + std::to_string(line) : std::string());
+  throw std::invalid_argument(where + ": " + printable_utf8(what));
 }
 
 void check_unit_scale(double unit_scale) {
@@ -169,7 +206,7 @@ Shape load_shape(const std::string& path, double unit_scale, ShapeRepair repair)
 void save_obj(const std::string& path, const Shape& shape, double unit_scale) {
   check_unit_scale(unit_scale);
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw std::runtime_error(path + ": cannot open for writing (" + std::strerror(errno) + ")");
+  if (!out) throw std::runtime_error(printable_utf8(path) + ": cannot open for writing (" + std::strerror(errno) + ")");
   out << "# written by tubempc::gravity::save_obj: " << shape.n_vertices() << " vertices, " << shape.n_faces()
       << " faces, " << core::text::format_double(unit_scale) << " m per unit\n";
   const Vertices& v = shape.vertices();
@@ -181,7 +218,7 @@ void save_obj(const std::string& path, const Shape& shape, double unit_scale) {
   const Faces& f = shape.faces();
   for (Eigen::Index j = 0; j < f.rows(); ++j) out << "f " << f(j, 0) + 1 << ' ' << f(j, 1) + 1 << ' ' << f(j, 2) + 1 << '\n';
   out.close();
-  if (!out) throw std::runtime_error(path + ": write failed (" + std::strerror(errno) + ")");
+  if (!out) throw std::runtime_error(printable_utf8(path) + ": write failed (" + std::strerror(errno) + ")");
 }
 
 }  // namespace tubempc::gravity

@@ -17,7 +17,8 @@ using Faces = Eigen::Matrix<std::int64_t, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
 /// What Shape's constructor may change in the mesh it is given.
 enum class ShapeRepair {
-  None,   ///< reject any orientation problem with an error naming the face
+  None,   ///< reject any orientation problem with an error naming the face (all other mesh errors
+          ///< are always rejected: see Shape)
   Orient  ///< flip faces to a consistent orientation (propagation over shared edges), then flip
           ///< every closed component whose signed volume is negative so that normals point outward
 };
@@ -37,9 +38,14 @@ struct MeshEdge {
 /// vertices and 4 faces; finite coordinates; vertex indices in [0, n_vertices); no degenerate face
 /// (repeated index or zero area); no duplicate face (same vertex set); closed 2-manifold (every
 /// edge shared by exactly two faces); consistent orientation (every edge traversed once in each
-/// direction) and positive signed volume of every connected component. Orientation problems are
-/// repaired instead when `repair == ShapeRepair::Orient`. Vertices referenced by no face are kept
-/// (they do not contribute to anything).
+/// direction); every connected component encloses a volume |V| > 1e-12 d^3 (d the diagonal of the
+/// bounding box of the vertices used by faces), positive after orientation; no two distinct vertices
+/// used by faces within 1e-9 d of each other (max-norm; coincident vertices, e.g. a duplicated vertex
+/// line); no self-intersection (two faces meeting anywhere but in the corners and edge they share by
+/// index, found with a bounding-volume hierarchy over the faces and a segment-triangle test on
+/// orientation signs with a 1e-12 relative rounding band, which counts touching as meeting: O(m log m)).
+/// Only orientation problems can be repaired (`repair == ShapeRepair::Orient`); the other checks
+/// always reject. Vertices referenced by no face are kept (they do not contribute to anything).
 class Shape {
  public:
   /// @param vertices_m vertex coordinates (m), n x 3.
