@@ -43,6 +43,13 @@ _STATE_LABELS = [
 ]
 _GROUP_TITLES = ["position r_L", "velocity v_L", "attitude phi (Lie algebra)", "angular velocity omega_BL_B"]
 _COLORS = {"tbmpc": "tab:orange", "ffa": "tab:blue", "ref": "k"}
+# Both methods are drawn in the same axes and often nearly coincide: TBMPC wide and solid underneath,
+# TBMPC-FFA narrow and dashed on top, so that every legend entry stays visible.
+_STYLE = {"tbmpc": {"lw": 2.4, "ls": "-", "zorder": 2}, "ffa": {"lw": 1.0, "ls": "--", "zorder": 3}}
+
+
+def _style(name: str, **extra: Any) -> dict[str, Any]:
+    return {"color": _COLORS.get(name), **_STYLE.get(name, {"lw": 1.2}), **extra}
 
 
 def save(fig: Figure, path: str | Path, dpi: int = 110) -> Path:
@@ -54,34 +61,58 @@ def save(fig: Figure, path: str | Path, dpi: int = 110) -> Path:
     return p
 
 
-def _cone_surface(ax: Any, half_angle: float, height: float, color: str, label: str) -> None:
-    h = np.linspace(0.0, height, 12)
-    th = np.linspace(0.0, 2 * np.pi, 48)
-    H, TH = np.meshgrid(h, th)
+def _cone_surface(ax: Any, half_angle: float, apex: np.ndarray, axis: np.ndarray, height: float, color: str,
+                  label: str) -> None:
+    a = axis / np.linalg.norm(axis)
+    e1 = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(a, e1)
+    H, TH = np.meshgrid(np.linspace(0.0, height, 12), np.linspace(0.0, 2 * np.pi, 48))
     R = H * np.tan(half_angle)
-    ax.plot_surface(R * np.cos(TH), R * np.sin(TH), H, color=color, alpha=0.08, linewidth=0)
+    pts = [apex[i] + H * a[i] + R * (np.cos(TH) * e1[i] + np.sin(TH) * e2[i]) for i in range(3)]
+    ax.plot_surface(*pts, color=color, alpha=0.07, linewidth=0)
     ax.plot([], [], color=color, alpha=0.4, label=label)
 
 
-def trajectory_3d(results: Mapping[str, RunRecord], glide_slope_rad: float, every: int = 25) -> Figure:
-    """Fig. 3: actual trajectories in L with the glide-slope cone and predicted horizons."""
-    fig = plt.figure(figsize=(7.5, 6.5))
+def trajectory_3d(results: Mapping[str, RunRecord], glide_slope_rad: float, every: int = 25, *,
+                  body_L: tuple[np.ndarray, np.ndarray] | None = None,
+                  cone_L: tuple[np.ndarray, np.ndarray] | None = None) -> Figure:
+    """Fig. 3: actual trajectories in L with the asteroid (``body_L``: vertices in L at t_f (m) and
+    faces), the glide-slope cone at t_f (``cone_L``: apex (m) and axis in L; default the paper's)
+    and predicted horizons. The axes span the trajectories and the body, not the cone."""
+    fig = plt.figure(figsize=(8, 7))
     ax = fig.add_subplot(projection="3d")
     ref = next(iter(results.values())).zbar
-    _cone_surface(ax, glide_slope_rad, float(np.max(ref[:, 2])) * 1.05, "tab:green", "glide-slope cone")
-    ax.plot(ref[:, 0], ref[:, 1], ref[:, 2], "k--", lw=1, label="reference")
+    pts = [ref[:, :3], *(r.x[:, :3] for r in results.values())]
+    if body_L is not None:
+        v, f = body_L
+        ax.plot_trisurf(v[:, 0], v[:, 1], v[:, 2], triangles=f, color="0.6", alpha=0.35, linewidth=0)
+        ax.plot([], [], color="0.6", lw=6, alpha=0.5, label="asteroid at t_f")
+        pts.append(v)
+    allp = np.concatenate(pts)
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    apex, axis = cone_L if cone_L is not None else (np.zeros(3), np.array([0.0, 0.0, 1.0]))
+    centre, half = 0.5 * (lo + hi), 0.55 * float(np.max(hi - lo))
+    reach = float(np.max(np.linalg.norm(ref[:, :3] - apex, axis=1)))
+    height = min(reach, half / np.tan(glide_slope_rad))  # the cone's rim stays inside the axes
+    _cone_surface(ax, glide_slope_rad, apex, axis, height, "tab:green", "glide-slope cone at t_f")
+    ax.plot(ref[:, 0], ref[:, 1], ref[:, 2], "k:", lw=1.2, label="reference")
     for name, r in results.items():
         x = r.x
-        ax.plot(x[:, 0], x[:, 1], x[:, 2], color=_COLORS.get(name), lw=1.5, label=f"{name} actual")
+        ax.plot(x[:, 0], x[:, 1], x[:, 2], **_style(name), label=f"{name} actual")
         for k in range(0, r.z_plan.shape[0], every):
             zp = r.z_plan[k]
             ax.plot(zp[:, 0], zp[:, 1], zp[:, 2], color=_COLORS.get(name), lw=0.6, alpha=0.5)
     ax.scatter(*ref[0, :3], color="g", s=30, label="start")
-    ax.scatter(*ref[-1, :3], color="r", s=30, label="landing site")
+    ax.scatter(*ref[-1, :3], color="r", s=30, label="target at t_f")
+    ax.set_xlim(centre[0] - half, centre[0] + half)
+    ax.set_ylim(centre[1] - half, centre[1] + half)
+    ax.set_zlim(centre[2] - half, centre[2] + half)
     ax.set_xlabel("x_L (m)")
     ax.set_ylabel("y_L (m)")
     ax.set_zlabel("z_L (m)")
-    ax.set_title(f"Trajectory in L, predicted horizons (thin) every {every} steps")
+    ax.set_title(f"Trajectory in L (TBMPC solid, TBMPC-FFA dashed), predicted horizons (thin) every {every} steps",
+                 fontsize=9)
     ax.legend(loc="upper left", fontsize=8)
     return fig
 
@@ -157,21 +188,33 @@ def controls(results: Mapping[str, RunRecord], u_max: float, T_max: float) -> Fi
     return fig
 
 
-def disturbances(results: Mapping[str, RunRecord], pw_scale: float = 9.0) -> Figure:
-    """Figs. 9-11: measured exogenous inputs w with the identified mean and sqrt(scale) sigma bounds."""
+def disturbances(results: Mapping[str, RunRecord], pw_scale: float = 9.0,
+                 prior_variances: np.ndarray | None = None) -> Figure:
+    """Fig. 9: measured exogenous inputs w with sqrt(pw_scale) sigma bounds: TBMPC-FFA's identified
+    (mean and covariance after each step) and TBMPC's fixed ones from the prior variances (12,)
+    when given (TBMPC designs its tube from the prior only)."""
     fig, axes = _state_grid()
     k_sigma = float(np.sqrt(pw_scale))
     for name, r in results.items():
         t = r.t[1:]
         S = np.concatenate([np.diagonal(r.S_p, axis1=1, axis2=2), np.diagonal(r.S_r, axis1=1, axis2=2)], axis=1)
+        w_hat = r.w_hat
+        if name == "tbmpc" and prior_variances is not None:
+            S = np.broadcast_to(np.asarray(prior_variances, dtype=float), S.shape)
+            w_hat = np.zeros_like(w_hat)
         for j in range(12):
             ax = axes[j // 3, j % 3]
             c = _COLORS.get(name)
-            ax.plot(t, r.w[:, j], color=c, lw=0.6, alpha=0.7, label=f"{name} w")
+            if name == "tbmpc":  # dots under the FFA's line: the two w nearly coincide (same disturbance)
+                ax.plot(t, r.w[:, j], ".", color=c, ms=2.5, zorder=2, label=f"{name} w")
+            else:
+                ax.plot(t, r.w[:, j], color=c, lw=0.6, alpha=0.8, zorder=3, label=f"{name} w")
             bound = k_sigma * np.sqrt(S[:, j])
-            ax.plot(t, r.w_hat[:, j] + bound, color=c, lw=1.0, ls="--", label=f"{name} ±{k_sigma:.0f} sigma")
-            ax.plot(t, r.w_hat[:, j] - bound, color=c, lw=1.0, ls="--")
-    return _finish_state_grid(fig, axes, "w ", None, "Exogenous inputs per step and identified bounds", 7)
+            style = _style(name, lw=_STYLE.get(name, {}).get("lw", 1.0))
+            ax.plot(t, w_hat[:, j] + bound, **style, label=f"{name} ±{k_sigma:.0f} sigma")
+            ax.plot(t, w_hat[:, j] - bound, **style)
+    return _finish_state_grid(fig, axes, "w ", None,
+                              "Exogenous inputs per step and identified bounds (TBMPC: wide solid, FFA: dashed)", 7)
 
 
 def tube_projections(results: Mapping[str, RunRecord]) -> Figure:
@@ -195,8 +238,8 @@ def constraints(results: Mapping[str, RunRecord]) -> Figure:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     for name, r in results.items():
         for j, title in enumerate(("glide slope", "line of sight")):
-            axes[j].plot(r.t, r.g[:, j], color=_COLORS.get(name), label=name)
-            axes[j].set_title(f"{title}: g(x) <= 0")
+            axes[j].plot(r.t, r.g[:, j], **_style(name), label=name)
+            axes[j].set_title(f"{title}: g(x) <= 0 (TBMPC solid, FFA dashed)")
     for ax in axes:
         ax.axhline(0.0, color="r", ls=":")
         ax.set_xlabel("t (s)")
@@ -207,15 +250,18 @@ def constraints(results: Mapping[str, RunRecord]) -> Figure:
     return fig
 
 
-def convergence(t: np.ndarray, err: np.ndarray, fit: ConvergenceFit, label: str) -> Figure:
+def convergence(t: np.ndarray, err: np.ndarray, fit: ConvergenceFit, label: str, unit: str = "m/s",
+                title: str = "") -> Figure:
     """Fig. 14: error norm with the fitted envelope C rho^k ||e_0|| + ebar (Theorem 2)."""
     fig, ax = plt.subplots(figsize=(7, 4))
     k = np.arange(err.size)
     ax.semilogy(t[: err.size], err, label=f"||{label}||")
     ax.semilogy(t[: err.size], fit.bound(k), "r--",
-                label=f"C rho^k ||e0|| + ebar (C||e0||={fit.C * fit.e0:.3g}, rho={fit.rho:.4f})")
+                label=f"C rho^k ||e0|| + ebar (C||e0||={fit.C * fit.e0:.3g} {unit}, rho={fit.rho:.4f} per step, "
+                      f"ebar={fit.ebar:.3g} {unit})")
+    ax.set_title(title or f"Convergence of ||{label}|| (Theorem 2 envelope fitted from t = {t[0]:g} s)")
     ax.set_xlabel("t (s)")
-    ax.set_ylabel(f"||{label}||")
+    ax.set_ylabel(f"||{label}|| ({unit})")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     return fig

@@ -35,18 +35,25 @@ def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dic
     """The run's figures (paper Figures 3-14) as PNG files in ``out``. A figure that cannot be drawn
     is skipped with a warning (the run's results are already written); returns {file: error}."""
     c = scn.config
+    t_f = c.mpc.t_f
+    body_L = (np.asarray(scn.shape.vertices) @ np.asarray(scn.model.C_AL(t_f)), np.asarray(scn.shape.faces))
+    cone_L = scn.model.glide_slope_cone_L(t_f)
+    prior = np.concatenate([np.diag(c.identification.S0_p), np.diag(c.identification.S0_r)])
     jobs: list[tuple[str, Callable[[], Any]]] = [
-        ("fig03_trajectory.png", lambda: figures.trajectory_3d(records, c.constraints.glide_slope_angle)),
+        ("fig03_trajectory.png", lambda: figures.trajectory_3d(records, c.constraints.glide_slope_angle,
+                                                               body_L=body_L, cone_L=cone_L)),
         ("fig04_states.png", lambda: figures.states(records)),
         ("fig06_errors.png", lambda: figures.errors(records)),
         ("fig08_controls.png", lambda: figures.controls(records, c.spacecraft.u_max, c.spacecraft.T_max)),
-        ("fig09_disturbances.png", lambda: figures.disturbances(records, c.identification.pw_scale)),
+        ("fig09_disturbances.png", lambda: figures.disturbances(records, c.identification.pw_scale, prior)),
         ("fig12_tube.png", lambda: figures.tube_projections(records)),
         ("fig13_constraints.png", lambda: figures.constraints(records)),
     ]
     for m, r in records.items():
         jobs.append((f"fig14_convergence_{m}.png",
-                     lambda r=r: figures.convergence(*metrics.velocity_convergence(r.t, r.x, r.zbar), "v - vbar")))
+                     lambda r=r, m=m: figures.convergence(*metrics.velocity_convergence(r.t, r.x, r.zbar), "v - vbar",
+                                                          "m/s", f"{m}: velocity error ||v - vbar|| and the Theorem 2 "
+                                                                 "envelope")))
     failed: dict[str, str] = {}
     for name, make in jobs:
         try:
