@@ -46,3 +46,19 @@ def test_sweep_rejects_bad_lambdas(tmp_path: Path) -> None:
 def test_report_needs_results(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match=r"no summary\.json"):
         write_report(tmp_path)
+
+
+def test_report_compares_with_the_paper_only_for_the_paper_scenario(tmp_path: Path) -> None:
+    from tubempc.runner import run_methods
+
+    for name in ("bennu-paper", "bennu-equator"):
+        out = tmp_path / name
+        run_methods(load_config(scenario=name), ["tbmpc"], 0, out, progress=False, make_figures=False)
+        (out / "fig14_convergence_tbmpc.png").write_bytes(b"\x89PNG\r\n\x1a\n")  # a figure to caption
+        _, md = write_report(out)
+        text = md.read_text()
+        paper = name == "bennu-paper"
+        assert ("paper J_p" in text) == paper and ("16.26" in text) == paper
+        assert ("not the paper scenario" in text) == (not paper)
+        assert "reference converged" in text and "steps outside the tube" in text and "fallback steps" in text
+        assert "Theorem 2 envelope" in text  # the figure's caption
