@@ -7,10 +7,11 @@ or face; for binary PLY/STL files, which have no lines, the face index is named 
 
 Formats (chosen from the extension, or ``fmt=``):
 
-- ``obj``: Wavefront OBJ, ``v x y z`` and ``f i j k`` lines (``i/t/n`` tokens allowed; normals,
-  texture, group and material lines ignored). Only triangles.
-- ``tab``: the PDS "v/f" table of the Bennu radar model (``101955bennu.tab``): the same two line
-  kinds, nothing else.
+- ``obj``: Wavefront OBJ (``v x y z`` and ``f`` lines, 1-based or negative relative indices, ``i/t/n``
+  tokens, polygons split into fans; other line kinds ignored) and
+- ``tab``: the PDS "v/f" table of the Bennu radar model (``101955bennu.tab``), both read by the C++
+  core's reader (``tubempc._core.gravity.load_shape``, ``cpp/include/tubempc/gravity/shape_io.hpp``),
+  so Python and C++ programs read these files identically.
 - ``icq``: Gaskell's implicitly connected quadrilateral format: ``q``, then 6 (q+1)^2 vertex lines
   ``x y z``, cube face f = 0..5, row j = 0..q, column i = 0..q (i fastest). Each grid cell is split
   into two triangles; the vertices the six grids share along the cube's edges are merged, and the
@@ -18,7 +19,6 @@ Formats (chosen from the extension, or ``fmt=``):
 - ``ply``, ``stl``: read with ``trimesh`` (a dependency of the package); STL's per-triangle
   vertices are merged (exactly equal coordinates).
 
-Face indices in OBJ and v/f files are 1-based unless a 0 occurs, in which case they are 0-based.
 ``unit`` is the length unit of the file's coordinates, ``"km"`` (default: PDS and ICQ models) or
 ``"m"``.
 """
@@ -34,6 +34,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ._core.gravity import Shape, ShapeRepair
+from ._core.gravity import load_shape as _core_load_shape
 
 __all__ = [
     "FORMATS",
@@ -50,7 +51,6 @@ __all__ = [
 FORMATS = ("obj", "tab", "icq", "ply", "stl")
 _UNITS = {"km": 1000.0, "m": 1.0}
 _EXTENSIONS = {".obj": "obj", ".tab": "tab", ".txt": "tab", ".icq": "icq", ".ply": "ply", ".stl": "stl"}
-_OBJ_IGNORED = {"vn", "vt", "vp", "g", "o", "s", "usemtl", "mtllib", "l"}
 
 
 class ShapeError(ValueError):
@@ -61,6 +61,16 @@ class ShapeError(ValueError):
         self.line = line
         where = f"{self.path}:{line}" if line is not None else self.path
         super().__init__(f"{where}: {message}")
+
+    @classmethod
+    def from_message(cls, path: str | Path, message: str) -> ShapeError:
+        """The error of a message "<path>:<line>: <what>" or "<path>: <what>" (the C++ reader's)."""
+        prefix = f"{path}:"
+        rest = message[len(prefix):] if message.startswith(prefix) else f" {message}"
+        head, sep, tail = rest.partition(": ")
+        if sep and head.isdigit():
+            return cls(path, int(head), tail)
+        return cls(path, None, rest.removeprefix(" "))
 
 
 def _unit_scale(path: str | Path, unit: str) -> float:
@@ -153,53 +163,6 @@ def _validated(
         raise ShapeError(path, line, message + where) from exc
 
 
-def _load_vf(path: Path, scale: float, fmt: str, repair: ShapeRepair) -> Shape:
-    vertices: list[list[float]] = []
-    faces: list[list[int]] = []
-    vertex_lines: list[int] = []
-    face_lines: list[int] = []
-    for number, line in enumerate(_text_lines(path), start=1):
-        tokens = line.split("#", 1)[0].split()
-        if not tokens:
-            continue
-        tag = tokens[0]
-        if tag == "v":
-            if len(tokens) < 4 or (fmt == "tab" and len(tokens) != 4):
-                raise ShapeError(path, number, f"vertex line needs 3 coordinates, got {len(tokens) - 1}")
-            vertices.append(_finite_floats(path, number, tokens[1:4], "vertex"))
-            vertex_lines.append(number)
-        elif tag == "f":
-            if len(tokens) != 4:
-                raise ShapeError(
-                    path, number, f"face with {len(tokens) - 1} vertices: only triangles are supported"
-                )
-            what = "face: cannot read vertex indices"
-            faces.append([_int_token(path, number, t.split("/", 1)[0], what) for t in tokens[1:]])
-            face_lines.append(number)
-        elif fmt == "obj" and tag in _OBJ_IGNORED:
-            continue
-        else:
-            raise ShapeError(path, number, f"unrecognised line starting with {tag[:20]!r}")
-    if not vertices:
-        raise ShapeError(path, None, "no vertex lines")
-    if not faces:
-        raise ShapeError(path, None, "no face lines")
-    f = np.asarray(faces, dtype=np.int64)
-    base = 0 if f.min() == 0 else 1
-    f -= base
-    n = len(vertices)
-    bad = np.flatnonzero(((f < 0) | (f >= n)).any(axis=1))
-    if bad.size:
-        j = int(bad[0])
-        raise ShapeError(
-            path,
-            face_lines[j],
-            f"face refers to a missing vertex (indices {faces[j]}, {base}-based, {n} vertices)",
-        )
-    v = np.asarray(vertices, dtype=np.float64) * scale
-    return _validated(path, v, f, vertex_lines, face_lines, repair)
-
-
 def _icq_faces(q: int) -> npt.NDArray[np.int64]:
     """Two triangles per grid cell of the six (q+1) x (q+1) grids (raw vertex numbering)."""
     j, i = np.meshgrid(np.arange(q), np.arange(q), indexing="ij")
@@ -288,8 +251,11 @@ def load_shape(path: str | Path, unit: str = "km", fmt: str | None = None, repai
     scale = _unit_scale(p, unit)
     kind = _format_of(p, fmt)
     mode = ShapeRepair.ORIENT if repair else ShapeRepair.NONE
-    if kind in ("obj", "tab"):
-        return _load_vf(p, scale, kind, mode)
+    if kind in ("obj", "tab"):  # the C++ core's reader (gravity/shape_io.hpp), the one reader of these formats
+        try:
+            return _core_load_shape(str(p), scale, mode)
+        except ValueError as exc:
+            raise ShapeError.from_message(p, str(exc)) from exc
     if kind == "icq":
         return _load_icq(p, scale, mode)
     return _load_trimesh(p, scale, kind, mode)
