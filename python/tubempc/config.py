@@ -14,6 +14,7 @@ import hashlib
 import importlib.resources
 import json
 import math
+import re
 import tomllib
 import warnings
 from collections.abc import Callable, Mapping
@@ -494,6 +495,27 @@ def _describe(q: Any) -> str:
     return "dimensionless" if q.dimensionless else str(q.dimensionality)
 
 
+# A power operator and what follows it: an exponent must be a plain number, not another power.
+_POWER = re.compile(r"(?:\*\*|\^)\s*\(?\s*([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)?\s*\)?\s*(\*\*|\^)?")
+_MAX_EXPONENT = 10.0
+_MAX_QUANTITY_CHARS = 200
+
+
+def _check_powers(text: str, where: str) -> None:
+    """Rejects what pint would take very long to evaluate (``10**10**10``: Python integers)."""
+    if len(text) > _MAX_QUANTITY_CHARS:
+        raise ConfigError(f"{where}: quantity text longer than {_MAX_QUANTITY_CHARS} characters")
+    for m in _POWER.finditer(text):
+        exponent, chained = m.group(1), m.group(2)
+        try:
+            ok = exponent is not None and chained is None and abs(float(exponent)) <= _MAX_EXPONENT
+        except ValueError:
+            ok = False
+        if not ok:
+            raise ConfigError(f"{where}: in {text[:60]!r}, every power must be a single number of magnitude "
+                              f"<= {_MAX_EXPONENT:g} (e.g. 'kg/m^3')")
+
+
 def _parse_quantity(spec: _Spec, raw: Any, where: str) -> Any:
     if spec.shape == ():
         if not isinstance(raw, str):
@@ -512,6 +534,7 @@ def _parse_quantity(spec: _Spec, raw: Any, where: str) -> Any:
             raw["unit"],
             _parse_array(spec, raw["value"], f"{where}.value"),
         )
+    _check_powers(text, where)
     try:
         q: Any = _UREG.Quantity(text)
     except Exception as exc:  # pint raises several unrelated exception types

@@ -243,21 +243,37 @@ std::pair<Index, Index> first_self_intersection(const Vertices& v, const Faces& 
   return {-1, -1};
 }
 
-// First pair of distinct vertices used by faces closer than `tol` (max-norm), {-1, -1} if none.
+// First pair of distinct vertices used by faces closer than `tol` (max-norm), {-1, -1} if none:
+// the vertices are sorted by their cell of a grid of spacing `tol`, and each is compared with the
+// vertices of its own and the 26 neighbouring cells (O(n log n) for any distribution).
 std::pair<Index, Index> first_coincident_vertices(const Vertices& v, const Faces& f, double tol) {
   std::vector<char> used(static_cast<size_t>(v.rows()), 0);
   for (Index j = 0; j < f.rows(); ++j) {
     for (int k = 0; k < 3; ++k) used[static_cast<size_t>(f(j, k))] = 1;
   }
-  std::vector<Index> ids;
+  using Cell = std::array<std::int64_t, 3>;
+  const Eigen::Vector3d low = v.colwise().minCoeff().transpose();
+  auto cell_of = [&](Index i) {
+    Cell c{};
+    for (int k = 0; k < 3; ++k) c[static_cast<size_t>(k)] = static_cast<std::int64_t>(std::floor((v(i, k) - low(k)) / tol));
+    return c;
+  };
+  std::vector<std::pair<Cell, Index>> cells;
   for (Index i = 0; i < v.rows(); ++i) {
-    if (used[static_cast<size_t>(i)]) ids.push_back(i);
+    if (used[static_cast<size_t>(i)]) cells.push_back({cell_of(i), i});
   }
-  std::sort(ids.begin(), ids.end(), [&](Index x, Index y) { return v(x, 0) < v(y, 0); });
-  for (size_t a = 0; a < ids.size(); ++a) {
-    for (size_t b = a + 1; b < ids.size() && v(ids[b], 0) - v(ids[a], 0) <= tol; ++b) {
-      if ((v.row(ids[a]) - v.row(ids[b])).cwiseAbs().maxCoeff() <= tol) {
-        return {std::min(ids[a], ids[b]), std::max(ids[a], ids[b])};
+  std::sort(cells.begin(), cells.end());
+  for (const auto& [c, i] : cells) {
+    for (std::int64_t dx = -1; dx <= 1; ++dx) {
+      for (std::int64_t dy = -1; dy <= 1; ++dy) {
+        for (std::int64_t dz = -1; dz <= 1; ++dz) {
+          const Cell n{c[0] + dx, c[1] + dy, c[2] + dz};
+          auto it = std::lower_bound(cells.begin(), cells.end(), std::make_pair(n, Index{-1}));
+          for (; it != cells.end() && it->first == n; ++it) {
+            const Index j = it->second;
+            if (j != i && (v.row(i) - v.row(j)).cwiseAbs().maxCoeff() <= tol) return {std::min(i, j), std::max(i, j)};
+          }
+        }
       }
     }
   }

@@ -112,6 +112,34 @@ TEST(Shape, RejectsEachMalformedMeshNamingTheCulprit) {
   expect_error(m, "needs at least 4 faces");
 }
 
+TEST(Shape, RejectsSelfIntersectionCoincidentVerticesAndNoVolume) {
+  const Mesh good = box(0, 1, 0, 1, 0, 1);
+  Mesh m = good;  // vertex 7 = (1, 1, 1) pushed through the body to (-0.5, -0.5, -0.5)
+  m.v.row(7) << -0.5, -0.5, -0.5;
+  expect_error(m, "intersects itself");
+
+  // Two unit cubes overlapping in [0.5, 1] x [0, 1]^2: their overlap would be counted twice.
+  const Mesh shifted = box(0.5, 1.5, 0, 1, 0, 1);
+  Mesh two;
+  two.v.resize(16, 3);
+  two.v << good.v, shifted.v;
+  two.f.resize(24, 3);
+  two.f << good.f, (shifted.f.array() + 8).matrix();
+  expect_error(two, "intersects itself");
+  // Apart, they are a valid two-component body of volume 2.
+  const Mesh apart = box(2, 3, 0, 1, 0, 1);
+  two.v << good.v, apart.v;
+  EXPECT_NEAR(Shape(two.v, two.f).volume(), 2.0, 1e-12);
+  // Touching along a face through distinct vertices: coincident vertices.
+  const Mesh touching = box(1, 2, 0, 1, 0, 1);
+  two.v << good.v, touching.v;
+  expect_error(two, "coincides with vertex");
+
+  m = good;  // flattened to 1e-13 of its size: no volume to speak of
+  m.v.col(2) *= 1e-13;
+  expect_error(m, "encloses no volume");
+}
+
 TEST(Shape, OrientRepairRestoresOutwardFaces) {
   const Mesh good = box(0, 1, 0, 2, 0, 3);
   const Shape ref(good.v, good.f);

@@ -144,6 +144,14 @@ TEST_F(ShapeIo, MalformedFilesNameTheLine) {
   EXPECT_EQ(repaired.n_flipped_faces(), 1);
 }
 
+TEST_F(ShapeIo, QuotedBytesAreEscapedToValidUtf8) {
+  // Invalid UTF-8 (a lone continuation byte, an overlong form, a control byte) is written \xNN;
+  // valid multi-byte characters are kept.
+  expect_error("bytes.obj", "v 0 0 0\nv 1 \x80\xc0\xaf\x01 0\n", 2, R"(bad number '\x80\xc0\xaf\x01')");
+  expect_error("bytes2.obj", "v 0 0 0\nv 1 2\x80\xc0\xaf\x01 0\n", 2, R"('2\x80\xc0\xaf\x01')");
+  expect_error("bytes3.obj", "v 0 0 0\nv 1 \xc3\xa9 0\n", 2, "'\xc3\xa9'");
+}
+
 TEST_F(ShapeIo, MissingFileAndBadScale) {
   const std::string missing = (dir_ / "missing.obj").string();
   try {
