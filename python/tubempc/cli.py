@@ -28,7 +28,8 @@ import numpy as np
 from . import __version__, benchmarks, build_info, so3
 
 _PYTHON_PACKAGES = ("numpy", "scipy", "cvxpy", "clarabel", "osqp", "piqp")
-EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INPUT, EXIT_GUARANTEE_LOST, EXIT_FAILED_RUNS, EXIT_INTERRUPTED = 0, 1, 2, 3, 4, 5, 130
+EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INPUT = 0, 1, 2, 3
+EXIT_GUARANTEE_LOST, EXIT_FAILED_RUNS, EXIT_INTERRUPTED = 4, 5, 130
 #: Control steps of one run above which ``run`` warns before starting (the default mission has 300).
 LARGE_RUN_STEPS = 3000
 
@@ -159,7 +160,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
 def _cmd_export_scenario(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from .config import load_config
     from .export import export_scenario, read_scenario
 
     path = export_scenario(_config(args), Path(args.out),
@@ -198,7 +198,6 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from .analysis import montecarlo
-    from .config import load_config
 
     methods = ("tbmpc", "ffa") if args.method == "both" else (args.method,)
     s = montecarlo(_config(args), args.runs, Path(args.out), master_seed=args.seed, workers=args.workers,
@@ -219,7 +218,6 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from .analysis import sweep
-    from .config import load_config
 
     s = sweep(_config(args), args.lambda_p, args.lambda_r, Path(args.out), seed=args.seed,
               progress=not args.quiet)

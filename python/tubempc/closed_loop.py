@@ -86,8 +86,11 @@ def _measured_input(scn: Scenario, k: int, x: Array, u: Array, x_next: Array) ->
     return measured_reference_deviation(x_next, scn.reference.x[k + 1])
 
 
+Identifiers = tuple[ForgettingFactorIdentifier, ForgettingFactorIdentifier]
+
+
 def _tube_update(scn: Scenario, policy: TubeUpdatePolicy, k: int,
-                 idents: tuple[ForgettingFactorIdentifier, ForgettingFactorIdentifier]) -> tuple[list[TubeResult], str | None]:
+                 idents: Identifiers) -> tuple[list[TubeResult], str | None]:
     """Step 1: the subsystems' tubes for step k, about the reference's node k."""
     dt = scn.config.mpc.dt
     if policy.tubes is not None and not policy.adaptive:
@@ -177,8 +180,8 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
             t4 = time.perf_counter()
             # Tube check (paper Proposition 1): the error after the step, x_{k+1} - z*_{1|k}, in the tube of step k.
             z1 = np.asarray(step.z)[:, 1]
-            rec.excursion[k] = [tube_excursion(x_next[None, P_STATES], z1[None, P_STATES], tubes[0].Pe)[0],
-                                tube_excursion(x_next[None, R_STATES], z1[None, R_STATES], tubes[1].Pe)[0]]
+            rec.excursion[k] = [tube_excursion(x_next[None, sx], z1[None, sx], np.asarray(tube.Pe))[0]
+                                for sx, tube in zip((P_STATES, R_STATES), tubes, strict=True)]
             _record_step(rec, k, step, tubes, K, w_meas, w_true, idents, (t0, t1, t2, t3, t4))
             x = x_next
             rec.x[k + 1] = x

@@ -703,11 +703,11 @@ def load_config(path: str | Path | None = None, *, scenario: str | None = None) 
     else:
         source = str(path)
         try:
-            text = Path(str(path)).read_text(encoding="utf-8")
+            text = Path(source).read_text(encoding="utf-8")
         except OSError as exc:
             raise ConfigError(f"{source}: cannot read: {exc}") from exc
         except UnicodeDecodeError as exc:
-            line = Path(path).read_bytes()[: exc.start].count(b"\n") + 1
+            line = Path(source).read_bytes()[: exc.start].count(b"\n") + 1
             raise ConfigError(f"{source}:{line}: not UTF-8 text (byte 0x{exc.object[exc.start]:02x})") from exc
     try:
         data = tomllib.loads(text)
@@ -717,6 +717,10 @@ def load_config(path: str | Path | None = None, *, scenario: str | None = None) 
 
 
 __all__ = [
+    "REMOVED_FIELDS",
+    "RENAMED_FIELDS",
+    "RENAMED_VALUES",
+    "SCENARIOS",
     "Asteroid",
     "Boundary",
     "Config",
@@ -727,10 +731,6 @@ __all__ = [
     "Environment",
     "Identification",
     "Mpc",
-    "RENAMED_FIELDS",
-    "SCENARIOS",
-    "RENAMED_VALUES",
-    "REMOVED_FIELDS",
     "Spacecraft",
     "load_config",
     "scenario_file",

@@ -14,24 +14,11 @@ and the tube uses P_W = pw_scale * S^ (PAPER_NOTES: default 9, the 3-sigma readi
 from __future__ import annotations
 
 import math
-from enum import Enum
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 FloatArray = NDArray[np.float64]
-
-
-class MeasuredInput(Enum):
-    """Definition of the measured exogenous input w_k (PAPER_NOTES "Disturbance identification").
-
-    RESIDUAL (default): the one-step model residual x_{k+1} - (A_k x_k + B_k u_k + c_k),
-    consistent with the paper's Eq. (34); REFERENCE_DEVIATION: the paper's literal Eq. (26),
-    x_{k+1} - zbar_{k+1}.
-    """
-
-    RESIDUAL = "residual"
-    REFERENCE_DEVIATION = "reference_deviation"
 
 
 def _vector(name: str, x: ArrayLike) -> FloatArray:
@@ -51,7 +38,7 @@ def measured_residual(
     x_k: ArrayLike,
     u_k: ArrayLike,
 ) -> FloatArray:
-    """w_k = x_{k+1} - (A_k x_k + B_k u_k + c_k), the default MeasuredInput.RESIDUAL (SI units
+    """w_k = x_{k+1} - (A_k x_k + B_k u_k + c_k), the default ``identification.measured_input = "residual"`` (SI units
     of the subsystem state; A_k, B_k, c_k the discretised model of PAPER_NOTES Eq. 31-35)."""
     pred = (
         np.asarray(A_k, dtype=np.float64) @ _vector("x_k", x_k)
@@ -62,7 +49,7 @@ def measured_residual(
 
 
 def measured_reference_deviation(x_next: ArrayLike, zbar_next: ArrayLike) -> FloatArray:
-    """w_k = x_{k+1} - zbar_{k+1}, the paper's literal Eq. (26) (MeasuredInput.REFERENCE_DEVIATION)."""
+    """w_k = x_{k+1} - zbar_{k+1}, the paper's literal Eq. (26) (``measured_input = "reference_deviation"``)."""
     return _vector("x_next", x_next) - _vector("zbar_next", zbar_next)
 
 

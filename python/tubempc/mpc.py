@@ -1,7 +1,8 @@
 """Tube MPC (C++ core) and Python solvers of its exported QP.
 
-The controller (:class:`TubeMPC`, PIQP inside, see ``cpp/include/tubempc/mpc/tube_mpc.hpp`` and
-PAPER_NOTES.md "Tube MPC") runs in C++. :func:`solve_qp` solves the QP returned by
+The controller (:class:`TubeMPC`: its QPs by a warm-started active set, PIQP where that does not
+verify; see ``cpp/include/tubempc/mpc/tube_mpc.hpp`` and PAPER_NOTES.md "Tube MPC") runs in
+C++. :func:`solve_qp` solves the QP returned by
 ``TubeMPC.qp_data()`` with a second, independent backend: OSQP (the Python package; OSQP's C
 library is not linked into the core) or, through cvxpy, Clarabel, OSQP or PIQP. It serves
 cross-checks and the ``tubempc bench mpc`` baseline; it is not used inside ``step``.

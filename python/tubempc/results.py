@@ -88,9 +88,10 @@ class RunRecord:
     def allocate(cls, method: str, seed: int, n_steps: int, horizon: int) -> RunRecord:
         """A record of zeros for T = ``n_steps`` steps and horizon N = ``horizon``."""
         sizes = {"T": n_steps, "T+1": n_steps + 1, "N+1": horizon + 1}
-        arrays = {f.name: np.zeros(tuple(sizes.get(d, d) for d in f.metadata["shape"]))  # type: ignore[misc]
-                  for f in cls.array_fields()}
-        return cls(method=method, seed=seed, **arrays)
+        rec = cls(method=method, seed=seed)
+        for f in cls.array_fields():
+            setattr(rec, f.name, np.zeros(tuple(sizes.get(d, d) for d in f.metadata["shape"])))
+        return rec
 
     def truncate(self, n_run: int) -> None:
         """Cuts every array to the first ``n_run`` steps (a run stopped early)."""

@@ -49,11 +49,11 @@ def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dic
         ("fig12_tube.png", lambda: figures.tube_projections(records)),
         ("fig13_constraints.png", lambda: figures.constraints(records)),
     ]
-    for m, r in records.items():
-        jobs.append((f"fig14_convergence_{m}.png",
-                     lambda r=r, m=m: figures.convergence(*metrics.velocity_convergence(r.t, r.x, r.zbar), "v - vbar",
-                                                          "m/s", f"{m}: velocity error ||v - vbar|| and the Theorem 2 "
-                                                                 "envelope")))
+    def convergence(m: str, r: RunRecord) -> Callable[[], Any]:
+        title = f"{m}: velocity error ||v - vbar|| and the Theorem 2 envelope"
+        return lambda: figures.convergence(*metrics.velocity_convergence(r.t, r.x, r.zbar), "v - vbar", "m/s", title)
+
+    jobs += [(f"fig14_convergence_{m}.png", convergence(m, r)) for m, r in records.items()]
     failed: dict[str, str] = {}
     for name, make in jobs:
         try:

@@ -538,24 +538,3 @@ def sample_invariance(
     L = np.linalg.cholesky(Pe_)
     z = np.linalg.solve(L, e_next.T)
     return float(np.max(np.sum(z * z, axis=0)))
-
-
-def support(Pe: ArrayLike, a: ArrayLike) -> float:
-    """Support function of the tube, max_{e in Z} a^T e = sqrt(a^T Pe a) (units of a^T e).
-
-    A constraint a^T x <= b is tightened to a^T z <= b - support(Pe, a) (PAPER_NOTES).
-    """
-    a_ = np.asarray(a, dtype=np.float64).reshape(-1)
-    return float(math.sqrt(max(float(a_ @ np.asarray(Pe, dtype=np.float64) @ a_), 0.0)))
-
-
-def input_tightening(K: ArrayLike, Pe: ArrayLike) -> FloatArray:
-    """Per-input margin sqrt(K_i Pe K_i^T) = max_{e in Z} |K_i e| (input units).
-
-    The nominal input bound is |v_i| <= u_max - input_tightening(K, Pe)[i] (PAPER_NOTES).
-    """
-    K_ = np.asarray(K, dtype=np.float64)
-    KP = K_ @ np.asarray(Pe, dtype=np.float64)
-    return np.asarray(
-        np.sqrt(np.maximum(np.einsum("ij,ij->i", KP, K_), 0.0)), dtype=np.float64
-    )

@@ -195,7 +195,6 @@ def test_invalid_toml_and_missing_file(tmp_path: Path) -> None:
 )
 def test_old_spellings_are_read_with_a_warning(tmp_path: Path, pattern: str, repl: str, message: str,
                                                check: Any) -> None:
-    from tubempc.config import ConfigDeprecationWarning
 
     p = _write(tmp_path, _edit(_default_text(), pattern, repl))
     with pytest.warns(ConfigDeprecationWarning, match=re.escape(message)) as caught:

@@ -108,7 +108,7 @@ def test_packaged_scenarios_load_and_the_default_is_the_papers() -> None:
         assert cfg.mpc.horizon == 30
     ito = load_config(scenario="itokawa-like")
     assert ito.asteroid.density == 1900.0 and ito.asteroid.spin_period == pytest.approx(12.13 * 3600)
-    with pytest.raises(ConfigError, match="unknown scenario 'nope'.*bennu-equator"):
+    with pytest.raises(ConfigError, match=r"unknown scenario 'nope'.*bennu-equator"):
         load_config(scenario="nope")
 
 
@@ -159,7 +159,7 @@ def test_validation_errors_name_the_field(tmp_path: Path, bennu: _core.gravity.S
     with pytest.raises(ScenarioError, match=r"reference trajectory is infeasible.*mpc\.t_f = 60 s"):
         build_scenario(base.with_overrides({"mpc.t_f": "60 s", "mpc.horizon": 10}), cache_dir=tmp_path)
     # a shape whose centre of mass is not the origin
-    moved = _core.gravity.Shape(np.asarray(bennu.vertices) + [150.0, 0.0, 0.0], bennu.faces)
+    moved = _core.gravity.Shape(np.asarray(bennu.vertices) + np.array([150.0, 0.0, 0.0]), bennu.faces)
     save_shape(tmp_path / "moved.obj", moved, unit="m")
     with pytest.raises(ScenarioError, match=r"asteroid\.shape: .*moved\.obj: the centre of mass lies 150 m"):
         build_scenario(base.with_overrides({"asteroid.shape": str(tmp_path / "moved.obj"),

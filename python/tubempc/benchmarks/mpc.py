@@ -24,8 +24,8 @@ import numpy as np
 import numpy.typing as npt
 
 from .. import mpc
-from ..mpc import solve_qp, solve_qp_per_node
 from ..machine import machine_info
+from ..mpc import solve_qp, solve_qp_per_node
 
 DESCRIPTION = "tube MPC per-step time over a mission (C++: active set / PIQP) and the same QPs through cvxpy"
 
