@@ -1,31 +1,63 @@
 """tubempc: tube-based MPC with online disturbance identification for asteroid proximity operations.
 
 SI units throughout; frames are named in argument names and docstrings (see PAPER_NOTES.md).
+Data flow: configuration (:mod:`tubempc.config`) -> scenario (:mod:`tubempc.scenario`) -> closed loop
+(:mod:`tubempc.closed_loop`) -> run record (:mod:`tubempc.results`) -> metrics (:mod:`tubempc.metrics`)
+-> report (:mod:`tubempc.report`).
+
+The names below are imported on first use (``import tubempc`` loads only the compiled core), so that
+the command line starts at once; ``tubempc.<module>`` works for every submodule.
 """
 
 from __future__ import annotations
 
-from . import _core, mpc
-from ._core import build_info, so3
-from ._core.gravity import GRAVITATIONAL_CONSTANT, PolyhedronGravity, Shape, ShapeRepair
-from .config import Config, ConfigError, load_config
-from .dynamics import (
-    GravityModel,
-    Kinematics,
-    ModelParams,
-    PointMassGravity,
-    ProximityModel,
-    glide_slope_constraint,
-    line_of_sight_constraint,
-    state_to_truth,
-    truth_to_state,
-)
-from .identification import ForgettingFactorIdentifier
-from .mpc import LinearizedModel, LtiModel, TubeMPC, solve_qp
-from .shapes import ShapeError, bennu_like_shape, load_shape, save_icq, save_shape
-from .tube import TubeDesigner, TubeResult, TubeStatus
+import importlib
+from typing import Any
+
+from . import _core
 
 __version__: str = _core.__version__
+
+#: Public name -> the module that defines it (imported on first access).
+_LAZY = {
+    "GRAVITATIONAL_CONSTANT": "._core.gravity",
+    "PolyhedronGravity": "._core.gravity",
+    "Shape": "._core.gravity",
+    "ShapeRepair": "._core.gravity",
+    "build_info": "._core",
+    "so3": "._core",
+    "Config": ".config",
+    "ConfigError": ".config",
+    "load_config": ".config",
+    "GravityModel": ".dynamics",
+    "Kinematics": ".dynamics",
+    "ModelParams": ".dynamics",
+    "PointMassGravity": ".dynamics",
+    "ProximityModel": ".dynamics",
+    "glide_slope_constraint": ".dynamics",
+    "line_of_sight_constraint": ".dynamics",
+    "state_to_truth": ".dynamics",
+    "truth_to_state": ".dynamics",
+    "ForgettingFactorIdentifier": ".identification",
+    "LinearizedModel": ".mpc",
+    "LtiModel": ".mpc",
+    "TubeMPC": ".mpc",
+    "solve_qp": ".mpc",
+    "RunRecord": ".results",
+    "Scenario": ".scenario",
+    "ScenarioError": ".scenario",
+    "build_scenario": ".scenario",
+    "simulate": ".closed_loop",
+    "ShapeError": ".shapes",
+    "bennu_like_shape": ".shapes",
+    "load_shape": ".shapes",
+    "save_icq": ".shapes",
+    "save_shape": ".shapes",
+    "TubeDesigner": ".tube",
+    "TubeResult": ".tube",
+    "TubeStatus": ".tube",
+    "TubeUpdatePolicy": ".tube_policy",
+}
 
 __all__ = [
     "GRAVITATIONAL_CONSTANT",
@@ -40,6 +72,9 @@ __all__ = [
     "PointMassGravity",
     "PolyhedronGravity",
     "ProximityModel",
+    "RunRecord",
+    "Scenario",
+    "ScenarioError",
     "Shape",
     "ShapeError",
     "ShapeRepair",
@@ -47,18 +82,37 @@ __all__ = [
     "TubeMPC",
     "TubeResult",
     "TubeStatus",
+    "TubeUpdatePolicy",
     "__version__",
     "bennu_like_shape",
     "build_info",
+    "build_scenario",
     "glide_slope_constraint",
     "line_of_sight_constraint",
     "load_config",
     "load_shape",
-    "mpc",
     "save_icq",
     "save_shape",
+    "simulate",
     "so3",
     "solve_qp",
     "state_to_truth",
     "truth_to_state",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name], __name__), name)
+        globals()[name] = value
+        return value
+    try:
+        return importlib.import_module(f".{name}", __name__)  # a submodule: tubempc.figures, ...
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -23,9 +23,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-import numpy as np
-
-from . import __version__, benchmarks, build_info, so3
+from . import __version__, benchmarks
 
 _PYTHON_PACKAGES = ("numpy", "scipy", "cvxpy", "clarabel", "osqp", "piqp")
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INPUT = 0, 1, 2, 3
@@ -36,6 +34,10 @@ LARGE_RUN_STEPS = 3000
 
 def _so3_selfcheck(n: int = 1000, seed: int = 0) -> float:
     """Largest |log(exp(phi)) - phi| over random rotation vectors with |phi| < pi (rad)."""
+    import numpy as np
+
+    from ._core import so3
+
     rng = np.random.default_rng(seed)
     worst = 0.0
     for _ in range(n):
@@ -46,6 +48,8 @@ def _so3_selfcheck(n: int = 1000, seed: int = 0) -> float:
 
 
 def _cmd_info(_: argparse.Namespace) -> int:
+    from ._core import build_info
+
     info = build_info()
     print(f"tubempc {__version__}")
     print("C++ core:")
@@ -306,14 +310,19 @@ def build_parser() -> argparse.ArgumentParser:
     p_rep = sub.add_parser("report", help="HTML and Markdown report of a results folder")
     p_rep.add_argument("dir", help="folder with summary.json (run), sweep/ and montecarlo/ sub-folders if present")
     p_rep.set_defaults(func=_cmd_report)
-    p_bench = sub.add_parser("bench", help="run a benchmark (see 'tubempc bench -h')")
-    bench_sub = p_bench.add_subparsers(dest="benchmark", required=True)
-    for name in benchmarks.available():
-        module = benchmarks.load(name)
-        p = bench_sub.add_parser(name, help=module.DESCRIPTION, description=module.DESCRIPTION)
-        module.add_arguments(p)
-        p.set_defaults(func=module.run)
+    p_bench = sub.add_parser("bench", help="run a benchmark ('tubempc bench NAME -h' for its options)")
+    p_bench.add_argument("benchmark", choices=benchmarks.available())
+    p_bench.add_argument("options", nargs=argparse.REMAINDER, help="the benchmark's options")
+    p_bench.set_defaults(func=_cmd_bench)
     return parser
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    """Imports the benchmark only when it runs (so that the command line starts at once)."""
+    module = benchmarks.load(args.benchmark)
+    parser = argparse.ArgumentParser(prog=f"tubempc bench {args.benchmark}", description=module.DESCRIPTION)
+    module.add_arguments(parser)
+    return int(module.run(parser.parse_args(args.options)))
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -47,3 +47,20 @@ def test_the_checker_sees_a_private_import(tmp_path: Path) -> None:
     finally:
         bad.unlink()
     assert len(hits) == 2 and "_Plant" in hits[0] and "_secret" in hits[1]
+
+
+def test_import_and_version_load_no_heavy_dependency() -> None:
+    """`import tubempc` and `tubempc --version` load the compiled core only (the command line starts at once)."""
+    import subprocess
+    import sys
+
+    probe = ("import sys, tubempc, tubempc.cli\n"
+             "tubempc.cli.build_parser()\n"
+             "heavy = [m for m in ('cvxpy', 'pint', 'matplotlib', 'scipy', 'h5py', 'trimesh') if m in sys.modules]\n"
+             "print(','.join(heavy))")
+    r = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True, timeout=60)
+    assert r.stdout.strip() == ""
+    # every public name still resolves (lazily)
+    missing = [n for n in tubempc.__all__ if not hasattr(tubempc, n)]
+    assert missing == []
+    assert tubempc.figures.__name__ == "tubempc.figures"
