@@ -17,6 +17,7 @@ from . import figures
 from .campaign import CampaignResult, run_campaign
 from .closed_loop import simulate
 from .config import Config
+from .machine import machine_info
 from .metrics import run_metrics
 from .scenario import METHODS, Scenario, build_scenario
 
@@ -102,7 +103,8 @@ def montecarlo(cfg: Config, runs: int, out: Path, *, master_seed: int = 0, worke
                         retry_failed=retry_failed, only=only, progress=progress)
     summary = montecarlo_summary(camp, tuple(methods))
     summary.update({"master_seed": master_seed, "config_hash": cfg.hash(), "executed_now": len(camp.executed),
-                    "wall_time_s": time.perf_counter() - t0, "workers": workers, "scheduler": scheduler})
+                    "wall_time_s": time.perf_counter() - t0, "workers": workers, "scheduler": scheduler,
+                    "machine": machine_info()})
     (out / "summary.json").write_text(json.dumps(summary, indent=1, sort_keys=True))
     _envelope_figures(cfg, camp, out, tuple(methods))
     return summary

@@ -9,7 +9,6 @@ statuses), ``DIR/<method>.h5`` (all arrays, with the configuration and seed insi
 from __future__ import annotations
 
 import json
-import platform
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -20,6 +19,7 @@ import numpy as np
 from . import __version__, figures, metrics
 from .closed_loop import simulate
 from .config import Config
+from .machine import machine_info
 from .results import RunRecord, save_record
 from .scenario import Scenario, build_scenario
 
@@ -74,7 +74,7 @@ def run_methods(cfg: Config, methods: list[str], seed: int, out: Path, *, shape:
     summary: dict[str, Any] = {
         "tubempc_version": __version__, "config_hash": scn.config.hash(), "seed": seed,
         "shape": scn.shape_source, "n_faces": len(scn.shape.faces),
-        "machine": {"python": platform.python_version(), "platform": platform.platform()},
+        "machine": machine_info(),
         "reference": {"cost": scn.reference.cost, "iterations": scn.reference.iterations,
                       "converged": scn.reference.converged, "max_defect": scn.reference.max_defect,
                       "solve_time_s": scn.reference.solve_time_s},
