@@ -1,6 +1,6 @@
-# Dependencies of tubempc::core: Eigen (system, or the cmeel-eigen wheel), PIQP (installed, or
-# its official source distribution from PyPI obtained with pip and installed into the build tree),
-# and threads.
+# Dependencies of tubempc::core: Eigen (system, or the cmeel-eigen wheel), PIQP (an installed one
+# first; else its official source distribution from PyPI, downloaded by pip with its SHA-256 checked
+# (--require-hashes) and installed into the build tree), and threads.
 include(GNUInstallDirs)
 find_package(Threads REQUIRED)
 
@@ -38,13 +38,20 @@ if(NOT piqp_FOUND)
   if(NOT EXISTS ${_piqp_prefix}/.tubempc-complete)
     message(STATUS "tubempc: obtaining piqp==${TUBEMPC_PIQP_VERSION} (source distribution) from PyPI with pip")
     file(REMOVE_RECURSE ${_piqp_root})
+    if(NOT TUBEMPC_PIQP_SHA256 MATCHES "^[0-9a-f]+$")
+      message(FATAL_ERROR "tubempc: TUBEMPC_PIQP_SHA256 must be the sha256 of piqp-${TUBEMPC_PIQP_VERSION}.tar.gz")
+    endif()
+    file(WRITE ${_piqp_root}/requirement.txt
+         "piqp==${TUBEMPC_PIQP_VERSION} --hash=sha256:${TUBEMPC_PIQP_SHA256}\n")
     execute_process(
       COMMAND ${Python_EXECUTABLE} -m pip download --no-deps --no-binary=:all: --no-build-isolation
-              --disable-pip-version-check -q -d ${_piqp_root}/sdist piqp==${TUBEMPC_PIQP_VERSION}
+              --require-hashes --disable-pip-version-check -q -d ${_piqp_root}/sdist
+              -r ${_piqp_root}/requirement.txt
       RESULT_VARIABLE _rc)
     file(GLOB _piqp_sdist ${_piqp_root}/sdist/piqp-*.tar.gz)
     if(NOT _rc EQUAL 0 OR NOT _piqp_sdist)
-      message(FATAL_ERROR "tubempc: pip could not download piqp==${TUBEMPC_PIQP_VERSION}'s source distribution")
+      message(FATAL_ERROR "tubempc: pip could not download piqp==${TUBEMPC_PIQP_VERSION}'s source distribution "
+                          "with sha256 ${TUBEMPC_PIQP_SHA256} (a different version needs its TUBEMPC_PIQP_SHA256)")
     endif()
     file(ARCHIVE_EXTRACT INPUT ${_piqp_sdist} DESTINATION ${_piqp_root}/src)
     file(GLOB _piqp_src LIST_DIRECTORIES true ${_piqp_root}/src/piqp-*)

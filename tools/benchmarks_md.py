@@ -24,40 +24,64 @@ def _ms(seconds: float) -> str:
 
 
 def _gravity(d: dict[str, Any]) -> list[tuple[str, str]]:
-    rows = [("polyhedral gravity (U, a, Hess U) per point, " + d["shape"],
-             f"{d['tubempc_us_per_point_1_thread']:.1f} us on 1 thread, {d['tubempc_us_per_point_all_threads']:.1f} us "
-             f"on {d['hardware_threads']}")]
+    rows = [
+        (
+            "polyhedral gravity (U, a, Hess U) per point, " + d["shape"],
+            f"{d['tubempc_us_per_point_1_thread']:.1f} us on 1 thread, {d['tubempc_us_per_point_all_threads']:.1f} us "
+            f"on {d['hardware_threads']}",
+        )
+    ]
     if "polyhedral_gravity_version" in d:
-        rows.append((f"ESA polyhedral-gravity {d['polyhedral_gravity_version']}, same points",
-                     f"{d['polyhedral_gravity_us_per_point_1_thread']:.0f} us on 1 thread ({d['ratio_1_thread']:.1f}x "
-                     f"slower); agreement: potential {d['max_rel_diff_potential']:.1e}, acceleration "
-                     f"{d['max_rel_diff_acceleration']:.1e}, gradient {d['max_rel_diff_gradient']:.1e} (max relative)"))
+        rows.append(
+            (
+                f"ESA polyhedral-gravity {d['polyhedral_gravity_version']}, same points",
+                f"{d['polyhedral_gravity_us_per_point_1_thread']:.0f} us on 1 thread ({d['ratio_1_thread']:.1f}x "
+                f"slower); agreement: potential {d['max_rel_diff_potential']:.1e}, acceleration "
+                f"{d['max_rel_diff_acceleration']:.1e}, gradient {d['max_rel_diff_gradient']:.1e} (max relative)",
+            )
+        )
     return rows
 
 
 def _dynamics(d: dict[str, Any]) -> list[tuple[str, str]]:
     e = d["exact"]
-    return [("f + Jacobians (" + d["gravity"] + ")", f"{1e6 * e['f_and_jacobians_s']:.0f} us"),
-            (f"linearise + discretise a {e['nodes']}-node horizon", _ms(e["horizon_s"]))]
+    return [
+        ("f + Jacobians (" + d["gravity"] + ")", f"{1e6 * e['f_and_jacobians_s']:.0f} us"),
+        (f"linearise + discretise a {e['nodes']}-node horizon", _ms(e["horizon_s"])),
+    ]
 
 
 def _mpc(d: dict[str, Any]) -> list[tuple[str, str]]:
     st = d["step"]
-    rows = [(f"C++ tube MPC step, Bennu mission (T = {d['T']}, N = {d['N']}), {d['statuses']}",
-             f"median {_ms(st['total']['median'])}, p99 {_ms(st['total']['p99'])}, max {_ms(st['total']['max'])}"),
-            ("QP solve per QP (active set, PIQP fallback)",
-             f"median {_ms(st['solve_per_qp']['median'])}, p99 {_ms(st['solve_per_qp']['p99'])}; "
-             f"{d['active_set_qps']}/{d['qps']} QPs by the active set; KKT residual {d['cpp_max_kkt_residual']:.1e}")]
+    rows = [
+        (
+            f"C++ tube MPC step, Bennu mission (T = {d['T']}, N = {d['N']}), {d['statuses']}",
+            f"median {_ms(st['total']['median'])}, p99 {_ms(st['total']['p99'])}, max {_ms(st['total']['max'])}",
+        ),
+        (
+            "QP solve per QP (active set, PIQP fallback)",
+            f"median {_ms(st['solve_per_qp']['median'])}, p99 {_ms(st['solve_per_qp']['p99'])}; "
+            f"{d['active_set_qps']}/{d['qps']} QPs by the active set; KKT residual {d['cpp_max_kkt_residual']:.1e}",
+        ),
+    ]
     for name, b in d.get("baseline", {}).items():
-        rows.append((f"same QPs through {name} (wall time per QP, ratio to the core)",
-                     f"{_ms(b['wall_time_median'])} ({b['ratio_wall_median']:.0f}x); objective difference "
-                     f"median {b['median_abs_rel_objective_diff']:.1e}"))
+        rows.append(
+            (
+                f"same QPs through {name} (wall time per QP, ratio to the core)",
+                f"{_ms(b['wall_time_median'])} ({b['ratio_wall_median']:.0f}x); objective difference "
+                f"median {b['median_abs_rel_objective_diff']:.1e}",
+            )
+        )
     return rows
 
 
 def _embed(d: dict[str, Any]) -> list[tuple[str, str]]:
-    return [("MPC step: C++ example against the same loop over the bindings",
-             json.dumps({k: d[k] for k in d if k not in ("machine", "runs", "config")})[:300])]
+    return [
+        (
+            "MPC step: C++ example against the same loop over the bindings",
+            json.dumps({k: d[k] for k in d if k not in ("machine", "runs", "config")})[:300],
+        )
+    ]
 
 
 def _fuzz(d: dict[str, Any]) -> list[tuple[str, str]]:
@@ -65,40 +89,62 @@ def _fuzz(d: dict[str, Any]) -> list[tuple[str, str]]:
     for counts in d["counts"].values():
         for k, v in counts.items():
             total[k] = total.get(k, 0) + v
-    return [(f"fuzzed shape files and configs ({', '.join(d['counts'])}), {d['inputs']} inputs, seed {d['seed']}",
-             ", ".join(f"{k} {v}" for k, v in total.items()) + f"; {d['wall_time_s']:.0f} s")]
+    return [
+        (
+            f"fuzzed shape files and configs ({', '.join(d['counts'])}), {d['inputs']} inputs, seed {d['seed']}",
+            ", ".join(f"{k} {v}" for k, v in total.items()) + f"; {d['wall_time_s']:.0f} s",
+        )
+    ]
 
 
 def _run(d: dict[str, Any]) -> list[tuple[str, str]]:
     rows = []
     for m, r in d["methods"].items():
         st = r["step_time"]
-        rows.append((f"closed loop {m}, seed {d['seed']}, {d['shape']}",
-                     f"J_p {r['J_p']:.4g}, J_r {r['J_r']:.4g}, terminal error "
-                     f"{1e3 * r['terminal_error']['position']:.3g} mm, "
-                     f"steps outside the tube {r['steps_outside_tube']}, fallbacks {r.get('fallback_steps', 0)}; step "
-                     f"median {st['step']['median_ms']:.3g} ms (tube {st['tube']['median_ms']:.3g}, MPC "
-                     f"{st['mpc']['median_ms']:.3g}), MPC p99 {st['mpc']['p99_ms']:.3g} ms; run {r['run_time_s']:.1f} s"))
+        rows.append(
+            (
+                f"closed loop {m}, seed {d['seed']}, {d['shape']}",
+                f"J_p {r['J_p']:.4g}, J_r {r['J_r']:.4g}, terminal error "
+                f"{1e3 * r['terminal_error']['position']:.3g} mm, "
+                f"steps outside the tube {r['steps_outside_tube']}, fallbacks {r.get('fallback_steps', 0)}; step "
+                f"median {st['step']['median_ms']:.3g} ms (tube {st['tube']['median_ms']:.3g}, MPC "
+                f"{st['mpc']['median_ms']:.3g}), MPC p99 {st['mpc']['p99_ms']:.3g} ms; run {r['run_time_s']:.1f} s",
+            )
+        )
     return rows
 
 
 def _montecarlo(d: dict[str, Any]) -> list[tuple[str, str]]:
     rows = []
     for m, r in d["methods"].items():
-        rows.append((f"Monte Carlo {m}, {d['runs']} runs, master seed {d.get('master_seed')}",
-                     f"J_p {r['J_p']['mean']:.4g} (3 sigma {r['J_p']['3sigma']:.2g}), J_r {r['J_r']['mean']:.4g}; runs "
-                     f"outside the tube {r['runs_outside_tube']}/{d['runs']}; campaign {d['wall_time_s']:.0f} s"))
+        rows.append(
+            (
+                f"Monte Carlo {m}, {d['runs']} runs, master seed {d.get('master_seed')}",
+                f"J_p {r['J_p']['mean']:.4g} (3 sigma {r['J_p']['3sigma']:.2g}), J_r {r['J_r']['mean']:.4g}; runs "
+                f"outside the tube {r['runs_outside_tube']}/{d['runs']}; campaign {d['wall_time_s']:.0f} s",
+            )
+        )
     return rows
 
 
 def _test_command(d: dict[str, Any]) -> list[tuple[str, str]]:
-    return [(f"test command `{d['command']}`" + (" (cold, fresh clone)" if d.get("cold") else ""),
-             f"{d['seconds'] / 60:.1f} min ({d['seconds']:.0f} s)")]
+    return [
+        (
+            f"test command `{d['command']}`" + (" (cold, fresh clone)" if d.get("cold") else ""),
+            f"{d['seconds'] / 60:.1f} min ({d['seconds']:.0f} s)",
+        )
+    ]
 
 
 EXTRACTORS: dict[str, Callable[[dict[str, Any]], list[tuple[str, str]]]] = {
-    "gravity": _gravity, "dynamics": _dynamics, "mpc": _mpc, "embed": _embed, "fuzz": _fuzz, "run": _run,
-    "montecarlo": _montecarlo, "test_command": _test_command,
+    "gravity": _gravity,
+    "dynamics": _dynamics,
+    "mpc": _mpc,
+    "embed": _embed,
+    "fuzz": _fuzz,
+    "run": _run,
+    "montecarlo": _montecarlo,
+    "test_command": _test_command,
 }
 
 
@@ -110,11 +156,16 @@ def _kind(name: str) -> str:
 
 
 def main() -> int:
-    lines = ["# Benchmarks", "",
-             "Current figures, generated by `python tools/benchmarks_md.py` from the JSON files in",
-             "`docs/benchmarks/` (each written by the command in its row). Timings on this machine drift by",
-             "20-50 % within a day: compare figures of one run with each other. History: `git log docs/benchmarks`.",
-             "", "| what | figure | command | machine, date |", "| --- | --- | --- | --- |"]
+    lines = [
+        "# Benchmarks",
+        "",
+        "Current figures, generated by `python tools/benchmarks_md.py` from the JSON files in",
+        "`docs/benchmarks/` (each written by the command in its row). Timings on this machine drift by",
+        "20-50 % within a day: compare figures of one run with each other. History: `git log docs/benchmarks`.",
+        "",
+        "| what | figure | command | machine, date |",
+        "| --- | --- | --- | --- |",
+    ]
     for path in sorted(DATA.glob("*.json")):
         d = json.loads(path.read_text(encoding="utf-8"))
         m = d.get("machine", {})

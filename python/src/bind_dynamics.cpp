@@ -41,7 +41,6 @@ Eigen::Matrix<double, N, 1> vec(const Eigen::Ref<const Eigen::VectorXd>& v, cons
   return v;
 }
 
-
 py::tuple discretize_horizon(const std::shared_ptr<ProximityModel>& self, double t0, double dt,
                              const Eigen::Ref<const RowMatrix>& x_ref,
                              const Eigen::Ref<const RowMatrix>& u_ref) {
@@ -206,7 +205,8 @@ void bind_dynamics(py::module_& m) {
       .def_readwrite("rtol", &dynamics::PropagatorSettings::rtol, "DOPRI5 relative tolerance")
       .def_readwrite("atol", &dynamics::PropagatorSettings::atol, "DOPRI5 absolute tolerance (state units)")
       .def_readwrite("max_steps", &dynamics::PropagatorSettings::max_steps, "DOPRI5 step budget")
-      .def_readwrite("initial_step", &dynamics::PropagatorSettings::initial_step, "DOPRI5 first step (s); 0: automatic")
+      .def_readwrite("initial_step", &dynamics::PropagatorSettings::initial_step,
+                     "DOPRI5 first step (s); 0: automatic")
       .def("validate", &dynamics::PropagatorSettings::validate, "ValueError naming the first bad field.");
 
   py::class_<dynamics::PropagationResult>(d, "PropagationResult")

@@ -75,7 +75,8 @@ py::object laplacian(const PolyhedronGravity& g, const PointArray& points, std::
 }
 
 Eigen::Matrix<std::int64_t, Eigen::Dynamic, 4, Eigen::RowMajor> edge_table(const Shape& s) {
-  Eigen::Matrix<std::int64_t, Eigen::Dynamic, 4, Eigen::RowMajor> t(static_cast<Eigen::Index>(s.edges().size()), 4);
+  Eigen::Matrix<std::int64_t, Eigen::Dynamic, 4, Eigen::RowMajor> t(
+      static_cast<Eigen::Index>(s.edges().size()), 4);
   for (size_t i = 0; i < s.edges().size(); ++i) {
     const auto& e = s.edges()[i];
     t.row(static_cast<Eigen::Index>(i)) << e.v0, e.v1, e.face_a, e.face_b;
@@ -126,8 +127,9 @@ Shape(vertices (n, 3) m, faces (m, 3) 0-based, repair=ShapeRepair.NONE). ValueEr
 offending vertex, face or edge for: non-finite coordinates, index out of range, degenerate or
 duplicate face, open or non-manifold mesh, inconsistent or inward orientation (the latter two are
 repaired with repair=ShapeRepair.ORIENT).)doc")
-      .def(py::init([](const Vertices& v, const Faces& f, ShapeRepair repair) { return Shape(v, f, repair); }),
-           py::arg("vertices"), py::arg("faces"), py::arg("repair") = ShapeRepair::None)
+      .def(
+          py::init([](const Vertices& v, const Faces& f, ShapeRepair repair) { return Shape(v, f, repair); }),
+          py::arg("vertices"), py::arg("faces"), py::arg("repair") = ShapeRepair::None)
       .def_property_readonly("vertices", &Shape::vertices, "Vertices (n, 3) in m.")
       .def_property_readonly("faces", &Shape::faces, "Faces (m, 3), 0-based, outward (counter-clockwise).")
       .def_property_readonly("n_vertices", &Shape::n_vertices)
@@ -135,9 +137,11 @@ repaired with repair=ShapeRepair.ORIENT).)doc")
       .def_property_readonly("n_edges", [](const Shape& s) { return s.edges().size(); })
       .def_property_readonly("edges", &edge_table,
                              "Unique edges (k, 4): v0, v1, face_a (runs v0 -> v1), face_b (runs v1 -> v0).")
-      .def_property_readonly("n_flipped_faces", &Shape::n_flipped_faces, "Faces flipped by ShapeRepair.ORIENT.")
+      .def_property_readonly("n_flipped_faces", &Shape::n_flipped_faces,
+                             "Faces flipped by ShapeRepair.ORIENT.")
       .def_property_readonly("volume", &Shape::volume, "Volume (m^3).")
-      .def_property_readonly("center_of_mass", &Shape::center_of_mass, "Centre of mass (m), constant density.")
+      .def_property_readonly("center_of_mass", &Shape::center_of_mass,
+                             "Centre of mass (m), constant density.")
       .def_property_readonly("inertia_per_unit_density", &Shape::inertia_per_unit_density,
                              "Inertia tensor about the centre of mass per unit density (m^5).")
       .def("inertia", &Shape::inertia, py::arg("density"),
@@ -156,7 +160,8 @@ repaired with repair=ShapeRepair.ORIENT).)doc")
   g.def("save_obj", &gravity::save_obj, py::arg("path"), py::arg("shape"), py::arg("unit_scale") = 1.0,
         "Writes a Shape as OBJ with coordinates divided by unit_scale (17 significant digits).");
 
-  py::class_<PolyhedronGravity, gravity::GravityModel, std::shared_ptr<PolyhedronGravity>>(g, "PolyhedronGravity", R"doc(
+  py::class_<PolyhedronGravity, gravity::GravityModel, std::shared_ptr<PolyhedronGravity>>(
+      g, "PolyhedronGravity", R"doc(
 Gravity of a constant-density polyhedron (Werner and Scheeres 1997; PAPER_NOTES.md "Gravity").
 
 PolyhedronGravity(vertices (n, 3) m, faces (m, 3) 0-based, density kg/m^3, repair=ShapeRepair.NONE)
@@ -179,19 +184,24 @@ the polyhedron sums, whose cancellation grows like |r|^2 (see polyhedron_gravity
 A (3,) point gives (float, (3,), (3, 3)). threads: None or 0 = all hardware threads. The GIL is
 released; results do not depend on the number of threads.)doc")
       .def("laplacian", &laplacian, py::arg("points"), py::arg("threads") = py::none(),
-           "Laplacian of U (1/s^2) at points (n, 3) or (3,) m: -G rho sum_f w_f (0 outside, -4 pi G rho inside).")
+           "Laplacian of U (1/s^2) at points (n, 3) or (3,) m: -G rho sum_f w_f (0 outside, -4 pi G rho "
+           "inside).")
       .def_property_readonly("density", &PolyhedronGravity::density, "kg/m^3")
       .def_property_readonly("mass", &PolyhedronGravity::mass, "kg")
       .def_property_readonly("gm", &PolyhedronGravity::gm, "G M (m^3/s^2)")
-      .def_property_readonly("volume", [](const PolyhedronGravity& s) { return s.shape().volume(); }, "m^3")
-      .def_property_readonly("center_of_mass", [](const PolyhedronGravity& s) { return s.shape().center_of_mass(); },
-                             "m")
-      .def_property_readonly("inertia", [](const PolyhedronGravity& s) { return s.shape().inertia(s.density()); },
-                             "Inertia tensor about the centre of mass (kg m^2).")
-      .def_property_readonly("mean_radius", [](const PolyhedronGravity& s) { return s.shape().mean_radius(); }, "m")
+      .def_property_readonly(
+          "volume", [](const PolyhedronGravity& s) { return s.shape().volume(); }, "m^3")
+      .def_property_readonly(
+          "center_of_mass", [](const PolyhedronGravity& s) { return s.shape().center_of_mass(); }, "m")
+      .def_property_readonly(
+          "inertia", [](const PolyhedronGravity& s) { return s.shape().inertia(s.density()); },
+          "Inertia tensor about the centre of mass (kg m^2).")
+      .def_property_readonly(
+          "mean_radius", [](const PolyhedronGravity& s) { return s.shape().mean_radius(); }, "m")
       .def_property_readonly("n_faces", [](const PolyhedronGravity& s) { return s.shape().n_faces(); })
       .def_property_readonly("n_vertices", [](const PolyhedronGravity& s) { return s.shape().n_vertices(); })
-      .def_property_readonly("vertices", [](const PolyhedronGravity& s) { return s.shape().vertices(); }, "m")
+      .def_property_readonly(
+          "vertices", [](const PolyhedronGravity& s) { return s.shape().vertices(); }, "m")
       .def_property_readonly("faces", [](const PolyhedronGravity& s) { return s.shape().faces(); })
       .def_property_readonly("shape", &PolyhedronGravity::shape, py::return_value_policy::reference_internal)
       .def(py::pickle(

@@ -17,12 +17,15 @@ void bind_io(py::module_& m) {
   auto s = m.def_submodule("io", "Scenario files (format 'tubempc-scenario 1'; see tubempc/io/scenario.hpp)");
   s.attr("FORMAT_VERSION") = io::kScenarioFormatVersion;
 
-  py::class_<io::BodyModel>(s, "BodyModel", "One 6-DOF model of a scenario: dynamics constants, density, shape file")
+  py::class_<io::BodyModel>(s, "BodyModel",
+                            "One 6-DOF model of a scenario: dynamics constants, density, shape file")
       .def(py::init<>())
       .def_readwrite("params", &io::BodyModel::params, "dynamics.ModelParams (SI)")
       .def_readwrite("density", &io::BodyModel::density, "asteroid density (kg/m^3)")
-      .def_readwrite("shape", &io::BodyModel::shape, "shape file as written (relative to Scenario.directory or absolute)")
-      .def_readwrite("shape_unit_scale", &io::BodyModel::shape_unit_scale, "metres per unit of the shape file");
+      .def_readwrite("shape", &io::BodyModel::shape,
+                     "shape file as written (relative to Scenario.directory or absolute)")
+      .def_readwrite("shape_unit_scale", &io::BodyModel::shape_unit_scale,
+                     "metres per unit of the shape file");
 
   py::class_<io::Scenario>(s, "Scenario", "Contents of a scenario file (see tubempc/io/scenario.hpp)")
       .def(py::init<>())
@@ -36,7 +39,8 @@ void bind_io(py::module_& m) {
       .def_readwrite("x0", &io::Scenario::x0, "initial state (12): m, m/s, rad, rad/s")
       .def_readwrite("xf", &io::Scenario::xf, "target state (12)")
       .def_property_readonly("mission_steps", &io::Scenario::mission_steps, "T (steps)")
-      .def("resolve", &io::Scenario::resolve, py::arg("path"), "path relative to directory (unless absolute)");
+      .def("resolve", &io::Scenario::resolve, py::arg("path"),
+           "path relative to directory (unless absolute)");
 
   s.def("read_scenario", &io::read_scenario, py::arg("path"),
         "Reads and validates a scenario file; ValueError '<path>:<line>: <record>: <what>'.");

@@ -30,7 +30,8 @@ class PyLinearizedModel : public LinearizedModel, public py::trampoline_self_lif
                   Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const override {
     py::gil_scoped_acquire gil;
     py::function f = py::get_override(static_cast<const LinearizedModel*>(this), "discretize");
-    if (!f) throw std::runtime_error("LinearizedModel subclass must implement discretize(t, dt, x_lin, u_lin)");
+    if (!f)
+      throw std::runtime_error("LinearizedModel subclass must implement discretize(t, dt, x_lin, u_lin)");
     auto out = f(t, dt, Eigen::VectorXd(x_lin), Eigen::VectorXd(u_lin))
                    .cast<std::tuple<Eigen::MatrixXd, Eigen::MatrixXd, Eigen::VectorXd>>();
     copy_checked(std::get<0>(out), A, "discretize: A");
@@ -53,8 +54,8 @@ class PyLinearizedModel : public LinearizedModel, public py::trampoline_self_lif
   static void copy_checked(const Src& src, Dst& dst, const char* what) {
     if (src.rows() != dst.rows() || src.cols() != dst.cols())
       throw std::invalid_argument(std::string(what) + " has shape (" + std::to_string(src.rows()) + ", " +
-                                  std::to_string(src.cols()) + "), expected (" + std::to_string(dst.rows()) + ", " +
-                                  std::to_string(dst.cols()) + ")");
+                                  std::to_string(src.cols()) + "), expected (" + std::to_string(dst.rows()) +
+                                  ", " + std::to_string(dst.cols()) + ")");
     dst = src;
   }
 };
@@ -105,7 +106,8 @@ void bind_mpc(py::module_& m) {
       .value("SparseLdlt", mpc::KktSolver::SparseLdlt)
       .value("SparseMultistage", mpc::KktSolver::SparseMultistage);
 
-  py::class_<mpc::Settings>(s, "Settings", "Tube MPC settings (see tube_mpc.hpp); validate() names the bad field")
+  py::class_<mpc::Settings>(s, "Settings",
+                            "Tube MPC settings (see tube_mpc.hpp); validate() names the bad field")
       .def(py::init<>())
       .def_readwrite("horizon", &mpc::Settings::horizon)
       .def_readwrite("dt", &mpc::Settings::dt)
@@ -141,15 +143,19 @@ void bind_mpc(py::module_& m) {
       .def("validate", &mpc::Settings::validate, py::arg("nx"), py::arg("nu"));
 
   py::class_<mpc::Reference>(s, "Reference", "Mission reference: z (n_x x (T+1)), u (n_u x T), t0 (s)")
-      .def(py::init([](Eigen::MatrixXd z, Eigen::MatrixXd u, double t0) { return mpc::Reference{z, u, t0}; }),
+      .def(py::init([](Eigen::MatrixXd z, Eigen::MatrixXd u, double t0) {
+             return mpc::Reference{z, u, t0};
+           }),
            py::arg("z"), py::arg("u"), py::arg("t0") = 0.0)
       .def_readwrite("z", &mpc::Reference::z)
       .def_readwrite("u", &mpc::Reference::u)
       .def_readwrite("t0", &mpc::Reference::t0);
 
   py::class_<mpc::Tube>(s, "Tube", "Tube: ancillary gain K (n_u x n_x) and shape Pe (n_x x n_x)")
-      .def(py::init([](Eigen::MatrixXd K, Eigen::MatrixXd Pe) { return mpc::Tube{K, Pe}; }), py::arg("K"),
-           py::arg("Pe"))
+      .def(py::init([](Eigen::MatrixXd K, Eigen::MatrixXd Pe) {
+             return mpc::Tube{K, Pe};
+           }),
+           py::arg("K"), py::arg("Pe"))
       .def_readwrite("K", &mpc::Tube::K)
       .def_readwrite("Pe", &mpc::Tube::Pe);
 
@@ -221,12 +227,14 @@ void bind_mpc(py::module_& m) {
       "The 6-DOF proximity model as the MPC's plant (C++): exact ZOH discretisation and the linearised "
       "[glide slope; line of sight] constraints")
       .def(py::init([](std::shared_ptr<dynamics::ProximityModel> model, double position_tolerance) {
-             return std::make_shared<dynamics::LinearizedProximityModel>(std::move(model), position_tolerance);
+             return std::make_shared<dynamics::LinearizedProximityModel>(std::move(model),
+                                                                         position_tolerance);
            }),
            py::arg("model"), py::arg("position_tolerance") = 0.1)
-      .def_property_readonly("position_tolerance", &dynamics::LinearizedProximityModel::position_tolerance,
-                             "Largest change of r_L (m) for which a later SCP iteration keeps the translational "
-                             "blocks (gravity) and re-discretises the attitude only");
+      .def_property_readonly(
+          "position_tolerance", &dynamics::LinearizedProximityModel::position_tolerance,
+          "Largest change of r_L (m) for which a later SCP iteration keeps the translational "
+          "blocks (gravity) and re-discretises the attitude only");
 
   s.def("solve_dare", &mpc::solve_dare, py::arg("A"), py::arg("B"), py::arg("Q"), py::arg("R"),
         py::arg("tol") = 1e-10, py::arg("max_iterations") = 100,

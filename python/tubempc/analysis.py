@@ -34,8 +34,16 @@ def _scenario(cfg: Config, cache_dir: str) -> Scenario:
     return _SCENARIOS[key]
 
 
-def _montecarlo_run(cfg: Config, cache_dir: str, runs_dir: str, methods: tuple[str, ...],
-                    max_steps: int | None, tube_threads: int, index: int, seed: int) -> dict[str, Any]:
+def _montecarlo_run(
+    cfg: Config,
+    cache_dir: str,
+    runs_dir: str,
+    methods: tuple[str, ...],
+    max_steps: int | None,
+    tube_threads: int,
+    index: int,
+    seed: int,
+) -> dict[str, Any]:
     """One Monte Carlo run: every method with the same disturbance seed. Metrics go in the result;
     the error trajectories x - z and tube half-widths in runs/run_<i>.npz (for the envelopes)."""
     scn = _scenario(cfg, cache_dir)
@@ -44,12 +52,25 @@ def _montecarlo_run(cfg: Config, cache_dir: str, runs_dir: str, methods: tuple[s
     for m in methods:
         rec = simulate(scn, m, seed, max_steps=max_steps, tube_threads=tube_threads)
         s = run_metrics(rec, cfg.mpc.dt, scn.xf)
-        out[m] = {k: s[k] for k in ("J_p", "J_r", "control_effort", "terminal_error", "rms_error",
-                                    "max_tube_excursion", "steps_outside_tube", "constraint_violations", "statuses",
-                                    "run_time_s")}
+        out[m] = {
+            k: s[k]
+            for k in (
+                "J_p",
+                "J_r",
+                "control_effort",
+                "terminal_error",
+                "rms_error",
+                "max_tube_excursion",
+                "steps_outside_tube",
+                "constraint_violations",
+                "statuses",
+                "run_time_s",
+            )
+        }
         arrays[f"{m}_error"] = (rec.x[:-1] - rec.z).astype(np.float32)
-        arrays[f"{m}_half_width"] = np.sqrt(np.concatenate(
-            [np.diagonal(rec.Pe_p, axis1=1, axis2=2), np.diagonal(rec.Pe_r, axis1=1, axis2=2)], axis=1)).astype(np.float32)
+        arrays[f"{m}_half_width"] = np.sqrt(
+            np.concatenate([np.diagonal(rec.Pe_p, axis1=1, axis2=2), np.diagonal(rec.Pe_r, axis1=1, axis2=2)], axis=1)
+        ).astype(np.float32)
     path = Path(runs_dir) / f"run_{index:05d}.npz"
     tmp = path.with_name(f".{path.name}.tmp.npz")
     np.savez_compressed(tmp, allow_pickle=False, **arrays)
@@ -72,8 +93,12 @@ def montecarlo_summary(campaign: CampaignResult, methods: tuple[str, ...]) -> di
             "J_r": {"mean": float(jr.mean()), "3sigma": float(3 * jr.std(ddof=1)) if jr.size > 1 else 0.0},
             "runs_outside_tube": int(np.sum(exc > 1.0)),
             "max_tube_excursion": float(exc.max()),
-            "runs_with_cone_violation": int(sum(r["constraint_violations"]["glide_slope_steps"]
-                                                + r["constraint_violations"]["los_steps"] > 0 for r in rows)),
+            "runs_with_cone_violation": int(
+                sum(
+                    r["constraint_violations"]["glide_slope_steps"] + r["constraint_violations"]["los_steps"] > 0
+                    for r in rows
+                )
+            ),
             "terminal_position_error_max_m": float(max(r["terminal_error"]["position"] for r in rows)),
         }
     if {"tbmpc", "ffa"} <= set(summary["methods"]):
@@ -82,9 +107,20 @@ def montecarlo_summary(campaign: CampaignResult, methods: tuple[str, ...]) -> di
     return summary
 
 
-def montecarlo(cfg: Config, runs: int, out: Path, *, master_seed: int = 0, workers: int | None = None,
-               scheduler: str | None = None, methods: tuple[str, ...] = METHODS, retry_failed: bool = False,
-               only: list[int] | None = None, progress: bool = True, max_steps: int | None = None) -> dict[str, Any]:
+def montecarlo(
+    cfg: Config,
+    runs: int,
+    out: Path,
+    *,
+    master_seed: int = 0,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    methods: tuple[str, ...] = METHODS,
+    retry_failed: bool = False,
+    only: list[int] | None = None,
+    progress: bool = True,
+    max_steps: int | None = None,
+) -> dict[str, Any]:
     """Runs (or resumes) a campaign into ``out`` and writes ``out/summary.json`` and the envelope figures.
 
     ``max_steps`` cuts every run short (quick checks); None runs the whole mission."""
@@ -96,15 +132,34 @@ def montecarlo(cfg: Config, runs: int, out: Path, *, master_seed: int = 0, worke
     runs_dir.mkdir(exist_ok=True)
     # Several runs at once already occupy the cores: then each run designs its two tubes sequentially.
     parallel_runs = scheduler is not None or (workers or os.cpu_count() or 1) > 1
-    fn = functools.partial(_montecarlo_run, cfg, str(cache), str(runs_dir), tuple(methods), max_steps,
-                           1 if parallel_runs else 2)
+    fn = functools.partial(
+        _montecarlo_run, cfg, str(cache), str(runs_dir), tuple(methods), max_steps, 1 if parallel_runs else 2
+    )
     t0 = time.perf_counter()
-    camp = run_campaign(fn, runs, out, master_seed, config_hash=cfg.hash(), workers=workers, scheduler=scheduler,
-                        retry_failed=retry_failed, only=only, progress=progress)
+    camp = run_campaign(
+        fn,
+        runs,
+        out,
+        master_seed,
+        config_hash=cfg.hash(),
+        workers=workers,
+        scheduler=scheduler,
+        retry_failed=retry_failed,
+        only=only,
+        progress=progress,
+    )
     summary = montecarlo_summary(camp, tuple(methods))
-    summary.update({"master_seed": master_seed, "config_hash": cfg.hash(), "executed_now": len(camp.executed),
-                    "wall_time_s": time.perf_counter() - t0, "workers": workers, "scheduler": scheduler,
-                    "machine": machine_info()})
+    summary.update(
+        {
+            "master_seed": master_seed,
+            "config_hash": cfg.hash(),
+            "executed_now": len(camp.executed),
+            "wall_time_s": time.perf_counter() - t0,
+            "workers": workers,
+            "scheduler": scheduler,
+            "machine": machine_info(),
+        }
+    )
     (out / "summary.json").write_text(json.dumps(summary, indent=1, sort_keys=True))
     _envelope_figures(cfg, camp, out, tuple(methods))
     return summary
@@ -125,16 +180,29 @@ def _envelope_figures(cfg: Config, camp: CampaignResult, out: Path, methods: tup
             continue
         hw = np.max(np.stack(widths), axis=0)
         translation = ["x (m)", "y (m)", "z (m)", "vx (m/s)", "vy (m/s)", "vz (m/s)"]
-        for tag, sl, labels in (("17_translation", slice(0, 6), translation),
-                                ("18_rotation", slice(6, 12), ["phi_x (rad)", "phi_y (rad)", "phi_z (rad)",
-                                                               "omega_x (rad/s)", "omega_y (rad/s)", "omega_z (rad/s)"])):
-            figures.save(figures.montecarlo_envelopes(t, [e[:, sl] for e in errs], hw[:, sl], labels,
-                                                      f"{m}: {len(errs)} Monte Carlo runs, x - z against the tube"),
-                         out / f"fig{tag}_{m}.png")
+        for tag, sl, labels in (
+            ("17_translation", slice(0, 6), translation),
+            (
+                "18_rotation",
+                slice(6, 12),
+                ["phi_x (rad)", "phi_y (rad)", "phi_z (rad)", "omega_x (rad/s)", "omega_y (rad/s)", "omega_z (rad/s)"],
+            ),
+        ):
+            figures.save(
+                figures.montecarlo_envelopes(
+                    t,
+                    [e[:, sl] for e in errs],
+                    hw[:, sl],
+                    labels,
+                    f"{m}: {len(errs)} Monte Carlo runs, x - z against the tube",
+                ),
+                out / f"fig{tag}_{m}.png",
+            )
 
 
-def sweep(cfg: Config, lambdas_p: list[float], lambdas_r: list[float] | None, out: Path, *, seed: int = 0,
-          progress: bool = True) -> dict[str, Any]:
+def sweep(
+    cfg: Config, lambdas_p: list[float], lambdas_r: list[float] | None, out: Path, *, seed: int = 0, progress: bool = True
+) -> dict[str, Any]:
     """Table 3: TBMPC and TBMPC-FFA at each (lambda_p, lambda_r); Figures 15-16 (error and tube
     half-width of x and phi_x against lambda)."""
     if lambdas_r is not None and len(lambdas_r) != len(lambdas_p):

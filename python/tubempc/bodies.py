@@ -72,16 +72,19 @@ def ellipsoid_shape(axes: Sequence[float], subdivisions: int = 12, roughness: fl
 
 
 def contact_binary_shape(
-    body_axes: Sequence[float], head_axes: Sequence[float], separation: float, subdivisions: int = 12,
-    roughness: float = 0.0, seed: int = 0,
+    body_axes: Sequence[float],
+    head_axes: Sequence[float],
+    separation: float,
+    subdivisions: int = 12,
+    roughness: float = 0.0,
+    seed: int = 0,
 ) -> Shape:
     """Two overlapping ellipsoidal lobes along x: the body (semi-axes ``body_axes``, m) and the head
     (``head_axes``) whose centres lie ``separation`` (m) apart, head at +x. The lobes must overlap
     along x; the union is built about a point of the overlap (so it is star-shaped about it)."""
     body, head = _axes("body_axes", body_axes), _axes("head_axes", head_axes)
     if not (math.isfinite(separation) and 0.0 < separation < body[0] + head[0]):
-        raise ValueError(f"separation must lie in (0, {body[0] + head[0]}) m so that the lobes overlap, "
-                         f"got {separation!r}")
+        raise ValueError(f"separation must lie in (0, {body[0] + head[0]}) m so that the lobes overlap, got {separation!r}")
     # construction origin: the middle of the overlap [sep - a_head, a_body] on the x axis
     x0 = 0.5 * (max(0.0, separation - head[0]) + min(body[0], separation))
     c_body, c_head = np.array([-x0, 0.0, 0.0]), np.array([separation - x0, 0.0, 0.0])

@@ -56,8 +56,13 @@ def _execute(run_fn: RunFunction, index: int, seed: int) -> dict[str, Any]:
     try:
         return {"index": index, "seed": seed, "ok": True, "result": run_fn(index, seed)}
     except Exception as exc:  # recorded with the run, never lost
-        return {"index": index, "seed": seed, "ok": False,
-                "error": f"{type(exc).__name__}: {exc}", "traceback": traceback.format_exc()}
+        return {
+            "index": index,
+            "seed": seed,
+            "ok": False,
+            "error": f"{type(exc).__name__}: {exc}",
+            "traceback": traceback.format_exc(),
+        }
 
 
 def _manifest_check(out_dir: Path, manifest: dict[str, Any]) -> None:
@@ -68,7 +73,8 @@ def _manifest_check(out_dir: Path, manifest: dict[str, Any]) -> None:
             if old.get(key) != manifest.get(key):
                 raise ValueError(
                     f"{path}: existing campaign has {key}={old.get(key)!r}, this call {manifest.get(key)!r}; "
-                    "use another output folder")
+                    "use another output folder"
+                )
         manifest = {**old, "n_runs": max(int(old.get("n_runs", 0)), int(manifest["n_runs"]))}
     _write_json(path, manifest)
 
@@ -111,8 +117,9 @@ def run_campaign(
     def failed_path(i: int) -> Path:
         return runs_dir / f"run_{i:05d}.failed.json"
 
-    todo = [i for i in wanted if not ok_path(i).exists()
-            and (retry_failed or only is not None or not failed_path(i).exists())]
+    todo = [
+        i for i in wanted if not ok_path(i).exists() and (retry_failed or only is not None or not failed_path(i).exists())
+    ]
     campaign = CampaignResult(out_dir=out)
 
     def record(rec: dict[str, Any]) -> None:
@@ -154,8 +161,13 @@ def run_campaign(
                     try:
                         rec = fut.result()
                     except Exception as exc:  # a worker died (e.g. killed): the run is recorded as failed
-                        rec = {"index": i, "seed": s, "ok": False, "error": f"{type(exc).__name__}: {exc}",
-                               "traceback": traceback.format_exc()}
+                        rec = {
+                            "index": i,
+                            "seed": s,
+                            "ok": False,
+                            "error": f"{type(exc).__name__}: {exc}",
+                            "traceback": traceback.format_exc(),
+                        }
                     record(rec)
                     if bar is not None:
                         bar.update()

@@ -53,8 +53,16 @@ def _cmd_info(_: argparse.Namespace) -> int:
     info = build_info()
     print(f"tubempc {__version__}")
     print("C++ core:")
-    for key in ("compiler", "build_type", "cxx_flags", "eigen_version", "eigen_simd",
-                "piqp_version", "osqp_backend", "hardware_threads"):
+    for key in (
+        "compiler",
+        "build_type",
+        "cxx_flags",
+        "eigen_version",
+        "eigen_simd",
+        "piqp_version",
+        "osqp_backend",
+        "hardware_threads",
+    ):
         print(f"  {key:17s} {info[key]}")
     print(f"Python {platform.python_version()} on {platform.machine()}")
     for name in _PYTHON_PACKAGES:
@@ -85,8 +93,7 @@ def _cmd_scenarios(_: argparse.Namespace) -> int:
     root = importlib.resources.files("tubempc").joinpath("data")
     for name, (file, about) in SCENARIOS.items():
         print(f"{name:14s} {about}\n{'':14s} {root.joinpath(*file.split('/'))}")
-    print("fly one with 'tubempc run --scenario NAME'; copy its TOML to start your own (missing fields are the "
-          "paper's)")
+    print("fly one with 'tubempc run --scenario NAME'; copy its TOML to start your own (missing fields are the paper's)")
     return 0
 
 
@@ -103,13 +110,16 @@ def _cmd_make_body(args: argparse.Namespace) -> int:
     else:
         if args.body_axes is None or args.head_axes is None or args.separation is None:
             raise ValueError("make-body contact-binary: --body-axes, --head-axes and --separation are required")
-        shape = contact_binary_shape(args.body_axes, args.head_axes, args.separation, args.subdivisions,
-                                     args.roughness, args.seed)
+        shape = contact_binary_shape(
+            args.body_axes, args.head_axes, args.separation, args.subdivisions, args.roughness, args.seed
+        )
     out = Path(args.out)
     save_shape(out, shape, unit="m")
     extent = shape.vertices.max(axis=0) - shape.vertices.min(axis=0)
-    print(f"wrote {out}: {len(shape.faces)} faces, extent {extent[0]:.1f} x {extent[1]:.1f} x {extent[2]:.1f} m, "
-          f"volume {shape.volume:.4g} m^3 (OBJ in metres: asteroid.shape_unit = \"m\")")
+    print(
+        f"wrote {out}: {len(shape.faces)} faces, extent {extent[0]:.1f} x {extent[1]:.1f} x {extent[2]:.1f} m, "
+        f'volume {shape.volume:.4g} m^3 (OBJ in metres: asteroid.shape_unit = "m")'
+    )
     return 0
 
 
@@ -120,32 +130,47 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     cfg = _config(args)
     if cfg.defaulted:
-        print(f"{cfg.source}: {len(cfg.defaulted)} fields not given, taken from the packaged paper scenario: "
-              f"{', '.join(cfg.defaulted[:8])}{', ...' if len(cfg.defaulted) > 8 else ''}")
+        print(
+            f"{cfg.source}: {len(cfg.defaulted)} fields not given, taken from the packaged paper scenario: "
+            f"{', '.join(cfg.defaulted[:8])}{', ...' if len(cfg.defaulted) > 8 else ''}"
+        )
     methods = ["tbmpc", "ffa"] if args.method == "both" else [args.method]
     seed = cfg.disturbance.seed if args.seed is None else args.seed
     if cfg.mpc.n_steps > LARGE_RUN_STEPS:
-        print(f"warning: {cfg.mpc.n_steps} control steps per run (mpc.t_f / mpc.dt; the paper's mission has 300): "
-              f"expect about {cfg.mpc.n_steps * 0.02 * len(methods) / 60:.0f} min or more and "
-              f"{cfg.mpc.n_steps * cfg.mpc.horizon * 12 * 8 * len(methods) / 1e9:.1f} GB of plans; Ctrl-C stops",
-              file=sys.stderr)
+        print(
+            f"warning: {cfg.mpc.n_steps} control steps per run (mpc.t_f / mpc.dt; the paper's mission has 300): "
+            f"expect about {cfg.mpc.n_steps * 0.02 * len(methods) / 60:.0f} min or more and "
+            f"{cfg.mpc.n_steps * cfg.mpc.horizon * 12 * 8 * len(methods) / 1e9:.1f} GB of plans; Ctrl-C stops",
+            file=sys.stderr,
+        )
     out = Path(args.out)
-    summary = run_methods(cfg, methods, seed, out, shape=args.shape, progress=not args.quiet,
-                          cache_dir=Path(args.cache_dir) if args.cache_dir else out / "cache",
-                          make_figures=not args.no_figures)
+    summary = run_methods(
+        cfg,
+        methods,
+        seed,
+        out,
+        shape=args.shape,
+        progress=not args.quiet,
+        cache_dir=Path(args.cache_dir) if args.cache_dir else out / "cache",
+        make_figures=not args.no_figures,
+    )
     ref = summary["reference"]
-    print(f"reference: {'converged' if ref['converged'] else 'NOT converged'} in {ref['iterations']} SCP iterations "
-          f"(dynamics defect {ref['max_defect']:.2g})")
+    print(
+        f"reference: {'converged' if ref['converged'] else 'NOT converged'} in {ref['iterations']} SCP iterations "
+        f"(dynamics defect {ref['max_defect']:.2g})"
+    )
     lost = []
     for m, s in summary["methods"].items():
         st = s["step_time"]
         outside, fallbacks = s["steps_outside_tube"], s["fallback_steps"]
-        print(f"{m:6s} J_p={s['J_p']:.4g} J_r={s['J_r']:.4g} terminal |dr|={s['terminal_error']['position']:.3g} m "
-              f"steps outside the tube {outside}, fallback steps {fallbacks}, largest excursion p/r "
-              f"{s['max_tube_excursion']['translation']:.3g}/{s['max_tube_excursion']['rotation']:.3g} "
-              f"cone violations gs/los={s['constraint_violations']['glide_slope_steps']}/"
-              f"{s['constraint_violations']['los_steps']} step median {st['step']['median_ms']:.2f} ms "
-              f"(tube {st['tube']['median_ms']:.2f}, mpc {st['mpc']['median_ms']:.2f}) run {s['run_time_s']:.1f} s")
+        print(
+            f"{m:6s} J_p={s['J_p']:.4g} J_r={s['J_r']:.4g} terminal |dr|={s['terminal_error']['position']:.3g} m "
+            f"steps outside the tube {outside}, fallback steps {fallbacks}, largest excursion p/r "
+            f"{s['max_tube_excursion']['translation']:.3g}/{s['max_tube_excursion']['rotation']:.3g} "
+            f"cone violations gs/los={s['constraint_violations']['glide_slope_steps']}/"
+            f"{s['constraint_violations']['los_steps']} step median {st['step']['median_ms']:.2f} ms "
+            f"(tube {st['tube']['median_ms']:.2f}, mpc {st['mpc']['median_ms']:.2f}) run {s['run_time_s']:.1f} s"
+        )
         if outside or fallbacks:
             lost.append(m)
     print("(tube excursion: e^T Pe^-1 e of the error one step after the plan; <= 1 inside the tube, > 1 outside)")
@@ -155,8 +180,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"figure {name} not drawn: {error}", file=sys.stderr)
     print(f"results in {out}/ (summary.json, <method>.h5, figures)")
     if lost:
-        print(f"robustness guarantee lost by {', '.join(lost)} (steps outside the tube or fallbacks): exit status "
-              f"{EXIT_GUARANTEE_LOST}", file=sys.stderr)
+        print(
+            f"robustness guarantee lost by {', '.join(lost)} (steps outside the tube or fallbacks): exit status "
+            f"{EXIT_GUARANTEE_LOST}",
+            file=sys.stderr,
+        )
         return EXIT_GUARANTEE_LOST
     return EXIT_OK
 
@@ -166,11 +194,12 @@ def _cmd_export_scenario(args: argparse.Namespace) -> int:
 
     from .export import export_scenario, read_scenario
 
-    path = export_scenario(_config(args), Path(args.out),
-                           cache_dir=Path(args.cache_dir) if args.cache_dir else None)
+    path = export_scenario(_config(args), Path(args.out), cache_dir=Path(args.cache_dir) if args.cache_dir else None)
     scn = read_scenario(str(path))  # the C++ reader validates what was written
-    print(f"wrote {path} (T = {scn.mission_steps} steps, N = {scn.settings.horizon}) with "
-          f"{', '.join(sorted({scn.controller.shape, scn.truth.shape}))} and config.toml")
+    print(
+        f"wrote {path} (T = {scn.mission_steps} steps, N = {scn.settings.horizon}) with "
+        f"{', '.join(sorted({scn.controller.shape, scn.truth.shape}))} and config.toml"
+    )
     return 0
 
 
@@ -204,17 +233,30 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
     from .analysis import montecarlo
 
     methods = ("tbmpc", "ffa") if args.method == "both" else (args.method,)
-    s = montecarlo(_config(args), args.runs, Path(args.out), master_seed=args.seed, workers=args.workers,
-                   scheduler=args.scheduler, methods=methods, retry_failed=args.retry_failed, only=args.only,
-                   progress=not args.quiet)
+    s = montecarlo(
+        _config(args),
+        args.runs,
+        Path(args.out),
+        master_seed=args.seed,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        methods=methods,
+        retry_failed=args.retry_failed,
+        only=args.only,
+        progress=not args.quiet,
+    )
     for m, row in s["methods"].items():
-        print(f"{m:6s} J_p mean {row['J_p']['mean']:.4g} (3 sigma {row['J_p']['3sigma']:.3g})  "
-              f"J_r mean {row['J_r']['mean']:.4g} (3 sigma {row['J_r']['3sigma']:.3g})  "
-              f"runs outside the tube {row['runs_outside_tube']}/{s['runs']}")
+        print(
+            f"{m:6s} J_p mean {row['J_p']['mean']:.4g} (3 sigma {row['J_p']['3sigma']:.3g})  "
+            f"J_r mean {row['J_r']['mean']:.4g} (3 sigma {row['J_r']['3sigma']:.3g})  "
+            f"runs outside the tube {row['runs_outside_tube']}/{s['runs']}"
+        )
     if "J_p_mean_reduction_percent" in s:
         print(f"TBMPC-FFA mean J_p is {s['J_p_mean_reduction_percent']:.1f} % below TBMPC's")
-    print(f"{s['runs']} runs done ({s['executed_now']} now, {len(s['failed_runs'])} failed) in {s['wall_time_s']:.1f} s; "
-          f"{args.out}/summary.json")
+    print(
+        f"{s['runs']} runs done ({s['executed_now']} now, {len(s['failed_runs'])} failed) in {s['wall_time_s']:.1f} s; "
+        f"{args.out}/summary.json"
+    )
     return EXIT_FAILED_RUNS if s["failed_runs"] else EXIT_OK
 
 
@@ -223,12 +265,13 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
     from .analysis import sweep
 
-    s = sweep(_config(args), args.lambda_p, args.lambda_r, Path(args.out), seed=args.seed,
-              progress=not args.quiet)
+    s = sweep(_config(args), args.lambda_p, args.lambda_r, Path(args.out), seed=args.seed, progress=not args.quiet)
     print(f"{'':40s} {'J_p':>8s} {'J_r':>8s} {'|dr(T)| m':>10s} {'RMS r m':>9s}")
     for name, row in s["rows"].items():
-        print(f"{name:40s} {row['J_p']:8.4g} {row['J_r']:8.4g} {row['terminal_error']['position']:10.3g} "
-              f"{row['rms_error']['position']:9.3g}")
+        print(
+            f"{name:40s} {row['J_p']:8.4g} {row['J_r']:8.4g} {row['terminal_error']['position']:10.3g} "
+            f"{row['rms_error']['position']:9.3g}"
+        )
     print(f"{args.out}/sweep.json and figures")
     return 0
 
@@ -273,16 +316,20 @@ def build_parser() -> argparse.ArgumentParser:
     p_run = sub.add_parser("run", help="closed-loop TBMPC and/or TBMPC-FFA on a scenario (default: the paper's)")
     _scenario_arguments(p_run)
     p_run.add_argument("--method", choices=["tbmpc", "ffa", "both"], default="both")
-    p_run.add_argument("--shape", help="shape file (OBJ, PDS v/f table, ICQ, PLY, STL) instead of the config's; "
-                                       "a relative path is taken against the working directory")
+    p_run.add_argument(
+        "--shape",
+        help="shape file (OBJ, PDS v/f table, ICQ, PLY, STL) instead of the config's; "
+        "a relative path is taken against the working directory",
+    )
     p_run.add_argument("--seed", type=_seed, help="disturbance seed >= 0 (default: the config's)")
     p_run.add_argument("--out", default="results/run", help="output folder")
     p_run.add_argument("--cache-dir", help="reference-trajectory cache (default: OUT/cache)")
     p_run.add_argument("--no-figures", action="store_true")
     p_run.add_argument("--quiet", action="store_true", help="no progress bar")
     p_run.set_defaults(func=_cmd_run)
-    p_exp = sub.add_parser("export-scenario",
-                           help="write the closed loop's scenario file for C++ programs (examples/cpp/closed_loop)")
+    p_exp = sub.add_parser(
+        "export-scenario", help="write the closed loop's scenario file for C++ programs (examples/cpp/closed_loop)"
+    )
     _scenario_arguments(p_exp)
     p_exp.add_argument("--out", required=True, help="output folder (scenario.txt, shape.obj, config.toml)")
     p_exp.add_argument("--cache-dir", help="reference-trajectory cache (default: none)")
@@ -341,8 +388,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:
         if args.debug:
             raise
-        print(f"tubempc: internal error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback)",
-              file=sys.stderr)
+        print(
+            f"tubempc: internal error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback)", file=sys.stderr
+        )
         return EXIT_INTERNAL
 
 

@@ -89,20 +89,33 @@ def _measured_input(scn: Scenario, k: int, x: Array, u: Array, x_next: Array) ->
 Identifiers = tuple[ForgettingFactorIdentifier, ForgettingFactorIdentifier]
 
 
-def _tube_update(scn: Scenario, policy: TubeUpdatePolicy, k: int,
-                 idents: Identifiers) -> tuple[list[TubeResult], str | None]:
+def _tube_update(
+    scn: Scenario, policy: TubeUpdatePolicy, k: int, idents: Identifiers
+) -> tuple[list[TubeResult], str | None]:
     """Step 1: the subsystems' tubes for step k, about the reference's node k."""
     dt = scn.config.mpc.dt
     if policy.tubes is not None and not policy.adaptive:
         return policy.tubes, None
     Ad, Bd, _ = scn.model.discretize(k * dt, scn.reference.x[k], scn.reference.u[k], dt)
-    return policy.update(k, (Ad[P_STATES, P_STATES], Ad[R_STATES, R_STATES]),
-                         (Bd[P_STATES, P_INPUTS], Bd[R_STATES, R_INPUTS]), (idents[0].P_W, idents[1].P_W))
+    return policy.update(
+        k,
+        (Ad[P_STATES, P_STATES], Ad[R_STATES, R_STATES]),
+        (Bd[P_STATES, P_INPUTS], Bd[R_STATES, R_INPUTS]),
+        (idents[0].P_W, idents[1].P_W),
+    )
 
 
-def _record_step(rec: RunRecord, k: int, step: Any, tubes: list[TubeResult], K: Array, w_meas: Array,
-                 w_true: Array, idents: tuple[ForgettingFactorIdentifier, ForgettingFactorIdentifier],
-                 times: tuple[float, float, float, float, float]) -> None:
+def _record_step(
+    rec: RunRecord,
+    k: int,
+    step: Any,
+    tubes: list[TubeResult],
+    K: Array,
+    w_meas: Array,
+    w_true: Array,
+    idents: tuple[ForgettingFactorIdentifier, ForgettingFactorIdentifier],
+    times: tuple[float, float, float, float, float],
+) -> None:
     """Step 5: everything the step produced (``times`` = the perf_counter stamps t0..t4)."""
     z_plan = np.asarray(step.z)
     rec.z[k], rec.z_plan[k] = z_plan[:, 0], z_plan.T
@@ -123,9 +136,17 @@ def _record_step(rec: RunRecord, k: int, step: Any, tubes: list[TubeResult], K: 
     rec.failures.append(str(step.failure))
 
 
-def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
-             lambda_p: float | None = None, lambda_r: float | None = None,
-             max_steps: int | None = None, tube_threads: int = 2) -> RunRecord:
+def simulate(
+    scn: Scenario,
+    method: str,
+    seed: int,
+    *,
+    progress: bool = False,
+    lambda_p: float | None = None,
+    lambda_r: float | None = None,
+    max_steps: int | None = None,
+    tube_threads: int = 2,
+) -> RunRecord:
     """One closed-loop run of ``method`` ("tbmpc" or "ffa") with disturbance seed ``seed``.
 
     ``lambda_p``/``lambda_r`` override the configuration's forgetting factors; ``max_steps`` stops
@@ -142,18 +163,26 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
     ctrl.setup(_core.mpc.Reference(ref.x.T.copy(), ref.u.T.copy(), 0.0))
     idents = identifiers(cfg, lambda_p, lambda_r)
     dist = cfg.disturbance
-    plant = _Plant(scn, AdditiveDisturbance(dist.S_p, dist.S_r, seed=seed),
-                   ActuatorMismatch(seed + 1, dist.scale_error_p, dist.misalignment_p, dist.scale_error_r,
-                                    dist.misalignment_r),
-                   propagator_options(cfg), scn.model.state_to_truth(scn.x0))
+    plant = _Plant(
+        scn,
+        AdditiveDisturbance(dist.S_p, dist.S_r, seed=seed),
+        ActuatorMismatch(seed + 1, dist.scale_error_p, dist.misalignment_p, dist.scale_error_r, dist.misalignment_r),
+        propagator_options(cfg),
+        scn.model.state_to_truth(scn.x0),
+    )
     rec = RunRecord.allocate(method, seed, T, N)
     rec.t[:] = np.arange(T + 1, dtype=np.float64) * dt
     rec.zbar[:], rec.ubar[:] = ref.x, ref.u
     x = scn.x0.copy()
     rec.x[0] = x
     rec.g[0] = [scn.truth.glide_slope(x)[0], scn.truth.line_of_sight(x)[0]]
-    policy = TubeUpdatePolicy(tube_designers(cfg), adaptive=method == "ffa", margin=cfg.tube.redesign_margin,
-                              alpha_search_period=cfg.tube.alpha_search_period, threads=tube_threads)
+    policy = TubeUpdatePolicy(
+        tube_designers(cfg),
+        adaptive=method == "ffa",
+        margin=cfg.tube.redesign_margin,
+        alpha_search_period=cfg.tube.alpha_search_period,
+        threads=tube_threads,
+    )
     bar = None
     if progress:
         from tqdm import tqdm
@@ -180,8 +209,10 @@ def simulate(scn: Scenario, method: str, seed: int, *, progress: bool = False,
             t4 = time.perf_counter()
             # Tube check (paper Proposition 1): the error after the step, x_{k+1} - z*_{1|k}, in the tube of step k.
             z1 = np.asarray(step.z)[:, 1]
-            rec.excursion[k] = [tube_excursion(x_next[None, sx], z1[None, sx], np.asarray(tube.Pe))[0]
-                                for sx, tube in zip((P_STATES, R_STATES), tubes, strict=True)]
+            rec.excursion[k] = [
+                tube_excursion(x_next[None, sx], z1[None, sx], np.asarray(tube.Pe))[0]
+                for sx, tube in zip((P_STATES, R_STATES), tubes, strict=True)
+            ]
             _record_step(rec, k, step, tubes, K, w_meas, w_true, idents, (t0, t1, t2, t3, t4))
             x = x_next
             rec.x[k + 1] = x

@@ -30,9 +30,7 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 
 _UREG: Any = pint.UnitRegistry()
-_ANGLE_UNITS = frozenset(
-    {"radian", "degree", "arcminute", "arcsecond", "turn", "revolution", "milliradian"}
-)
+_ANGLE_UNITS = frozenset({"radian", "degree", "arcminute", "arcsecond", "turn", "revolution", "milliradian"})
 _DEFAULT = "bennu_paper.toml"
 
 
@@ -63,9 +61,7 @@ class _Spec:
 _Check = tuple[Callable[[Any], bool], str] | None
 
 
-def _q(
-    unit: str, quantity: str, shape: tuple[int, ...] = (), check: _Check = None
-) -> _Meta:
+def _q(unit: str, quantity: str, shape: tuple[int, ...] = (), check: _Check = None) -> _Meta:
     """Field metadata of a quantity with an SI unit."""
     return {"spec": _Spec(unit, quantity, shape, check)}
 
@@ -94,9 +90,7 @@ _SIGN = (lambda v: v in (-1, 1), "+1 or -1")
 _GE1 = (lambda v: v >= 1, ">= 1")
 _NONZERO = (lambda v: float(np.linalg.norm(v)) > 0.0, "non-zero")
 _SPD = (
-    lambda v: bool(
-        np.allclose(v, np.asarray(v).T) and np.linalg.eigvalsh(v).min() > 0.0
-    ),
+    lambda v: bool(np.allclose(v, np.asarray(v).T) and np.linalg.eigvalsh(v).min() > 0.0),
     "symmetric positive definite",
 )
 
@@ -106,12 +100,8 @@ class Environment:
     """Sun and solar radiation pressure (PAPER_NOTES "Translational dynamics")."""
 
     mu_sun: float = field(metadata=_q("m^3/s^2", "gravitational parameter", check=_POS))
-    R: float = field(
-        metadata=_q("m", "length", check=_POS)
-    )  # heliocentric distance of the asteroid
-    beta_srp: float = field(
-        metadata=_q("m^3/s^2", "SRP coefficient", check=_POS)
-    )  # a_SRP = beta / R^2
+    R: float = field(metadata=_q("m", "length", check=_POS))  # heliocentric distance of the asteroid
+    beta_srp: float = field(metadata=_q("m^3/s^2", "SRP coefficient", check=_POS))  # a_SRP = beta / R^2
 
 
 @dataclass(frozen=True, eq=False)
@@ -243,9 +233,7 @@ class Identification:
     S0_p_position: FloatArray = field(metadata=_q("m^2", "length^2", (3,), _POS))
     S0_p_velocity: FloatArray = field(metadata=_q("m^2/s^2", "velocity^2", (3,), _POS))
     S0_r_attitude: FloatArray = field(metadata=_q("rad^2", "angle^2", (3,), _POS))
-    S0_r_rate: FloatArray = field(
-        metadata=_q("rad^2/s^2", "angular velocity^2", (3,), _POS)
-    )
+    S0_r_rate: FloatArray = field(metadata=_q("rad^2/s^2", "angular velocity^2", (3,), _POS))
 
     @property
     def w0_p(self) -> FloatArray:
@@ -272,13 +260,9 @@ class Disturbance:
 
     seed: int = field(metadata=_int(check=(lambda v: v >= 0, ">= 0")))
     S_p_position: FloatArray = field(metadata=_q("m^2", "length^2", (3,), _NONNEG))
-    S_p_velocity: FloatArray = field(
-        metadata=_q("m^2/s^2", "velocity^2", (3,), _NONNEG)
-    )
+    S_p_velocity: FloatArray = field(metadata=_q("m^2/s^2", "velocity^2", (3,), _NONNEG))
     S_r_attitude: FloatArray = field(metadata=_q("rad^2", "angle^2", (3,), _NONNEG))
-    S_r_rate: FloatArray = field(
-        metadata=_q("rad^2/s^2", "angular velocity^2", (3,), _NONNEG)
-    )
+    S_r_rate: FloatArray = field(metadata=_q("rad^2/s^2", "angular velocity^2", (3,), _NONNEG))
     scale_error_p: float = field(metadata=_num(check=_FRACTION))
     misalignment_p: float = field(metadata=_q("rad", "angle", check=_FRACTION))
     scale_error_r: float = field(metadata=_num(check=_FRACTION))
@@ -392,8 +376,9 @@ class Config:
             spec = _spec_of(_SECTIONS[section], name)
             data[section][name] = _encode(spec, value) if _is_si(spec, value) else value
         changed = _parse(data, f"{self.source} (override)")
-        return Config(**{name: getattr(changed, name) for name in _SECTIONS}, source=changed.source,
-                      defaulted=self.defaulted)
+        return Config(
+            **{name: getattr(changed, name) for name in _SECTIONS}, source=changed.source, defaulted=self.defaulted
+        )
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, Config) and self.to_dict() == other.to_dict()
@@ -426,10 +411,7 @@ def _encode(spec: _Spec, value: Any) -> Any:
 
 
 def _section_to_dict(section: Any) -> dict[str, Any]:
-    return {
-        f.name: _encode(f.metadata["spec"], getattr(section, f.name))
-        for f in fields(section)
-    }
+    return {f.name: _encode(f.metadata["spec"], getattr(section, f.name)) for f in fields(section)}
 
 
 def _parse_field(spec: _Spec, raw: Any, where: str) -> Any:
@@ -437,9 +419,7 @@ def _parse_field(spec: _Spec, raw: Any, where: str) -> Any:
         if not isinstance(raw, str) or not raw:
             raise ConfigError(f"{where}: expected a non-empty string, got {raw!r}")
         if spec.choices is not None and raw not in spec.choices:
-            raise ConfigError(
-                f"{where}: expected one of {list(spec.choices)}, got {raw!r}"
-            )
+            raise ConfigError(f"{where}: expected one of {list(spec.choices)}, got {raw!r}")
         return raw
     if spec.integer:
         if isinstance(raw, bool) or not isinstance(raw, int):
@@ -458,17 +438,13 @@ def _parse_field(spec: _Spec, raw: Any, where: str) -> Any:
 
 def _parse_array(spec: _Spec, raw: Any, where: str) -> Any:
     if isinstance(raw, (bool, str, Mapping)):
-        raise ConfigError(
-            f"{where}: expected a number or array of numbers, got {raw!r}"
-        )
+        raise ConfigError(f"{where}: expected a number or array of numbers, got {raw!r}")
     try:
         arr = np.asarray(raw, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"{where}: expected numbers, got {raw!r}") from exc
     if arr.shape != spec.shape:
-        raise ConfigError(
-            f"{where}: expected shape {spec.shape}, got {arr.shape} ({raw!r})"
-        )
+        raise ConfigError(f"{where}: expected shape {spec.shape}, got {arr.shape} ({raw!r})")
     if not np.all(np.isfinite(arr)):
         raise ConfigError(f"{where}: non-finite value in {raw!r}")
     if spec.shape == ():
@@ -512,22 +488,20 @@ def _check_powers(text: str, where: str) -> None:
         except ValueError:
             ok = False
         if not ok:
-            raise ConfigError(f"{where}: in {text[:60]!r}, every power must be a single number of magnitude "
-                              f"<= {_MAX_EXPONENT:g} (e.g. 'kg/m^3')")
+            raise ConfigError(
+                f"{where}: in {text[:60]!r}, every power must be a single number of magnitude "
+                f"<= {_MAX_EXPONENT:g} (e.g. 'kg/m^3')"
+            )
 
 
 def _parse_quantity(spec: _Spec, raw: Any, where: str) -> Any:
     if spec.shape == ():
         if not isinstance(raw, str):
-            raise ConfigError(
-                f"{where}: expected a string with a unit like '1 {spec.unit}', got {raw!r}"
-            )
+            raise ConfigError(f"{where}: expected a string with a unit like '1 {spec.unit}', got {raw!r}")
         text, magnitude = raw, None
     else:
         if not isinstance(raw, Mapping) or set(raw) != {"value", "unit"}:
-            raise ConfigError(
-                f'{where}: expected a table {{value = [...], unit = "{spec.unit}"}}, got {raw!r}'
-            )
+            raise ConfigError(f'{where}: expected a table {{value = [...], unit = "{spec.unit}"}}, got {raw!r}')
         if not isinstance(raw["unit"], str):
             raise ConfigError(f"{where}.unit: expected a string, got {raw['unit']!r}")
         text, magnitude = (
@@ -538,18 +512,12 @@ def _parse_quantity(spec: _Spec, raw: Any, where: str) -> Any:
     try:
         q: Any = _UREG.Quantity(text)
     except Exception as exc:  # pint raises several unrelated exception types
-        raise ConfigError(
-            f"{where}: cannot parse {text!r} as a quantity: {exc}"
-        ) from exc
+        raise ConfigError(f"{where}: cannot parse {text!r} as a quantity: {exc}") from exc
     if not all(math.isfinite(float(p)) for _, p in q.unit_items()):
         raise ConfigError(f"{where}: non-finite unit exponent in {text!r}")
     expected = _UREG.Quantity(1.0, spec.unit)
-    if q.dimensionality != expected.dimensionality or _angle_power(q) != _angle_power(
-        expected
-    ):
-        raise ConfigError(
-            f"{where}: expected {spec.quantity} [{spec.unit}], got {raw!r} [{_describe(q)}]"
-        )
+    if q.dimensionality != expected.dimensionality or _angle_power(q) != _angle_power(expected):
+        raise ConfigError(f"{where}: expected {spec.quantity} [{spec.unit}], got {raw!r} [{_describe(q)}]")
     factor = float(q.to(spec.unit).magnitude)
     if magnitude is None:
         if not math.isfinite(factor):
@@ -577,7 +545,8 @@ RENAMED_VALUES: dict[tuple[str, str, str], str] = {
 }
 #: Fields that nothing read; ignored with a warning.
 REMOVED_FIELDS: frozenset[tuple[str, str]] = frozenset(
-    {("asteroid", "G"), ("asteroid", "shape_mean_radius"), ("disturbance", "model")})
+    {("asteroid", "G"), ("asteroid", "shape_mean_radius"), ("disturbance", "model")}
+)
 
 
 def _upgrade(section: str, raw: Mapping[str, Any], where: str) -> dict[str, Any]:
@@ -585,8 +554,11 @@ def _upgrade(section: str, raw: Mapping[str, Any], where: str) -> dict[str, Any]
     out: dict[str, Any] = {}
     for key, value in raw.items():
         if (section, key) in REMOVED_FIELDS:
-            warnings.warn(f"{where}.{key}: the field is no longer used and is ignored; remove it",
-                          ConfigDeprecationWarning, stacklevel=4)
+            warnings.warn(
+                f"{where}.{key}: the field is no longer used and is ignored; remove it",
+                ConfigDeprecationWarning,
+                stacklevel=4,
+            )
             continue
         new = RENAMED_FIELDS.get((section, key))
         if new is not None:
@@ -596,24 +568,26 @@ def _upgrade(section: str, raw: Mapping[str, Any], where: str) -> dict[str, Any]
             key = new
         if isinstance(value, str) and (section, key, value) in RENAMED_VALUES:
             new_value = RENAMED_VALUES[(section, key, value)]
-            warnings.warn(f"{where}.{key}: value {value!r} renamed to {new_value!r}; read as {new_value!r}",
-                          ConfigDeprecationWarning, stacklevel=4)
+            warnings.warn(
+                f"{where}.{key}: value {value!r} renamed to {new_value!r}; read as {new_value!r}",
+                ConfigDeprecationWarning,
+                stacklevel=4,
+            )
             value = new_value
         out[key] = value
     return out
 
 
-def _parse_section(cls: type[_S], section: str, raw: Any, where: str, defaults: Mapping[str, Any] | None,
-                   defaulted: list[str]) -> _S:
+def _parse_section(
+    cls: type[_S], section: str, raw: Any, where: str, defaults: Mapping[str, Any] | None, defaulted: list[str]
+) -> _S:
     if not isinstance(raw, Mapping):
         raise ConfigError(f"{where}: expected a table, got {raw!r}")
     raw = _upgrade(section, raw, where)
     names = [f.name for f in fields(cls)]  # type: ignore[arg-type]
     unknown = sorted(set(raw) - set(names))
     if unknown:
-        raise ConfigError(
-            f"{where}.{unknown[0]}: unknown field (known: {', '.join(names)})"
-        )
+        raise ConfigError(f"{where}.{unknown[0]}: unknown field (known: {', '.join(names)})")
     missing = [n for n in names if n not in raw]
     if missing and defaults is None:
         raise ConfigError(f"{where}.{missing[0]}: missing field")
@@ -637,16 +611,15 @@ def _parse(data: Mapping[str, Any], source: str, defaults: Mapping[str, Any] | N
     missing sections and fields are taken from it and listed in ``Config.defaulted``."""
     unknown = sorted(set(data) - set(_SECTIONS))
     if unknown:
-        raise ConfigError(
-            f"{source}: {unknown[0]}: unknown section (known: {', '.join(_SECTIONS)})"
-        )
+        raise ConfigError(f"{source}: {unknown[0]}: unknown section (known: {', '.join(_SECTIONS)})")
     missing = [s for s in _SECTIONS if s not in data]
     if missing and defaults is None:
         raise ConfigError(f"{source}: {missing[0]}: missing section")
     defaulted: list[str] = []
     sections: dict[str, Any] = {
-        name: _parse_section(cls, name, data.get(name, {}), f"{source}: {name}",
-                             None if defaults is None else defaults[name], defaulted)
+        name: _parse_section(
+            cls, name, data.get(name, {}), f"{source}: {name}", None if defaults is None else defaults[name], defaulted
+        )
         for name, cls in _SECTIONS.items()
     }
     config = Config(**sections, source=source, defaulted=tuple(defaulted))
@@ -657,29 +630,30 @@ def _parse(data: Mapping[str, Any], source: str, defaults: Mapping[str, Any] | N
 def _check_consistency(c: Config) -> None:
     ratio = c.mpc.t_f / c.mpc.dt
     if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
-        raise ConfigError(
-            f"{c.source}: mpc.t_f: {c.mpc.t_f} s is not a multiple of mpc.dt = {c.mpc.dt} s"
-        )
+        raise ConfigError(f"{c.source}: mpc.t_f: {c.mpc.t_f} s is not a multiple of mpc.dt = {c.mpc.dt} s")
     if c.constraints.glide_slope_apex == "site" and c.boundary.terminal != "site":
-        raise ConfigError(f"{c.source}: constraints.glide_slope_apex: \"site\" needs boundary.terminal = \"site\"")
+        raise ConfigError(f'{c.source}: constraints.glide_slope_apex: "site" needs boundary.terminal = "site"')
     if c.constraints.glide_slope_axis != "z" and c.boundary.terminal != "site":
-        raise ConfigError(f"{c.source}: constraints.glide_slope_axis: {c.constraints.glide_slope_axis!r} needs "
-                          "boundary.terminal = \"site\"")
-    if c.boundary.initial == "hover" and c.boundary.terminal != "site":
-        raise ConfigError(f"{c.source}: boundary.initial: \"hover\" needs boundary.terminal = \"site\"")
-    if c.mpc.horizon > c.mpc.n_steps:
         raise ConfigError(
-            f"{c.source}: mpc.horizon: horizon {c.mpc.horizon} exceeds t_f / dt = {c.mpc.n_steps} steps"
+            f'{c.source}: constraints.glide_slope_axis: {c.constraints.glide_slope_axis!r} needs boundary.terminal = "site"'
         )
+    if c.boundary.initial == "hover" and c.boundary.terminal != "site":
+        raise ConfigError(f'{c.source}: boundary.initial: "hover" needs boundary.terminal = "site"')
+    if c.mpc.horizon > c.mpc.n_steps:
+        raise ConfigError(f"{c.source}: mpc.horizon: horizon {c.mpc.horizon} exceeds t_f / dt = {c.mpc.n_steps} steps")
 
 
 #: Packaged scenarios (``tubempc scenarios``): name -> (file under tubempc/data, one-line description).
 SCENARIOS: dict[str, tuple[str, str]] = {
     "bennu-paper": (_DEFAULT, "the paper's landing at Bennu's pole (Tables 1-2); the default"),
-    "bennu-equator": ("scenarios/bennu_equator.toml",
-                      "a site near Bennu's equator, approached from hovering 500 m above it; the cone turns with Bennu"),
-    "itokawa-like": ("scenarios/itokawa_like.toml",
-                     "a generated 535 x 294 x 209 m contact binary (1900 kg/m^3, 12.13 h), a site on its smaller lobe"),
+    "bennu-equator": (
+        "scenarios/bennu_equator.toml",
+        "a site near Bennu's equator, approached from hovering 500 m above it; the cone turns with Bennu",
+    ),
+    "itokawa-like": (
+        "scenarios/itokawa_like.toml",
+        "a generated 535 x 294 x 209 m contact binary (1900 kg/m^3, 12.13 h), a site on its smaller lobe",
+    ),
 }
 
 

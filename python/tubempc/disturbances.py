@@ -47,14 +47,10 @@ def sample_ellipsoid(S: ArrayLike, n: int, rng: np.random.Generator) -> FloatArr
     F = psd_factor(S)
     dim = F.shape[0]
     r = rng.random(n) ** (1.0 / dim)
-    return np.asarray(
-        (_unit_directions(dim, n, rng) * r[:, None]) @ F.T, dtype=np.float64
-    )
+    return np.asarray((_unit_directions(dim, n, rng) * r[:, None]) @ F.T, dtype=np.float64)
 
 
-def sample_ellipsoid_surface(
-    S: ArrayLike, n: int, rng: np.random.Generator
-) -> FloatArray:
+def sample_ellipsoid_surface(S: ArrayLike, n: int, rng: np.random.Generator) -> FloatArray:
     """n points (rows) on the boundary {w : w^T S^-1 w = 1} (images of uniform directions)."""
     F = psd_factor(S)
     return _unit_directions(F.shape[0], n, rng) @ F.T
@@ -65,9 +61,7 @@ def _as_cov(name: str, S: ArrayLike, dim: int) -> FloatArray:
     if S_.shape == (dim,):
         S_ = np.diag(S_)
     if S_.shape != (dim, dim):
-        raise ValueError(
-            f"{name}: expected shape ({dim}, {dim}) or ({dim},), got {S_.shape}"
-        )
+        raise ValueError(f"{name}: expected shape ({dim}, {dim}) or ({dim},), got {S_.shape}")
     psd_factor(S_)
     return 0.5 * (S_ + S_.T)
 
@@ -82,9 +76,7 @@ def _as_center(name: str, c: ArrayLike | None, dim: int) -> FloatArray:
 class EllipsoidDisturbance:
     """i.i.d. w = center + uniform sample of {d : d^T S^-1 d <= 1} (paper Eq. 18), seeded."""
 
-    def __init__(
-        self, S: ArrayLike, seed: int, center: ArrayLike | None = None
-    ) -> None:
+    def __init__(self, S: ArrayLike, seed: int, center: ArrayLike | None = None) -> None:
         S_ = np.asarray(S, dtype=np.float64)
         self.S = _as_cov("S", S_, S_.shape[0])
         self.dim = self.S.shape[0]

@@ -196,9 +196,7 @@ class ProximityModel:
         """(f, A, B) at (t, x, u) with one gravity evaluation."""
         return self._impl.linearize(t, _vec(x), _vec(u))
 
-    def discretize(
-        self, t: float, x_ref: npt.ArrayLike, u_ref: npt.ArrayLike, dt: float
-    ) -> tuple[_Arr, _Arr, _Arr]:
+    def discretize(self, t: float, x_ref: npt.ArrayLike, u_ref: npt.ArrayLike, dt: float) -> tuple[_Arr, _Arr, _Arr]:
         """Exact zero-order hold x+ = Ad x + Bd u + cd about (x_ref, u_ref) over dt (s).
 
         One node for x_ref (12,), u_ref (6,): Ad (12, 12), Bd (12, 6), cd (12). A horizon for
@@ -313,7 +311,9 @@ def state_to_truth(x: npt.ArrayLike) -> _Arr:
 
 
 def glide_slope_constraint(
-    x: npt.ArrayLike, glide_slope_angle: float = np.deg2rad(70.0), apex_L: npt.ArrayLike = (0.0, 0.0, 0.0),
+    x: npt.ArrayLike,
+    glide_slope_angle: float = np.deg2rad(70.0),
+    apex_L: npt.ArrayLike = (0.0, 0.0, 0.0),
     axis_L: npt.ArrayLike = (0.0, 0.0, 1.0),
 ) -> tuple[float, _Arr]:
     """(g, dg/dx) of g = |r - p| cos(phi_gs) - (r - p) . a (<= 0 feasible) for the cone with apex p (m)

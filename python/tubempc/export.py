@@ -79,8 +79,10 @@ def export_scenario(cfg: Config, out_dir: str | Path, *, cache_dir: str | Path |
     s.tube = _core.mpc.Tube(K, Pe)
     s.x0, s.xf = scn.x0, scn.xf
     path = out / "scenario.txt"
-    comment = (f"exported by tubempc {__version__} from {cfg.source} (config sha256 {cfg.hash()})\n"
-               f"shape: {scn.shape_source}; mission: T = {scn.n_steps} steps of {cfg.mpc.dt} s; "
-               "tube: TBMPC's, designed at k = 0 from the identification prior")
+    comment = (
+        f"exported by tubempc {__version__} from {cfg.source} (config sha256 {cfg.hash()})\n"
+        f"shape: {scn.shape_source}; mission: T = {scn.n_steps} steps of {cfg.mpc.dt} s; "
+        "tube: TBMPC's, designed at k = 0 from the identification prior"
+    )
     _core.io.write_scenario(str(path), s, comment)
     return path

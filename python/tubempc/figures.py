@@ -61,8 +61,9 @@ def save(fig: Figure, path: str | Path, dpi: int = 110) -> Path:
     return p
 
 
-def _cone_surface(ax: Any, half_angle: float, apex: np.ndarray, axis: np.ndarray, height: float, color: str,
-                  label: str) -> None:
+def _cone_surface(
+    ax: Any, half_angle: float, apex: np.ndarray, axis: np.ndarray, height: float, color: str, label: str
+) -> None:
     a = axis / np.linalg.norm(axis)
     e1 = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
@@ -74,9 +75,14 @@ def _cone_surface(ax: Any, half_angle: float, apex: np.ndarray, axis: np.ndarray
     ax.plot([], [], color=color, alpha=0.4, label=label)
 
 
-def trajectory_3d(results: Mapping[str, RunRecord], glide_slope_rad: float, every: int = 25, *,
-                  body_L: tuple[np.ndarray, np.ndarray] | None = None,
-                  cone_L: tuple[np.ndarray, np.ndarray] | None = None) -> Figure:
+def trajectory_3d(
+    results: Mapping[str, RunRecord],
+    glide_slope_rad: float,
+    every: int = 25,
+    *,
+    body_L: tuple[np.ndarray, np.ndarray] | None = None,
+    cone_L: tuple[np.ndarray, np.ndarray] | None = None,
+) -> Figure:
     """Fig. 3: actual trajectories in L with the asteroid (``body_L``: vertices in L at t_f (m) and
     faces), the glide-slope cone at t_f (``cone_L``: apex (m) and axis in L; default the paper's)
     and predicted horizons. The axes span the trajectories and the body, not the cone."""
@@ -111,8 +117,9 @@ def trajectory_3d(results: Mapping[str, RunRecord], glide_slope_rad: float, ever
     ax.set_xlabel("x_L (m)")
     ax.set_ylabel("y_L (m)")
     ax.set_zlabel("z_L (m)")
-    ax.set_title(f"Trajectory in L (TBMPC solid, TBMPC-FFA dashed), predicted horizons (thin) every {every} steps",
-                 fontsize=9)
+    ax.set_title(
+        f"Trajectory in L (TBMPC solid, TBMPC-FFA dashed), predicted horizons (thin) every {every} steps", fontsize=9
+    )
     ax.legend(loc="upper left", fontsize=8)
     return fig
 
@@ -122,8 +129,14 @@ def _state_grid() -> tuple[Figure, Any]:
     return plt.subplots(4, 3, figsize=(12, 11), sharex=True)
 
 
-def _finish_state_grid(fig: Figure, axes: Any, ylabel_prefix: str = "", title_prefix: str | None = None,
-                       suptitle: str = "", legend_size: int = 8) -> Figure:
+def _finish_state_grid(
+    fig: Figure,
+    axes: Any,
+    ylabel_prefix: str = "",
+    title_prefix: str | None = None,
+    suptitle: str = "",
+    legend_size: int = 8,
+) -> Figure:
     for g in range(4):
         for i in range(3):
             axes[g, i].set_ylabel(ylabel_prefix + _STATE_LABELS[g][i])
@@ -188,8 +201,9 @@ def controls(results: Mapping[str, RunRecord], u_max: float, T_max: float) -> Fi
     return fig
 
 
-def disturbances(results: Mapping[str, RunRecord], pw_scale: float = 9.0,
-                 prior_variances: np.ndarray | None = None) -> Figure:
+def disturbances(
+    results: Mapping[str, RunRecord], pw_scale: float = 9.0, prior_variances: np.ndarray | None = None
+) -> Figure:
     """Fig. 9: measured exogenous inputs w with sqrt(pw_scale) sigma bounds: TBMPC-FFA's identified
     (mean and covariance after each step) and TBMPC's fixed ones from the prior variances (12,)
     when given (TBMPC designs its tube from the prior only)."""
@@ -213,8 +227,9 @@ def disturbances(results: Mapping[str, RunRecord], pw_scale: float = 9.0,
             style = _style(name, lw=_STYLE.get(name, {}).get("lw", 1.0))
             ax.plot(t, w_hat[:, j] + bound, **style, label=f"{name} ±{k_sigma:.0f} sigma")
             ax.plot(t, w_hat[:, j] - bound, **style)
-    return _finish_state_grid(fig, axes, "w ", None,
-                              "Exogenous inputs per step and identified bounds (TBMPC: wide solid, FFA: dashed)", 7)
+    return _finish_state_grid(
+        fig, axes, "w ", None, "Exogenous inputs per step and identified bounds (TBMPC: wide solid, FFA: dashed)", 7
+    )
 
 
 def tube_projections(results: Mapping[str, RunRecord]) -> Figure:
@@ -223,8 +238,9 @@ def tube_projections(results: Mapping[str, RunRecord]) -> Figure:
     for name, r in results.items():
         t = r.t[:-1]
         e = r.x[:-1] - r.z
-        half = np.sqrt(np.concatenate([np.diagonal(r.Pe_p, axis1=1, axis2=2),
-                                       np.diagonal(r.Pe_r, axis1=1, axis2=2)], axis=1))
+        half = np.sqrt(
+            np.concatenate([np.diagonal(r.Pe_p, axis1=1, axis2=2), np.diagonal(r.Pe_r, axis1=1, axis2=2)], axis=1)
+        )
         for j in range(12):
             ax = axes[j // 3, j % 3]
             c = _COLORS.get(name)
@@ -250,15 +266,20 @@ def constraints(results: Mapping[str, RunRecord]) -> Figure:
     return fig
 
 
-def convergence(t: np.ndarray, err: np.ndarray, fit: ConvergenceFit, label: str, unit: str = "m/s",
-                title: str = "") -> Figure:
+def convergence(
+    t: np.ndarray, err: np.ndarray, fit: ConvergenceFit, label: str, unit: str = "m/s", title: str = ""
+) -> Figure:
     """Fig. 14: error norm with the fitted envelope C rho^k ||e_0|| + ebar (Theorem 2)."""
     fig, ax = plt.subplots(figsize=(7, 4))
     k = np.arange(err.size)
     ax.semilogy(t[: err.size], err, label=f"||{label}||")
-    ax.semilogy(t[: err.size], fit.bound(k), "r--",
-                label=f"C rho^k ||e0|| + ebar (C||e0||={fit.C * fit.e0:.3g} {unit}, rho={fit.rho:.4f} per step, "
-                      f"ebar={fit.ebar:.3g} {unit})")
+    ax.semilogy(
+        t[: err.size],
+        fit.bound(k),
+        "r--",
+        label=f"C rho^k ||e0|| + ebar (C||e0||={fit.C * fit.e0:.3g} {unit}, rho={fit.rho:.4f} per step, "
+        f"ebar={fit.ebar:.3g} {unit})",
+    )
     ax.set_title(title or f"Convergence of ||{label}|| (Theorem 2 envelope fitted from t = {t[0]:g} s)")
     ax.set_xlabel("t (s)")
     ax.set_ylabel(f"||{label}|| ({unit})")
@@ -267,8 +288,9 @@ def convergence(t: np.ndarray, err: np.ndarray, fit: ConvergenceFit, label: str,
     return fig
 
 
-def lambda_sensitivity(t: np.ndarray, errors_by_lambda: Mapping[str, np.ndarray],
-                       tube_by_lambda: Mapping[str, np.ndarray], state_label: str) -> Figure:
+def lambda_sensitivity(
+    t: np.ndarray, errors_by_lambda: Mapping[str, np.ndarray], tube_by_lambda: Mapping[str, np.ndarray], state_label: str
+) -> Figure:
     """Figs. 15-16: error of one state and the tube half-width against the forgetting factor."""
     fig, axes = plt.subplots(1, 2, figsize=(12, 4))
     for lam, e in errors_by_lambda.items():
@@ -285,8 +307,9 @@ def lambda_sensitivity(t: np.ndarray, errors_by_lambda: Mapping[str, np.ndarray]
     return fig
 
 
-def montecarlo_envelopes(t: np.ndarray, errors: Sequence[np.ndarray], half_width: np.ndarray,
-                         labels: Sequence[str], title: str) -> Figure:
+def montecarlo_envelopes(
+    t: np.ndarray, errors: Sequence[np.ndarray], half_width: np.ndarray, labels: Sequence[str], title: str
+) -> Figure:
     """Figs. 17-18: Monte Carlo error trajectories (x - z) against the tube half-widths."""
     n = len(labels)
     fig, axes = plt.subplots(1, n, figsize=(4 * n, 3.6), sharex=True)

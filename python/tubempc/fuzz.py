@@ -44,8 +44,17 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["FORMATS", "OUTCOMES", "CampaignResult", "check_input", "make_input", "mesh_problems", "run_campaign",
-           "seed_files", "table"]
+__all__ = [
+    "FORMATS",
+    "OUTCOMES",
+    "CampaignResult",
+    "check_input",
+    "make_input",
+    "mesh_problems",
+    "run_campaign",
+    "seed_files",
+    "table",
+]
 
 #: Formats of the fuzzed inputs (file extension without the dot; "toml" is the scenario config).
 FORMATS = ("obj", "tab", "icq", "ply", "stl", "toml")
@@ -93,23 +102,50 @@ def seed_files() -> dict[str, list[bytes]]:
 
     v, f = _icosphere()
     mesh = trimesh.Trimesh(v, f, process=False)
-    obj_quads = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n" \
-                b"f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"
+    obj_quads = (
+        b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+        b"f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"
+    )
     toml = resources.files("tubempc").joinpath("data", "bennu_paper.toml").read_bytes()
     return {
         "obj": [_vf_text(v, f), b"# a comment\nvn 0 0 1\n" + _vf_text(v, f), obj_quads],
         "tab": [_vf_text(v, f)],
         "icq": [_icq_text(3)],
-        "ply": [_bytes(mesh.export(file_type="ply", encoding="ascii")),
-                _bytes(mesh.export(file_type="ply", encoding="binary"))],
+        "ply": [
+            _bytes(mesh.export(file_type="ply", encoding="ascii")),
+            _bytes(mesh.export(file_type="ply", encoding="binary")),
+        ],
         "stl": [_bytes(mesh.export(file_type="stl_ascii")), _bytes(mesh.export(file_type="stl"))],
         "toml": [toml],
     }
 
 
-_SPECIAL_TOKENS = ("0", "-1", "1", "9223372036854775808", "-9223372036854775809", "99999999999999999999",
-                   "1e308", "-1e308", "nan", "inf", "1e-320", "\u0663", "\u00b2", "0x10", "1_0", "", "\xff",
-                   "1.5", "-0", "+2", "1e400", "10**10**10", "9^9^9", "2**-1")
+_SPECIAL_TOKENS = (
+    "0",
+    "-1",
+    "1",
+    "9223372036854775808",
+    "-9223372036854775809",
+    "99999999999999999999",
+    "1e308",
+    "-1e308",
+    "nan",
+    "inf",
+    "1e-320",
+    "\u0663",
+    "\u00b2",
+    "0x10",
+    "1_0",
+    "",
+    "\xff",
+    "1.5",
+    "-0",
+    "+2",
+    "1e400",
+    "10**10**10",
+    "9^9^9",
+    "2**-1",
+)
 _NUMBER = re.compile(rb"[-+]?\d+(\.\d*)?([eE][-+]?\d+)?")
 
 
@@ -118,19 +154,19 @@ def _mutate_once(data: bytes, fmt: str, rng: random.Random) -> bytes:
     lines = data.split(b"\n")
     if kind == 0 and data:  # flip a byte
         k = rng.randrange(len(data))
-        return data[:k] + bytes([data[k] ^ (1 << rng.randrange(8))]) + data[k + 1:]
+        return data[:k] + bytes([data[k] ^ (1 << rng.randrange(8))]) + data[k + 1 :]
     if kind == 1:  # insert random bytes
         k = rng.randrange(len(data) + 1)
         return data[:k] + bytes(rng.randrange(256) for _ in range(rng.randint(1, 8))) + data[k:]
     if kind == 2 and data:  # delete a span or truncate
         k = rng.randrange(len(data))
-        return data[:k] if rng.random() < 0.3 else data[:k] + data[k + rng.randint(1, 16):]
+        return data[:k] if rng.random() < 0.3 else data[:k] + data[k + rng.randint(1, 16) :]
     if kind == 3 and len(lines) > 1:  # duplicate a line
         k = rng.randrange(len(lines))
-        return b"\n".join([*lines[:k + 1], lines[k], *lines[k + 1:]])
+        return b"\n".join([*lines[: k + 1], lines[k], *lines[k + 1 :]])
     if kind == 4 and len(lines) > 1:  # delete a line
         k = rng.randrange(len(lines))
-        return b"\n".join(lines[:k] + lines[k + 1:])
+        return b"\n".join(lines[:k] + lines[k + 1 :])
     if kind == 5 and len(lines) > 2:  # swap two lines (e.g. two vertex lines)
         a, b = rng.randrange(len(lines)), rng.randrange(len(lines))
         lines[a], lines[b] = lines[b], lines[a]
@@ -139,7 +175,7 @@ def _mutate_once(data: bytes, fmt: str, rng: random.Random) -> bytes:
         numbers = list(_NUMBER.finditer(data))
         if numbers:
             m = rng.choice(numbers)
-            return data[:m.start()] + rng.choice(_SPECIAL_TOKENS).encode() + data[m.end():]
+            return data[: m.start()] + rng.choice(_SPECIAL_TOKENS).encode() + data[m.end() :]
     if kind == 7 and fmt in ("obj", "tab", "icq"):  # move a vertex, possibly through the body
         rows = [k for k, line in enumerate(lines) if len(line.split()) == (3 if fmt == "icq" else 4)]
         if rows:
@@ -159,8 +195,9 @@ def _mutate_once(data: bytes, fmt: str, rng: random.Random) -> bytes:
         for line in v:
             t = line.split()
             try:
-                out.append(b"v " + b" ".join(repr(float(c) + (shift if i == 0 else 0.0)).encode()
-                                             for i, c in enumerate(t[1:4])))
+                out.append(
+                    b"v " + b" ".join(repr(float(c) + (shift if i == 0 else 0.0)).encode() for i, c in enumerate(t[1:4]))
+                )
             except ValueError:
                 return data
         for line in lines:
@@ -172,8 +209,15 @@ def _mutate_once(data: bytes, fmt: str, rng: random.Random) -> bytes:
         return b"\n".join(out)
     if kind == 9 and fmt == "toml":  # drop or duplicate a key, or change a value's type
         k = rng.randrange(len(lines))
-        lines[k] = rng.choice((b"", lines[k] + b"\n" + lines[k], lines[k].replace(b"=", b"= [", 1),
-                               lines[k].replace(b"\"", b"", 1), b"[" + lines[k] + b"]"))
+        lines[k] = rng.choice(
+            (
+                b"",
+                lines[k] + b"\n" + lines[k],
+                lines[k].replace(b"=", b"= [", 1),
+                lines[k].replace(b'"', b"", 1),
+                b"[" + lines[k] + b"]",
+            )
+        )
         return b"\n".join(lines)
     return data
 
@@ -275,8 +319,7 @@ def mesh_problems(vertices: npt.ArrayLike, faces: npt.ArrayLike) -> list[str]:
     diag = float(np.linalg.norm(v[used].max(0) - v[used].min(0)))
     # Components (faces connected through shared vertices) and their signed volumes.
     n_f = len(f)
-    incidence = coo_matrix((np.ones(3 * n_f), (np.repeat(np.arange(n_f), 3), f.reshape(-1))),
-                           shape=(n_f, len(v))).tocsr()
+    incidence = coo_matrix((np.ones(3 * n_f), (np.repeat(np.arange(n_f), 3), f.reshape(-1))), shape=(n_f, len(v))).tocsr()
     n_parts, label = connected_components(incidence @ incidence.T, directed=False)
     a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
     volume = np.bincount(label, (a * np.cross(b, c)).sum(1), minlength=n_parts) / 6.0
@@ -348,8 +391,13 @@ class CampaignResult:
     wall_time_s: float
 
 
-def run_campaign(n_inputs: int, seed: int = 0, timeout_s: float = 10.0, folder: Path | None = None,
-                 progress: Callable[[int], None] | None = None) -> CampaignResult:
+def run_campaign(
+    n_inputs: int,
+    seed: int = 0,
+    timeout_s: float = 10.0,
+    folder: Path | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> CampaignResult:
     """Checks inputs 0..n_inputs-1 of campaign ``seed`` in a worker process, one at a time, with a
     time limit per input (a worker that takes longer is killed: ``hang``; one that dies: ``crash``)."""
     ctx = mp.get_context("spawn")

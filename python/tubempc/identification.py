@@ -93,9 +93,7 @@ class ForgettingFactorIdentifier:
         if not (math.isfinite(lam) and 0.0 < lam < 1.0):
             raise ValueError(f"forgetting factor lam must lie in (0, 1), got {lam}")
         if not (math.isfinite(prior_weight) and prior_weight >= 0.0):
-            raise ValueError(
-                f"prior_weight must be finite and >= 0, got {prior_weight}"
-            )
+            raise ValueError(f"prior_weight must be finite and >= 0, got {prior_weight}")
         if not (math.isfinite(eig_floor) and eig_floor > 0.0):
             raise ValueError(f"eig_floor must be finite and > 0, got {eig_floor}")
         if not (math.isfinite(pw_scale) and pw_scale > 0.0):
@@ -106,9 +104,7 @@ class ForgettingFactorIdentifier:
         n = self.w_hat.shape[0]
         S = np.asarray(S0, dtype=np.float64)
         if S.shape != (n, n) or not np.all(np.isfinite(S)):
-            raise ValueError(
-                f"S0: expected a finite ({n}, {n}) matrix, got shape {S.shape}"
-            )
+            raise ValueError(f"S0: expected a finite ({n}, {n}) matrix, got shape {S.shape}")
         S = 0.5 * (S + S.T)
         if np.linalg.eigvalsh(S).min() <= 0.0:
             raise ValueError("S0 must be positive definite")

@@ -30,6 +30,7 @@ def machine_info() -> dict[str, Any]:
         "platform": platform.platform(),
         "core_build": build_info(),
         "date": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
-        "command": "tubempc " + shlex.join(sys.argv[1:]) if sys.argv and sys.argv[0].endswith(("tubempc", "__main__.py"))
+        "command": "tubempc " + shlex.join(sys.argv[1:])
+        if sys.argv and sys.argv[0].endswith(("tubempc", "__main__.py"))
         else shlex.join(sys.argv),
     }

@@ -77,7 +77,7 @@ def performance_index(
     """J_p (``subsystem="translation"``) or J_r (``"rotation"``) of paper Eq. (54)-(55)."""
     _check(x, zbar, u)
     sx, su = _SUBSYSTEM_STATES[subsystem], _SUBSYSTEM_INPUTS[subsystem]
-    e = (x[:-1, sx] - zbar[:-1, sx])
+    e = x[:-1, sx] - zbar[:-1, sx]
     uu = u[:, su]
     Qm = np.eye(6) if Q is None else np.asarray(Q, dtype=float)
     Rm = np.eye(3) if R is None else np.asarray(R, dtype=float)
@@ -131,7 +131,7 @@ def fit_exponential_convergence(errors: npt.ArrayLike, ebar: float | None = None
     e = np.asarray(errors, dtype=float)
     if e.ndim != 1 or e.size < 3 or not np.all(np.isfinite(e)) or np.any(e < 0):
         raise ValueError("errors must be a 1-D sequence of >= 3 finite non-negative norms")
-    eb = float(np.max(e[-max(1, e.size // 4):])) if ebar is None else float(ebar)
+    eb = float(np.max(e[-max(1, e.size // 4) :])) if ebar is None else float(ebar)
     e0 = float(e[0])
     if e0 <= 0.0:
         raise ValueError("the initial error ||e_0|| must be positive")
@@ -149,8 +149,7 @@ def fit_exponential_convergence(errors: npt.ArrayLike, ebar: float | None = None
         rho = np.exp(log_rho)
         return log_c(log_rho) + float(np.log((1.0 - rho**e.size) / (1.0 - rho)))
 
-    res = minimize_scalar(log_area, bounds=(np.log(1e-6), np.log(1.0 - 1e-9)), method="bounded",
-                          options={"xatol": 1e-12})
+    res = minimize_scalar(log_area, bounds=(np.log(1e-6), np.log(1.0 - 1e-9)), method="bounded", options={"xatol": 1e-12})
     return ConvergenceFit(C=float(np.exp(log_c(res.x))), rho=float(np.exp(res.x)), ebar=eb, e0=e0)
 
 
@@ -175,8 +174,12 @@ def steps_outside_tube(excursion: Array) -> int:
 def step_time_stats(seconds: Array) -> dict[str, float]:
     """Median, 99th percentile, mean and maximum of per-step wall times, in milliseconds."""
     ms = 1e3 * np.asarray(seconds, dtype=float)
-    return {"median_ms": float(np.median(ms)), "p99_ms": float(np.percentile(ms, 99)),
-            "mean_ms": float(np.mean(ms)), "max_ms": float(np.max(ms))}
+    return {
+        "median_ms": float(np.median(ms)),
+        "p99_ms": float(np.percentile(ms, 99)),
+        "mean_ms": float(np.mean(ms)),
+        "max_ms": float(np.max(ms)),
+    }
 
 
 def velocity_convergence(t: Array, x: Array, zbar: Array) -> tuple[Array, Array, ConvergenceFit]:
@@ -202,21 +205,29 @@ def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> dict[str, Any]:
     figures, statuses and the velocity-convergence fit."""
     s: dict[str, Any] = summarize(rec.x, rec.zbar, rec.u, dt, x_f)
     g = rec.g
-    s.update({
-        "max_tube_excursion": {"translation": float(rec.excursion[:, 0].max()),
-                               "rotation": float(rec.excursion[:, 1].max())},
-        "steps_outside_tube": steps_outside_tube(rec.excursion),
-        "fallback_steps": int(sum(s.startswith("fallback") for s in rec.statuses)),
-        "constraint_violations": {"glide_slope_steps": int(np.sum(g[:, 0] > 0)), "los_steps": int(np.sum(g[:, 1] > 0)),
-                                  "max_glide_slope_g_m": float(g[:, 0].max()), "max_los_g_m": float(g[:, 1].max())},
-        "step_time": {name: step_time_stats(getattr(rec, f"time_{name}")) for name in STEP_PHASES},
-        "scp_iterations_mean": float(np.mean(rec.scp_iterations)),
-        "model_evaluations_mean": float(np.mean(rec.model_evaluations)),
-        "active_set_qp_fraction": float(np.sum(rec.active_set_solves) / max(1.0, float(np.sum(rec.scp_iterations)))),
-        "velocity_convergence_fit": _fit_dict(rec),
-        "statuses": dict(collections.Counter(rec.statuses)),
-        "tube_statuses": dict(collections.Counter(rec.tube_statuses)),
-        "run_time_s": rec.wall_time_s,
-        "seed": rec.seed,
-    })
+    s.update(
+        {
+            "max_tube_excursion": {
+                "translation": float(rec.excursion[:, 0].max()),
+                "rotation": float(rec.excursion[:, 1].max()),
+            },
+            "steps_outside_tube": steps_outside_tube(rec.excursion),
+            "fallback_steps": int(sum(s.startswith("fallback") for s in rec.statuses)),
+            "constraint_violations": {
+                "glide_slope_steps": int(np.sum(g[:, 0] > 0)),
+                "los_steps": int(np.sum(g[:, 1] > 0)),
+                "max_glide_slope_g_m": float(g[:, 0].max()),
+                "max_los_g_m": float(g[:, 1].max()),
+            },
+            "step_time": {name: step_time_stats(getattr(rec, f"time_{name}")) for name in STEP_PHASES},
+            "scp_iterations_mean": float(np.mean(rec.scp_iterations)),
+            "model_evaluations_mean": float(np.mean(rec.model_evaluations)),
+            "active_set_qp_fraction": float(np.sum(rec.active_set_solves) / max(1.0, float(np.sum(rec.scp_iterations)))),
+            "velocity_convergence_fit": _fit_dict(rec),
+            "statuses": dict(collections.Counter(rec.statuses)),
+            "tube_statuses": dict(collections.Counter(rec.tube_statuses)),
+            "run_time_s": rec.wall_time_s,
+            "seed": rec.seed,
+        }
+    )
     return s

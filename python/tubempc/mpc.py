@@ -86,8 +86,18 @@ def _osqp(qp: QpData, eps: float) -> QpResult:
     lo = np.concatenate([qp.b, qp.h_l, qp.x_l])
     hi = np.concatenate([qp.b, qp.h_u, qp.x_u])
     solver = osqp.OSQP()
-    solver.setup(sp.triu(qp.P, format="csc"), qp.q, C, lo, hi, eps_abs=eps, eps_rel=eps, max_iter=200000,
-                 polishing=True, verbose=False)
+    solver.setup(
+        sp.triu(qp.P, format="csc"),
+        qp.q,
+        C,
+        lo,
+        hi,
+        eps_abs=eps,
+        eps_rel=eps,
+        max_iter=200000,
+        polishing=True,
+        verbose=False,
+    )
     res = solver.solve(raise_error=False)
     wall = time.perf_counter() - t0
     w = np.asarray(res.x, dtype=float)
@@ -137,8 +147,9 @@ def _cvxpy_opts(solver: str, eps: float) -> dict[str, float]:
     return {}
 
 
-def solve_qp_per_node(qp: QpData, nx: int, nu: int, nc: int, horizon: int, solver: str = "cvxpy-clarabel",
-                      eps: float = 1e-9) -> QpResult:
+def solve_qp_per_node(
+    qp: QpData, nx: int, nu: int, nc: int, horizon: int, solver: str = "cvxpy-clarabel", eps: float = 1e-9
+) -> QpResult:
     """The same QP written node by node, as a Python user writes an MPC problem in cvxpy.
 
     One ``cp.Variable`` per nominal state and input, the initial-condition variable ``s``, a Python

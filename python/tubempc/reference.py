@@ -81,8 +81,13 @@ class ReferenceTrajectory:
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
         try:
             with os.fdopen(fd, "wb") as f:
-                np.savez(f, t=self.t, x=self.x, u=self.u,
-                         meta=json.dumps({k: v for k, v in asdict(self).items() if k not in ("t", "x", "u")}))
+                np.savez(
+                    f,
+                    t=self.t,
+                    x=self.x,
+                    u=self.u,
+                    meta=json.dumps({k: v for k, v in asdict(self).items() if k not in ("t", "x", "u")}),
+                )
                 f.flush()
                 os.fsync(f.fileno())
             os.replace(tmp, path)
@@ -108,7 +113,7 @@ def _defect(model: Any, X: Array, U: Array, dt: float) -> float:
     T = U.shape[0]
     Ad, Bd, cd = model.discretize(0.0, X[:-1], U, dt)
     pred = np.einsum("kij,kj->ki", Ad, X[:-1]) + np.einsum("kij,kj->ki", Bd, U) + cd
-    return float(np.max(np.abs((pred - X[1:T + 1]) / STATE_SCALE)))
+    return float(np.max(np.abs((pred - X[1 : T + 1]) / STATE_SCALE)))
 
 
 def generate_reference(
@@ -196,8 +201,15 @@ def generate_reference(
         # Trust region: follow the step size down so that the linearisation stays valid.
         radius = max(min(radius, 2.0 * step), 10.0 * st.tol)
     return ReferenceTrajectory(
-        t=np.arange(T + 1, dtype=np.float64) * dt, x=X, u=U, cost=cost, iterations=it, converged=converged,
-        max_step=step, max_defect=_defect(model, X, U, dt), solve_time_s=time.perf_counter() - t_start,
+        t=np.arange(T + 1, dtype=np.float64) * dt,
+        x=X,
+        u=U,
+        cost=cost,
+        iterations=it,
+        converged=converged,
+        max_step=step,
+        max_defect=_defect(model, X, U, dt),
+        solve_time_s=time.perf_counter() - t_start,
     )
 
 
@@ -228,18 +240,29 @@ def load_or_generate_reference(
     cannot be read (truncated, corrupt) is regenerated with a warning naming it.
     """
     settings = kwargs.get("settings") or ReferenceSettings()
-    key = json.dumps({"x0": np.asarray(x0, float).tolist(), "xf": np.asarray(xf, float).tolist(),
-                      "kwargs": {k: v for k, v in kwargs.items() if k != "settings"},
-                      "settings": asdict(settings), "model": key_extra,
-                      "mesh_sha256": _mesh_digest(model)}, sort_keys=True, default=str)
+    key = json.dumps(
+        {
+            "x0": np.asarray(x0, float).tolist(),
+            "xf": np.asarray(xf, float).tolist(),
+            "kwargs": {k: v for k, v in kwargs.items() if k != "settings"},
+            "settings": asdict(settings),
+            "model": key_extra,
+            "mesh_sha256": _mesh_digest(model),
+        },
+        sort_keys=True,
+        default=str,
+    )
     digest = hashlib.sha256(key.encode()).hexdigest()[:20]
     path = Path(cache_dir) / f"reference_{digest}.npz" if cache_dir is not None else None
     if path is not None and path.exists():
         try:
             return ReferenceTrajectory.load(path)
         except (zipfile.BadZipFile, EOFError, OSError, ValueError, KeyError, TypeError) as exc:
-            warnings.warn(f"{path}: unreadable reference cache file ({type(exc).__name__}: {exc}); regenerating it",
-                          RuntimeWarning, stacklevel=2)
+            warnings.warn(
+                f"{path}: unreadable reference cache file ({type(exc).__name__}: {exc}); regenerating it",
+                RuntimeWarning,
+                stacklevel=2,
+            )
     ref = generate_reference(model, x0, xf, **kwargs)
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)

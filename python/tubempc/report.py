@@ -22,17 +22,18 @@ from .config import Config, ConfigError, load_config
 __all__ = ["PAPER_TABLE3", "PAPER_TABLE4", "write_report"]
 
 #: Paper Table 3 (J_p, J_r) for TBMPC and TBMPC-FFA at lambda_p = 0.96, 0.97, 0.98.
-PAPER_TABLE3 = {"TBMPC": (16.2627, 16.3634), "0.96": (1.4787, 21.2822), "0.97": (1.5708, 22.2176),
-                "0.98": (1.6187, 24.2805)}
+PAPER_TABLE3 = {"TBMPC": (16.2627, 16.3634), "0.96": (1.4787, 21.2822), "0.97": (1.5708, 22.2176), "0.98": (1.6187, 24.2805)}
 #: Paper Table 4: mean and 3 sigma of J_p and J_r over 100 Monte Carlo runs.
-PAPER_TABLE4 = {"tbmpc": {"J_p": (12.2953, 0.9761), "J_r": (16.4749, 2.3100)},
-                "ffa": {"J_p": (1.1763, 0.1054), "J_r": (20.9028, 2.88102)}}
+PAPER_TABLE4 = {
+    "tbmpc": {"J_p": (12.2953, 0.9761), "J_r": (16.4749, 2.3100)},
+    "ffa": {"J_p": (1.1763, 0.1054), "J_r": (20.9028, 2.88102)},
+}
 
 _WHY = (
     "The paper does not publish its disturbance realisation, its truth model or its spacecraft inertia, so "
     "absolute values differ; the comparison is between the methods. Our scenario's disturbance, the exact "
     "attitude kinematics, the normalised tube weights and the input cost on the deviation from the reference "
-    "are project decisions documented in README.md (\"Readings of the paper and project decisions\"); "
+    'are project decisions documented in README.md ("Readings of the paper and project decisions"); '
     "J_r in particular is dominated by the feedback torque that the simulated attitude disturbance requires."
 )
 
@@ -59,15 +60,15 @@ def _fmt(v: float) -> str:
 #: Caption of each figure file the commands write (paper figure in brackets).
 CAPTIONS = {
     "fig03_trajectory": "Trajectories in the orbital frame L with the asteroid and the glide-slope cone at t_f, "
-                        "the reference (dotted) and predicted horizons (paper Fig. 3).",
+    "the reference (dotted) and predicted horizons (paper Fig. 3).",
     "fig04_states": "States of both methods against the reference (paper Figs. 4-5).",
     "fig06_errors": "Tracking errors x - zbar (paper Figs. 6-7).",
     "fig08_controls": "Inputs with their limits (paper Fig. 8).",
     "fig09_disturbances": "Measured exogenous inputs with TBMPC's fixed and TBMPC-FFA's identified 3-sigma bounds "
-                          "(paper Figs. 9-11).",
+    "(paper Figs. 9-11).",
     "fig12_tube": "Actual minus nominal state inside the tube's projections (paper Figs. 10, 12).",
     "fig13_constraints": "Glide-slope and line-of-sight constraint values of the actual trajectories, feasible "
-                         "below 0 (paper Fig. 13).",
+    "below 0 (paper Fig. 13).",
     "fig14_convergence_tbmpc": "TBMPC: velocity error norm and the fitted Theorem 2 envelope (paper Fig. 14).",
     "fig14_convergence_ffa": "TBMPC-FFA: velocity error norm and the fitted Theorem 2 envelope (paper Fig. 14).",
     "fig15_lambda_x": "Error of x and tube half-width against the forgetting factor (paper Fig. 15).",
@@ -79,8 +80,10 @@ def _caption(stem: str) -> str:
     if stem.startswith("fig17") or stem.startswith("fig18"):
         method = stem.rsplit("_", 1)[-1]
         group = "translational" if stem.startswith("fig17") else "rotational"
-        return (f"{method}: {group} errors x - z of every Monte Carlo run against the largest tube half-width "
-                f"(paper Fig. {stem[3:5]}).")
+        return (
+            f"{method}: {group} errors x - z of every Monte Carlo run against the largest tube half-width "
+            f"(paper Fig. {stem[3:5]})."
+        )
     return CAPTIONS.get(stem, stem)
 
 
@@ -100,13 +103,18 @@ def _scenario_text(cfg: Config | None, paper: bool) -> str:
     if cfg is None:
         return "scenario: unknown (no readable config.toml beside the results)"
     a, b, m = cfg.asteroid, cfg.boundary, cfg.mpc
-    site = (f"site at latitude {b.site_latitude * 57.29577951308232:.3g} deg, longitude "
-            f"{b.site_longitude * 57.29577951308232:.3g} deg" if b.terminal == "site" and b.site == "lat_lon"
-            else f"terminal: {b.terminal}")
-    return (f"scenario: {'the paper scenario (Bennu, Tables 1-2)' if paper else 'not the paper scenario'}; shape "
-            f"{a.shape}, density {a.density:g} kg/m^3, spin period {a.spin_period / 3600:.4g} h, {site}, t_f "
-            f"{m.t_f:g} s, dt {m.dt:g} s, horizon {m.horizon}, lambda_p {cfg.identification.lambda_p:g}, lambda_r "
-            f"{cfg.identification.lambda_r:g}")
+    site = (
+        f"site at latitude {b.site_latitude * 57.29577951308232:.3g} deg, longitude "
+        f"{b.site_longitude * 57.29577951308232:.3g} deg"
+        if b.terminal == "site" and b.site == "lat_lon"
+        else f"terminal: {b.terminal}"
+    )
+    return (
+        f"scenario: {'the paper scenario (Bennu, Tables 1-2)' if paper else 'not the paper scenario'}; shape "
+        f"{a.shape}, density {a.density:g} kg/m^3, spin period {a.spin_period / 3600:.4g} h, {site}, t_f "
+        f"{m.t_f:g} s, dt {m.dt:g} s, horizon {m.horizon}, lambda_p {cfg.identification.lambda_p:g}, lambda_r "
+        f"{cfg.identification.lambda_r:g}"
+    )
 
 
 def write_report(root: Path) -> tuple[Path, Path]:
@@ -137,17 +145,19 @@ def write_report(root: Path) -> tuple[Path, Path]:
         parts_h.append(f"<p>{html.escape(text)}</p>")
         parts_m.append(f"{text}\n\n")
 
-    paragraph(f"tubempc {__version__}, report written {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC "
-              f"from {root}.")
+    paragraph(f"tubempc {__version__}, report written {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC from {root}.")
     any_paper = False
     if run is not None:
         s: dict[str, Any] = json.loads(run.read_text())
         cfg, paper = _scenario(run.parent)
         any_paper |= paper
         ref = s["reference"]
-        section("Closed loop (tubempc run)", f"seed {s['seed']}, shape {s['shape']}, config {s['config_hash'][:12]}; "
-                f"{_scenario_text(cfg, paper)}; reference {'converged' if ref['converged'] else 'NOT converged'} "
-                f"in {ref['iterations']} SCP iterations.")
+        section(
+            "Closed loop (tubempc run)",
+            f"seed {s['seed']}, shape {s['shape']}, config {s['config_hash'][:12]}; "
+            f"{_scenario_text(cfg, paper)}; reference {'converged' if ref['converged'] else 'NOT converged'} "
+            f"in {ref['iterations']} SCP iterations.",
+        )
         rows = []
         for m, r in s["methods"].items():
             row = [m, _fmt(r["J_p"]), _fmt(r["J_r"])]
@@ -155,16 +165,38 @@ def write_report(root: Path) -> tuple[Path, Path]:
                 p3 = PAPER_TABLE3["TBMPC" if m == "tbmpc" else "0.96"]
                 row = [m, _fmt(r["J_p"]), _fmt(p3[0]), _fmt(r["J_r"]), _fmt(p3[1])]
             tube = ", ".join(f"{k} {v}" for k, v in sorted(r.get("tube_statuses", {}).items()))
-            rows.append([*row, _fmt(r["terminal_error"]["position"]), str(r["steps_outside_tube"]),
-                         _fmt(r["max_tube_excursion"]["translation"]), _fmt(r["max_tube_excursion"]["rotation"]),
-                         str(r.get("fallback_steps", "-")),
-                         str(r["constraint_violations"]["glide_slope_steps"] + r["constraint_violations"]["los_steps"]),
-                         tube, _fmt(r["step_time"]["step"]["median_ms"])])
+            rows.append(
+                [
+                    *row,
+                    _fmt(r["terminal_error"]["position"]),
+                    str(r["steps_outside_tube"]),
+                    _fmt(r["max_tube_excursion"]["translation"]),
+                    _fmt(r["max_tube_excursion"]["rotation"]),
+                    str(r.get("fallback_steps", "-")),
+                    str(r["constraint_violations"]["glide_slope_steps"] + r["constraint_violations"]["los_steps"]),
+                    tube,
+                    _fmt(r["step_time"]["step"]["median_ms"]),
+                ]
+            )
         head = ["method", "J_p", "paper J_p", "J_r", "paper J_r"] if paper else ["method", "J_p", "J_r"]
-        table([*head, "terminal position error (m)", "steps outside the tube", "max excursion p", "max excursion r",
-               "fallback steps", "cone violations", "tube statuses", "step median (ms)"], rows)
-        paragraph("Tube excursion: e^T Pe^-1 e of the error one step after the plan; <= 1 inside the tube, > 1 "
-                  "outside (the robustness guarantee lost at that step).")
+        table(
+            [
+                *head,
+                "terminal position error (m)",
+                "steps outside the tube",
+                "max excursion p",
+                "max excursion r",
+                "fallback steps",
+                "cone violations",
+                "tube statuses",
+                "step median (ms)",
+            ],
+            rows,
+        )
+        paragraph(
+            "Tube excursion: e^T Pe^-1 e of the error one step after the plan; <= 1 inside the tube, > 1 "
+            "outside (the robustness guarantee lost at that step)."
+        )
         if "comparison" in s:
             red = s["comparison"]["J_p_reduction_percent"]
             paragraph(f"TBMPC-FFA's J_p is {red:.1f} % below TBMPC's" + (" (paper: 90.9 %)." if paper else "."))
@@ -178,28 +210,76 @@ def write_report(root: Path) -> tuple[Path, Path]:
         for name, r in s["rows"].items():
             key = "TBMPC" if name == "TBMPC" else f"{r['lambda_p']:g}"
             ref = PAPER_TABLE3.get(key) if paper else None
-            rows.append([name, _fmt(r["J_p"]), _fmt(ref[0]) if ref else "-", _fmt(r["J_r"]),
-                         _fmt(ref[1]) if ref else "-", _fmt(r["control_effort"]["translation"]),
-                         _fmt(r["control_effort"]["rotation"]), _fmt(r["terminal_error"]["position"]),
-                         _fmt(r["rms_error"]["position"])])
-        table(["case", "J_p", "paper J_p", "J_r", "paper J_r", "effort u_p (m/s^2)", "effort T (N m)",
-               "terminal position error (m)", "RMS r (m)"], rows)
+            rows.append(
+                [
+                    name,
+                    _fmt(r["J_p"]),
+                    _fmt(ref[0]) if ref else "-",
+                    _fmt(r["J_r"]),
+                    _fmt(ref[1]) if ref else "-",
+                    _fmt(r["control_effort"]["translation"]),
+                    _fmt(r["control_effort"]["rotation"]),
+                    _fmt(r["terminal_error"]["position"]),
+                    _fmt(r["rms_error"]["position"]),
+                ]
+            )
+        table(
+            [
+                "case",
+                "J_p",
+                "paper J_p",
+                "J_r",
+                "paper J_r",
+                "effort u_p (m/s^2)",
+                "effort T (N m)",
+                "terminal position error (m)",
+                "RMS r (m)",
+            ],
+            rows,
+        )
         figures += sorted(sweep.parent.glob("fig1[56]*.png"))
     if mc is not None:
         s = json.loads(mc.read_text())
         cfg, paper = _scenario(mc.parent)
         any_paper |= paper
-        section("Monte Carlo (paper Table 4)", f"{s['runs']} runs, master seed {s.get('master_seed')}, "
-                                               f"wall time {s.get('wall_time_s', 0.0):.0f} s; {_scenario_text(cfg, paper)}")
+        section(
+            "Monte Carlo (paper Table 4)",
+            f"{s['runs']} runs, master seed {s.get('master_seed')}, "
+            f"wall time {s.get('wall_time_s', 0.0):.0f} s; {_scenario_text(cfg, paper)}",
+        )
         rows = []
         nan = {"J_p": (float("nan"),) * 2, "J_r": (float("nan"),) * 2}
         for m, r in s["methods"].items():
             p = PAPER_TABLE4.get(m, nan) if paper else nan
-            rows.append([m, _fmt(r["J_p"]["mean"]), _fmt(p["J_p"][0]), _fmt(r["J_p"]["3sigma"]), _fmt(p["J_p"][1]),
-                         _fmt(r["J_r"]["mean"]), _fmt(p["J_r"][0]), _fmt(r["J_r"]["3sigma"]), _fmt(p["J_r"][1]),
-                         f"{r['runs_outside_tube']}/{s['runs']}"])
-        table(["method", "J_p mean", "paper", "J_p 3 sigma", "paper", "J_r mean", "paper", "J_r 3 sigma", "paper",
-               "runs outside the tube"], rows)
+            rows.append(
+                [
+                    m,
+                    _fmt(r["J_p"]["mean"]),
+                    _fmt(p["J_p"][0]),
+                    _fmt(r["J_p"]["3sigma"]),
+                    _fmt(p["J_p"][1]),
+                    _fmt(r["J_r"]["mean"]),
+                    _fmt(p["J_r"][0]),
+                    _fmt(r["J_r"]["3sigma"]),
+                    _fmt(p["J_r"][1]),
+                    f"{r['runs_outside_tube']}/{s['runs']}",
+                ]
+            )
+        table(
+            [
+                "method",
+                "J_p mean",
+                "paper",
+                "J_p 3 sigma",
+                "paper",
+                "J_r mean",
+                "paper",
+                "J_r 3 sigma",
+                "paper",
+                "runs outside the tube",
+            ],
+            rows,
+        )
         if "J_p_mean_reduction_percent" in s:
             red = s["J_p_mean_reduction_percent"]
             paragraph(f"Mean J_p reduction: {red:.1f} %" + (" (paper: 90.4 %)." if paper else "."))
@@ -210,14 +290,20 @@ def write_report(root: Path) -> tuple[Path, Path]:
     for f in figures:
         data = base64.b64encode(f.read_bytes()).decode()
         caption = f"{f.name}: {_caption(f.stem)}"
-        parts_h.append(f"<figure><img src=\"data:image/png;base64,{data}\" alt=\"{html.escape(f.name)}\">"
-                       f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+        parts_h.append(
+            f'<figure><img src="data:image/png;base64,{data}" alt="{html.escape(f.name)}">'
+            f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+        )
         parts_m.append(f"![{f.stem}]({f.relative_to(root).as_posix()})\n\n*{caption}*\n\n")
-    style = ("body{font-family:sans-serif;max-width:1200px;margin:auto}table{border-collapse:collapse;margin:1em 0}"
-             "td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}img{max-width:100%}")
+    style = (
+        "body{font-family:sans-serif;max-width:1200px;margin:auto}table{border-collapse:collapse;margin:1em 0}"
+        "td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}img{max-width:100%}"
+    )
     out_h = root / "report.html"
-    out_h.write_text(f"<!doctype html><html><head><meta charset=\"utf-8\"><title>tubempc report</title>"
-                     f"<style>{style}</style></head><body><h1>tubempc report</h1>{''.join(parts_h)}</body></html>")
+    out_h.write_text(
+        f'<!doctype html><html><head><meta charset="utf-8"><title>tubempc report</title>'
+        f"<style>{style}</style></head><body><h1>tubempc report</h1>{''.join(parts_h)}</body></html>"
+    )
     out_m = root / "report.md"
     out_m.write_text("# tubempc report\n" + "".join(parts_m))
     return out_h, out_m

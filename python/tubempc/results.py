@@ -170,16 +170,19 @@ def load_result(path: str | Path) -> dict[str, Any]:
     return out
 
 
-def save_record(path: str | Path, record: RunRecord, *, config: Mapping[str, Any],
-                metadata: Mapping[str, Any] | None = None) -> Path:
+def save_record(
+    path: str | Path, record: RunRecord, *, config: Mapping[str, Any], metadata: Mapping[str, Any] | None = None
+) -> Path:
     """Writes a run's record (every declared array with its unit, the statuses, the configuration
     and the seed) to an HDF5 file; returns the path."""
     arrays: dict[str, Any] = {f.name: getattr(record, f.name) for f in RunRecord.array_fields()}
-    arrays.update(status=np.array(record.statuses), failure=np.array(record.failures),
-                  tube_status=np.array(record.tube_statuses))
+    arrays.update(
+        status=np.array(record.statuses), failure=np.array(record.failures), tube_status=np.array(record.tube_statuses)
+    )
     meta = {"wall_time_s": record.wall_time_s, **(metadata or {})}
-    return save_result(path, arrays, config=config, seed=record.seed, method=record.method, units=RunRecord.units(),
-                       metadata=meta)
+    return save_result(
+        path, arrays, config=config, seed=record.seed, method=record.method, units=RunRecord.units(), metadata=meta
+    )
 
 
 def load_record(path: str | Path) -> tuple[RunRecord, dict[str, Any]]:
@@ -191,9 +194,13 @@ def load_record(path: str | Path) -> tuple[RunRecord, dict[str, Any]]:
         raise ValueError(f"{path}: not a run record (missing arrays {missing})")
     arrays = {f.name: np.asarray(raw[f.name], dtype=np.float64) for f in RunRecord.array_fields()}
     meta = raw["metadata"]
-    record = RunRecord(method=raw["method"], seed=-1 if raw["seed"] is None else raw["seed"], **arrays,
-                       statuses=[str(v) for v in raw.get("status", [])],
-                       failures=[str(v) for v in raw.get("failure", [])],
-                       tube_statuses=[str(v) for v in raw.get("tube_status", [])],
-                       wall_time_s=float(meta.get("wall_time_s", 0.0)))
+    record = RunRecord(
+        method=raw["method"],
+        seed=-1 if raw["seed"] is None else raw["seed"],
+        **arrays,
+        statuses=[str(v) for v in raw.get("status", [])],
+        failures=[str(v) for v in raw.get("failure", [])],
+        tube_statuses=[str(v) for v in raw.get("tube_status", [])],
+        wall_time_s=float(meta.get("wall_time_s", 0.0)),
+    )
     return record, {k: raw[k] for k in ("config", "metadata", "tubempc_version")}

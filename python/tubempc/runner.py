@@ -40,8 +40,10 @@ def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dic
     cone_L = scn.model.glide_slope_cone_L(t_f)
     prior = np.concatenate([np.diag(c.identification.S0_p), np.diag(c.identification.S0_r)])
     jobs: list[tuple[str, Callable[[], Any]]] = [
-        ("fig03_trajectory.png", lambda: figures.trajectory_3d(records, c.constraints.glide_slope_angle,
-                                                               body_L=body_L, cone_L=cone_L)),
+        (
+            "fig03_trajectory.png",
+            lambda: figures.trajectory_3d(records, c.constraints.glide_slope_angle, body_L=body_L, cone_L=cone_L),
+        ),
         ("fig04_states.png", lambda: figures.states(records)),
         ("fig06_errors.png", lambda: figures.errors(records)),
         ("fig08_controls.png", lambda: figures.controls(records, c.spacecraft.u_max, c.spacecraft.T_max)),
@@ -49,6 +51,7 @@ def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dic
         ("fig12_tube.png", lambda: figures.tube_projections(records)),
         ("fig13_constraints.png", lambda: figures.constraints(records)),
     ]
+
     def convergence(m: str, r: RunRecord) -> Callable[[], Any]:
         title = f"{m}: velocity error ||v - vbar|| and the Theorem 2 envelope"
         return lambda: figures.convergence(*metrics.velocity_convergence(r.t, r.x, r.zbar), "v - vbar", "m/s", title)
@@ -60,24 +63,41 @@ def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dic
             figures.save(make(), out / name)
         except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
             failed[name] = f"{type(exc).__name__}: {exc}"
-            warnings.warn(f"{out / name}: figure not drawn ({failed[name]}); the run's results are saved",
-                          RuntimeWarning, stacklevel=2)
+            warnings.warn(
+                f"{out / name}: figure not drawn ({failed[name]}); the run's results are saved", RuntimeWarning, stacklevel=2
+            )
     return failed
 
 
-def run_methods(cfg: Config, methods: list[str], seed: int, out: Path, *, shape: str | None = None,
-                progress: bool = True, cache_dir: Path | None = None, make_figures: bool = True) -> dict[str, Any]:
+def run_methods(
+    cfg: Config,
+    methods: list[str],
+    seed: int,
+    out: Path,
+    *,
+    shape: str | None = None,
+    progress: bool = True,
+    cache_dir: Path | None = None,
+    make_figures: bool = True,
+) -> dict[str, Any]:
     """Runs the methods, writes the results and returns the summary."""
     out.mkdir(parents=True, exist_ok=True)
     scn = build_scenario(cfg, shape_path=shape, cache_dir=cache_dir)
     scn.config.save(out / "config.toml")
     summary: dict[str, Any] = {
-        "tubempc_version": __version__, "config_hash": scn.config.hash(), "seed": seed,
-        "shape": scn.shape_source, "n_faces": len(scn.shape.faces),
+        "tubempc_version": __version__,
+        "config_hash": scn.config.hash(),
+        "seed": seed,
+        "shape": scn.shape_source,
+        "n_faces": len(scn.shape.faces),
         "machine": machine_info(),
-        "reference": {"cost": scn.reference.cost, "iterations": scn.reference.iterations,
-                      "converged": scn.reference.converged, "max_defect": scn.reference.max_defect,
-                      "solve_time_s": scn.reference.solve_time_s},
+        "reference": {
+            "cost": scn.reference.cost,
+            "iterations": scn.reference.iterations,
+            "converged": scn.reference.converged,
+            "max_defect": scn.reference.max_defect,
+            "solve_time_s": scn.reference.solve_time_s,
+        },
         "methods": {},
     }
     records: dict[str, RunRecord] = {}

@@ -93,8 +93,11 @@ def model_params(cfg: Config, srp_scale: float = 1.0, site: Site | None = None) 
     if c.glide_slope_apex == "site" or c.glide_slope_axis != "z":
         if site is None:
             raise ScenarioError(f"{cfg.source}: constraints.glide_slope_apex/axis: the site's cone needs a site")
-        axis = {"z": np.array([0.0, 0.0, 1.0]), "normal": site.normal_A,
-                "radial": site.surface_A / np.linalg.norm(site.surface_A)}[c.glide_slope_axis]
+        axis = {
+            "z": np.array([0.0, 0.0, 1.0]),
+            "normal": site.normal_A,
+            "radial": site.surface_A / np.linalg.norm(site.surface_A),
+        }[c.glide_slope_axis]
         apex = site.surface_A if c.glide_slope_apex == "site" else np.zeros(3)
         cone = {"glide_slope_apex_A": apex.tolist(), "glide_slope_axis_A": axis.tolist()}
     return {
@@ -135,7 +138,8 @@ def scenario_shape(cfg: Config, subdivisions: int | None = None) -> tuple[Shape,
         raise ScenarioError(
             f"{cfg.source}: asteroid.shape: {path}: the centre of mass lies {offset:.4g} m from the origin "
             f"({100 * offset / extent:.2g} % of the body's {extent:.4g} m extent); the model takes the origin of "
-            "the body frame at the centre of mass: translate the mesh (tubempc make-body writes centred meshes)")
+            "the body frame at the centre of mass: translate the mesh (tubempc make-body writes centred meshes)"
+        )
     return shape, str(path)
 
 
@@ -165,8 +169,9 @@ def landing_site(cfg: Config, shape: Shape) -> Site | None:
         raise ScenarioError(f"{cfg.source}: boundary.site: {exc}") from exc
 
 
-def boundary_states(cfg: Config, shape: Shape, model: ProximityModel | None = None,
-                    site: Site | None = None) -> tuple[Array, Array]:
+def boundary_states(
+    cfg: Config, shape: Shape, model: ProximityModel | None = None, site: Site | None = None
+) -> tuple[Array, Array]:
     """x0 and x_f (12,) of the configuration. ``boundary.terminal = "altitude"`` moves r_f along its
     direction to ``terminal_altitude`` above the shape's surface; ``"site"`` puts x_f at the site's
     target at t_f, at rest relative to the surface (``model`` gives the body's rotation)."""
@@ -174,10 +179,16 @@ def boundary_states(cfg: Config, shape: Shape, model: ProximityModel | None = No
     x0 = np.concatenate([b.r0, b.v0, b.phi0, b.w0])
     if b.initial == "hover":
         if site is None or model is None:
-            raise ScenarioError(f"{cfg.source}: boundary.initial: \"hover\" needs the site and the model")
+            raise ScenarioError(f'{cfg.source}: boundary.initial: "hover" needs the site and the model')
         rate0 = model.params.spin_rate - model.mean_motion
-        x0 = terminal_state(site.surface_A + b.hover_altitude * site.normal_A, site.normal_A, model.C_AL(0.0), rate0,
-                            cfg.spacecraft.boresight_B, b.phi0)
+        x0 = terminal_state(
+            site.surface_A + b.hover_altitude * site.normal_A,
+            site.normal_A,
+            model.C_AL(0.0),
+            rate0,
+            cfg.spacecraft.boresight_B,
+            b.phi0,
+        )
     rf = np.asarray(b.rf, dtype=float)
     if b.terminal == "altitude":
         d = rf / np.linalg.norm(rf)
@@ -186,7 +197,7 @@ def boundary_states(cfg: Config, shape: Shape, model: ProximityModel | None = No
     if b.terminal != "site":
         return x0, np.concatenate([rf, b.vf, b.phi_f, b.wf])
     if site is None or model is None:
-        raise ScenarioError(f"{cfg.source}: boundary.terminal: \"site\" needs the site and the model")
+        raise ScenarioError(f'{cfg.source}: boundary.terminal: "site" needs the site and the model')
     t_f = cfg.mpc.t_f
     rate = model.params.spin_rate - model.mean_motion
     xf = terminal_state(site.target_A, site.normal_A, model.C_AL(t_f), rate, cfg.spacecraft.boresight_B, b.phi_f)
@@ -207,22 +218,31 @@ def check_boundary(cfg: Config, shape: Shape, model: ProximityModel, x0: Array, 
             continue
         message = f"{src}: {field_name}: the {what} {np.round(x[:3], 3).tolist()} m lies inside the body"
         if cfg.boundary.terminal == "paper" and field_name == "boundary.rf":
-            warnings.warn(message + " (the paper's target; boundary.terminal = \"altitude\" or \"site\" puts it above "
-                          "the surface)", RuntimeWarning, stacklevel=3)
+            warnings.warn(
+                message + ' (the paper\'s target; boundary.terminal = "altitude" or "site" puts it above the surface)',
+                RuntimeWarning,
+                stacklevel=3,
+            )
         else:
             raise ScenarioError(message)
     g0 = model.glide_slope(x0, 0.0)[0]
     if g0 > 0.0:
-        raise ScenarioError(f"{src}: boundary.r0: the initial position is outside the glide-slope cone by {g0:.4g} m "
-                            f"(constraints.glide_slope_angle = {np.degrees(cfg.constraints.glide_slope_angle):.4g} deg)")
+        raise ScenarioError(
+            f"{src}: boundary.r0: the initial position is outside the glide-slope cone by {g0:.4g} m "
+            f"(constraints.glide_slope_angle = {np.degrees(cfg.constraints.glide_slope_angle):.4g} deg)"
+        )
     l0 = model.line_of_sight(x0)[0]
     if l0 > 0.0:
-        raise ScenarioError(f"{src}: boundary.phi0: the initial attitude is outside the line-of-sight cone by {l0:.4g} m "
-                            f"(constraints.los_angle = {np.degrees(cfg.constraints.los_angle):.4g} deg)")
+        raise ScenarioError(
+            f"{src}: boundary.phi0: the initial attitude is outside the line-of-sight cone by {l0:.4g} m "
+            f"(constraints.los_angle = {np.degrees(cfg.constraints.los_angle):.4g} deg)"
+        )
     lf = model.line_of_sight(xf)[0]
     if lf > 1e-9:
-        raise ScenarioError(f"{src}: boundary.phi_f: the terminal attitude is outside the line-of-sight cone by "
-                            f"{lf:.4g} m (constraints.los_angle)")
+        raise ScenarioError(
+            f"{src}: boundary.phi_f: the terminal attitude is outside the line-of-sight cone by "
+            f"{lf:.4g} m (constraints.los_angle)"
+        )
 
 
 def build_scenario(cfg: Config, shape_path: str | Path | None = None, cache_dir: str | Path | None = None) -> Scenario:
@@ -238,32 +258,49 @@ def build_scenario(cfg: Config, shape_path: str | Path | None = None, cache_dir:
     model = ProximityModel(gravity, model_params(cfg, site=site))
     sim = cfg.simulation
     truth_shape = shape if sim.truth_shape_subdivisions == 0 else scenario_shape(cfg, sim.truth_shape_subdivisions)[0]
-    truth_gravity = _core.gravity.PolyhedronGravity(truth_shape.vertices, truth_shape.faces,
-                                                    cfg.asteroid.density * sim.density_scale)
+    truth_gravity = _core.gravity.PolyhedronGravity(
+        truth_shape.vertices, truth_shape.faces, cfg.asteroid.density * sim.density_scale
+    )
     truth = ProximityModel(truth_gravity, model_params(cfg, sim.srp_scale, site=site))
     x0, xf = boundary_states(cfg, shape, model, site)
     check_boundary(cfg, shape, model, x0, xf)
     frac = sim.reference_input_fraction
-    key = {"model": model_params(cfg, site=site), "shape": shape_src, "n_faces": len(shape.faces),
-           "volume": float(shape.volume), "density": cfg.asteroid.density}
+    key = {
+        "model": model_params(cfg, site=site),
+        "shape": shape_src,
+        "n_faces": len(shape.faces),
+        "volume": float(shape.volume),
+        "density": cfg.asteroid.density,
+    }
     try:
         ref = load_or_generate_reference(
-            model, x0, xf, cache_dir=cache_dir, key_extra=key, dt=cfg.mpc.dt, n_steps=cfg.mpc.n_steps,
-            u_max=frac * cfg.spacecraft.u_max, T_max=frac * cfg.spacecraft.T_max,
-            glide_slope_angle=cfg.constraints.glide_slope_angle, settings=ReferenceSettings())
+            model,
+            x0,
+            xf,
+            cache_dir=cache_dir,
+            key_extra=key,
+            dt=cfg.mpc.dt,
+            n_steps=cfg.mpc.n_steps,
+            u_max=frac * cfg.spacecraft.u_max,
+            T_max=frac * cfg.spacecraft.T_max,
+            glide_slope_angle=cfg.constraints.glide_slope_angle,
+            settings=ReferenceSettings(),
+        )
     except RuntimeError as exc:
         raise ScenarioError(
             f"{cfg.source}: the reference trajectory is infeasible ({exc}): no path from x0 to x_f in mpc.t_f = "
             f"{cfg.mpc.t_f:g} s within {frac:g} x the input bounds (spacecraft.u_max = {cfg.spacecraft.u_max:g} m/s^2, "
             f"T_max = {cfg.spacecraft.T_max:g} N m) and the cones; lengthen mpc.t_f, raise the bounds or move the "
-            "boundary states") from exc
+            "boundary states"
+        ) from exc
     if not ref.converged:
-        message = (f"{cfg.source}: the reference trajectory did not converge in {ref.iterations} SCP iterations "
-                   f"(largest step {ref.max_step:.3g}, dynamics defect {ref.max_defect:.3g})")
+        message = (
+            f"{cfg.source}: the reference trajectory did not converge in {ref.iterations} SCP iterations "
+            f"(largest step {ref.max_step:.3g}, dynamics defect {ref.max_defect:.3g})"
+        )
         if sim.unconverged_reference == "error":
-            raise ScenarioError(message + "; simulation.unconverged_reference = \"warn\" flies it anyway")
-        warnings.warn(message + "; flown anyway (simulation.unconverged_reference = \"warn\")", RuntimeWarning,
-                      stacklevel=2)
+            raise ScenarioError(message + '; simulation.unconverged_reference = "warn" flies it anyway')
+        warnings.warn(message + '; flown anyway (simulation.unconverged_reference = "warn")', RuntimeWarning, stacklevel=2)
     return Scenario(cfg, shape, shape_src, model, truth, x0, xf, ref, site)
 
 
@@ -272,8 +309,11 @@ def model_structure(scn: Scenario) -> tuple[Array, Array, Array]:
     ref, dt = scn.reference, scn.config.mpc.dt
     Ad, Bd, _ = scn.model.discretize(0.0, ref.x[:-1], ref.u, dt)
     G = np.array([scn.model.constraints(k * dt, ref.x[k])[0] for k in range(0, len(ref.x), 10)])
-    return ((np.abs(Ad) > 0).any(axis=0).astype(float), (np.abs(Bd) > 0).any(axis=0).astype(float),
-            (np.abs(G) > 0).any(axis=0).astype(float))
+    return (
+        (np.abs(Ad) > 0).any(axis=0).astype(float),
+        (np.abs(Bd) > 0).any(axis=0).astype(float),
+        (np.abs(G) > 0).any(axis=0).astype(float),
+    )
 
 
 def mpc_settings(scn: Scenario) -> Any:
@@ -330,18 +370,23 @@ def tube_designers(cfg: Config) -> tuple[TubeDesigner, TubeDesigner]:
         Qr = np.diag(1.0 / np.diag(ident.S0_r))
         Rp = t.input_weight * np.eye(3) / s.u_max**2
         Rr = t.input_weight * np.eye(3) / s.T_max**2
-    return (TubeDesigner(Q=Qp, R=Rp, u_max=s.u_max, max_solves=t.max_solves),
-            TubeDesigner(Q=Qr, R=Rr, u_max=s.T_max, max_solves=t.max_solves))
+    return (
+        TubeDesigner(Q=Qp, R=Rp, u_max=s.u_max, max_solves=t.max_solves),
+        TubeDesigner(Q=Qr, R=Rr, u_max=s.T_max, max_solves=t.max_solves),
+    )
 
 
-def identifiers(cfg: Config, lambda_p: float | None = None,
-                lambda_r: float | None = None) -> tuple[ForgettingFactorIdentifier, ForgettingFactorIdentifier]:
+def identifiers(
+    cfg: Config, lambda_p: float | None = None, lambda_r: float | None = None
+) -> tuple[ForgettingFactorIdentifier, ForgettingFactorIdentifier]:
     """Forgetting-factor identifiers of both subsystems at their prior (paper Eq. 26-29);
     ``lambda_p``/``lambda_r`` override the configuration's forgetting factors."""
     ident = cfg.identification
     common = {"prior_weight": ident.prior_weight, "eig_floor": ident.eig_floor, "pw_scale": ident.pw_scale}
-    return (ForgettingFactorIdentifier(lambda_p or ident.lambda_p, ident.w0_p, ident.S0_p, **common),
-            ForgettingFactorIdentifier(lambda_r or ident.lambda_r, ident.w0_r, ident.S0_r, **common))
+    return (
+        ForgettingFactorIdentifier(lambda_p or ident.lambda_p, ident.w0_p, ident.S0_p, **common),
+        ForgettingFactorIdentifier(lambda_r or ident.lambda_r, ident.w0_r, ident.S0_r, **common),
+    )
 
 
 def block_tube(tp: TubeResult, tr: TubeResult) -> tuple[Array, Array]:
@@ -359,11 +404,13 @@ def initial_tube(scn: Scenario) -> tuple[Array, Array]:
     cfg = scn.config
     Ad, Bd, _ = scn.model.discretize(0.0, scn.reference.x[0], scn.reference.u[0], cfg.mpc.dt)
     results = []
-    for des, ident, sx, su in zip(tube_designers(cfg), identifiers(cfg), (P_STATES, R_STATES), (P_INPUTS, R_INPUTS),
-                                  strict=True):
+    for des, ident, sx, su in zip(
+        tube_designers(cfg), identifiers(cfg), (P_STATES, R_STATES), (P_INPUTS, R_INPUTS), strict=True
+    ):
         res = des.design(Ad[sx, sx], Bd[sx, su], ident.P_W, None)
         if not res.feasible:
-            raise RuntimeError(f"initial tube design infeasible ({res.status.name}); "
-                               "check identification priors and input limits")
+            raise RuntimeError(
+                f"initial tube design infeasible ({res.status.name}); check identification priors and input limits"
+            )
         results.append(res)
     return block_tube(results[0], results[1])

@@ -66,7 +66,7 @@ class ShapeError(ValueError):
     def from_message(cls, path: str | Path, message: str) -> ShapeError:
         """The error of a message "<path>:<line>: <what>" or "<path>: <what>" (the C++ reader's)."""
         prefix = f"{path}:"
-        rest = message[len(prefix):] if message.startswith(prefix) else f" {message}"
+        rest = message[len(prefix) :] if message.startswith(prefix) else f" {message}"
         head, sep, tail = rest.partition(": ")
         if sep and head.isdigit():
             return cls(path, int(head), tail)
@@ -86,9 +86,7 @@ def _format_of(path: Path, fmt: str | None) -> str:
         return fmt
     ext = path.suffix.lower()
     if ext not in _EXTENSIONS:
-        raise ShapeError(
-            path, None, f"cannot tell the format from the extension {ext!r}; pass fmt= one of {FORMATS}"
-        )
+        raise ShapeError(path, None, f"cannot tell the format from the extension {ext!r}; pass fmt= one of {FORMATS}")
     return _EXTENSIONS[ext]
 
 
@@ -214,13 +212,12 @@ def _load_icq(path: Path, scale: float, repair: ShapeRepair) -> Shape:
 
 def _load_trimesh(path: Path, scale: float, fmt: str, repair: ShapeRepair) -> Shape:
     import trimesh  # a dependency; imported here because it is slow to import and rarely needed
+
     _read_nonempty(path)
     try:
         mesh = trimesh.load(path, file_type=fmt, force="mesh", process=False)
     except Exception as exc:  # trimesh raises many exception types for unreadable files
-        raise ShapeError(
-            path, None, f"not a readable {fmt.upper()} file ({type(exc).__name__}: {exc})"
-        ) from exc
+        raise ShapeError(path, None, f"not a readable {fmt.upper()} file ({type(exc).__name__}: {exc})") from exc
     vertices = np.asarray(getattr(mesh, "vertices", np.empty((0, 3))), dtype=np.float64)
     faces = np.asarray(getattr(mesh, "faces", np.empty((0, 3))), dtype=np.int64)
     if vertices.size == 0 or faces.size == 0:
@@ -287,11 +284,7 @@ def save_shape(
         f = np.asarray(faces, dtype=np.int64)
     if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3:
         raise ValueError("vertices must be (n, 3) and faces (m, 3)")
-    out = (
-        [f"# written by tubempc.save_shape: {len(v)} vertices, {len(f)} faces, unit {unit}\n"]
-        if kind == "obj"
-        else []
-    )
+    out = [f"# written by tubempc.save_shape: {len(v)} vertices, {len(f)} faces, unit {unit}\n"] if kind == "obj" else []
     out += [f"v {x:.17g} {y:.17g} {z:.17g}\n" for x, y, z in v / scale]
     out += [f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in f]
     p.write_text("".join(out), encoding="utf-8")
@@ -380,9 +373,7 @@ def bennu_like_shape(
     if not (math.isfinite(volume) and volume > 0):
         raise ValueError(f"volume must be finite and > 0 (m^3), got {volume!r}")
     if not (0 < polar_ratio and 1 <= diamond_exponent and ridge_width > 0 and abs(longitude_bulge) < 0.5):
-        raise ValueError(
-            "bennu_like_shape: polar_ratio > 0, diamond_exponent >= 1, ridge_width > 0, |bulge| < 0.5"
-        )
+        raise ValueError("bennu_like_shape: polar_ratio > 0, diamond_exponent >= 1, ridge_width > 0, |bulge| < 0.5")
     u, faces = geodesic_sphere(int(n_subdivisions))
     phi = np.arcsin(np.clip(u[:, 2], -1.0, 1.0))
     lam = np.arctan2(u[:, 1], u[:, 0])

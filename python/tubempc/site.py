@@ -76,8 +76,12 @@ def inside(shape: Shape, points_A: npt.ArrayLike) -> npt.NDArray[np.bool_]:
         ra, rb, rc = a - x, b - x, c - x
         la, lb, lc = (np.linalg.norm(r, axis=1) for r in (ra, rb, rc))
         num = np.einsum("ij,ij->i", ra, np.cross(rb, rc))
-        den = (la * lb * lc + np.einsum("ij,ij->i", ra, rb) * lc + np.einsum("ij,ij->i", rb, rc) * la
-               + np.einsum("ij,ij->i", rc, ra) * lb)
+        den = (
+            la * lb * lc
+            + np.einsum("ij,ij->i", ra, rb) * lc
+            + np.einsum("ij,ij->i", rb, rc) * la
+            + np.einsum("ij,ij->i", rc, ra) * lb
+        )
         out[i] = float(np.sum(2.0 * np.arctan2(num, den))) / (4.0 * np.pi) > 0.5
     return out
 
@@ -112,8 +116,14 @@ def site_from_lat_lon(shape: Shape, latitude: float, longitude: float, altitude:
     return site_from_vector(shape, d, altitude)
 
 
-def terminal_state(target_A: npt.ArrayLike, normal_A: npt.ArrayLike, C_AL: npt.ArrayLike, rate_AL: float,
-                   boresight_B: npt.ArrayLike, attitude_hint: npt.ArrayLike) -> Array:
+def terminal_state(
+    target_A: npt.ArrayLike,
+    normal_A: npt.ArrayLike,
+    C_AL: npt.ArrayLike,
+    rate_AL: float,
+    boresight_B: npt.ArrayLike,
+    attitude_hint: npt.ArrayLike,
+) -> Array:
     """The touchdown state x_f = [r_L, v_L, phi, omega_BL_B] at the time where C_AL (A from L) holds:
     at the target, at rest relative to the surface (``rate_AL`` = spin_rate - n, rad/s, about z_L),
     boresight along -n_L, turning with the body. Of the attitudes with that boresight, the one nearest

@@ -175,18 +175,13 @@ class TubeDesigner:
         self.n_x, self.n_u = n_x, n_u
         self.Q = _sym(_as_matrix("Q", Q, (n_x, n_x)))
         self.R = _sym(_as_matrix("R", R, (n_u, n_u)))
-        if (
-            np.linalg.eigvalsh(self.Q).min() < 0.0
-            or np.linalg.eigvalsh(self.R).min() <= 0.0
-        ):
+        if np.linalg.eigvalsh(self.Q).min() < 0.0 or np.linalg.eigvalsh(self.R).min() <= 0.0:
             raise ValueError("Q must be PSD and R positive definite")
         if not (math.isfinite(u_max) and u_max > 0.0):
             raise ValueError(f"u_max must be finite and > 0, got {u_max}")
         self.u_max = float(u_max)
         self.solver = solver
-        self.state_scale = (
-            None if state_scale is None else self._check_scale(state_scale)
-        )
+        self.state_scale = None if state_scale is None else self._check_scale(state_scale)
         if not all(0.0 < a < 1.0 for a in alpha_grid):
             raise ValueError("alpha_grid must lie in (0, 1)")
         self.alpha_grid = tuple(sorted(alpha_grid))
@@ -207,9 +202,7 @@ class TubeDesigner:
     def _check_scale(self, scale: ArrayLike) -> FloatArray:
         d = np.asarray(scale, dtype=np.float64).reshape(-1)
         if d.shape != (self.n_x,) or not np.all(np.isfinite(d)) or np.any(d <= 0.0):
-            raise ValueError(
-                f"state scale must be {self.n_x} finite positive values, got {d}"
-            )
+            raise ValueError(f"state scale must be {self.n_x} finite positive values, got {d}")
         return d
 
     def _build(self, margin: float) -> None:
@@ -234,9 +227,7 @@ class TubeDesigner:
         self.problem = cp.Problem(objective, cons)
         assert self.problem.is_dpp()
 
-    def _set_data(
-        self, A: FloatArray, B: FloatArray, P_W: FloatArray
-    ) -> tuple[FloatArray, float]:
+    def _set_data(self, A: FloatArray, B: FloatArray, P_W: FloatArray) -> tuple[FloatArray, float]:
         """Scale the data into the SDP's parameters; return D and the objective factor."""
         if self.state_scale is not None:
             d = self.state_scale
@@ -263,9 +254,7 @@ class TubeDesigner:
         try:
             with warnings.catch_warnings():
                 # An inaccurate solution is reported through TubeStatus.OPTIMAL_INACCURATE.
-                warnings.filterwarnings(
-                    "ignore", "Solution may be inaccurate", UserWarning
-                )
+                warnings.filterwarnings("ignore", "Solution may be inaccurate", UserWarning)
                 solve: Callable[..., object] = self.problem.solve
                 solve(solver=self.solver, **self.solver_options)
         except cp.error.SolverError:
@@ -276,13 +265,9 @@ class TubeDesigner:
         Pe_s = _sym(np.asarray(self._Pe.value))
         lam = np.asarray(self._inv_con.dual_value)
         n = self.n_x
-        dfda = np.sum(lam[:n, :n] * self._PW_s) / (1.0 - alpha) ** 2 - np.sum(
-            lam[n:, n:] * Pe_s
-        )
+        dfda = np.sum(lam[:n, :n] * self._PW_s) / (1.0 - alpha) ** 2 - np.sum(lam[n:, n:] * Pe_s)
         slope = float(dfda) * alpha * (1.0 - alpha)
-        return _Eval(
-            s, status, float(self.problem.value), slope, Pe_s, np.asarray(self._Y.value)
-        )
+        return _Eval(s, status, float(self.problem.value), slope, Pe_s, np.asarray(self._Y.value))
 
     def design(
         self,
@@ -308,9 +293,7 @@ class TubeDesigner:
             best = self._cold_search(search)
         return self._result(A_, B_, PW, d, c, best, search.n, t0)
 
-    def design_fixed_alpha(
-        self, A: ArrayLike, B: ArrayLike, P_W: ArrayLike, alpha: float
-    ) -> TubeResult:
+    def design_fixed_alpha(self, A: ArrayLike, B: ArrayLike, P_W: ArrayLike, alpha: float) -> TubeResult:
         """Design the tube with alpha fixed (one solve); same units and status as `design`."""
         if not 0.0 < alpha < 1.0:
             raise ValueError(f"alpha must lie in (0, 1), got {alpha}")
@@ -319,9 +302,7 @@ class TubeDesigner:
         d, c = self._set_data(A_, B_, PW)
         return self._result(A_, B_, PW, d, c, self._evaluate(_logit(alpha)), 1, t0)
 
-    def _check_data(
-        self, A: ArrayLike, B: ArrayLike, P_W: ArrayLike
-    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+    def _check_data(self, A: ArrayLike, B: ArrayLike, P_W: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
         A_ = _as_matrix("A", A, (self.n_x, self.n_x))
         B_ = _as_matrix("B", B, (self.n_x, self.n_u))
         PW = _sym(_as_matrix("P_W", P_W, (self.n_x, self.n_x)))
@@ -335,10 +316,7 @@ class TubeDesigner:
         if not b.ok:
             return None
         h = self.warm_halfwidth
-        if (
-            abs(b.slope) * h <= self.obj_rtol * abs(b.value)
-            or search.n >= self.max_solves
-        ):
+        if abs(b.slope) * h <= self.obj_rtol * abs(b.value) or search.n >= self.max_solves:
             return b
         direction = -math.copysign(1.0, b.slope)
         while True:
@@ -362,9 +340,7 @@ class TubeDesigner:
         if b.slope > 0.0:
             other = grid[i - 1] if i > 0 else _Eval(lo, TubeStatus.INFEASIBLE)
         else:
-            other = (
-                grid[i + 1] if i + 1 < len(grid) else _Eval(hi, TubeStatus.INFEASIBLE)
-            )
+            other = grid[i + 1] if i + 1 < len(grid) else _Eval(hi, TubeStatus.INFEASIBLE)
         return self._refine(b, other, search)
 
     def _refine(self, b: _Eval, e: _Eval, search: _Search) -> _Eval:
@@ -383,9 +359,7 @@ class TubeDesigner:
             gap = abs(b.slope) * width
             bracketed = e.ok and b.slope * e.slope < 0.0
             if bracketed:
-                s_x = (e.value - b.value + b.slope * b.s - e.slope * e.s) / (
-                    b.slope - e.slope
-                )
+                s_x = (e.value - b.value + b.slope * b.s - e.slope * e.s) / (b.slope - e.slope)
                 gap = min(gap, b.value - (b.value + b.slope * (s_x - b.s)))
             if e.ok and gap <= self.obj_rtol * abs(b.value):
                 break
@@ -418,18 +392,14 @@ class TubeDesigner:
         alpha = _expit(best.s)
         if best.Pe_s is None or best.Y_s is None:
             elapsed = time.perf_counter() - t0
-            return TubeResult(
-                None, None, alpha, math.inf, best.status, math.nan, elapsed, n_solves
-            )
+            return TubeResult(None, None, alpha, math.inf, best.status, math.nan, elapsed, n_solves)
         Pe = _sym(best.Pe_s * np.outer(d, d))
         K_s = np.linalg.solve(best.Pe_s, best.Y_s.T).T
         K = self.u_max * K_s / d[None, :]
         resid = lmi_residual(A, B, K, Pe, P_W, alpha)
         status = best.status if resid <= self.residual_tol else TubeStatus.INVALID
         elapsed = time.perf_counter() - t0
-        result = TubeResult(
-            K, Pe, alpha, best.value * c, status, resid, elapsed, n_solves
-        )
+        result = TubeResult(K, Pe, alpha, best.value * c, status, resid, elapsed, n_solves)
         if status is TubeStatus.OPTIMAL:
             self.last_feasible = result
         return result
@@ -477,11 +447,7 @@ def lmi_residual(
     A_, B_, K_ = (np.asarray(X, dtype=np.float64) for X in (A, B, K))
     Pe_ = _sym(np.asarray(Pe, dtype=np.float64))
     Acl = A_ + B_ @ K_
-    M = (
-        Acl @ Pe_ @ Acl.T / alpha
-        + np.asarray(P_W, dtype=np.float64) / (1.0 - alpha)
-        - Pe_
-    )
+    M = Acl @ Pe_ @ Acl.T / alpha + np.asarray(P_W, dtype=np.float64) / (1.0 - alpha) - Pe_
     s = 1.0 / np.sqrt(np.diag(Pe_))
     return float(np.linalg.eigvalsh(_sym(M * np.outer(s, s))).max())
 
@@ -531,9 +497,7 @@ def sample_invariance(
     PW = _sym(np.asarray(P_W, dtype=np.float64))
     e = sample_ellipsoid_surface(Pe_, n, rng)
     n_in = n // 2
-    w = np.vstack(
-        [sample_ellipsoid(PW, n_in, rng), sample_ellipsoid_surface(PW, n - n_in, rng)]
-    )
+    w = np.vstack([sample_ellipsoid(PW, n_in, rng), sample_ellipsoid_surface(PW, n - n_in, rng)])
     e_next = e @ (A_ + B_ @ K_).T + w
     L = np.linalg.cholesky(Pe_)
     z = np.linalg.solve(L, e_next.T)

@@ -32,8 +32,15 @@ class TubeUpdatePolicy:
     ``threads``: subsystems designed in parallel threads (1: one after the other).
     """
 
-    def __init__(self, designers: Sequence[TubeDesigner], *, adaptive: bool, margin: float = 0.0,
-                 alpha_search_period: int = 1, threads: int = 2) -> None:
+    def __init__(
+        self,
+        designers: Sequence[TubeDesigner],
+        *,
+        adaptive: bool,
+        margin: float = 0.0,
+        alpha_search_period: int = 1,
+        threads: int = 2,
+    ) -> None:
         if alpha_search_period < 1:
             raise ValueError(f"alpha_search_period must be >= 1, got {alpha_search_period}")
         if margin < 0.0:
@@ -56,8 +63,9 @@ class TubeUpdatePolicy:
     def __exit__(self, exc_type: object, *exc: object) -> None:
         self.close(wait=exc_type is None)
 
-    def update(self, k: int, A: Sequence[Array], B: Sequence[Array],
-               P_W: Sequence[Array]) -> tuple[list[TubeResult], str | None]:
+    def update(
+        self, k: int, A: Sequence[Array], B: Sequence[Array], P_W: Sequence[Array]
+    ) -> tuple[list[TubeResult], str | None]:
         """The tubes for step ``k`` given each subsystem's discretised (A, B) about the reference and
         identified P_W. Returns the tubes and the step's status ("<status>/<status>", None when the
         policy did not look at the tubes: TBMPC after k = 0)."""
@@ -68,8 +76,13 @@ class TubeUpdatePolicy:
         for i, des in enumerate(self.designers):
             prev = None if self.tubes is None else self.tubes[i]
             designed_for = self._designed_for[i]
-            if (prev is not None and designed_for is not None and not search and self.margin > 0.0
-                    and tube_still_valid(prev, A[i], B[i], P_W[i], designed_for, self.margin)):
+            if (
+                prev is not None
+                and designed_for is not None
+                and not search
+                and self.margin > 0.0
+                and tube_still_valid(prev, A[i], B[i], P_W[i], designed_for, self.margin)
+            ):
                 jobs.append(None)
                 continue
             P_design = (1.0 + self.margin) * P_W[i]
@@ -98,7 +111,8 @@ class TubeUpdatePolicy:
             elif self.tubes is not None:
                 tubes.append(self.tubes[i])
             else:
-                raise RuntimeError(f"initial tube design infeasible ({res.status.name}); "
-                                   "check identification priors and input limits")
+                raise RuntimeError(
+                    f"initial tube design infeasible ({res.status.name}); check identification priors and input limits"
+                )
         self.tubes = tubes
         return tubes, "/".join(names)

@@ -104,7 +104,6 @@ def test_local_processes_give_the_serial_results(tmp_path: Path) -> None:
 def test_dask_local_cluster_gives_the_serial_results(tmp_path: Path) -> None:
     distributed = pytest.importorskip("distributed")
     serial = run_campaign(toy_run, 4, tmp_path / "s", 9, workers=1, progress=False)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         dask = run_campaign(toy_run, 4, tmp_path / "d", 9, scheduler=cluster.scheduler_address, progress=False)
     assert dask.results == serial.results

@@ -45,14 +45,13 @@ def test_debug_shows_the_traceback(tmp_path: Path) -> None:
         main(["--debug", "run", "--config", str(bad)])
 
 
-def test_lost_guarantee_is_reported_and_sets_the_exit_status(tmp_path: Path,
-                                                             capsys: pytest.CaptureFixture[str]) -> None:
+def test_lost_guarantee_is_reported_and_sets_the_exit_status(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """A disturbance far beyond the prior: TBMPC's fixed tube is left; the summary and status say so."""
     cfg = tmp_path / "rough.toml"
-    cfg.write_text('[disturbance]\n'
-                   'S_r_attitude = { value = [4e-4, 4e-4, 4e-4], unit = "rad^2" }\n', encoding="utf-8")
-    status = main(["run", "--config", str(cfg), "--method", "tbmpc", "--out", str(tmp_path / "o"), "--quiet",
-                   "--no-figures"])
+    cfg.write_text('[disturbance]\nS_r_attitude = { value = [4e-4, 4e-4, 4e-4], unit = "rad^2" }\n', encoding="utf-8")
+    status = main(
+        ["run", "--config", str(cfg), "--method", "tbmpc", "--out", str(tmp_path / "o"), "--quiet", "--no-figures"]
+    )
     out = capsys.readouterr()
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     outside = summary["methods"]["tbmpc"]["steps_outside_tube"]
@@ -63,13 +62,20 @@ def test_lost_guarantee_is_reported_and_sets_the_exit_status(tmp_path: Path,
 
 def test_partial_config_says_which_fields_are_defaults(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     cfg = tmp_path / "short.toml"
-    cfg.write_text('[disturbance]\nseed = 3\n', encoding="utf-8")
-    assert main(["run", "--config", str(cfg), "--method", "tbmpc", "--out", str(tmp_path / "o"), "--quiet",
-                 "--no-figures"]) == EXIT_OK
+    cfg.write_text("[disturbance]\nseed = 3\n", encoding="utf-8")
+    assert (
+        main(["run", "--config", str(cfg), "--method", "tbmpc", "--out", str(tmp_path / "o"), "--quiet", "--no-figures"])
+        == EXIT_OK
+    )
     assert "taken from the packaged paper scenario" in capsys.readouterr().out
 
 
 def test_module_entry_point_exit_status(tmp_path: Path) -> None:
-    r = subprocess.run([sys.executable, "-m", "tubempc", "run", "--scenario", "nope"], capture_output=True, text=True,
-                       check=False, timeout=120)
+    r = subprocess.run(
+        [sys.executable, "-m", "tubempc", "run", "--scenario", "nope"],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=120,
+    )
     assert r.returncode == EXIT_INPUT and "unknown scenario" in r.stderr and "Traceback" not in r.stderr

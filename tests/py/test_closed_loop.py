@@ -76,8 +76,16 @@ def test_ffa_keeps_a_tube_only_between_designs(scenario) -> None:  # type: ignor
 def test_summary_and_results_file(scenario, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     res = simulate(scenario, "ffa", seed=4, max_steps=3)
     s = run_summary(scenario, res)
-    assert set(s) >= {"J_p", "J_r", "terminal_error", "rms_error", "max_tube_excursion", "constraint_violations",
-                      "step_time", "statuses"}
+    assert set(s) >= {
+        "J_p",
+        "J_r",
+        "terminal_error",
+        "rms_error",
+        "max_tube_excursion",
+        "constraint_violations",
+        "step_time",
+        "statuses",
+    }
     path = save_record(tmp_path / "ffa.h5", res, config=scenario.config.to_dict(), metadata=s)
     back, info = load_record(path)
     for f in RunRecord.array_fields():  # every declared array comes back with its declared rank
@@ -98,8 +106,14 @@ def test_same_seed_same_run(scenario) -> None:  # type: ignore[no-untyped-def]
 def test_model_mismatch_changes_the_truth_only(tmp_path: Path) -> None:
     """Density, SRP and actuator errors act on the truth; the controller's model and reference stay."""
     base = load_config()
-    mis = base.with_overrides({"simulation.density_scale": 1.1, "simulation.srp_scale": 2.0,
-                               "disturbance.scale_error_p": 0.05, "disturbance.misalignment_r": "1 deg"})
+    mis = base.with_overrides(
+        {
+            "simulation.density_scale": 1.1,
+            "simulation.srp_scale": 2.0,
+            "disturbance.scale_error_p": 0.05,
+            "disturbance.misalignment_r": "1 deg",
+        }
+    )
     s0 = build_scenario(base, cache_dir=tmp_path)
     s1 = build_scenario(mis, cache_dir=tmp_path)
     np.testing.assert_array_equal(s0.reference.x, s1.reference.x)

@@ -19,11 +19,7 @@ def default() -> Config:
 def _default_text() -> str:
     import importlib.resources
 
-    return (
-        importlib.resources.files("tubempc")
-        .joinpath("data", "bennu_paper.toml")
-        .read_text()
-    )
+    return importlib.resources.files("tubempc").joinpath("data", "bennu_paper.toml").read_text()
 
 
 def _write(tmp_path: Path, text: str) -> Path:
@@ -40,12 +36,7 @@ def _edit(text: str, pattern: str, repl: str) -> str:
 
 def test_default_matches_the_paper(default: Config) -> None:
     c = default
-    assert (
-        c.mpc.t_f == 600.0
-        and c.mpc.dt == 2.0
-        and c.mpc.horizon == 30
-        and c.mpc.n_steps == 300
-    )
+    assert c.mpc.t_f == 600.0 and c.mpc.dt == 2.0 and c.mpc.horizon == 30 and c.mpc.n_steps == 300
     # Project defaults where the paper's literal choice is kept selectable (README, "Readings").
     assert c.mpc.scp_eps == 1e-3 and c.mpc.kinematics == "exact" and c.mpc.input_cost == "deviation"
     assert c.with_overrides({"mpc.kinematics": "first_order", "mpc.input_cost": "absolute"}).mpc.kinematics == "first_order"
@@ -56,9 +47,7 @@ def test_default_matches_the_paper(default: Config) -> None:
     assert c.asteroid.spin_period == pytest.approx(4.296 * 3600.0, rel=1e-15)
     assert c.spacecraft.u_max == 0.55 and c.spacecraft.T_max == 3.0
     np.testing.assert_array_equal(c.spacecraft.J, np.diag([2750.0, 2750.0, 2030.0]))
-    assert c.constraints.glide_slope_angle == pytest.approx(
-        math.radians(70.0), rel=1e-15
-    )
+    assert c.constraints.glide_slope_angle == pytest.approx(math.radians(70.0), rel=1e-15)
     assert c.constraints.los_angle == pytest.approx(math.radians(80.0), rel=1e-15)
     np.testing.assert_array_equal(c.mpc.Q_p, np.ones(6))
     np.testing.assert_array_equal(c.mpc.R_p, np.full(3, 1e3))
@@ -66,12 +55,8 @@ def test_default_matches_the_paper(default: Config) -> None:
     assert c.identification.lambda_p == 0.96 and c.identification.lambda_r == 0.98
     assert c.identification.pw_scale == 9.0
     assert c.identification.measured_input == "residual"
-    np.testing.assert_array_equal(
-        np.diag(c.identification.S0_p), [4e-2] * 3 + [2.5e-3] * 3
-    )
-    np.testing.assert_array_equal(
-        np.diag(c.identification.S0_r), [1e-6] * 3 + [1e-8] * 3
-    )
+    np.testing.assert_array_equal(np.diag(c.identification.S0_p), [4e-2] * 3 + [2.5e-3] * 3)
+    np.testing.assert_array_equal(np.diag(c.identification.S0_r), [1e-6] * 3 + [1e-8] * 3)
     np.testing.assert_array_equal(c.identification.w0_p, np.zeros(6))
     np.testing.assert_array_equal(c.boundary.r0, [959.2404, 162.4966, 752.7547])
     np.testing.assert_array_equal(c.boundary.v0, [7.7649e-4, 0.0844, -0.0192])
@@ -161,9 +146,7 @@ def test_overrides(default: Config) -> None:
         (r"^\[disturbance\]", "[disturbanc]", "disturbanc", "unknown section"),
     ],
 )
-def test_errors_name_file_and_field(
-    tmp_path: Path, pattern: str, repl: str, field: str, message: str
-) -> None:
+def test_errors_name_file_and_field(tmp_path: Path, pattern: str, repl: str, field: str, message: str) -> None:
     p = _write(tmp_path, _edit(_default_text(), pattern, repl))
     with pytest.raises(ConfigError) as info:
         load_config(p)
@@ -183,18 +166,33 @@ def test_invalid_toml_and_missing_file(tmp_path: Path) -> None:
     [
         (r"^horizon = 30", "N = 30", "mpc.N: renamed to horizon", lambda c: c.mpc.horizon == 30),
         (r"^scp_eps = 1e-3", "eps = 2e-3", "mpc.eps: renamed to scp_eps", lambda c: c.mpc.scp_eps == 2e-3),
-        (r'^input_cost = "deviation"', 'input_cost = "paper"', "value 'paper' renamed to 'absolute'",
-         lambda c: c.mpc.input_cost == "absolute"),
-        (r'^integrator = "rk4"', 'integrator = "dopri"', "value 'dopri' renamed to 'dopri5'",
-         lambda c: c.simulation.integrator == "dopri5"),
-        (r"^\[asteroid\]", '[asteroid]\nG = "6.67430e-11 m^3/(kg s^2)"', "asteroid.G: the field is no longer used",
-         lambda c: not hasattr(c.asteroid, "G")),
-        (r"^seed = 0", 'seed = 0\nmodel = "ellipsoid_uniform"', "disturbance.model: the field is no longer used",
-         lambda c: c.disturbance.seed == 0),
+        (
+            r'^input_cost = "deviation"',
+            'input_cost = "paper"',
+            "value 'paper' renamed to 'absolute'",
+            lambda c: c.mpc.input_cost == "absolute",
+        ),
+        (
+            r'^integrator = "rk4"',
+            'integrator = "dopri"',
+            "value 'dopri' renamed to 'dopri5'",
+            lambda c: c.simulation.integrator == "dopri5",
+        ),
+        (
+            r"^\[asteroid\]",
+            '[asteroid]\nG = "6.67430e-11 m^3/(kg s^2)"',
+            "asteroid.G: the field is no longer used",
+            lambda c: not hasattr(c.asteroid, "G"),
+        ),
+        (
+            r"^seed = 0",
+            'seed = 0\nmodel = "ellipsoid_uniform"',
+            "disturbance.model: the field is no longer used",
+            lambda c: c.disturbance.seed == 0,
+        ),
     ],
 )
-def test_old_spellings_are_read_with_a_warning(tmp_path: Path, pattern: str, repl: str, message: str,
-                                               check: Any) -> None:
+def test_old_spellings_are_read_with_a_warning(tmp_path: Path, pattern: str, repl: str, message: str, check: Any) -> None:
 
     p = _write(tmp_path, _edit(_default_text(), pattern, repl))
     with pytest.warns(ConfigDeprecationWarning, match=re.escape(message)) as caught:

@@ -14,9 +14,7 @@ import tubempc
 from tubempc import PointMassGravity, ProximityModel
 
 GM_BENNU = 5.236
-X0 = np.array(
-    [959.2404, 162.4966, 752.7547, 7.7649e-4, 0.0844, -0.0192, 0.3142, 2.925, 0.3142, 1e-3, 0.0, 3e-3]
-)
+X0 = np.array([959.2404, 162.4966, 752.7547, 7.7649e-4, 0.0844, -0.0192, 0.3142, 2.925, 0.3142, 1e-3, 0.0, 3e-3])
 XF = np.array([0, 0, 246.5, 0, 0, 0, 0, 3.1416, 0, 0, 0, 0], dtype=float)
 
 

@@ -38,8 +38,17 @@ def test_scenario_file_holds_the_closed_loops_inputs_bit_for_bit(exported: tuple
     for body, model, shape_file in ((s.controller, scn.model, "shape.obj"), (s.truth, scn.truth, "shape.obj")):
         expected = model.config()
         params = body.params
-        for name in ("mu_sun", "orbit_radius", "beta_srp", "spin_rate", "spin_angle0", "glide_slope_angle",
-                     "los_angle", "inertia_B", "boresight_B"):
+        for name in (
+            "mu_sun",
+            "orbit_radius",
+            "beta_srp",
+            "spin_rate",
+            "spin_angle0",
+            "glide_slope_angle",
+            "los_angle",
+            "inertia_B",
+            "boresight_B",
+        ):
             assert _same_bits(getattr(params, name), expected[name]), name
         assert params.srp_enabled == expected["srp_enabled"]
         assert params.kinematics.name.lower() == expected["kinematics"]
@@ -50,15 +59,47 @@ def test_scenario_file_holds_the_closed_loops_inputs_bit_for_bit(exported: tuple
     assert _same_bits(mesh.vertices, scn.shape.vertices) and np.array_equal(mesh.faces, scn.shape.faces)
 
     expected_settings = mpc_settings(scn)
-    for name in ("horizon", "dt", "Q", "R", "u_max", "scp_eps", "input_cost", "initial_condition",
-                 "scp_max_iterations", "trust_region", "qp_eps_abs", "qp_eps_rel", "qp_max_iterations",
-                 "qp_inaccurate_tol", "time_limit", "soft_state_constraints", "soft_terminal", "soft_penalty",
-                 "riccati_tol", "riccati_max_iterations", "kkt_solver", "qp_scale_cost", "reuse_linearization",
-                 "qp_preconditioner_iterations", "qp_reg_lower_limit", "backend", "active_set_max_iterations",
-                 "qp_retry_reg_lower_limit", "A_structure", "B_structure", "G_structure"):
+    for name in (
+        "horizon",
+        "dt",
+        "Q",
+        "R",
+        "u_max",
+        "scp_eps",
+        "input_cost",
+        "initial_condition",
+        "scp_max_iterations",
+        "trust_region",
+        "qp_eps_abs",
+        "qp_eps_rel",
+        "qp_max_iterations",
+        "qp_inaccurate_tol",
+        "time_limit",
+        "soft_state_constraints",
+        "soft_terminal",
+        "soft_penalty",
+        "riccati_tol",
+        "riccati_max_iterations",
+        "kkt_solver",
+        "qp_scale_cost",
+        "reuse_linearization",
+        "qp_preconditioner_iterations",
+        "qp_reg_lower_limit",
+        "backend",
+        "active_set_max_iterations",
+        "qp_retry_reg_lower_limit",
+        "A_structure",
+        "B_structure",
+        "G_structure",
+    ):
         a, b = getattr(s.settings, name), getattr(expected_settings, name)
-        assert (a == b) if isinstance(a, (bool, int, _core.mpc.InputCost, _core.mpc.InitialCondition,
-                                           _core.mpc.KktSolver, _core.mpc.Backend)) else _same_bits(a, b), name
+        assert (
+            (a == b)
+            if isinstance(
+                a, (bool, int, _core.mpc.InputCost, _core.mpc.InitialCondition, _core.mpc.KktSolver, _core.mpc.Backend)
+            )
+            else _same_bits(a, b)
+        ), name
     assert s.propagator.method == _core.dynamics.Integrator.RK4
     assert s.propagator.substeps == scn.config.simulation.substeps
     assert _same_bits(s.reference.z, scn.reference.x.T) and _same_bits(s.reference.u, scn.reference.u.T)

@@ -52,12 +52,15 @@ def test_campaign_counts_every_input(tmp_path: Path) -> None:
     assert "| all | 24 |" in fuzz.table(result)
 
 
-@pytest.mark.parametrize(("content", "text"), [
-    (b"[asteroid]\n# \xff\xfe\n", r":2: not UTF-8"),
-    (b'"1260 kg/m**1e400"', "non-finite unit exponent|every power must be"),
-    (b'"10**10**10 kg/m^3"', "every power must be"),
-    (b'"1260 kg/m**400"', "every power must be"),
-])
+@pytest.mark.parametrize(
+    ("content", "text"),
+    [
+        (b"[asteroid]\n# \xff\xfe\n", r":2: not UTF-8"),
+        (b'"1260 kg/m**1e400"', "non-finite unit exponent|every power must be"),
+        (b'"10**10**10 kg/m^3"', "every power must be"),
+        (b'"1260 kg/m**400"', "every power must be"),
+    ],
+)
 def test_config_reader_errors_name_the_file(tmp_path: Path, content: bytes, text: str) -> None:
     from tubempc.config import ConfigError, load_config
 

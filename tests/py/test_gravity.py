@@ -41,11 +41,7 @@ def _reference(vertices: np.ndarray, faces: np.ndarray, pts: np.ndarray) -> tupl
 
 def _shapes() -> list:
     params = [pytest.param("generated", id="bennu_like_shape")]
-    params.append(
-        pytest.param(
-            "radar", id="radar", marks=pytest.mark.skipif(not RADAR.exists(), reason="no radar model")
-        )
-    )
+    params.append(pytest.param("radar", id="radar", marks=pytest.mark.skipif(not RADAR.exists(), reason="no radar model")))
     return params
 
 
@@ -68,9 +64,7 @@ def test_agrees_with_polyhedral_gravity(shape: tubempc.Shape) -> None:
     assert np.all(np.einsum("ij,ij->i", a[far], pts[far]) < 0)
 
 
-def _extended_precision_reference(
-    shape: tubempc.Shape, p: np.ndarray
-) -> tuple[float, np.ndarray, np.ndarray]:
+def _extended_precision_reference(shape: tubempc.Shape, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     """Werner and Scheeres' formulas evaluated directly (vertex-relative vectors, triple product,
     ln of the ratio) in numpy's 80-bit long double: an independent implementation whose own
     rounding is ~2000 times smaller than double's."""
@@ -124,9 +118,7 @@ def test_poisson_inside_laplace_outside_and_trace(shape: tubempc.Shape) -> None:
     lap = model.laplacian(pts)
     four_pi_g_rho = 4 * np.pi * GRAVITATIONAL_CONSTANT * RHO
     r = np.linalg.norm(pts, axis=1)
-    outside = r > np.linalg.norm(shape.vertices - shape.center_of_mass, axis=1).max() + np.linalg.norm(
-        shape.center_of_mass
-    )
+    outside = r > np.linalg.norm(shape.vertices - shape.center_of_mass, axis=1).max() + np.linalg.norm(shape.center_of_mass)
     inside = slice(60, 90)  # within 0.5 R: inside both bodies
     assert outside.sum() >= 35
     np.testing.assert_allclose(lap[inside], -four_pi_g_rho, rtol=1e-12)

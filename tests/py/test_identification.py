@@ -24,25 +24,19 @@ def test_three_steps_by_hand_with_prior() -> None:
     s1 = q / z1 * (1.0 * 2.0 + (1.0 - w1) ** 2)  # = (2 + 0.0625) / 2
     w, S = ident.update([1.0])
     assert w1 == pytest.approx(0.75) and s1 == pytest.approx(1.03125)
-    assert w[0] == pytest.approx(w1, rel=1e-14) and S[0, 0] == pytest.approx(
-        s1, rel=1e-14
-    )
+    assert w[0] == pytest.approx(w1, rel=1e-14) and S[0, 0] == pytest.approx(s1, rel=1e-14)
     # k = 1, w_1 = -2.0
     z2 = q * (z1 + 1.0)
     w2 = q / z2 * (z1 * w1 + (-2.0))
     s2 = q / z2 * (z1 * s1 + (-2.0 - w2) ** 2)
     w, S = ident.update([-2.0])
-    assert w[0] == pytest.approx(w2, rel=1e-14) and S[0, 0] == pytest.approx(
-        s2, rel=1e-14
-    )
+    assert w[0] == pytest.approx(w2, rel=1e-14) and S[0, 0] == pytest.approx(s2, rel=1e-14)
     # k = 2, w_2 = 4.0
     z3 = q * (z2 + 1.0)
     w3 = q / z3 * (z2 * w2 + 4.0)
     s3 = q / z3 * (z2 * s2 + (4.0 - w3) ** 2)
     w, S = ident.update([4.0])
-    assert w[0] == pytest.approx(w3, rel=1e-14) and S[0, 0] == pytest.approx(
-        s3, rel=1e-14
-    )
+    assert w[0] == pytest.approx(w3, rel=1e-14) and S[0, 0] == pytest.approx(s3, rel=1e-14)
     assert ident.zeta == pytest.approx(z3, rel=1e-14)
     assert ident.P_W[0, 0] == pytest.approx(9.0 * s3, rel=1e-14)
 
@@ -51,9 +45,7 @@ def test_three_steps_literal_recursion_forgets_the_prior() -> None:
     # prior_weight = 0 is the paper's literal recursion: zeta(1) = q, w^_1 = w_0, S^_1 = 0.
     q = math.exp(0.95 - 1.0)
     a, b, c = np.array([1.0, -1.0]), np.array([3.0, 1.0]), np.array([0.0, 2.0])
-    ident = ForgettingFactorIdentifier(
-        0.95, [7.0, 7.0], np.diag([1.0, 4.0]), prior_weight=0.0
-    )
+    ident = ForgettingFactorIdentifier(0.95, [7.0, 7.0], np.diag([1.0, 4.0]), prior_weight=0.0)
     w, S = ident.update(a)
     np.testing.assert_allclose(w, a, rtol=1e-15)
     # S^_1 = 0 exactly; the returned matrix is floored at 1e-6 of the prior's variances.
@@ -63,9 +55,7 @@ def test_three_steps_literal_recursion_forgets_the_prior() -> None:
     d = b - w2
     S2 = np.array([[d[0] * d[0], d[0] * d[1]], [d[1] * d[0], d[1] * d[1]]]) / (1.0 + q)
     np.testing.assert_allclose(w, w2, rtol=1e-14)
-    assert (
-        np.linalg.matrix_rank(S2) == 1
-    )  # singular: the floor lifts the null direction
+    assert np.linalg.matrix_rank(S2) == 1  # singular: the floor lifts the null direction
     assert np.all(np.linalg.eigvalsh(S) > 0.0)
     w, S = ident.update(c)
     z2, z3 = q * (q + 1.0), q * (q * (q + 1.0) + 1.0)
@@ -91,9 +81,7 @@ def test_zeta_recursion_matches_closed_form(lam: float) -> None:
     with_prior = ForgettingFactorIdentifier(lam, [0.0], [[1.0]], prior_weight=2.5)
     for _ in range(7):
         with_prior.update([1.0])
-    assert with_prior.zeta == pytest.approx(
-        q**7 * 2.5 + q * (1 - q**7) / (1 - q), rel=1e-12
-    )
+    assert with_prior.zeta == pytest.approx(q**7 * 2.5 + q * (1 - q**7) / (1 - q), rel=1e-12)
     assert zeta_closed_form(lam, 7, 2.5) == pytest.approx(with_prior.zeta, rel=1e-12)
 
 
@@ -136,11 +124,7 @@ def test_measured_input_definitions() -> None:
     c = np.array([0.5, -0.5])
     x, u, x_next = np.array([1.0, 1.0]), np.array([0.25]), np.array([4.0, 1.0])
     # A x + B u + c = [3 + 0.5 + 0.5, 1 + 0.5 - 0.5] = [4, 1]
-    np.testing.assert_allclose(
-        measured_residual(x_next + 0.1, A, B, c, x, u), [0.1, 0.1]
-    )
-    np.testing.assert_allclose(
-        measured_reference_deviation(x_next, [3.0, 3.0]), [1.0, -2.0]
-    )
+    np.testing.assert_allclose(measured_residual(x_next + 0.1, A, B, c, x, u), [0.1, 0.1])
+    np.testing.assert_allclose(measured_reference_deviation(x_next, [3.0, 3.0]), [1.0, -2.0])
     with pytest.raises(ValueError, match="non-finite"):
         measured_reference_deviation([np.nan, 0.0], [0.0, 0.0])

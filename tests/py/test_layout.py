@@ -29,8 +29,9 @@ def _private_imports(path: Path) -> list[str]:
             for alias in node.names:
                 private_module = any(_private(p) for p in module.split("."))
                 if _private(alias.name) or private_module:
-                    found.append(f"{path.relative_to(PACKAGE)}:{node.lineno}: from {'.' * node.level}{module} "
-                                 f"import {alias.name}")
+                    found.append(
+                        f"{path.relative_to(PACKAGE)}:{node.lineno}: from {'.' * node.level}{module} import {alias.name}"
+                    )
     return found
 
 
@@ -54,10 +55,12 @@ def test_import_and_version_load_no_heavy_dependency() -> None:
     import subprocess
     import sys
 
-    probe = ("import sys, tubempc, tubempc.cli\n"
-             "tubempc.cli.build_parser()\n"
-             "heavy = [m for m in ('cvxpy', 'pint', 'matplotlib', 'scipy', 'h5py', 'trimesh') if m in sys.modules]\n"
-             "print(','.join(heavy))")
+    probe = (
+        "import sys, tubempc, tubempc.cli\n"
+        "tubempc.cli.build_parser()\n"
+        "heavy = [m for m in ('cvxpy', 'pint', 'matplotlib', 'scipy', 'h5py', 'trimesh') if m in sys.modules]\n"
+        "print(','.join(heavy))"
+    )
     r = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True, timeout=60)
     assert r.stdout.strip() == ""
     # every public name still resolves (lazily)

@@ -17,8 +17,10 @@ def _icosahedron(radius: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _obj(path: Path, v: np.ndarray, f: np.ndarray) -> Path:
-    path.write_text("".join(f"v {float(x)!r} {float(y)!r} {float(z)!r}\n" for x, y, z in v)
-                    + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in f))
+    path.write_text(
+        "".join(f"v {float(x)!r} {float(y)!r} {float(z)!r}\n" for x, y, z in v)
+        + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in f)
+    )
     return path
 
 
@@ -57,7 +59,8 @@ def test_two_overlapping_lobes_are_rejected(tmp_path: Path) -> None:
     # Disjoint lobes are a valid (two-component) body.
     v3 = np.vstack([v, v + np.array([3.0, 0.0, 0.0])])
     assert load_shape(_obj(tmp_path / "apart.obj", v3, f2), unit="m").volume == pytest.approx(
-        2 * trimesh.Trimesh(v, f).volume, rel=1e-12)
+        2 * trimesh.Trimesh(v, f).volume, rel=1e-12
+    )
 
 
 def test_coincident_vertices_are_rejected(tmp_path: Path) -> None:
@@ -94,12 +97,15 @@ def test_non_utf8_bytes_in_errors_are_escaped(tmp_path: Path) -> None:
         load_shape(path)
 
 
-@pytest.mark.parametrize(("name", "content", "line"), [
-    ("huge.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 9223372036854775808\n", 6),
-    ("digit.icq", "\u0663\n1 2 3\n", 1),
-    ("super.icq", "\u00b2\n1 2 3\n", 1),
-    ("zero.icq", "0\n", 1),
-])
+@pytest.mark.parametrize(
+    ("name", "content", "line"),
+    [
+        ("huge.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 9223372036854775808\n", 6),
+        ("digit.icq", "\u0663\n1 2 3\n", 1),
+        ("super.icq", "\u00b2\n1 2 3\n", 1),
+        ("zero.icq", "0\n", 1),
+    ],
+)
 def test_malformed_integers_raise_shape_error_with_line(tmp_path: Path, name: str, content: str, line: int) -> None:
     path = tmp_path / name
     path.write_text(content, encoding="utf-8")

@@ -12,13 +12,13 @@ def _trajectory() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     # T = 2 steps: x has 3 rows, u has 2 rows.
     zbar = np.zeros((3, 12))
     x = np.zeros((3, 12))
-    x[0, 0] = 1.0       # position error 1 m at k = 0
-    x[1, 4] = 2.0       # velocity error 2 m/s at k = 1
-    x[2, 2] = 3.0       # position error 3 m at k = T (terminal, not in J)
-    x[1, 6] = 0.5       # attitude error 0.5 rad at k = 1
+    x[0, 0] = 1.0  # position error 1 m at k = 0
+    x[1, 4] = 2.0  # velocity error 2 m/s at k = 1
+    x[2, 2] = 3.0  # position error 3 m at k = T (terminal, not in J)
+    x[1, 6] = 0.5  # attitude error 0.5 rad at k = 1
     u = np.zeros((2, 6))
-    u[0, :3] = [3.0, 4.0, 0.0]   # |u_p| = 5
-    u[1, 3:] = [0.0, 0.0, 2.0]   # |T| = 2
+    u[0, :3] = [3.0, 4.0, 0.0]  # |u_p| = 5
+    u[1, 3:] = [0.0, 0.0, 2.0]  # |T| = 2
     return x, zbar, u
 
 

@@ -180,8 +180,9 @@ def test_benchmark_mission_runs_and_agrees_with_the_baseline(tmp_path) -> None:
     bench.add_arguments(parser)
     out = tmp_path / "bench.json"
     # The whole 600 s mission: shorter ones make the reference exceed the input limits.
-    args = parser.parse_args(["--plant", "stand-in", "--qp-samples", "3", "--solvers", "cvxpy-piqp", "--repeats", "2",
-                              "--json", str(out)])
+    args = parser.parse_args(
+        ["--plant", "stand-in", "--qp-samples", "3", "--solvers", "cvxpy-piqp", "--repeats", "2", "--json", str(out)]
+    )
     assert bench.run(args) == 0  # the repeated flight must end in the same state, or run raises
     data = json.loads(out.read_text())
     assert data["statuses"] == {"solved": 300}
@@ -242,5 +243,5 @@ def test_reused_linearization_calls_the_model_less_with_identical_plans() -> Non
             assert times[0][k][:n] == [i * dt for i in range(n)]
         else:
             assert e_re <= e_fr - n + len(appended)
-            assert times[0][k][:len(appended)] == appended
+            assert times[0][k][: len(appended)] == appended
     assert sum(e for e, _, _ in evals[0]) < 0.6 * sum(e for e, _, _ in evals[1])

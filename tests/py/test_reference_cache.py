@@ -28,16 +28,26 @@ def calls(monkeypatch: pytest.MonkeyPatch) -> list[float]:
 
     def fake(model: Any, x0: Any, xf: Any, **kwargs: Any) -> ReferenceTrajectory:
         made.append(float(len(made) + 1))
-        return ReferenceTrajectory(t=np.arange(3.0), x=np.full((3, 12), made[-1]), u=np.zeros((2, 6)), cost=1.0,
-                                   iterations=1, converged=True, max_step=0.0, max_defect=0.0, solve_time_s=0.0)
+        return ReferenceTrajectory(
+            t=np.arange(3.0),
+            x=np.full((3, 12), made[-1]),
+            u=np.zeros((2, 6)),
+            cost=1.0,
+            iterations=1,
+            converged=True,
+            max_step=0.0,
+            max_defect=0.0,
+            solve_time_s=0.0,
+        )
 
     monkeypatch.setattr(reference, "generate_reference", fake)
     return made
 
 
 def _get(model: _Model, cache: Path) -> ReferenceTrajectory:
-    return load_or_generate_reference(model, np.zeros(12), np.ones(12), cache_dir=cache, key_extra={"shape": "s"},
-                                      dt=1.0, n_steps=2)
+    return load_or_generate_reference(
+        model, np.zeros(12), np.ones(12), cache_dir=cache, key_extra={"shape": "s"}, dt=1.0, n_steps=2
+    )
 
 
 def test_cache_hit_and_truncated_file_regenerated(tmp_path: Path, calls: list[float]) -> None:

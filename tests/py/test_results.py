@@ -15,8 +15,15 @@ def test_round_trip(tmp_path: Path) -> None:
     x = rng.normal(size=(301, 12))
     status = np.array(["Solved", "FallbackShiftedPlan"])
     cfg = {"scenario": {"dt": 2.0, "N": 30}, "method": "ffa"}
-    path = save_result(tmp_path / "r.h5", {"x": x, "status": status}, config=cfg, seed=42, method="ffa",
-                       units={"x": "SI (m, m/s, rad, rad/s)"}, metadata={"J_p": 1.5})
+    path = save_result(
+        tmp_path / "r.h5",
+        {"x": x, "status": status},
+        config=cfg,
+        seed=42,
+        method="ffa",
+        units={"x": "SI (m, m/s, rad, rad/s)"},
+        metadata={"J_p": 1.5},
+    )
     back = load_result(path)
     np.testing.assert_array_equal(back["x"], x)
     assert list(back["status"]) == list(status)

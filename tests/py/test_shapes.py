@@ -19,9 +19,7 @@ CUBE_F = np.array([[0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5,
 
 
 def _vf_text(v: np.ndarray, f: np.ndarray, base: int = 1) -> str:
-    return "".join(f"v {x} {y} {z}\n" for x, y, z in v) + "".join(
-        f"f {a + base} {b + base} {c + base}\n" for a, b, c in f
-    )
+    return "".join(f"v {x} {y} {z}\n" for x, y, z in v) + "".join(f"f {a + base} {b + base} {c + base}\n" for a, b, c in f)
 
 
 def _same_mesh(shape: Shape, v: np.ndarray, f: np.ndarray, atol: float) -> None:
@@ -57,9 +55,7 @@ def test_obj_indices_are_one_based_and_tokens_read(tmp_path: Path) -> None:
     with pytest.raises(ShapeError, match=r"cube\.obj:9: face: vertex index 0 \(indices are 1-based\)") as info:
         load_shape(path, unit="m")
     assert info.value.line == 9 and info.value.path == str(path)
-    path.write_text(
-        "# comment\nmtllib x.mtl\n" + _vf_text(CUBE_V, CUBE_F).replace("f 1 3 2", "f 1/1/1 3//2 2")
-    )
+    path.write_text("# comment\nmtllib x.mtl\n" + _vf_text(CUBE_V, CUBE_F).replace("f 1 3 2", "f 1/1/1 3//2 2"))
     _same_mesh(load_shape(path, unit="m"), CUBE_V, CUBE_F, atol=0)
 
 
@@ -101,9 +97,7 @@ def test_icq_round_trip_of_a_cube_sphere(tmp_path: Path) -> None:
     s = load_shape(path)
     assert s.n_vertices == 6 * q * q + 2 and s.n_faces == 12 * q * q
     # the saved grid's distinct points are exactly the shape's vertices
-    np.testing.assert_allclose(
-        np.unique(grid.reshape(-1, 3), axis=0), np.unique(s.vertices, axis=0), rtol=1e-15
-    )
+    np.testing.assert_allclose(np.unique(grid.reshape(-1, 3), axis=0), np.unique(s.vertices, axis=0), rtol=1e-15)
     with pytest.raises(ValueError, match="grid must have shape"):
         save_icq(path, grid[:5])
 
@@ -163,9 +157,7 @@ MALFORMED = [
 
 
 @pytest.mark.parametrize(("name", "content", "line", "text"), MALFORMED, ids=[m[0] for m in MALFORMED])
-def test_malformed_files_name_file_and_line(
-    tmp_path: Path, name: str, content: str, line: int | None, text: str
-) -> None:
+def test_malformed_files_name_file_and_line(tmp_path: Path, name: str, content: str, line: int | None, text: str) -> None:
     path = tmp_path / name
     path.write_text(content)
     with pytest.raises(ShapeError, match=text) as info:

@@ -54,8 +54,9 @@ def test_moving_site_terminal_state_against_an_independent_rotation(bennu: _core
     cfg = load_config(scenario="bennu-equator")
     site = landing_site(cfg, bennu)
     assert site is not None
-    model = ProximityModel(_core.gravity.PolyhedronGravity(bennu.vertices, bennu.faces, 1260.0),
-                           model_params(cfg, site=site))
+    model = ProximityModel(
+        _core.gravity.PolyhedronGravity(bennu.vertices, bennu.faces, 1260.0), model_params(cfg, site=site)
+    )
     _, xf = boundary_states(cfg, bennu, model, site)
     p = model.params
     rate = p.spin_rate - model.mean_motion  # the body's rate relative to L
@@ -87,8 +88,9 @@ def test_site_cone_at_random_times_matches_its_definition(bennu: _core.gravity.S
     cfg = load_config(scenario="bennu-equator")
     site = landing_site(cfg, bennu)
     assert site is not None
-    model = ProximityModel(_core.gravity.PolyhedronGravity(bennu.vertices, bennu.faces, 1260.0),
-                           model_params(cfg, site=site))
+    model = ProximityModel(
+        _core.gravity.PolyhedronGravity(bennu.vertices, bennu.faces, 1260.0), model_params(cfg, site=site)
+    )
     rng = np.random.default_rng(5)
     cos_gs = np.cos(cfg.constraints.glide_slope_angle)
     for t in rng.uniform(0.0, 2e4, size=25):
@@ -135,10 +137,13 @@ def test_user_config_with_relative_obj_in_metres_and_a_lat_lon_site_flies(tmp_pa
 
     (tmp_path / "bodies").mkdir()
     save_shape(tmp_path / "bodies" / "rock.obj", ellipsoid_shape([260.0, 220.0, 180.0], 10, 0.02, 4), unit="m")
-    p = _with('[asteroid]\nshape = "bodies/rock.obj"\nshape_unit = "m"\ndensity = "1500 kg/m^3"\n'
-              '[constraints]\nglide_slope_apex = "site"\nglide_slope_axis = "normal"\n'
-              '[boundary]\nterminal = "site"\nsite_latitude = "-20 deg"\nsite_longitude = "120 deg"\n'
-              'terminal_attitude = "boresight_down"\ninitial = "hover"\nhover_altitude = "400 m"\n', tmp_path)
+    p = _with(
+        '[asteroid]\nshape = "bodies/rock.obj"\nshape_unit = "m"\ndensity = "1500 kg/m^3"\n'
+        '[constraints]\nglide_slope_apex = "site"\nglide_slope_axis = "normal"\n'
+        '[boundary]\nterminal = "site"\nsite_latitude = "-20 deg"\nsite_longitude = "120 deg"\n'
+        'terminal_attitude = "boresight_down"\ninitial = "hover"\nhover_altitude = "400 m"\n',
+        tmp_path,
+    )
     scn = build_scenario(load_config(p), cache_dir=tmp_path / "cache")
     assert scn.shape_source == str(tmp_path / "bodies" / "rock.obj") and scn.site is not None
     assert scn.reference.converged
@@ -152,8 +157,11 @@ def test_validation_errors_name_the_field(tmp_path: Path, bennu: _core.gravity.S
     with pytest.raises(ScenarioError, match=r"boundary\.r0: the initial position .* inside the body"):
         build_scenario(base.with_overrides({"boundary.r0": [0.0, 0.0, 100.0]}), cache_dir=tmp_path)
     # a start outside the glide-slope cone, by how much
-    with pytest.raises(ScenarioError, match=r"boundary\.r0: the initial position is outside the glide-slope cone by "
-                                            r"[0-9.]+ m"):
+    with pytest.raises(
+        ScenarioError,
+        match=r"boundary\.r0: the initial position is outside the glide-slope cone by "
+        r"[0-9.]+ m",
+    ):
         build_scenario(base.with_overrides({"boundary.r0": [900.0, 0.0, 100.0]}), cache_dir=tmp_path)
     # a final time too short for the input bounds: the reference is infeasible, said so
     with pytest.raises(ScenarioError, match=r"reference trajectory is infeasible.*mpc\.t_f = 60 s"):
@@ -162,8 +170,10 @@ def test_validation_errors_name_the_field(tmp_path: Path, bennu: _core.gravity.S
     moved = _core.gravity.Shape(np.asarray(bennu.vertices) + np.array([150.0, 0.0, 0.0]), bennu.faces)
     save_shape(tmp_path / "moved.obj", moved, unit="m")
     with pytest.raises(ScenarioError, match=r"asteroid\.shape: .*moved\.obj: the centre of mass lies 150 m"):
-        build_scenario(base.with_overrides({"asteroid.shape": str(tmp_path / "moved.obj"),
-                                            "asteroid.shape_unit": "m"}), cache_dir=tmp_path)
+        build_scenario(
+            base.with_overrides({"asteroid.shape": str(tmp_path / "moved.obj"), "asteroid.shape_unit": "m"}),
+            cache_dir=tmp_path,
+        )
     # inertia not positive definite; a horizon longer than the mission
     with pytest.raises(ConfigError, match=r"spacecraft\.J.*positive definite"):
         base.with_overrides({"spacecraft.J": [[1.0, 0, 0], [0, -1.0, 0], [0, 0, 1.0]]})

@@ -19,9 +19,7 @@ I3, Z3 = np.eye(3), np.zeros((3, 3))
 A_DI = np.block([[I3, DT * I3], [Z3, I3]])  # discrete double integrator, dt = 2 s
 B_TRANS = np.vstack([0.5 * DT**2 * I3, DT * I3])  # input u_p in m/s^2
 J = np.diag([2750.0, 2750.0, 2030.0])  # kg m^2
-B_ROT = np.vstack(
-    [0.5 * DT**2 * np.linalg.inv(J), DT * np.linalg.inv(J)]
-)  # torque in N m
+B_ROT = np.vstack([0.5 * DT**2 * np.linalg.inv(J), DT * np.linalg.inv(J)])  # torque in N m
 PW_TRANS = 9.0 * np.diag([4e-2] * 3 + [2.5e-3] * 3)  # Table 1, 3 sigma
 PW_ROT = 9.0 * np.diag([1e-6] * 3 + [1e-8] * 3)  # Table 1, 3 sigma: badly scaled
 U_MAX, T_MAX = 0.55, 3.0
@@ -47,9 +45,7 @@ def rot() -> tuple[TubeDesigner, TubeResult]:
     return d, d.design(A_DI, B_ROT, PW_ROT)
 
 
-def _check_valid(
-    r: TubeResult, A: np.ndarray, B: np.ndarray, PW: np.ndarray, u_max: float
-) -> None:
+def _check_valid(r: TubeResult, A: np.ndarray, B: np.ndarray, PW: np.ndarray, u_max: float) -> None:
     assert r.status is TubeStatus.OPTIMAL and r.feasible
     assert r.K is not None and r.Pe is not None
     assert 0.0 < r.alpha < 1.0
@@ -101,9 +97,7 @@ def test_larger_disturbance_gives_larger_tube(
     big = d.design(A_DI, B_TRANS, 2.0 * PW_TRANS)
     assert big.Pe is not None
     assert np.trace(big.Pe) > 1.5 * np.trace(r.Pe)
-    assert np.trace(PW_TRANS @ np.linalg.inv(big.Pe)) < np.trace(
-        PW_TRANS @ np.linalg.inv(r.Pe)
-    )
+    assert np.trace(PW_TRANS @ np.linalg.inv(big.Pe)) < np.trace(PW_TRANS @ np.linalg.inv(r.Pe))
 
 
 def test_alpha_search_beats_fixed_alpha(

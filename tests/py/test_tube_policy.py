@@ -20,8 +20,16 @@ PE_1 = A_K @ np.eye(2) @ A_K.T / 0.9 / 0.1 + np.eye(2) / 0.1
 
 def _tube(scale: float, alpha: float = 0.9, status: TubeStatus = TubeStatus.OPTIMAL) -> TubeResult:
     ok = status in (TubeStatus.OPTIMAL, TubeStatus.OPTIMAL_INACCURATE)
-    return TubeResult(K=K if ok else None, Pe=scale * PE_1 if ok else None, alpha=alpha, objective=scale,
-                      status=status, lmi_residual=-1.0, solve_time_s=0.0, n_solves=1)
+    return TubeResult(
+        K=K if ok else None,
+        Pe=scale * PE_1 if ok else None,
+        alpha=alpha,
+        objective=scale,
+        status=status,
+        lmi_residual=-1.0,
+        solve_time_s=0.0,
+        n_solves=1,
+    )
 
 
 class ScriptedDesigner(TubeDesigner):

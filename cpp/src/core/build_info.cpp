@@ -28,8 +28,8 @@ BuildInfo build_info() {
   info.compiler = compiler_string();
   info.build_type = TUBEMPC_BUILD_TYPE;
   info.cxx_flags = TUBEMPC_CXX_FLAGS;
-  info.eigen_version = std::to_string(EIGEN_WORLD_VERSION) + "." + std::to_string(EIGEN_MAJOR_VERSION) +
-                       "." + std::to_string(EIGEN_MINOR_VERSION);
+  info.eigen_version = std::to_string(EIGEN_WORLD_VERSION) + "." + std::to_string(EIGEN_MAJOR_VERSION) + "." +
+                       std::to_string(EIGEN_MINOR_VERSION);
   info.eigen_simd = Eigen::SimdInstructionSetsInUse();
   info.piqp_version = TUBEMPC_PIQP_VERSION_STRING;
   info.osqp_backend =

@@ -61,7 +61,8 @@ void LinearizedProximityModel::discretize(double t, double dt, const Eigen::Ref<
   c = cd;
 }
 
-void LinearizedProximityModel::rediscretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_prev,
+void LinearizedProximityModel::rediscretize(double t, double dt,
+                                            const Eigen::Ref<const Eigen::VectorXd>& x_prev,
                                             const Eigen::Ref<const Eigen::VectorXd>& u_prev,
                                             const Eigen::Ref<const Eigen::VectorXd>& x_lin,
                                             const Eigen::Ref<const Eigen::VectorXd>& u_lin,
@@ -87,8 +88,8 @@ void LinearizedProximityModel::rediscretize(double t, double dt, const Eigen::Re
   Eigen::Matrix<double, 6, 6> Ad_r;
   Eigen::Matrix<double, 6, 3> Bd_r;
   Eigen::Matrix<double, 6, 1> cd_r;
-  const DiscretizationStatus st = model_->discretize_rotation(
-      dt, x_lin.segment<3>(6), x_lin.segment<3>(9), u_lin.segment<3>(3), Ad_r, Bd_r, cd_r);
+  const DiscretizationStatus st = model_->discretize_rotation(dt, x_lin.segment<3>(6), x_lin.segment<3>(9),
+                                                              u_lin.segment<3>(3), Ad_r, Bd_r, cd_r);
   if (st != DiscretizationStatus::Ok) {
     throw std::domain_error(std::string("LinearizedProximityModel::rediscretize: ") + to_string(st) +
                             " at t = " + std::to_string(t));

@@ -235,7 +235,8 @@ void ProximityModel::linearize(double t, const StateVector& x, const InputVector
 
 void ProximityModel::rotational_jacobians(const Eigen::Vector3d& phi, const Eigen::Vector3d& w,
                                           const Eigen::Vector3d& T, Eigen::Matrix<double, 6, 1>& f_r,
-                                          Eigen::Matrix<double, 6, 6>& A_r, Eigen::Matrix<double, 6, 3>& B_r) const {
+                                          Eigen::Matrix<double, 6, 6>& A_r,
+                                          Eigen::Matrix<double, 6, 3>& B_r) const {
   A_r.setZero();
   B_r.setZero();
   // Kinematics.
@@ -312,7 +313,8 @@ DiscretizationStatus ProximityModel::discretize(double t, double dt, const State
 }
 
 DiscretizationStatus ProximityModel::discretize_rotation(double dt, const Eigen::Vector3d& phi,
-                                                         const Eigen::Vector3d& omega_BL_B, const Eigen::Vector3d& T_B,
+                                                         const Eigen::Vector3d& omega_BL_B,
+                                                         const Eigen::Vector3d& T_B,
                                                          Eigen::Matrix<double, 6, 6>& Ad_r,
                                                          Eigen::Matrix<double, 6, 3>& Bd_r,
                                                          Eigen::Matrix<double, 6, 1>& cd_r) const {
@@ -330,7 +332,8 @@ DiscretizationStatus ProximityModel::discretize_rotation(double dt, const Eigen:
   Eigen::Matrix<double, 6, 1> x_r;
   x_r << phi, omega_BL_B;
   const Eigen::Matrix<double, 6, 1> c_r = f_r - A_r * x_r - B_r * T_B;
-  if (!zoh_discretize<6, 3>(A_r, B_r, c_r, dt, Ad_r, Bd_r, cd_r)) return DiscretizationStatus::NonFiniteResult;
+  if (!zoh_discretize<6, 3>(A_r, B_r, c_r, dt, Ad_r, Bd_r, cd_r))
+    return DiscretizationStatus::NonFiniteResult;
   return DiscretizationStatus::Ok;
 }
 

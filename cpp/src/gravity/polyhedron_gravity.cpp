@@ -87,8 +87,10 @@ PolyhedronGravity::PolyhedronGravity(Shape shape, double density)
   std::vector<std::array<Index, 3>> adjacent(static_cast<size_t>(nf));
   std::vector<int> n_adj(static_cast<size_t>(nf), 0);
   for (const MeshEdge& e : shape_.edges()) {
-    adjacent[static_cast<size_t>(e.face_a)][static_cast<size_t>(n_adj[static_cast<size_t>(e.face_a)]++)] = e.face_b;
-    adjacent[static_cast<size_t>(e.face_b)][static_cast<size_t>(n_adj[static_cast<size_t>(e.face_b)]++)] = e.face_a;
+    adjacent[static_cast<size_t>(e.face_a)][static_cast<size_t>(n_adj[static_cast<size_t>(e.face_a)]++)] =
+        e.face_b;
+    adjacent[static_cast<size_t>(e.face_b)][static_cast<size_t>(n_adj[static_cast<size_t>(e.face_b)]++)] =
+        e.face_a;
   }
 
   // Clusters grown breadth-first over unassigned faces while vertices and faces fit.
@@ -133,7 +135,8 @@ PolyhedronGravity::PolyhedronGravity(Shape shape, double density)
   // Edges bucketed by the cluster of face_a (both ends are vertices of that face).
   std::vector<std::vector<size_t>> cluster_edges(nc);
   for (size_t i = 0; i < shape_.edges().size(); ++i) {
-    cluster_edges[static_cast<size_t>(cluster_of[static_cast<size_t>(shape_.edges()[i].face_a)])].push_back(i);
+    cluster_edges[static_cast<size_t>(cluster_of[static_cast<size_t>(shape_.edges()[i].face_a)])].push_back(
+        i);
   }
 
   // Face geometry (unit normals), needed by the edge dyads.
@@ -159,7 +162,8 @@ PolyhedronGravity::PolyhedronGravity(Shape shape, double density)
     cl.f_count = padded(static_cast<int>(cluster_faces[c].size()));
     for (int k = 0; k < cl.f_count; ++k) {
       if (k >= static_cast<int>(cluster_faces[c].size())) {
-        for (auto* arr : {&f_nx_, &f_ny_, &f_nz_, &f_d_, &f_n2_, &f_l12_, &f_l23_, &f_l31_}) arr->push_back(0.0);
+        for (auto* arr : {&f_nx_, &f_ny_, &f_nz_, &f_d_, &f_n2_, &f_l12_, &f_l23_, &f_l31_})
+          arr->push_back(0.0);
         for (auto* arr : {&f_i_, &f_j_, &f_k_}) arr->push_back(0);
         continue;
       }
@@ -186,7 +190,8 @@ PolyhedronGravity::PolyhedronGravity(Shape shape, double density)
     for (int k = 0; k < cl.e_count; ++k) {
       if (k >= static_cast<int>(cluster_edges[c].size())) {
         e_len_.push_back(1.0);  // any positive length: the padding's dyads are zero
-        for (auto* arr : {&e_xx_, &e_xy_, &e_xz_, &e_yy_, &e_yz_, &e_zz_, &e_evx_, &e_evy_, &e_evz_, &e_vev_}) {
+        for (auto* arr :
+             {&e_xx_, &e_xy_, &e_xz_, &e_yy_, &e_yz_, &e_zz_, &e_evx_, &e_evy_, &e_evz_, &e_vev_}) {
           arr->push_back(0.0);
         }
         e_i_.push_back(0);
@@ -229,7 +234,8 @@ PolyhedronGravity::PolyhedronGravity(Shape shape, double density)
   }
 }
 
-void PolyhedronGravity::accumulate(const Eigen::Vector3d& p, double tol_plane, bool with_edges, Sums& s) const {
+void PolyhedronGravity::accumulate(const Eigen::Vector3d& p, double tol_plane, bool with_edges,
+                                   Sums& s) const {
   alignas(64) double rn[kMaxClusterVertices];
   alignas(64) double num[kMaxClusterFaces];
   alignas(64) double den[kMaxClusterFaces];
@@ -357,8 +363,8 @@ void PolyhedronGravity::far_field(const Eigen::Vector3d& p, double r, GravitySam
   out.acceleration = -mu / r2 * u + (qu - 2.5 * s * u) / (r3 * r);
   const Eigen::Matrix3d uu = u * u.transpose();
   out.gradient = mu / r3 * (3.0 * uu - Eigen::Matrix3d::Identity()) +
-                 (quadrupole_ - 5.0 * (qu * u.transpose() + u * qu.transpose()) - 2.5 * s * Eigen::Matrix3d::Identity() +
-                  17.5 * s * uu) /
+                 (quadrupole_ - 5.0 * (qu * u.transpose() + u * qu.transpose()) -
+                  2.5 * s * Eigen::Matrix3d::Identity() + 17.5 * s * uu) /
                      (r3 * r2);
 }
 
@@ -373,8 +379,9 @@ void PolyhedronGravity::evaluate(const Eigen::Vector3d& r_A, GravitySample& out)
   accumulate(p, 16.0 * kEps * (r + r_max_), true, s);
   out.potential = 0.5 * g_rho_ * (s.u_edge - s.u_face);
   out.acceleration = -g_rho_ * (s.a_edge - s.a_face);
-  const std::array<double, 6> h{s.h_edge[0] - s.h_face[0], s.h_edge[1] - s.h_face[1], s.h_edge[2] - s.h_face[2],
-                                s.h_edge[3] - s.h_face[3], s.h_edge[4] - s.h_face[4], s.h_edge[5] - s.h_face[5]};
+  const std::array<double, 6> h{s.h_edge[0] - s.h_face[0], s.h_edge[1] - s.h_face[1],
+                                s.h_edge[2] - s.h_face[2], s.h_edge[3] - s.h_face[3],
+                                s.h_edge[4] - s.h_face[4], s.h_edge[5] - s.h_face[5]};
   out.gradient << h[0], h[1], h[2], h[1], h[3], h[4], h[2], h[4], h[5];
   out.gradient *= g_rho_;
 }
@@ -394,7 +401,8 @@ namespace {
 template <class Body>
 void parallel_for(Index n, int threads, const Body& body) {
   if (threads < 0) throw std::invalid_argument("PolyhedronGravity: threads must be >= 0");
-  unsigned t = threads == 0 ? std::max(1u, std::thread::hardware_concurrency()) : static_cast<unsigned>(threads);
+  unsigned t =
+      threads == 0 ? std::max(1u, std::thread::hardware_concurrency()) : static_cast<unsigned>(threads);
   t = static_cast<unsigned>(std::min<Index>(static_cast<Index>(t), std::max<Index>(n, 1)));
   if (t <= 1) {
     for (Index i = 0; i < n; ++i) body(i);
@@ -421,9 +429,9 @@ void parallel_for(Index n, int threads, const Body& body) {
 
 }  // namespace
 
-void PolyhedronGravity::evaluate_batch(const Eigen::Ref<const Points>& r_A, Eigen::Ref<Eigen::VectorXd> potential,
-                                       Eigen::Ref<Points> acceleration, Eigen::Ref<Gradients> gradient,
-                                       int threads) const {
+void PolyhedronGravity::evaluate_batch(const Eigen::Ref<const Points>& r_A,
+                                       Eigen::Ref<Eigen::VectorXd> potential, Eigen::Ref<Points> acceleration,
+                                       Eigen::Ref<Gradients> gradient, int threads) const {
   const Index n = r_A.rows();
   if (potential.size() != n || acceleration.rows() != n || gradient.rows() != n) {
     throw std::invalid_argument("PolyhedronGravity::evaluate_batch: outputs must have " + std::to_string(n) +
@@ -446,11 +454,12 @@ void PolyhedronGravity::evaluate_batch(const Eigen::Ref<const Points>& r_A, Eige
   });
 }
 
-void PolyhedronGravity::laplacian_batch(const Eigen::Ref<const Points>& r_A, Eigen::Ref<Eigen::VectorXd> laplacian_out,
-                                        int threads) const {
+void PolyhedronGravity::laplacian_batch(const Eigen::Ref<const Points>& r_A,
+                                        Eigen::Ref<Eigen::VectorXd> laplacian_out, int threads) const {
   const Index n = r_A.rows();
   if (laplacian_out.size() != n) {
-    throw std::invalid_argument("PolyhedronGravity::laplacian_batch: output must have " + std::to_string(n) + " rows");
+    throw std::invalid_argument("PolyhedronGravity::laplacian_batch: output must have " + std::to_string(n) +
+                                " rows");
   }
   for (Index i = 0; i < n; ++i) {
     if (!valid_point(r_A.row(i).transpose())) {

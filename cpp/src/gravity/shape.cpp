@@ -1,14 +1,14 @@
 #include "tubempc/gravity/shape.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <vector>
-#include <Eigen/Geometry>
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace tubempc::gravity {
 
@@ -73,11 +73,11 @@ void check_duplicates(const Faces& f) {
   std::sort(sorted.begin(), sorted.end());
   for (size_t i = 1; i < sorted.size(); ++i) {
     if (sorted[i].first == sorted[i - 1].first) {
-      fail("face " + std::to_string(sorted[i].second) + " duplicates face " + std::to_string(sorted[i - 1].second));
+      fail("face " + std::to_string(sorted[i].second) + " duplicates face " +
+           std::to_string(sorted[i - 1].second));
     }
   }
 }
-
 
 // Sign of orient3d(a, b, c, d) = ((b - a) x (c - a)) . (d - a), zero within a relative rounding band.
 int orient_sign(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
@@ -98,8 +98,8 @@ int orient2_sign(const Point2& a, const Point2& b, const Point2& c) {
 }
 
 bool on_segment2(const Point2& p, const Point2& a, const Point2& b) {  // p collinear with (a, b)
-  return p.x() >= std::min(a.x(), b.x()) && p.x() <= std::max(a.x(), b.x()) && p.y() >= std::min(a.y(), b.y()) &&
-         p.y() <= std::max(a.y(), b.y());
+  return p.x() >= std::min(a.x(), b.x()) && p.x() <= std::max(a.x(), b.x()) &&
+         p.y() >= std::min(a.y(), b.y()) && p.y() <= std::max(a.y(), b.y());
 }
 
 // Closed segments (p, q) and (a, b) share a point.
@@ -189,7 +189,7 @@ std::pair<Index, Index> first_self_intersection(const Vertices& v, const Faces& 
   }
   struct Node {
     Eigen::AlignedBox3d box;
-    Index begin, end;  // range of `order` (leaf) ...
+    Index begin, end;   // range of `order` (leaf) ...
     Index left, right;  // ... or children (inner node: left >= 0)
   };
   std::vector<Index> order(static_cast<size_t>(m));
@@ -255,7 +255,8 @@ std::pair<Index, Index> first_coincident_vertices(const Vertices& v, const Faces
   const Eigen::Vector3d low = v.colwise().minCoeff().transpose();
   auto cell_of = [&](Index i) {
     Cell c{};
-    for (int k = 0; k < 3; ++k) c[static_cast<size_t>(k)] = static_cast<std::int64_t>(std::floor((v(i, k) - low(k)) / tol));
+    for (int k = 0; k < 3; ++k)
+      c[static_cast<size_t>(k)] = static_cast<std::int64_t>(std::floor((v(i, k) - low(k)) / tol));
     return c;
   };
   std::vector<std::pair<Cell, Index>> cells;
@@ -271,7 +272,8 @@ std::pair<Index, Index> first_coincident_vertices(const Vertices& v, const Faces
           auto it = std::lower_bound(cells.begin(), cells.end(), std::make_pair(n, Index{-1}));
           for (; it != cells.end() && it->first == n; ++it) {
             const Index j = it->second;
-            if (j != i && (v.row(i) - v.row(j)).cwiseAbs().maxCoeff() <= tol) return {std::min(i, j), std::max(i, j)};
+            if (j != i && (v.row(i) - v.row(j)).cwiseAbs().maxCoeff() <= tol)
+              return {std::min(i, j), std::max(i, j)};
           }
         }
       }
@@ -369,9 +371,9 @@ Shape::Shape(Vertices vertices_m, Faces faces, ShapeRepair repair)
       vol6 += flip[static_cast<size_t>(queue[q])] ? -s : s;
     }
     if (!(std::abs(vol6) > 6.0 * kMinRelativeVolume * diagonal * diagonal * diagonal)) {
-      fail("the component containing face " + std::to_string(seed) + " encloses no volume (|volume| = " +
-           std::to_string(std::abs(vol6) / 6.0) + " m^3 <= " + std::to_string(kMinRelativeVolume) +
-           " * bounding-box diagonal^3)");
+      fail("the component containing face " + std::to_string(seed) +
+           " encloses no volume (|volume| = " + std::to_string(std::abs(vol6) / 6.0) +
+           " m^3 <= " + std::to_string(kMinRelativeVolume) + " * bounding-box diagonal^3)");
     }
     const bool invert = vol6 < 0.0;
     Index first_flipped = -1;

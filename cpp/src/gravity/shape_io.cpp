@@ -32,16 +32,27 @@ std::string printable_utf8(std::string_view s) {
   for (std::size_t i = 0; i < s.size();) {
     const auto c = static_cast<unsigned char>(s[i]);
     if (c < 0x80) {
-      if (c < 0x20 || c == 0x7f) escape(c); else out += static_cast<char>(c);
+      if (c < 0x20 || c == 0x7f)
+        escape(c);
+      else
+        out += static_cast<char>(c);
       ++i;
       continue;
     }
     // Length of the sequence and the valid range of its second byte (RFC 3629).
     std::size_t n = 0;
     unsigned char lo = 0x80, hi = 0xbf;
-    if (c >= 0xc2 && c <= 0xdf) n = 2;
-    else if (c >= 0xe0 && c <= 0xef) { n = 3; if (c == 0xe0) lo = 0xa0; if (c == 0xed) hi = 0x9f; }
-    else if (c >= 0xf0 && c <= 0xf4) { n = 4; if (c == 0xf0) lo = 0x90; if (c == 0xf4) hi = 0x8f; }
+    if (c >= 0xc2 && c <= 0xdf)
+      n = 2;
+    else if (c >= 0xe0 && c <= 0xef) {
+      n = 3;
+      if (c == 0xe0) lo = 0xa0;
+      if (c == 0xed) hi = 0x9f;
+    } else if (c >= 0xf0 && c <= 0xf4) {
+      n = 4;
+      if (c == 0xf0) lo = 0x90;
+      if (c == 0xf4) hi = 0x8f;
+    }
     bool ok = n > 0 && i + n <= s.size();
     for (std::size_t k = 1; ok && k < n; ++k) {
       const auto b = static_cast<unsigned char>(s[i + k]);
@@ -113,8 +124,8 @@ Shape load_shape(const std::string& path, double unit_scale, ShapeRepair repair)
   if (!in) fail(path, 0, std::string("cannot open the file (") + std::strerror(errno) + ")");
   const bool table = is_table(path);
 
-  std::vector<double> coords;              // 3 per vertex (file units)
-  std::vector<std::int64_t> corners;       // 3 per triangle (0-based)
+  std::vector<double> coords;         // 3 per vertex (file units)
+  std::vector<std::int64_t> corners;  // 3 per triangle (0-based)
   std::vector<long> vertex_lines, face_lines;
   std::vector<std::string_view> tokens;
   std::vector<std::int64_t> polygon;
@@ -131,8 +142,9 @@ Shape load_shape(const std::string& path, double unit_scale, ShapeRepair repair)
     if (tag == "v") {
       const std::size_t n = tokens.size() - 1;
       if (n < 3 || (table && n != 3)) {
-        fail(path, number, "vertex record needs " + std::string(table ? "exactly " : "") + "3 coordinates, got " +
-                               std::to_string(n));
+        fail(path, number,
+             "vertex record needs " + std::string(table ? "exactly " : "") + "3 coordinates, got " +
+                 std::to_string(n));
       }
       for (std::size_t k = 1; k < tokens.size(); ++k) {
         double x = 0.0;
@@ -144,8 +156,9 @@ Shape load_shape(const std::string& path, double unit_scale, ShapeRepair repair)
     } else if (tag == "f") {
       const std::size_t n = tokens.size() - 1;
       if (n < 3 || (table && n != 3)) {
-        fail(path, number, "face record needs " + std::string(table ? "exactly 3" : "at least 3") +
-                               " vertex indices, got " + std::to_string(n));
+        fail(path, number,
+             "face record needs " + std::string(table ? "exactly 3" : "at least 3") +
+                 " vertex indices, got " + std::to_string(n));
       }
       const auto n_vertices = static_cast<std::int64_t>(vertex_lines.size());
       polygon.clear();
@@ -159,8 +172,9 @@ Shape load_shape(const std::string& path, double unit_scale, ShapeRepair repair)
         // OBJ: -m is the m-th vertex back from the last one defined so far.
         const std::int64_t zero_based = i > 0 ? i - 1 : n_vertices + i;
         if (zero_based < 0 || (i < 0 && zero_based >= n_vertices)) {
-          fail(path, number, "face: relative vertex index " + std::to_string(i) + " with only " +
-                                 std::to_string(n_vertices) + " vertices defined before this line");
+          fail(path, number,
+               "face: relative vertex index " + std::to_string(i) + " with only " +
+                   std::to_string(n_vertices) + " vertices defined before this line");
         }
         polygon.push_back(zero_based);
       }
@@ -171,7 +185,8 @@ Shape load_shape(const std::string& path, double unit_scale, ShapeRepair repair)
     } else if (!table && ignored_obj_record(tag)) {
       continue;
     } else {
-      fail(path, number, "unknown record " + quoted(tag) + (table ? " (a v/f table has only 'v' and 'f' lines)" : ""));
+      fail(path, number,
+           "unknown record " + quoted(tag) + (table ? " (a v/f table has only 'v' and 'f' lines)" : ""));
     }
   }
   if (in.bad()) fail(path, 0, "read error after line " + std::to_string(number));
@@ -185,8 +200,8 @@ Shape load_shape(const std::string& path, double unit_scale, ShapeRepair repair)
       const std::int64_t i = corners[static_cast<std::size_t>(3 * j + c)];
       if (i >= n_v) {
         fail(path, face_lines[static_cast<std::size_t>(j)],
-             "face: vertex index " + std::to_string(i + 1) + " out of range (the file has " + std::to_string(n_v) +
-                 " vertices)");
+             "face: vertex index " + std::to_string(i + 1) + " out of range (the file has " +
+                 std::to_string(n_v) + " vertices)");
       }
     }
   }
@@ -206,17 +221,20 @@ Shape load_shape(const std::string& path, double unit_scale, ShapeRepair repair)
 void save_obj(const std::string& path, const Shape& shape, double unit_scale) {
   check_unit_scale(unit_scale);
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw std::runtime_error(printable_utf8(path) + ": cannot open for writing (" + std::strerror(errno) + ")");
+  if (!out)
+    throw std::runtime_error(printable_utf8(path) + ": cannot open for writing (" + std::strerror(errno) +
+                             ")");
   out << "# written by tubempc::gravity::save_obj: " << shape.n_vertices() << " vertices, " << shape.n_faces()
       << " faces, " << core::text::format_double(unit_scale) << " m per unit\n";
   const Vertices& v = shape.vertices();
   for (Eigen::Index i = 0; i < v.rows(); ++i) {
     out << "v " << core::text::format_double(v(i, 0) / unit_scale) << ' '
-        << core::text::format_double(v(i, 1) / unit_scale) << ' ' << core::text::format_double(v(i, 2) / unit_scale)
-        << '\n';
+        << core::text::format_double(v(i, 1) / unit_scale) << ' '
+        << core::text::format_double(v(i, 2) / unit_scale) << '\n';
   }
   const Faces& f = shape.faces();
-  for (Eigen::Index j = 0; j < f.rows(); ++j) out << "f " << f(j, 0) + 1 << ' ' << f(j, 1) + 1 << ' ' << f(j, 2) + 1 << '\n';
+  for (Eigen::Index j = 0; j < f.rows(); ++j)
+    out << "f " << f(j, 0) + 1 << ' ' << f(j, 1) + 1 << ' ' << f(j, 2) + 1 << '\n';
   out.close();
   if (!out) throw std::runtime_error(printable_utf8(path) + ": write failed (" + std::strerror(errno) + ")");
 }

@@ -34,8 +34,8 @@ const Options<dynamics::Integrator> kIntegrators = {{"rk4", dynamics::Integrator
                                                     {"dopri5", dynamics::Integrator::DOPRI5}};
 const Options<mpc::InputCost> kInputCosts = {{"paper", mpc::InputCost::Paper},
                                              {"from_reference", mpc::InputCost::FromReference}};
-const Options<mpc::InitialCondition> kInitialConditions = {{"whitened_box", mpc::InitialCondition::WhitenedBox},
-                                                           {"exact", mpc::InitialCondition::Exact}};
+const Options<mpc::InitialCondition> kInitialConditions = {
+    {"whitened_box", mpc::InitialCondition::WhitenedBox}, {"exact", mpc::InitialCondition::Exact}};
 const Options<mpc::Backend> kBackends = {{"piqp", mpc::Backend::PiqpSparse},
                                          {"active_set_piqp", mpc::Backend::ActiveSetPiqp}};
 const Options<mpc::KktSolver> kKktSolvers = {{"sparse_ldlt", mpc::KktSolver::SparseLdlt},
@@ -66,7 +66,8 @@ class Reader {
   explicit Reader(std::string path) : path_(std::move(path)) {}
 
   [[noreturn]] void fail(long line, const std::string& what) const {
-    throw std::invalid_argument(line > 0 ? path_ + ":" + std::to_string(line) + ": " + what : path_ + ": " + what);
+    throw std::invalid_argument(line > 0 ? path_ + ":" + std::to_string(line) + ": " + what
+                                         : path_ + ": " + what);
   }
 
   void parse() {
@@ -113,8 +114,8 @@ class Reader {
         rec.row_lines.push_back(number);
       } else if (tokens.size() == 3) {
         std::int64_t rows = 0, cols = 0;
-        if (!core::text::parse_int64(tokens[1], rows) || !core::text::parse_int64(tokens[2], cols) || rows < 0 ||
-            cols < 0 || rows > 10'000'000 || cols > 10'000) {
+        if (!core::text::parse_int64(tokens[1], rows) || !core::text::parse_int64(tokens[2], cols) ||
+            rows < 0 || cols < 0 || rows > 10'000'000 || cols > 10'000) {
           fail(number, name + ": bad size '" + std::string(tokens[1]) + " " + std::string(tokens[2]) +
                            "' (expected '<rows> <cols>', non-negative integers)");
         }
@@ -122,8 +123,8 @@ class Reader {
         rec.values.resize(rows, cols);
         for (Eigen::Index i = 0; i < rows; ++i) {
           if (!next()) {
-            fail(rec.line, name + ": the file ends after " + std::to_string(i) + " of " + std::to_string(rows) +
-                               " rows");
+            fail(rec.line, name + ": the file ends after " + std::to_string(i) + " of " +
+                               std::to_string(rows) + " rows");
           }
           if (tokens.size() != static_cast<std::size_t>(cols)) {
             fail(number, name + ": row " + std::to_string(i) + ": expected " + std::to_string(cols) +
@@ -133,8 +134,8 @@ class Reader {
             double v = 0.0;
             const std::string_view t = tokens[static_cast<std::size_t>(j)];
             if (!core::text::parse_double(t, v)) {
-              fail(number, name + ": row " + std::to_string(i) + ", column " + std::to_string(j) + ": bad number '" +
-                               std::string(t.substr(0, 40)) + "'");
+              fail(number, name + ": row " + std::to_string(i) + ", column " + std::to_string(j) +
+                               ": bad number '" + std::string(t.substr(0, 40)) + "'");
             }
             if (std::isnan(v)) {
               fail(number, name + ": row " + std::to_string(i) + ", column " + std::to_string(j) + ": NaN");
@@ -172,11 +173,12 @@ class Reader {
     const Eigen::Index n = r->values.rows(), m = r->values.cols();
     const bool empty_ok = allow_empty && n == 0 && m == 0;
     if (!empty_ok && ((rows >= 0 && n != rows) || m != cols)) {
-      fail(r->line, name + ": expected size " + (rows >= 0 ? std::to_string(rows) : std::string("<rows>")) + " x " +
-                        std::to_string(cols) + (allow_empty ? " (or 0 x 0)" : "") + ", got " + std::to_string(n) +
-                        " x " + std::to_string(m));
+      fail(r->line, name + ": expected size " + (rows >= 0 ? std::to_string(rows) : std::string("<rows>")) +
+                        " x " + std::to_string(cols) + (allow_empty ? " (or 0 x 0)" : "") + ", got " +
+                        std::to_string(n) + " x " + std::to_string(m));
     }
-    if (!allow_infinite && r->first_infinite_line > 0) fail(r->first_infinite_line, name + ": infinite value");
+    if (!allow_infinite && r->first_infinite_line > 0)
+      fail(r->first_infinite_line, name + ": infinite value");
     return r;
   }
 
@@ -310,10 +312,13 @@ class Writer {
   void scalar(const std::string& name, double v) { matrix(name, Eigen::MatrixXd::Constant(1, 1, v)); }
   void text(const std::string& name, const std::string& value) {
     const bool blank = value.find_first_not_of(" \t\r\v\f") == std::string::npos;
-    if (blank || value.find('\n') != std::string::npos || value.front() == '#' || std::isspace(
-        static_cast<unsigned char>(value.front())) || std::isspace(static_cast<unsigned char>(value.back()))) {
-      throw std::invalid_argument("write_scenario: " + name + ": a text value must be one non-empty line without "
-                                  "leading '#' or surrounding blanks, got '" + value + "'");
+    if (blank || value.find('\n') != std::string::npos || value.front() == '#' ||
+        std::isspace(static_cast<unsigned char>(value.front())) ||
+        std::isspace(static_cast<unsigned char>(value.back()))) {
+      throw std::invalid_argument("write_scenario: " + name +
+                                  ": a text value must be one non-empty line without "
+                                  "leading '#' or surrounding blanks, got '" +
+                                  value + "'");
     }
     out_ << name << " text\n" << value << '\n';
   }
@@ -344,8 +349,8 @@ void write_body(Writer& w, const std::string& prefix, const BodyModel& body) {
 
 void require_size(const char* name, const Eigen::MatrixXd& m, Eigen::Index rows, Eigen::Index cols) {
   if ((rows >= 0 && m.rows() != rows) || m.cols() != cols) {
-    throw std::invalid_argument("write_scenario: " + std::string(name) + " has size " + std::to_string(m.rows()) +
-                                " x " + std::to_string(m.cols()) + ", expected " +
+    throw std::invalid_argument("write_scenario: " + std::string(name) + " has size " +
+                                std::to_string(m.rows()) + " x " + std::to_string(m.cols()) + ", expected " +
                                 (rows >= 0 ? std::to_string(rows) : std::string("<rows>")) + " x " +
                                 std::to_string(cols));
   }
@@ -413,8 +418,9 @@ Scenario read_scenario(const std::string& path) {
   s.reference.t0 = r.scalar("reference.t0");
   s.reference.z = r.matrix("reference.z", -1, dynamics::kNx).transpose();
   const Eigen::Index T = s.reference.z.cols() - 1;
-  if (T < 1) r.fail(r.line_of("reference.z"), "reference.z: needs at least 2 nodes (T >= 1), got " +
-                                                  std::to_string(T + 1));
+  if (T < 1)
+    r.fail(r.line_of("reference.z"),
+           "reference.z: needs at least 2 nodes (T >= 1), got " + std::to_string(T + 1));
   s.reference.u = r.matrix("reference.u", T, dynamics::kNu).transpose();
   s.tube.K = r.matrix("tube.K", dynamics::kNu, dynamics::kNx);
   s.tube.Pe = r.matrix("tube.Pe", dynamics::kNx, dynamics::kNx);

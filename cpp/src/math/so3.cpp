@@ -151,8 +151,8 @@ Eigen::Matrix3d right_jacobian_inverse(const Eigen::Vector3d& phi) {
                                 std::to_string(t));
   }
   // c = (1 - (t/2) cot(t/2)) / t^2, series 1/12 + t^2/720 below t = 1e-3.
-  const double c = t < 1e-3 ? 1.0 / 12.0 + t2 / 720.0
-                            : (1.0 - 0.5 * t * std::cos(0.5 * t) / std::sin(0.5 * t)) / t2;
+  const double c =
+      t < 1e-3 ? 1.0 / 12.0 + t2 / 720.0 : (1.0 - 0.5 * t * std::cos(0.5 * t) / std::sin(0.5 * t)) / t2;
   const Eigen::Matrix3d S = skew(phi);
   return Eigen::Matrix3d::Identity() + 0.5 * S + c * S * S;
 }

@@ -12,11 +12,16 @@ namespace tubempc::mpc {
 
 std::string to_string(ActiveSetQp::Status status) {
   switch (status) {
-    case ActiveSetQp::Status::Solved: return "solved";
-    case ActiveSetQp::Status::MaxIterations: return "max_iterations";
-    case ActiveSetQp::Status::Inaccurate: return "inaccurate";
-    case ActiveSetQp::Status::Singular: return "singular";
-    case ActiveSetQp::Status::InvalidData: return "invalid_data";
+    case ActiveSetQp::Status::Solved:
+      return "solved";
+    case ActiveSetQp::Status::MaxIterations:
+      return "max_iterations";
+    case ActiveSetQp::Status::Inaccurate:
+      return "inaccurate";
+    case ActiveSetQp::Status::Singular:
+      return "singular";
+    case ActiveSetQp::Status::InvalidData:
+      return "invalid_data";
   }
   return "unknown";
 }
@@ -39,7 +44,8 @@ void ActiveSetQp::setup(const SpMat& P_upper, const SpMat& A, const SpMat& G,
   settings.validate();
   const int n = static_cast<int>(P_upper.rows());
   if (P_upper.cols() != n || A.cols() != n || G.cols() != n || boundable.size() != n)
-    throw std::invalid_argument("ActiveSetQp::setup: P must be n x n, A and G must have n columns, boundable n entries");
+    throw std::invalid_argument(
+        "ActiveSetQp::setup: P must be n x n, A and G must have n columns, boundable n entries");
   if (!P_upper.isCompressed() || !A.isCompressed() || !G.isCompressed())
     throw std::invalid_argument("ActiveSetQp::setup: P, A and G must be compressed");
   settings_ = settings;
@@ -61,7 +67,8 @@ void ActiveSetQp::setup(const SpMat& P_upper, const SpMat& A, const SpMat& G,
   trip.reserve(static_cast<std::size_t>(P_upper.nonZeros() + A.nonZeros() + G.nonZeros() + nb + nk));
   for (int c = 0; c < n; ++c)
     for (SpMat::InnerIterator it(P_upper, c); it; ++it) {
-      if (it.row() > c) throw std::invalid_argument("ActiveSetQp::setup: P must be stored as its upper triangle");
+      if (it.row() > c)
+        throw std::invalid_argument("ActiveSetQp::setup: P must be stored as its upper triangle");
       trip.emplace_back(it.row(), c, 1.0);
     }
   for (int c = 0; c < n; ++c) {
@@ -132,7 +139,8 @@ void ActiveSetQp::setup(const SpMat& P_upper, const SpMat& A, const SpMat& G,
   info_ = Info{};
 }
 
-void ActiveSetQp::write_matrix(const SpMat& P_upper, const SpMat& A, const SpMat& G, const Eigen::VectorXi& active) {
+void ActiveSetQp::write_matrix(const SpMat& P_upper, const SpMat& A, const SpMat& G,
+                               const Eigen::VectorXi& active) {
   double* val = K_.valuePtr();
   std::fill(val, val + K_.nonZeros(), 0.0);
   const double* pv = P_upper.valuePtr();
@@ -202,18 +210,19 @@ ActiveSetQp::Status ActiveSetQp::solve(const SpMat& P_upper, const Eigen::Vector
   constexpr double inf = std::numeric_limits<double>::infinity();
   const int n = n_, m = m_, p = p_;
   info_ = Info{};
-  if (P_upper.rows() != n || P_upper.nonZeros() != pos_P_.size() || A.rows() != m || A.nonZeros() != pos_A_.size() ||
-      G.rows() != p || G.nonZeros() != pos_G_.size() || q.size() != n || b.size() != m || h_l.size() != p ||
-      h_u.size() != p || x_l.size() != n || x_u.size() != n || active.size() != p + n)
+  if (P_upper.rows() != n || P_upper.nonZeros() != pos_P_.size() || A.rows() != m ||
+      A.nonZeros() != pos_A_.size() || G.rows() != p || G.nonZeros() != pos_G_.size() || q.size() != n ||
+      b.size() != m || h_l.size() != p || h_u.size() != p || x_l.size() != n || x_u.size() != n ||
+      active.size() != p + n)
     throw std::invalid_argument("ActiveSetQp::solve: sizes or patterns differ from setup");
   const auto finite_values = [](const SpMat& M) {
     return Eigen::Map<const Eigen::VectorXd>(M.valuePtr(), M.nonZeros()).allFinite();
   };
-  bool valid = finite_values(P_upper) && finite_values(A) && finite_values(G) && q.allFinite() && b.allFinite() &&
-               !h_l.array().isNaN().any() && !h_u.array().isNaN().any() && !x_l.array().isNaN().any() &&
-               !x_u.array().isNaN().any() && (h_l.array() <= h_u.array()).all() && (x_l.array() <= x_u.array()).all();
-  for (int j = 0; j < n && valid; ++j)
-    valid = bound_row_(j) >= 0 || (x_l(j) == -inf && x_u(j) == inf);
+  bool valid = finite_values(P_upper) && finite_values(A) && finite_values(G) && q.allFinite() &&
+               b.allFinite() && !h_l.array().isNaN().any() && !h_u.array().isNaN().any() &&
+               !x_l.array().isNaN().any() && !x_u.array().isNaN().any() &&
+               (h_l.array() <= h_u.array()).all() && (x_l.array() <= x_u.array()).all();
+  for (int j = 0; j < n && valid; ++j) valid = bound_row_(j) >= 0 || (x_l(j) == -inf && x_u(j) == inf);
   if (!valid) return info_.status = Status::InvalidData;
 
   // The guess, restricted to sides that exist.
@@ -264,8 +273,8 @@ ActiveSetQp::Status ActiveSetQp::solve(const SpMat& P_upper, const Eigen::Vector
 
     // Set update: drop rows whose multiplier has the wrong sign, add violated rows.
     g_.noalias() = G * w_;
-    const double dual_scale = std::max({q_norm, y_.lpNorm<Eigen::Infinity>(), lam_g_.lpNorm<Eigen::Infinity>(),
-                                        lam_b_.lpNorm<Eigen::Infinity>()});
+    const double dual_scale = std::max({q_norm, y_.lpNorm<Eigen::Infinity>(),
+                                        lam_g_.lpNorm<Eigen::Infinity>(), lam_b_.lpNorm<Eigen::Infinity>()});
     const double tol_d = settings_.eps_abs + 1e-12 * dual_scale;
     const auto tol_p = [&](double bound) { return settings_.eps_abs + settings_.eps_rel * std::abs(bound); };
     // The first kFullUpdates iterations change every such row (the primal-dual active-set step);
@@ -352,7 +361,8 @@ ActiveSetQp::Status ActiveSetQp::solve(const SpMat& P_upper, const Eigen::Vector
   info_.dual_res = stat.lpNorm<Eigen::Infinity>();
   corr_.head(m).noalias() = A * w_;
   double primal = (corr_.head(m) - b).lpNorm<Eigen::Infinity>();
-  double primal_scale = std::max({b.lpNorm<Eigen::Infinity>(), w_.lpNorm<Eigen::Infinity>(), g_.lpNorm<Eigen::Infinity>()});
+  double primal_scale =
+      std::max({b.lpNorm<Eigen::Infinity>(), w_.lpNorm<Eigen::Infinity>(), g_.lpNorm<Eigen::Infinity>()});
   for (int i = 0; i < p; ++i) primal = std::max({primal, g_(i) - h_u(i), h_l(i) - g_(i)});
   for (int j = 0; j < n; ++j) primal = std::max({primal, w_(j) - x_u(j), x_l(j) - w_(j)});
   info_.primal_res = primal;

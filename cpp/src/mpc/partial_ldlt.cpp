@@ -18,14 +18,16 @@ void PartialLdlt::analyze(const SpMat& K_upper) {
   for (int c = 0; c < n; ++c) {
     bool diagonal = false;
     for (SpMat::InnerIterator it(pattern, c); it; ++it) {
-      if (it.row() > c) throw std::invalid_argument("PartialLdlt::analyze: the matrix must be an upper triangle");
+      if (it.row() > c)
+        throw std::invalid_argument("PartialLdlt::analyze: the matrix must be an upper triangle");
       diagonal = diagonal || it.row() == c;
       it.valueRef() = it.row() == c ? 1.0 : 0.0;
     }
     if (!diagonal) throw std::invalid_argument("PartialLdlt::analyze: every diagonal entry must be stored");
   }
   Eigen::SimplicialLDLT<SpMat, Eigen::Upper, Eigen::NaturalOrdering<int>> symbolic(pattern);
-  if (symbolic.info() != Eigen::Success) throw std::logic_error("PartialLdlt::analyze: symbolic factorisation failed");
+  if (symbolic.info() != Eigen::Success)
+    throw std::logic_error("PartialLdlt::analyze: symbolic factorisation failed");
   const SpMat& L = symbolic.matrixL().nestedExpression();
   Lp_ = Eigen::Map<const Eigen::VectorXi>(L.outerIndexPtr(), n + 1);
   Li_ = Eigen::Map<const Eigen::VectorXi>(L.innerIndexPtr(), Lp_(n));
@@ -64,7 +66,8 @@ void PartialLdlt::analyze(const SpMat& K_upper) {
     }
     for (; top < n; ++top, ++e) {
       const int i = stack(top);
-      if (next(i) >= Lp_(i + 1) || Li_(next(i)) != k) throw std::logic_error("PartialLdlt::analyze: unexpected factor pattern");
+      if (next(i) >= Lp_(i + 1) || Li_(next(i)) != k)
+        throw std::logic_error("PartialLdlt::analyze: unexpected factor pattern");
       row_col_(e) = i;
       row_slot_(e) = next(i)++;
     }
@@ -116,7 +119,8 @@ bool PartialLdlt::refactorize(const SpMat& K_upper, Eigen::Ref<const Eigen::Vect
   // Row k depends on K(:, k) and on the rows of its elimination-tree descendants: the rows to
   // recompute are the changed columns and their ancestors.
   for (Eigen::Index c = 0; c < changed.size(); ++c)
-    if (changed(c) < 0 || changed(c) >= n) throw std::invalid_argument("PartialLdlt::refactorize: column out of range");
+    if (changed(c) < 0 || changed(c) >= n)
+      throw std::invalid_argument("PartialLdlt::refactorize: column out of range");
   for (Eigen::Index c = 0; c < changed.size(); ++c)
     for (int i = changed(c); i >= 0 && mark_(i) == 0; i = parent_(i)) mark_(i) = 1;
   valid_ = false;

@@ -33,7 +33,9 @@ Mask mask_lower(Eigen::Index n) {
   return Eigen::MatrixXd::Ones(n, n).triangularView<Eigen::Lower>().toDenseMatrix().array() != 0.0;
 }
 // Upper triangle of W's nonzeros plus the diagonal.
-Mask mask_upper_of(const Eigen::MatrixXd& W) { return (W.array() != 0.0 || mask_diagonal(W.rows())) && mask_upper(W.rows()); }
+Mask mask_upper_of(const Eigen::MatrixXd& W) {
+  return (W.array() != 0.0 || mask_diagonal(W.rows())) && mask_upper(W.rows());
+}
 // A user structure (entries != 0 structural; empty -> dense).
 Mask mask_structure(const Eigen::MatrixXd& S, Eigen::Index m, Eigen::Index n) {
   return S.size() == 0 ? mask_dense(m, n) : Mask(S.array() != 0.0);
@@ -97,9 +99,10 @@ bool outside_structure(const Eigen::MatrixXd& W, const Mask& p) {
 
 void check_square_symmetric(const Eigen::MatrixXd& M, int n, const char* field) {
   if (M.rows() != n || M.cols() != n)
-    throw std::invalid_argument(std::string("TubeMPC Settings: ") + field + " must be " + std::to_string(n) + "x" +
-                                std::to_string(n));
-  if (!M.allFinite()) throw std::invalid_argument(std::string("TubeMPC Settings: ") + field + " has non-finite entries");
+    throw std::invalid_argument(std::string("TubeMPC Settings: ") + field + " must be " + std::to_string(n) +
+                                "x" + std::to_string(n));
+  if (!M.allFinite())
+    throw std::invalid_argument(std::string("TubeMPC Settings: ") + field + " has non-finite entries");
   if ((M - M.transpose()).cwiseAbs().maxCoeff() > 1e-12 * std::max(1.0, M.cwiseAbs().maxCoeff()))
     throw std::invalid_argument(std::string("TubeMPC Settings: ") + field + " is not symmetric");
 }
@@ -108,17 +111,28 @@ void check_square_symmetric(const Eigen::MatrixXd& M, int n, const char* field) 
 
 std::string to_string(Status status) {
   switch (status) {
-    case Status::Solved: return "solved";
-    case Status::SolvedInaccurate: return "solved_inaccurate";
-    case Status::MaxIterations: return "max_iterations";
-    case Status::FallbackShiftedPlan: return "fallback_shifted_plan";
-    case Status::FallbackSafeInput: return "fallback_safe_input";
-    case Status::Infeasible: return "infeasible";
-    case Status::NotSolved: return "not_solved";
-    case Status::TimeLimit: return "time_limit";
-    case Status::NumericalError: return "numerical_error";
-    case Status::EmptyTightening: return "empty_tightening";
-    case Status::ModelStructure: return "model_structure";
+    case Status::Solved:
+      return "solved";
+    case Status::SolvedInaccurate:
+      return "solved_inaccurate";
+    case Status::MaxIterations:
+      return "max_iterations";
+    case Status::FallbackShiftedPlan:
+      return "fallback_shifted_plan";
+    case Status::FallbackSafeInput:
+      return "fallback_safe_input";
+    case Status::Infeasible:
+      return "infeasible";
+    case Status::NotSolved:
+      return "not_solved";
+    case Status::TimeLimit:
+      return "time_limit";
+    case Status::NumericalError:
+      return "numerical_error";
+    case Status::EmptyTightening:
+      return "empty_tightening";
+    case Status::ModelStructure:
+      return "model_structure";
   }
   return "unknown";
 }
@@ -159,7 +173,8 @@ void Settings::validate(int nx, int nu) const {
   if (G_structure.size() != 0 && G_structure.cols() != nx) fail("G_structure", "must be empty or n_c x n_x");
   if (riccati_max_iterations < 1) fail("riccati_max_iterations", "must be >= 1");
   if (active_set_max_iterations < 1) fail("active_set_max_iterations", "must be >= 1");
-  if (backend != Backend::PiqpSparse && backend != Backend::ActiveSetPiqp) fail("backend", "is not a known backend");
+  if (backend != Backend::PiqpSparse && backend != Backend::ActiveSetPiqp)
+    fail("backend", "is not a known backend");
   if (qp_preconditioner_iterations < 0) fail("qp_preconditioner_iterations", "must be >= 0");
   if (!(qp_reg_lower_limit > 0.0) || !std::isfinite(qp_reg_lower_limit))
     fail("qp_reg_lower_limit", "must be finite and > 0");
@@ -189,9 +204,10 @@ Eigen::MatrixXd solve_dare(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, c
   for (int it = 0; it < max_iterations; ++it) {
     Eigen::PartialPivLU<Eigen::MatrixXd> lu(I + Gk * Hk);
     if (!(std::abs(lu.determinant()) > 0.0) || !std::isfinite(lu.determinant()))
-      throw std::runtime_error("solve_dare: singular I + G H in the doubling iteration " + std::to_string(it));
-    const Eigen::MatrixXd W1 = lu.solve(Ak);          // (I + G H)^-1 A
-    const Eigen::MatrixXd W2 = lu.solve(Gk);          // (I + G H)^-1 G
+      throw std::runtime_error("solve_dare: singular I + G H in the doubling iteration " +
+                               std::to_string(it));
+    const Eigen::MatrixXd W1 = lu.solve(Ak);  // (I + G H)^-1 A
+    const Eigen::MatrixXd W2 = lu.solve(Gk);  // (I + G H)^-1 G
     const Eigen::MatrixXd H_next = Hk + Ak.transpose() * Hk * W1;
     Gk = Gk + Ak * W2 * Ak.transpose();
     Ak = Ak * W1;
@@ -204,8 +220,8 @@ Eigen::MatrixXd solve_dare(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, c
                            " doubling iterations (is (A, B) stabilisable and (A, Q^1/2) detectable?)");
 }
 
-void zoh_discretize(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const Eigen::VectorXd& c_c, double dt,
-                    Eigen::MatrixXd& A, Eigen::MatrixXd& B, Eigen::VectorXd& c) {
+void zoh_discretize(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const Eigen::VectorXd& c_c,
+                    double dt, Eigen::MatrixXd& A, Eigen::MatrixXd& B, Eigen::VectorXd& c) {
   const Eigen::Index n = A_c.rows(), m = B_c.cols();
   if (A_c.cols() != n || B_c.rows() != n || c_c.size() != n)
     throw std::invalid_argument("zoh_discretize: inconsistent sizes of A_c, B_c, c_c");
@@ -219,11 +235,12 @@ void zoh_discretize(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, cons
   c = E.block(0, n + m, n, 1);
 }
 
-LtiModel::LtiModel(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const Eigen::VectorXd& c_c, double dt,
-                   const Eigen::MatrixXd& G, const Eigen::VectorXd& h)
+LtiModel::LtiModel(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const Eigen::VectorXd& c_c,
+                   double dt, const Eigen::MatrixXd& G, const Eigen::VectorXd& h)
     : dt_(dt), G_(G), h_(h) {
   if (!(dt > 0.0)) throw std::invalid_argument("LtiModel: dt must be > 0 s");
-  if (G.cols() != A_c.rows() || G.rows() != h.size()) throw std::invalid_argument("LtiModel: G, h sizes mismatch");
+  if (G.cols() != A_c.rows() || G.rows() != h.size())
+    throw std::invalid_argument("LtiModel: G, h sizes mismatch");
   zoh_discretize(A_c, B_c, c_c, dt, A_, B_, c_);
 }
 
@@ -283,7 +300,7 @@ struct TubeMPC::Impl {
   // Nodes whose discretisation (N) and constraints (N + 1) the next linearisation evaluates.
   Eigen::Array<bool, Eigen::Dynamic, 1> eval_d, eval_c;
   bool have_plan = false;
-  int plan_k = 0;  // time index of z_plan's first node
+  int plan_k = 0;                  // time index of z_plan's first node
   Eigen::MatrixXd z_plan, v_plan;  // last applied plan (for the shifted fallback)
   Eigen::MatrixXd z_ref;           // zbar_{min(k+i, T)}, i = 0..N: origin of the QP's state deviations
   Eigen::MatrixXd z_star, v_star;
@@ -338,9 +355,18 @@ struct TubeMPC::Impl {
   void build_pattern(const Settings& s) {
     const bool box_ic = s.initial_condition == InitialCondition::WhitenedBox;
     n_var = N * (nx + nu) + nx;
-    if (box_ic) { off_s = n_var; n_var += nx; }
-    if (s.soft_state_constraints && nc > 0) { off_sigma = n_var; n_var += (N + 1) * nc; }
-    if (s.soft_terminal) { off_t = n_var; n_var += nx; }
+    if (box_ic) {
+      off_s = n_var;
+      n_var += nx;
+    }
+    if (s.soft_state_constraints && nc > 0) {
+      off_sigma = n_var;
+      n_var += (N + 1) * nc;
+    }
+    if (s.soft_terminal) {
+      off_t = n_var;
+      n_var += nx;
+    }
     n_eq = (N + 1) * nx;
     n_in = (N + 1) * nc + (s.soft_terminal ? 2 * nx : 0);
 
@@ -405,8 +431,8 @@ struct TubeMPC::Impl {
     for (int i = 0; i <= N; ++i) {
       posG.push_back(block_positions(G, i * nc, iz(i), mG));
       if (off_sigma >= 0)
-        write_block(G, block_positions(G, i * nc, off_sigma + i * nc, dc), Eigen::MatrixXd::Identity(nc, nc), -1.0,
-                    dc);
+        write_block(G, block_positions(G, i * nc, off_sigma + i * nc, dc), Eigen::MatrixXd::Identity(nc, nc),
+                    -1.0, dc);
     }
     if (s.soft_terminal) {
       const int r0 = (N + 1) * nc;
@@ -427,11 +453,13 @@ struct TubeMPC::Impl {
   // Active-set solver on the QP's pattern: the variables that may carry bounds are the inputs, s,
   // sigma, the states with a finite trust region and z_N with the hard terminal constraint.
   void setup_active_set(const Settings& s) {
-    Eigen::Array<bool, Eigen::Dynamic, 1> boundable = Eigen::Array<bool, Eigen::Dynamic, 1>::Constant(n_var, false);
+    Eigen::Array<bool, Eigen::Dynamic, 1> boundable =
+        Eigen::Array<bool, Eigen::Dynamic, 1>::Constant(n_var, false);
     for (int i = 0; i < N; ++i) boundable.segment(iv(i), nu).setConstant(true);
     if (off_s >= 0) boundable.segment(off_s, nx).setConstant(true);
     if (off_sigma >= 0) boundable.segment(off_sigma, (N + 1) * nc).setConstant(true);
-    for (int i = 1; i <= N && std::isfinite(s.trust_region); ++i) boundable.segment(iz(i), nx).setConstant(true);
+    for (int i = 1; i <= N && std::isfinite(s.trust_region); ++i)
+      boundable.segment(iz(i), nx).setConstant(true);
     if (!s.soft_terminal) boundable.segment(iz(N), nx).setConstant(true);
     ActiveSetQp::Settings as;
     as.max_iterations = s.active_set_max_iterations;
@@ -450,7 +478,8 @@ struct TubeMPC::Impl {
       if (i + 1 < N)
         for (int r = 0; r < nu; ++r) as_shift(n_in + iv(i) + r) = n_in + iv(i + 1) + r;
       if (off_sigma >= 0)
-        for (int c = 0; c < nc; ++c) as_shift(n_in + off_sigma + i * nc + c) = n_in + off_sigma + (i + 1) * nc + c;
+        for (int c = 0; c < nc; ++c)
+          as_shift(n_in + off_sigma + i * nc + c) = n_in + off_sigma + (i + 1) * nc + c;
     }
   }
 
@@ -465,7 +494,8 @@ struct TubeMPC::Impl {
       return qs == piqp::Status::PIQP_MAX_ITER_REACHED && r.info.primal_res_rel <= s.qp_inaccurate_tol &&
              r.info.dual_res_rel <= s.qp_inaccurate_tol;
     };
-    if ((qs == piqp::Status::PIQP_NUMERICS || (qs == piqp::Status::PIQP_MAX_ITER_REACHED && !capped_inaccurate())) &&
+    if ((qs == piqp::Status::PIQP_NUMERICS ||
+         (qs == piqp::Status::PIQP_MAX_ITER_REACHED && !capped_inaccurate())) &&
         s.qp_retry_reg_lower_limit > 0.0 && seconds_since(t_start) < s.time_limit) {
       piqp::Settings<double>& ps = solver.settings();
       ps.reg_lower_limit = s.qp_retry_reg_lower_limit;
@@ -474,7 +504,8 @@ struct TubeMPC::Impl {
       res.qp_iterations += static_cast<int>(r.info.iter);
     }
     if (qs == piqp::Status::PIQP_INVALID_SETTINGS) return Status::NotSolved;
-    if (qs == piqp::Status::PIQP_PRIMAL_INFEASIBLE || qs == piqp::Status::PIQP_DUAL_INFEASIBLE) return Status::Infeasible;
+    if (qs == piqp::Status::PIQP_PRIMAL_INFEASIBLE || qs == piqp::Status::PIQP_DUAL_INFEASIBLE)
+      return Status::Infeasible;
     Status out = Status::Solved;
     if (capped_inaccurate())
       out = Status::SolvedInaccurate;
@@ -517,12 +548,13 @@ void TubeMPC::setup(const Reference& reference) {
   const int nx = model_->nx(), nu = model_->nu();
   if (reference.u.cols() < 1 || reference.z.rows() != nx || reference.u.rows() != nu ||
       reference.z.cols() != reference.u.cols() + 1)
-    throw std::invalid_argument("TubeMPC::setup: reference.z must be n_x x (T + 1) and reference.u n_u x T, T >= 1");
+    throw std::invalid_argument(
+        "TubeMPC::setup: reference.z must be n_x x (T + 1) and reference.u n_u x T, T >= 1");
   const int T = static_cast<int>(reference.u.cols());
   Eigen::MatrixXd A(nx, nx), B(nx, nu);
   Eigen::VectorXd c(nx);
-  model_->discretize(reference.t0 + T * settings_.dt, settings_.dt, reference.z.col(T), reference.u.col(T - 1), A, B,
-                     c);
+  model_->discretize(reference.t0 + T * settings_.dt, settings_.dt, reference.z.col(T),
+                     reference.u.col(T - 1), A, B, c);
   setup(reference, A, B);
 }
 
@@ -531,16 +563,19 @@ void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_termina
   const int nx = model_->nx(), nu = model_->nu(), nc = model_->n_constraints();
   if (reference.u.cols() < 1 || reference.z.rows() != nx || reference.u.rows() != nu ||
       reference.z.cols() != reference.u.cols() + 1)
-    throw std::invalid_argument("TubeMPC::setup: reference.z must be n_x x (T + 1) and reference.u n_u x T, T >= 1");
+    throw std::invalid_argument(
+        "TubeMPC::setup: reference.z must be n_x x (T + 1) and reference.u n_u x T, T >= 1");
   if (!reference.z.allFinite() || !reference.u.allFinite() || !std::isfinite(reference.t0))
     throw std::invalid_argument("TubeMPC::setup: reference has non-finite entries");
-  if (A_terminal.rows() != nx || A_terminal.cols() != nx || B_terminal.rows() != nx || B_terminal.cols() != nu)
+  if (A_terminal.rows() != nx || A_terminal.cols() != nx || B_terminal.rows() != nx ||
+      B_terminal.cols() != nu)
     throw std::invalid_argument("TubeMPC::setup: A_terminal must be n_x x n_x and B_terminal n_x x n_u");
   impl_ = std::make_unique<Impl>();
   Impl& m = *impl_;
   m.Q = settings_.Q;
   m.R = settings_.R;
-  m.P_term = solve_dare(A_terminal, B_terminal, m.Q, m.R, settings_.riccati_tol, settings_.riccati_max_iterations);
+  m.P_term =
+      solve_dare(A_terminal, B_terminal, m.Q, m.R, settings_.riccati_tol, settings_.riccati_max_iterations);
   m.ref = reference;
   m.T = static_cast<int>(reference.u.cols());
   m.allocate(nx, nu, nc, settings_);
@@ -553,7 +588,7 @@ void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_termina
   ps.eps_duality_gap_rel = settings_.qp_eps_rel;
   ps.max_iter = settings_.qp_max_iterations;
   ps.kkt_solver = settings_.kkt_solver == KktSolver::SparseMultistage ? piqp::KKTSolver::sparse_multistage
-                                                                       : piqp::KKTSolver::sparse_ldlt;
+                                                                      : piqp::KKTSolver::sparse_ldlt;
   ps.compute_timings = false;
   ps.reg_lower_limit = settings_.qp_reg_lower_limit;
   ps.preconditioner_scale_cost = settings_.qp_scale_cost;
@@ -660,7 +695,8 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     if (i < n_reuse_d)
       m.v_lin.col(i) = m.v_lin_at.col(i + 1);
     else
-      m.v_lin.col(i) = use_plan && i + shift < N ? m.v_plan.col(i + shift) : m.ref.u.col(std::min(k + i, T - 1));
+      m.v_lin.col(i) =
+          use_plan && i + shift < N ? m.v_plan.col(i + shift) : m.ref.u.col(std::min(k + i, T - 1));
   }
 
   auto fallback = [&](Status cause) -> const StepResult& {
@@ -696,7 +732,8 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     return res;
   };
 
-  if (!x_k.allFinite() || !tube.K.allFinite() || !tube.Pe.allFinite()) return fallback(Status::NumericalError);
+  if (!x_k.allFinite() || !tube.K.allFinite() || !tube.Pe.allFinite())
+    return fallback(Status::NumericalError);
   // Tube: Pe = L L^T and the tightenings sqrt(a^T Pe a).
   m.llt.compute(tube.Pe);
   if (m.llt.info() != Eigen::Success) return fallback(Status::NumericalError);
@@ -751,9 +788,10 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     const int r0 = (N + 1) * nc;
     m.q.segment(m.off_t, nx).setConstant(terminal_phase ? s.soft_penalty : 0.0);
     m.x_l.segment(m.off_t, nx).setConstant(-kInf);  // t >= 0 follows from |dz_N| <= t: no redundant bound
-    const double sign[4] = {1.0, -1.0, 1.0, 1.0};  // dz_N - t <= 0, dz_N + t >= 0 (zbar_T = x_f)
+    const double sign[4] = {1.0, -1.0, 1.0, 1.0};   // dz_N - t <= 0, dz_N + t >= 0 (zbar_T = x_f)
     for (int blk = 0; blk < 4; ++blk)
-      for (int j = 0; j < nx; ++j) m.G.valuePtr()[m.posG_term[blk * nx + j]] = terminal_phase ? sign[blk] : 0.0;
+      for (int j = 0; j < nx; ++j)
+        m.G.valuePtr()[m.posG_term[blk * nx + j]] = terminal_phase ? sign[blk] : 0.0;
     if (terminal_phase) {
       m.h_l.segment(r0, nx).setConstant(-kInf);
       m.h_u.segment(r0, nx).setZero();
@@ -775,9 +813,10 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     bool finite = true;
     for (int i = 0; i < n; ++i) {
       if (!m.eval_d(i)) continue;
-      if (it > 0)  // the node holds data about (z_lin_at, v_lin_at) for the same time: the model may keep parts
-        model_->rediscretize(t_node(i), dt, m.z_lin_at.col(i), m.v_lin_at.col(i), m.z_lin.col(i), m.v_lin.col(i),
-                             m.Ad[i], m.Bd[i], m.cd[i]);
+      if (it >
+          0)  // the node holds data about (z_lin_at, v_lin_at) for the same time: the model may keep parts
+        model_->rediscretize(t_node(i), dt, m.z_lin_at.col(i), m.v_lin_at.col(i), m.z_lin.col(i),
+                             m.v_lin.col(i), m.Ad[i], m.Bd[i], m.cd[i]);
       else
         model_->discretize(t_node(i), dt, m.z_lin.col(i), m.v_lin.col(i), m.Ad[i], m.Bd[i], m.cd[i]);
       finite = finite && m.Ad[i].allFinite() && m.Bd[i].allFinite() && m.cd[i].allFinite();
@@ -787,7 +826,8 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
       if (nc == 0) break;
       if (!m.eval_c(i)) continue;
       model_->constraints(t_node(i), m.z_lin.col(i), m.Gc[i], m.hc[i]);
-      finite = finite && m.Gc[i].allFinite() && !m.hc[i].array().isNaN().any() && !(m.hc[i].array() == -kInf).any();
+      finite = finite && m.Gc[i].allFinite() && !m.hc[i].array().isNaN().any() &&
+               !(m.hc[i].array() == -kInf).any();
     }
     m.z_lin_at = m.z_lin;
     m.v_lin_at = m.v_lin;
@@ -804,7 +844,8 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
       bool same = true;
       for (int i = 0; i < n && same; ++i)
         same = m.Ad[i] == m.Ad_prev[i] && m.Bd[i] == m.Bd_prev[i] && m.cd[i] == m.cd_prev[i];
-      for (int i = 0; i <= n && same && nc > 0; ++i) same = m.Gc[i] == m.Gc_prev[i] && m.hc[i] == m.hc_prev[i];
+      for (int i = 0; i <= n && same && nc > 0; ++i)
+        same = m.Gc[i] == m.Gc_prev[i] && m.hc[i] == m.hc_prev[i];
       if (same) {
         res.scp_residual = 0.0;
         converged = true;
@@ -883,8 +924,8 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
       const bool warm = (m.as_set.array() != 0).any();
       for (int attempt = 0; attempt < (warm ? 2 : 1) && !m.last_qp_active_set; ++attempt) {
         if (attempt == 1) m.as_set.setZero();
-        m.last_qp_active_set = m.active_set.solve(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u, m.as_set) ==
-                               ActiveSetQp::Status::Solved;
+        m.last_qp_active_set = m.active_set.solve(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u,
+                                                  m.as_set) == ActiveSetQp::Status::Solved;
         res.active_set_iterations += m.active_set.info().iterations;
       }
       if (m.last_qp_active_set) ++res.active_set_solves;
@@ -920,7 +961,8 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     }
     res.scp_residual = delta;
     last_delta = delta;
-    res.objective = (m.last_qp_active_set ? m.active_set.objective() : m.solver.result().info.primal_obj) + m.constant;
+    res.objective =
+        (m.last_qp_active_set ? m.active_set.objective() : m.solver.result().info.primal_obj) + m.constant;
     if (delta < s.scp_eps) {
       converged = true;
       break;

@@ -211,16 +211,20 @@ int main(int argc, char** argv) {
     const std::string shape_file = scn.resolve(scn.controller.shape);
     gravity::Shape shape = gravity::load_shape(shape_file, scn.controller.shape_unit_scale);
     const std::string truth_file = scn.resolve(scn.truth.shape);
-    gravity::Shape truth_shape = truth_file == shape_file && scn.truth.shape_unit_scale == scn.controller.shape_unit_scale
-                                     ? shape
-                                     : gravity::load_shape(truth_file, scn.truth.shape_unit_scale);
+    gravity::Shape truth_shape =
+        truth_file == shape_file && scn.truth.shape_unit_scale == scn.controller.shape_unit_scale
+            ? shape
+            : gravity::load_shape(truth_file, scn.truth.shape_unit_scale);
     std::printf("tubempc %s: %s (T = %d steps of %g s, N = %d); shape %s: %ld faces\n",
-                core::build_info().version.c_str(), scenario_path.c_str(), scn.mission_steps(), scn.settings.dt,
-                scn.settings.horizon, shape_file.c_str(), static_cast<long>(shape.n_faces()));
+                core::build_info().version.c_str(), scenario_path.c_str(), scn.mission_steps(),
+                scn.settings.dt, scn.settings.horizon, shape_file.c_str(),
+                static_cast<long>(shape.n_faces()));
     model = std::make_shared<dynamics::ProximityModel>(
-        std::make_shared<gravity::PolyhedronGravity>(std::move(shape), scn.controller.density), scn.controller.params);
+        std::make_shared<gravity::PolyhedronGravity>(std::move(shape), scn.controller.density),
+        scn.controller.params);
     truth = std::make_shared<dynamics::ProximityModel>(
-        std::make_shared<gravity::PolyhedronGravity>(std::move(truth_shape), scn.truth.density), scn.truth.params);
+        std::make_shared<gravity::PolyhedronGravity>(std::move(truth_shape), scn.truth.density),
+        scn.truth.params);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
@@ -280,7 +284,8 @@ int main(int argc, char** argv) {
     }
     const auto c = Clock::now();
     if (p.status != dynamics::PropagationStatus::Success) {
-      std::fprintf(stderr, "error: truth propagation failed at step %d: %s\n", k, dynamics::to_string(p.status));
+      std::fprintf(stderr, "error: truth propagation failed at step %d: %s\n", k,
+                   dynamics::to_string(p.status));
       return 3;
     }
     time_mpc[static_cast<std::size_t>(k)] = std::chrono::duration<double>(b - a).count();
@@ -299,7 +304,8 @@ int main(int argc, char** argv) {
   const double err_r = (x.segment<3>(0) - xf.segment<3>(0)).norm();
   const double err_v = (x.segment<3>(3) - xf.segment<3>(3)).norm();
   const double err_att =  // angle of the rotation from the target attitude to the final one (rad)
-      math::log_map(math::quat_mul(math::quat_conj(math::exp_map(xf.segment<3>(6))), math::exp_map(x.segment<3>(6))))
+      math::log_map(
+          math::quat_mul(math::quat_conj(math::exp_map(xf.segment<3>(6))), math::exp_map(x.segment<3>(6))))
           .norm();
   const double err_w = (x.segment<3>(9) - xf.segment<3>(9)).norm();
 
@@ -308,7 +314,8 @@ int main(int argc, char** argv) {
   std::printf("%-34s %10s %10s %10s   [ms]\n", "per-step wall time", "median", "p99", "max");
   std::printf("  %-32s %10.3f %10.3f %10.3f\n", "step (MPC + truth propagation)", 1e3 * s_step.median,
               1e3 * s_step.p99, 1e3 * s_step.max);
-  std::printf("  %-32s %10.3f %10.3f %10.3f\n", "MPC step", 1e3 * s_mpc.median, 1e3 * s_mpc.p99, 1e3 * s_mpc.max);
+  std::printf("  %-32s %10.3f %10.3f %10.3f\n", "MPC step", 1e3 * s_mpc.median, 1e3 * s_mpc.p99,
+              1e3 * s_mpc.max);
   std::printf("  %-32s %10.3f %10.3f %10.3f\n", "MPC step (StepResult timings)", 1e3 * s_int.median,
               1e3 * s_int.p99, 1e3 * s_int.max);
   std::printf("statuses:");
@@ -317,8 +324,9 @@ int main(int argc, char** argv) {
     std::printf("; fallback causes:");
     for (const auto& [name, n] : failure_counts) std::printf(" %s %d", name.c_str(), n);
   }
-  std::printf("\nfinal error vs x_f: position %.4g m, velocity %.4g m/s, attitude %.4g rad, rate %.4g rad/s\n",
-              err_r, err_v, err_att, err_w);
+  std::printf(
+      "\nfinal error vs x_f: position %.4g m, velocity %.4g m/s, attitude %.4g rad, rate %.4g rad/s\n", err_r,
+      err_v, err_att, err_w);
 #if defined(TUBEMPC_EXAMPLE_COUNT_ALLOCATIONS)
   std::printf("heap allocations after setup: MPC step %ld, truth propagation %ld\n", allocations_mpc,
               allocations_truth);
@@ -337,8 +345,9 @@ int main(int argc, char** argv) {
     std::fprintf(f, "{\n  \"scenario\": %s,\n  \"steps\": %d,\n  \"setup_s\": %.17g,\n",
                  json_string(scenario_path).c_str(), T, setup_s);
     std::fprintf(f, "  \"scp_iterations\": %d,\n", scp_iterations);
-    std::fprintf(f, "  \"allocations_counted\": %s,\n  \"allocations_mpc\": %ld,\n  \"allocations_truth\": %ld,\n",
-                 counted ? "true" : "false", allocations_mpc, allocations_truth);
+    std::fprintf(
+        f, "  \"allocations_counted\": %s,\n  \"allocations_mpc\": %ld,\n  \"allocations_truth\": %ld,\n",
+        counted ? "true" : "false", allocations_mpc, allocations_truth);
     std::fprintf(f, "  \"statuses\": {");
     bool first = true;
     for (const auto& [name, n] : status_counts) {

@@ -13,7 +13,8 @@ int main() {
   tubempc::dynamics::StateVector x = tubempc::dynamics::StateVector::Zero();
   x.head<3>() << 959.2404, 162.4966, 752.7547;  // r_L (m), paper Table 2
   const tubempc::dynamics::StateVector xdot = model.f(0.0, x, tubempc::dynamics::InputVector::Zero());
-  std::printf("tubempc %s: n = %.4e rad/s, |a_L| at r0 = %.4e m/s^2\n", tubempc::core::build_info().version.c_str(),
-              model.params().mean_motion(), xdot.segment<3>(3).norm());
+  std::printf("tubempc %s: n = %.4e rad/s, |a_L| at r0 = %.4e m/s^2\n",
+              tubempc::core::build_info().version.c_str(), model.params().mean_motion(),
+              xdot.segment<3>(3).norm());
   return 0;
 }

@@ -61,9 +61,7 @@ def _gravity(args: argparse.Namespace) -> tuple[Any, str]:
     if args.point_mass:
         return PointMassGravity(GM_BENNU), "point mass (forced by --point-mass)"
     if poly is None:
-        return PointMassGravity(
-            GM_BENNU
-        ), "point mass (tubempc.PolyhedronGravity is not built on this branch)"
+        return PointMassGravity(GM_BENNU), "point mass (tubempc.PolyhedronGravity is not built on this branch)"
     shape = args.shape or _default_shape()
     if shape is None or not shape.is_file():
         return PointMassGravity(GM_BENNU), "point mass (Bennu shape file not found; pass --shape)"
@@ -74,9 +72,7 @@ def _gravity(args: argparse.Namespace) -> tuple[Any, str]:
 
 def _reference(n: int) -> tuple[np.ndarray, np.ndarray]:
     """A horizon from the paper's initial state towards the landing point (Table 2)."""
-    x0 = np.array(
-        [959.2404, 162.4966, 752.7547, 7.7649e-4, 0.0844, -0.0192, 0.3142, 2.925, 0.3142, 1e-3, 0.0, 3e-3]
-    )
+    x0 = np.array([959.2404, 162.4966, 752.7547, 7.7649e-4, 0.0844, -0.0192, 0.3142, 2.925, 0.3142, 1e-3, 0.0, 3e-3])
     xf = np.array([0, 0, 246.5, 0, 0, 0, 0, 3.1416, 0, 0, 0, 0], dtype=float)
     s = np.linspace(0.0, 1.0, n)[:, None]
     X = (1 - s) * x0 + s * xf
@@ -90,10 +86,7 @@ def run(args: argparse.Namespace) -> int:
     info = machine_info()
     print(f"machine: {info['cpu']} ({info['cores']} cores), Python {info['python']}")
     print(f"gravity: {label}")
-    print(
-        f"horizon: N = {args.nodes}, dt = {args.dt} s; "
-        f"min over {args.batches} batches of {args.repeats} calls"
-    )
+    print(f"horizon: N = {args.nodes}, dt = {args.dt} s; min over {args.batches} batches of {args.repeats} calls")
     results: dict[str, Any] = {"machine": info, "gravity": label, "nodes": args.nodes, "dt": args.dt}
     for kin in ("paper", "exact"):
         model = ProximityModel(gravity, {"kinematics": kin})

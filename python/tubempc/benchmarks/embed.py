@@ -28,12 +28,19 @@ _EXAMPLE = Path("examples") / "cpp" / "closed_loop" / "closed_loop"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", help="scenario TOML (default: the packaged paper scenario)")
-    parser.add_argument("--example", type=Path,
-                        help="the closed_loop binary (default: the newest build/*/examples/cpp/closed_loop/closed_loop "
-                             "under the current directory, from a build with TUBEMPC_BUILD_EXAMPLES=ON)")
+    parser.add_argument(
+        "--example",
+        type=Path,
+        help="the closed_loop binary (default: the newest build/*/examples/cpp/closed_loop/closed_loop "
+        "under the current directory, from a build with TUBEMPC_BUILD_EXAMPLES=ON)",
+    )
     parser.add_argument("--repeats", type=int, default=3, help="runs of each loop, alternating (default 3)")
-    parser.add_argument("--out", type=Path, default=Path("results/bench_embed"),
-                        help="folder for the scenario, the example's outputs and embed.json (default results/bench_embed)")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("results/bench_embed"),
+        help="folder for the scenario, the example's outputs and embed.json (default results/bench_embed)",
+    )
     parser.add_argument("--cache-dir", type=Path, help="reference-trajectory cache (default: OUT/cache)")
     parser.add_argument("--json", type=Path, help="also write the figures to this JSON file")
 
@@ -48,7 +55,8 @@ def find_example(explicit: Path | None) -> Path:
     if not found:
         raise FileNotFoundError(
             "no closed_loop binary under build/*/; build it (cmake -DTUBEMPC_BUILD_EXAMPLES=ON, or "
-            "cmake -S examples/cpp/closed_loop against an installed tubempc) and pass --example PATH")
+            "cmake -S examples/cpp/closed_loop against an installed tubempc) and pass --example PATH"
+        )
     return found[-1]
 
 
@@ -78,8 +86,20 @@ def python_loop(scenario_path: str | Path) -> dict[str, Any]:
         r = ctrl.step(k, x, tube)
         u = r.u
         b = time.perf_counter()
-        prop = truth.propagate(t0 + k * dt, state, u, dt, p.method, p.substeps, p.rtol, p.atol, p.max_steps,
-                               p.initial_step, no_disturbance, None)
+        prop = truth.propagate(
+            t0 + k * dt,
+            state,
+            u,
+            dt,
+            p.method,
+            p.substeps,
+            p.rtol,
+            p.atol,
+            p.max_steps,
+            p.initial_step,
+            no_disturbance,
+            None,
+        )
         x = _core.dynamics.truth_to_state(prop.state, zbar[6:9, k + 1])
         state = _core.dynamics.state_to_truth(x)
         c = time.perf_counter()
@@ -88,15 +108,23 @@ def python_loop(scenario_path: str | Path) -> dict[str, Any]:
         time_step[k], time_mpc[k], time_internal[k] = c - a, b - a, r.timings.total
         statuses[str(r.status)] = statuses.get(str(r.status), 0) + 1
         scp += r.scp_iterations
-    return {"steps": T, "setup_s": setup_s, "scp_iterations": scp, "statuses": statuses,
-            "final_state": x.tolist(), "time_step_s": time_step.tolist(), "time_mpc_s": time_mpc.tolist(),
-            "time_mpc_internal_s": time_internal.tolist()}
+    return {
+        "steps": T,
+        "setup_s": setup_s,
+        "scp_iterations": scp,
+        "statuses": statuses,
+        "final_state": x.tolist(),
+        "time_step_s": time_step.tolist(),
+        "time_mpc_s": time_mpc.tolist(),
+        "time_mpc_internal_s": time_internal.tolist(),
+    }
 
 
 def cpp_loop(example: Path, scenario_path: Path, json_path: Path) -> dict[str, Any]:
     """Runs the example binary on the scenario; its JSON output (same fields as python_loop's)."""
-    proc = subprocess.run([str(example), str(scenario_path), "--json", str(json_path)], capture_output=True,
-                          text=True, check=False)
+    proc = subprocess.run(
+        [str(example), str(scenario_path), "--json", str(json_path)], capture_output=True, text=True, check=False
+    )
     if proc.returncode != 0:
         raise RuntimeError(f"{example} exited with {proc.returncode}:\n{proc.stdout}{proc.stderr}")
     result: dict[str, Any] = json.loads(json_path.read_text(encoding="utf-8"))
@@ -124,35 +152,63 @@ def run(args: argparse.Namespace) -> int:
     runs: list[dict[str, Any]] = []
     for i in range(args.repeats):
         for loop in ("cpp", "python"):
-            r = (cpp_loop(example, scenario, out / f"cpp_run{i}.json") if loop == "cpp" else python_loop(scenario))
-            runs.append({"loop": loop, "run": i, "statuses": r["statuses"], "scp_iterations": r["scp_iterations"],
-                         "final_state": r["final_state"], "step": _stats(r["time_step_s"]),
-                         "mpc": _stats(r["time_mpc_s"]), "mpc_internal": _stats(r["time_mpc_internal_s"]),
-                         **({"allocations_mpc": r["allocations_mpc"], "allocations_truth": r["allocations_truth"]}
-                            if loop == "cpp" else {})})
-    print(f"{'loop':8s} {'run':>3s}  {'MPC step median':>15s} {'p99':>8s} {'max':>8s}   {'whole step median':>17s} "
-          f"{'p99':>8s}   [ms]   statuses")
+            r = cpp_loop(example, scenario, out / f"cpp_run{i}.json") if loop == "cpp" else python_loop(scenario)
+            runs.append(
+                {
+                    "loop": loop,
+                    "run": i,
+                    "statuses": r["statuses"],
+                    "scp_iterations": r["scp_iterations"],
+                    "final_state": r["final_state"],
+                    "step": _stats(r["time_step_s"]),
+                    "mpc": _stats(r["time_mpc_s"]),
+                    "mpc_internal": _stats(r["time_mpc_internal_s"]),
+                    **(
+                        {"allocations_mpc": r["allocations_mpc"], "allocations_truth": r["allocations_truth"]}
+                        if loop == "cpp"
+                        else {}
+                    ),
+                }
+            )
+    print(
+        f"{'loop':8s} {'run':>3s}  {'MPC step median':>15s} {'p99':>8s} {'max':>8s}   {'whole step median':>17s} "
+        f"{'p99':>8s}   [ms]   statuses"
+    )
     for r in runs:
-        print(f"{r['loop']:8s} {r['run']:3d}  {1e3 * r['mpc']['median']:15.3f} {1e3 * r['mpc']['p99']:8.3f} "
-              f"{1e3 * r['mpc']['max']:8.3f}   {1e3 * r['step']['median']:17.3f} {1e3 * r['step']['p99']:8.3f}   "
-              f"{r['statuses']}")
+        print(
+            f"{r['loop']:8s} {r['run']:3d}  {1e3 * r['mpc']['median']:15.3f} {1e3 * r['mpc']['p99']:8.3f} "
+            f"{1e3 * r['mpc']['max']:8.3f}   {1e3 * r['step']['median']:17.3f} {1e3 * r['step']['p99']:8.3f}   "
+            f"{r['statuses']}"
+        )
     summary: dict[str, Any] = {}
     for loop in ("cpp", "python"):
         mine = [r for r in runs if r["loop"] == loop]
-        summary[loop] = {key: {stat: float(np.median([r[key][stat] for r in mine])) for stat in ("median", "p99", "max")}
-                         for key in ("mpc", "mpc_internal", "step")}
+        summary[loop] = {
+            key: {stat: float(np.median([r[key][stat] for r in mine])) for stat in ("median", "p99", "max")}
+            for key in ("mpc", "mpc_internal", "step")
+        }
     finals = np.array([r["final_state"] for r in runs])
     spread = float(np.max(np.abs(finals - finals[0])))
     ratio = summary["python"]["mpc"]["median"] / summary["cpp"]["mpc"]["median"]
-    print(f"median over runs, MPC step: C++ {1e3 * summary['cpp']['mpc']['median']:.3f} ms (p99 "
-          f"{1e3 * summary['cpp']['mpc']['p99']:.3f}), Python bindings {1e3 * summary['python']['mpc']['median']:.3f} ms "
-          f"(p99 {1e3 * summary['python']['mpc']['p99']:.3f}); Python / C++ = {ratio:.3f}")
+    print(
+        f"median over runs, MPC step: C++ {1e3 * summary['cpp']['mpc']['median']:.3f} ms (p99 "
+        f"{1e3 * summary['cpp']['mpc']['p99']:.3f}), Python bindings {1e3 * summary['python']['mpc']['median']:.3f} ms "
+        f"(p99 {1e3 * summary['python']['mpc']['p99']:.3f}); Python / C++ = {ratio:.3f}"
+    )
     print(f"largest difference between the runs' final states: {spread:.3g} (0: every run flew the same trajectory)")
     allocations = [r["allocations_mpc"] for r in runs if r["loop"] == "cpp"]
     print(f"C++ example: heap allocations in the MPC step after setup: {max(allocations)}")
-    result = {"machine": info, "config": str(out / "scenario" / "config.toml"), "scenario": str(scenario),
-              "example": str(example), "repeats": args.repeats, "runs": runs, "summary": summary,
-              "python_over_cpp_mpc_median": ratio, "final_state_spread": spread}
+    result = {
+        "machine": info,
+        "config": str(out / "scenario" / "config.toml"),
+        "scenario": str(scenario),
+        "example": str(example),
+        "repeats": args.repeats,
+        "runs": runs,
+        "summary": summary,
+        "python_over_cpp_mpc_median": ratio,
+        "final_state_spread": spread,
+    }
     text = json.dumps(result, indent=2) + "\n"
     (out / "embed.json").write_text(text, encoding="utf-8")
     print(f"wrote {out / 'embed.json'} (configuration: {out / 'scenario' / 'config.toml'})")

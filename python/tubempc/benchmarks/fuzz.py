@@ -22,8 +22,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--inputs", type=int, default=10_000, help="number of inputs (default 10000)")
     parser.add_argument("--seed", type=int, default=0, help="campaign seed (default 0)")
     parser.add_argument("--timeout", type=float, default=10.0, help="time limit per input in s (default 10)")
-    parser.add_argument("--out", type=Path, default=Path("results/bench_fuzz"),
-                        help="folder for fuzz.json (default results/bench_fuzz)")
+    parser.add_argument(
+        "--out", type=Path, default=Path("results/bench_fuzz"), help="folder for fuzz.json (default results/bench_fuzz)"
+    )
     parser.add_argument("--json", type=Path, help="also write the figures to this JSON file")
 
 
@@ -41,15 +42,21 @@ def run(args: argparse.Namespace) -> int:
             print(f"  {done}/{args.inputs}", file=sys.stderr, flush=True)
 
     result = run_campaign(args.inputs, args.seed, args.timeout, progress=progress)
-    print(f"tubempc bench fuzz --inputs {args.inputs} --seed {args.seed} --timeout {args.timeout}: "
-          f"{result.wall_time_s:.1f} s")
+    print(
+        f"tubempc bench fuzz --inputs {args.inputs} --seed {args.seed} --timeout {args.timeout}: {result.wall_time_s:.1f} s"
+    )
     print(table(result))
     for example in result.examples[:10]:
         print(f"  input {example['index']} ({example['format']}): {example['outcome']}: {example['detail']}")
-    figures = {"machine": info, "inputs": args.inputs, "seed": args.seed, "timeout_s": args.timeout,
-               "wall_time_s": result.wall_time_s,
-               "counts": {fmt: {o: c[o] for o in OUTCOMES} for fmt, c in result.counts.items()},
-               "examples": result.examples}
+    figures = {
+        "machine": info,
+        "inputs": args.inputs,
+        "seed": args.seed,
+        "timeout_s": args.timeout,
+        "wall_time_s": result.wall_time_s,
+        "counts": {fmt: {o: c[o] for o in OUTCOMES} for fmt, c in result.counts.items()},
+        "examples": result.examples,
+    }
     args.out.mkdir(parents=True, exist_ok=True)
     for path in (args.out / "fuzz.json", args.json):
         if path is not None:

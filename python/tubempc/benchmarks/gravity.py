@@ -45,9 +45,7 @@ def _points(n: int, radius: float, seed: int) -> npt.NDArray[np.float64]:
     d = rng.normal(size=(n, 3))
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     k = n // 3
-    r = np.concatenate(
-        [rng.uniform(1.0, 1.3, k), rng.uniform(2.0, 20.0, k), rng.uniform(0.0, 0.6, n - 2 * k)]
-    )
+    r = np.concatenate([rng.uniform(1.0, 1.3, k), rng.uniform(2.0, 20.0, k), rng.uniform(0.0, 0.6, n - 2 * k)])
     return d * (r * radius)[:, None]
 
 
@@ -75,9 +73,7 @@ def _reference(vertices: Any, faces: Any, density: float, pts: Any, repeat: int)
     U = np.array([o[0] for o in out])
     a = np.array([o[1] for o in out])
     h = np.array([o[2] for o in out])
-    H = np.stack(
-        [h[:, 0], h[:, 3], h[:, 4], h[:, 3], h[:, 1], h[:, 5], h[:, 4], h[:, 5], h[:, 2]], 1
-    ).reshape(-1, 3, 3)
+    H = np.stack([h[:, 0], h[:, 3], h[:, 4], h[:, 3], h[:, 1], h[:, 5], h[:, 4], h[:, 5], h[:, 2]], 1).reshape(-1, 3, 3)
     return {
         "version": getattr(pg, "__version__", "?"),
         "parallelization": getattr(pg, "__parallelization__", "?"),
@@ -105,9 +101,7 @@ def run(args: argparse.Namespace) -> int:
     t1 = _best(lambda: model.evaluate(pts, threads=1), args.repeat)
     tn = _best(lambda: model.evaluate(pts, threads=0), args.repeat)
     U, a, H = model.evaluate(pts, threads=1)
-    ref = (
-        None if args.no_reference else _reference(shape.vertices, shape.faces, args.density, pts, args.repeat)
-    )
+    ref = None if args.no_reference else _reference(shape.vertices, shape.faces, args.density, pts, args.repeat)
 
     info = machine_info()
     result: dict[str, Any] = {
@@ -121,9 +115,7 @@ def run(args: argparse.Namespace) -> int:
         "tubempc_us_per_point_1_thread": 1e6 * t1 / n,
         "tubempc_us_per_point_all_threads": 1e6 * tn / n,
     }
-    print(
-        f"machine: {info['cpu']}, {info['cores']} cores; core built with {info['core_build']['cxx_flags']!r}"
-    )
+    print(f"machine: {info['cpu']}, {info['cores']} cores; core built with {info['core_build']['cxx_flags']!r}")
     print(f"shape: {source}: {shape.n_vertices} vertices, {shape.n_faces} faces")
     print(f"{n} points (near, far, inside); fastest of {args.repeat} runs; (U, a, Hess U) per point")
     print(f"{'':24s}{'1 thread':>14s}{f'{hw} threads':>14s}")
@@ -131,9 +123,7 @@ def run(args: argparse.Namespace) -> int:
     if ref is not None:
         rel_u = float(np.max(np.abs(U - ref["U"]) / np.abs(ref["U"])))
         rel_a = float(np.max(np.linalg.norm(a - ref["a"], axis=1) / np.linalg.norm(ref["a"], axis=1)))
-        rel_h = float(
-            np.max(np.linalg.norm(H - ref["H"], axis=(1, 2)) / np.linalg.norm(ref["H"], axis=(1, 2)))
-        )
+        rel_h = float(np.max(np.linalg.norm(H - ref["H"], axis=(1, 2)) / np.linalg.norm(ref["H"], axis=(1, 2))))
         print(
             f"{'polyhedral-gravity ' + ref['version']:24s}"
             f"{1e6 * ref['t1'] / n:11.1f} us{1e6 * ref['tn'] / n:11.1f} us"

@@ -33,8 +33,7 @@ Arr = npt.NDArray[np.float64]
 
 N_ORBIT = np.sqrt(1.32712440018e20 / 1.685e11**3)  # rad/s, PAPER_NOTES.md "Translational dynamics"
 J_DIAG = np.array([2750.0, 2750.0, 2030.0])  # kg m^2, PAPER_NOTES.md "Attitude"
-X0 = np.array([959.2404, 162.4966, 752.7547, 7.7649e-4, 0.0844, -0.0192,
-               0.3142, 2.925, 0.3142, 1e-3, 0.0, 3e-3])
+X0 = np.array([959.2404, 162.4966, 752.7547, 7.7649e-4, 0.0844, -0.0192, 0.3142, 2.925, 0.3142, 1e-3, 0.0, 3e-3])
 XF = np.array([0.0, 0.0, 246.5, 0.0, 0.0, 0.0, 0.0, 3.1416, 0.0, 0.0, 0.0, 0.0])
 
 
@@ -107,9 +106,14 @@ def lqr_tube(Ad: Arr, Bd: Arr, settings: mpc.Settings) -> mpc.Tube:
     return mpc.Tube(K, Pe)
 
 
-def run_mission(model: mpc.LinearizedModel, settings: mpc.Settings, reference: mpc.Reference,
-                tube: mpc.Tube, truth: Callable[[int, Arr, Arr], Arr], qp_steps: set[int]
-                ) -> tuple[list[dict[str, Any]], dict[int, tuple[mpc.QpData, float, float, Arr]]]:
+def run_mission(
+    model: mpc.LinearizedModel,
+    settings: mpc.Settings,
+    reference: mpc.Reference,
+    tube: mpc.Tube,
+    truth: Callable[[int, Arr, Arr], Arr],
+    qp_steps: set[int],
+) -> tuple[list[dict[str, Any]], dict[int, tuple[mpc.QpData, float, float, Arr]]]:
     """Closed loop over the whole mission; per-step records and, for each k in qp_steps, the QP of the
     first step >= k whose status is "solved" (with the step's C++ solve time per QP, the objective and
     the C++ minimiser): fallback steps' last QPs are not the plan applied and are not compared."""
@@ -126,11 +130,23 @@ def run_mission(model: mpc.LinearizedModel, settings: mpc.Settings, reference: m
         r = ctrl.step(k, x, tube)
         wall = time.perf_counter() - t0
         tm = r.timings
-        records.append({"k": k, "status": str(r.status), "scp": r.scp_iterations, "qp_iter": r.qp_iterations,
-                        "as_solves": r.active_set_solves, "as_iter": r.active_set_iterations,
-                        "model_evaluations": r.model_evaluations,
-                        "linearize": tm.linearize, "build": tm.build, "solve": tm.solve, "total": tm.total,
-                        "python_wall": wall, "horizon": r.horizon})
+        records.append(
+            {
+                "k": k,
+                "status": str(r.status),
+                "scp": r.scp_iterations,
+                "qp_iter": r.qp_iterations,
+                "as_solves": r.active_set_solves,
+                "as_iter": r.active_set_iterations,
+                "model_evaluations": r.model_evaluations,
+                "linearize": tm.linearize,
+                "build": tm.build,
+                "solve": tm.solve,
+                "total": tm.total,
+                "python_wall": wall,
+                "horizon": r.horizon,
+            }
+        )
         if pending and k >= pending[0] and r.status == mpc.Status.Solved:
             while pending and pending[0] <= k:
                 pending.pop(0)
@@ -138,17 +154,27 @@ def run_mission(model: mpc.LinearizedModel, settings: mpc.Settings, reference: m
             qps[k] = (ctrl.qp_data(), tm.solve / max(1, r.scp_iterations), r.objective, sol.w)
             kkt[k] = kkt_residual(qps[k][0], sol)
         x = truth(k, x, r.u)
-    records.append({"final_error_inf": float(np.max(np.abs(x - reference.z[:, -1]))),
-                    "max_kkt_residual": max(kkt.values(), default=0.0)})
+    records.append(
+        {
+            "final_error_inf": float(np.max(np.abs(x - reference.z[:, -1]))),
+            "max_kkt_residual": max(kkt.values(), default=0.0),
+        }
+    )
     return records, qps
 
 
 def violation(qp: mpc.QpData, w: Arr) -> float:
     """Largest constraint violation of w in the exported QP."""
     Gw = qp.G @ w
-    return float(max(np.max(np.abs(qp.A @ w - qp.b)), np.max(Gw - qp.h_u, initial=0.0),
-                     np.max(qp.h_l - Gw, initial=0.0), np.max(w - qp.x_u, initial=0.0),
-                     np.max(qp.x_l - w, initial=0.0)))
+    return float(
+        max(
+            np.max(np.abs(qp.A @ w - qp.b)),
+            np.max(Gw - qp.h_u, initial=0.0),
+            np.max(qp.h_l - Gw, initial=0.0),
+            np.max(w - qp.x_u, initial=0.0),
+            np.max(qp.x_l - w, initial=0.0),
+        )
+    )
 
 
 def kkt_residual(qp: mpc.QpData, sol: mpc.QpSolution) -> float:
@@ -167,28 +193,53 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--steps", type=int, default=300, help="mission length T (default 300 = 600 s)")
     parser.add_argument("--horizon", type=int, default=30, help="N (default 30)")
     parser.add_argument("--qp-samples", type=int, default=12, help="QPs re-solved through cvxpy (default 12)")
-    parser.add_argument("--solvers",
-                        default="node-cvxpy-clarabel,node-cvxpy-osqp,node-cvxpy-piqp,cvxpy-clarabel,cvxpy-piqp,osqp",
-                        help="Python backends for the baseline (comma separated): node-cvxpy-* the QP written "
-                             "node by node in cvxpy, cvxpy-* the exported matrices through cvxpy, osqp")
+    parser.add_argument(
+        "--solvers",
+        default="node-cvxpy-clarabel,node-cvxpy-osqp,node-cvxpy-piqp,cvxpy-clarabel,cvxpy-piqp,osqp",
+        help="Python backends for the baseline (comma separated): node-cvxpy-* the QP written "
+        "node by node in cvxpy, cvxpy-* the exported matrices through cvxpy, osqp",
+    )
     parser.add_argument("--eps", type=float, default=1e-8, help="interior-point baseline tolerance")
     parser.add_argument("--osqp-eps", type=float, default=1e-5, help="OSQP baseline tolerance (first order)")
-    parser.add_argument("--disturbance", type=float, default=1e-3,
-                        help="uniform position/velocity disturbance per step (m, m/s; default 1e-3)")
-    parser.add_argument("--structure", choices=("block", "dense"), default="block",
-                        help="declared model structure: block-diagonal subsystems (default) or dense")
-    parser.add_argument("--plant", choices=("bennu", "stand-in"), default="bennu",
-                        help="bennu: the default scenario's 6-DOF model (generated shape, TBMPC's prior tube, "
-                             "truth propagation with the scenario's disturbance); stand-in: a 12/6 LTI plant")
-    parser.add_argument("--no-reuse-linearization", action="store_true",
-                        help="call the model at every node in every SCP iteration (mpc::Settings::reuse_linearization "
-                             "off; default: a step re-uses the previous converged step's model data)")
-    parser.add_argument("--backend", choices=("active-set", "piqp"), default="active-set",
-                        help="QP solver of the step: the warm-started active set with PIQP when it does not verify "
-                             "(default, mpc::Backend::ActiveSetPiqp) or PIQP alone")
-    parser.add_argument("--repeats", type=int, default=1,
-                        help="fly the mission this many times and report the spread of the per-run medians and "
-                             "p99s (the machine's speed drifts between runs; default 1)")
+    parser.add_argument(
+        "--disturbance",
+        type=float,
+        default=1e-3,
+        help="uniform position/velocity disturbance per step (m, m/s; default 1e-3)",
+    )
+    parser.add_argument(
+        "--structure",
+        choices=("block", "dense"),
+        default="block",
+        help="declared model structure: block-diagonal subsystems (default) or dense",
+    )
+    parser.add_argument(
+        "--plant",
+        choices=("bennu", "stand-in"),
+        default="bennu",
+        help="bennu: the default scenario's 6-DOF model (generated shape, TBMPC's prior tube, "
+        "truth propagation with the scenario's disturbance); stand-in: a 12/6 LTI plant",
+    )
+    parser.add_argument(
+        "--no-reuse-linearization",
+        action="store_true",
+        help="call the model at every node in every SCP iteration (mpc::Settings::reuse_linearization "
+        "off; default: a step re-uses the previous converged step's model data)",
+    )
+    parser.add_argument(
+        "--backend",
+        choices=("active-set", "piqp"),
+        default="active-set",
+        help="QP solver of the step: the warm-started active set with PIQP when it does not verify "
+        "(default, mpc::Backend::ActiveSetPiqp) or PIQP alone",
+    )
+    parser.add_argument(
+        "--repeats",
+        type=int,
+        default=1,
+        help="fly the mission this many times and report the spread of the per-run medians and "
+        "p99s (the machine's speed drifts between runs; default 1)",
+    )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", metavar="PATH", help="write the figures as JSON")
 
@@ -212,11 +263,14 @@ def _bennu_plant(args: argparse.Namespace) -> tuple[Any, Any, Any, Any, Callable
     dist = AdditiveDisturbance(cfg.disturbance.S_p, cfg.disturbance.S_r, seed=args.seed)
 
     def truth(k: int, x: Arr, u: Arr) -> Arr:
-        prop = scn.truth.propagate(k * cfg.mpc.dt, scn.truth.state_to_truth(x), u, cfg.mpc.dt, method="rk4",
-                                   substeps=cfg.simulation.substeps)
+        prop = scn.truth.propagate(
+            k * cfg.mpc.dt, scn.truth.state_to_truth(x), u, cfg.mpc.dt, method="rk4", substeps=cfg.simulation.substeps
+        )
         w_p, w_r = dist.sample()
-        return np.asarray(scn.truth.truth_to_state(np.asarray(prop.state), ref.x[k + 1, 6:9])
-                          + np.concatenate([w_p, w_r]), dtype=np.float64)
+        return np.asarray(
+            scn.truth.truth_to_state(np.asarray(prop.state), ref.x[k + 1, 6:9]) + np.concatenate([w_p, w_r]),
+            dtype=np.float64,
+        )
 
     model = mpc.LinearizedProximityModel(scn.model.core)
     return model, settings, reference, mpc.Tube(K, Pe), truth
@@ -235,8 +289,11 @@ def run(args: argparse.Namespace) -> int:
 
         def fresh_truth() -> Callable[[int, Arr, Arr], Arr]:
             return _bennu_plant(args)[4]
-        plant_text = ("plant: the default scenario's 6-DOF model (generated Bennu-like shape, polyhedral gravity, "
-                      "exact ZOH), TBMPC's prior tube, truth = RK4 propagation + the scenario's disturbance")
+
+        plant_text = (
+            "plant: the default scenario's 6-DOF model (generated Bennu-like shape, polyhedral gravity, "
+            "exact ZOH), TBMPC's prior tube, truth = RK4 propagation + the scenario's disturbance"
+        )
     else:
         model, Ad, Bd = test_plant(dt)
         settings = paper_settings(dt, args.horizon)
@@ -251,12 +308,12 @@ def run(args: argparse.Namespace) -> int:
 
             def truth(k: int, x: Arr, u: Arr) -> Arr:
                 return np.asarray(Ad @ x + Bd @ u + rng.uniform(-1.0, 1.0, size=12) * scale, dtype=np.float64)
+
             return truth
 
         truth = fresh_truth()
 
-        plant_text = ("plant: 12-state/6-input stand-in (Hill/CW translation + linearised rigid body, "
-                      "4 glide-slope planes)")
+        plant_text = "plant: 12-state/6-input stand-in (Hill/CW translation + linearised rigid body, 4 glide-slope planes)"
 
     samples = set(np.linspace(0, args.steps - 1, args.qp_samples).round().astype(int).tolist())
     settings.reuse_linearization = not args.no_reuse_linearization
@@ -278,31 +335,46 @@ def run(args: argparse.Namespace) -> int:
     own_viol = max(violation(qp, w) for qp, w in ((q[0], q[3]) for q in qps.values()))
     n_var, n_eq, n_in = some_qp.P.shape[0], some_qp.A.shape[0], some_qp.G.shape[0]
     print(plant_text)
-    print(f"mission: T = {args.steps}, N = {args.horizon}, dt = {dt} s; QP: {n_var} variables, "
-          f"{n_eq} equalities, {n_in} inequalities; structure {args.structure}, "
-          f"nnz(P, A, G) = {some_qp.P.nnz}, {some_qp.A.nnz}, {some_qp.G.nnz}")
+    print(
+        f"mission: T = {args.steps}, N = {args.horizon}, dt = {dt} s; QP: {n_var} variables, "
+        f"{n_eq} equalities, {n_in} inequalities; structure {args.structure}, "
+        f"nnz(P, A, G) = {some_qp.P.nnz}, {some_qp.A.nnz}, {some_qp.G.nnz}"
+    )
     evals = [r["model_evaluations"] for r in records]
     scp_mean = float(np.mean([r["scp"] for r in records]))
-    print(f"statuses: {statuses}; SCP iterations per step: mean {scp_mean:.2f}; "
-          f"model evaluations (nodes discretised) per step: median {np.median(evals):.0f}, mean {np.mean(evals):.1f}; "
-          f"final |x - x_f|_inf = {final['final_error_inf']:.3g}")
+    print(
+        f"statuses: {statuses}; SCP iterations per step: mean {scp_mean:.2f}; "
+        f"model evaluations (nodes discretised) per step: median {np.median(evals):.0f}, mean {np.mean(evals):.1f}; "
+        f"final |x - x_f|_inf = {final['final_error_inf']:.3g}"
+    )
     n_qp = sum(r["scp"] for r in records)
     as_qp = sum(r["as_solves"] for r in records)
     as_steps = [r for r in records if r["scp"] > 0 and r["as_solves"] == r["scp"]]
     piqp_qp = n_qp - as_qp
-    print(f"QP solver ({settings.backend.name}): {as_qp} of {n_qp} QPs by the active set "
-          f"({np.mean([r['as_iter'] / r['scp'] for r in as_steps]) if as_steps else 0.0:.2f} factorisations per QP on "
-          f"steps it solved alone), {piqp_qp} by PIQP "
-          f"({sum(r['qp_iter'] for r in records) / max(1, piqp_qp):.1f} interior-point iterations per PIQP QP); "
-          f"steps with a PIQP QP: {sum(1 for r in records if r['as_solves'] < r['scp'])}")
-    out: dict[str, Any] = {"machine": info, "plant": args.plant,
-                           "structure": args.structure,
-                           "T": args.steps, "N": args.horizon, "qp_size": [n_var, n_eq, n_in],
-                           "statuses": statuses, "final_error_inf": final["final_error_inf"],
-                           "reuse_linearization": bool(settings.reuse_linearization),
-                           "model_evaluations_mean": float(np.mean(evals)),
-                           "scp_iterations_mean": scp_mean, "backend": settings.backend.name,
-                           "active_set_qps": as_qp, "qps": n_qp, "step": {}}
+    print(
+        f"QP solver ({settings.backend.name}): {as_qp} of {n_qp} QPs by the active set "
+        f"({np.mean([r['as_iter'] / r['scp'] for r in as_steps]) if as_steps else 0.0:.2f} factorisations per QP on "
+        f"steps it solved alone), {piqp_qp} by PIQP "
+        f"({sum(r['qp_iter'] for r in records) / max(1, piqp_qp):.1f} interior-point iterations per PIQP QP); "
+        f"steps with a PIQP QP: {sum(1 for r in records if r['as_solves'] < r['scp'])}"
+    )
+    out: dict[str, Any] = {
+        "machine": info,
+        "plant": args.plant,
+        "structure": args.structure,
+        "T": args.steps,
+        "N": args.horizon,
+        "qp_size": [n_var, n_eq, n_in],
+        "statuses": statuses,
+        "final_error_inf": final["final_error_inf"],
+        "reuse_linearization": bool(settings.reuse_linearization),
+        "model_evaluations_mean": float(np.mean(evals)),
+        "scp_iterations_mean": scp_mean,
+        "backend": settings.backend.name,
+        "active_set_qps": as_qp,
+        "qps": n_qp,
+        "step": {},
+    }
     print(f"{'per step (C++)':24s} {'median':>10s} {'p99':>10s} {'max':>10s}   [ms]")
     for key in ("total", "linearize", "build", "solve", "python_wall"):
         st = _stats([r[key] for r in records])
@@ -310,8 +382,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {key:22s} {1e3 * st['median']:10.3f} {1e3 * st['p99']:10.3f} {1e3 * st['max']:10.3f}")
     per_qp = _stats([r["solve"] / max(1, r["scp"]) for r in records])
     out["step"]["solve_per_qp"] = per_qp
-    print(f"  {'solve per QP':22s} {1e3 * per_qp['median']:10.3f} {1e3 * per_qp['p99']:10.3f} "
-          f"{1e3 * per_qp['max']:10.3f}")
+    print(f"  {'solve per QP':22s} {1e3 * per_qp['median']:10.3f} {1e3 * per_qp['p99']:10.3f} {1e3 * per_qp['max']:10.3f}")
     if repeat_records:
         runs = []
         for recs in [records, *repeat_records]:
@@ -319,19 +390,25 @@ def run(args: argparse.Namespace) -> int:
             run_stats["solve_per_qp"] = _stats([r["solve"] / max(1, r["scp"]) for r in recs])
             runs.append(run_stats)
         out["runs"] = runs
-        print(f"over {len(runs)} flights of the mission (same steps; the spread is the machine's), per-run "
-              f"[ms]:     median min-max      p99 min-max")
+        print(
+            f"over {len(runs)} flights of the mission (same steps; the spread is the machine's), per-run "
+            f"[ms]:     median min-max      p99 min-max"
+        )
         for key in ("total", "linearize", "solve_per_qp"):
             med = [1e3 * r[key]["median"] for r in runs]
             p99 = [1e3 * r[key]["p99"] for r in runs]
             print(f"  {key:22s} {min(med):10.3f} - {max(med):6.3f} {min(p99):10.3f} - {max(p99):6.3f}")
 
-    print(f"baseline on {len(qps)} of the mission's QPs (the last QP of each sampled step); C++: max "
-          f"violation {own_viol:.1e}, max relative KKT stationarity residual {final['max_kkt_residual']:.1e}")
+    print(
+        f"baseline on {len(qps)} of the mission's QPs (the last QP of each sampled step); C++: max "
+        f"violation {own_viol:.1e}, max relative KKT stationarity residual {final['max_kkt_residual']:.1e}"
+    )
     out["cpp_max_violation"] = own_viol
     out["cpp_max_kkt_residual"] = final["max_kkt_residual"]
-    print(f"  {'solver':16s} {'solver ms':>10s} {'wall ms':>10s} {'ratio solver':>13s} {'ratio wall':>11s} "
-          f"{'|rel obj diff|':>15s} {'max excess':>11s} {'max viol':>9s}")
+    print(
+        f"  {'solver':16s} {'solver ms':>10s} {'wall ms':>10s} {'ratio solver':>13s} {'ratio wall':>11s} "
+        f"{'|rel obj diff|':>15s} {'max excess':>11s} {'max viol':>9s}"
+    )
     out["baseline"] = {}
     for solver in [s for s in args.solvers.split(",") if s]:
         solver_t, wall_t, ratio_s, ratio_w, diffs, viols = [], [], [], [], [], []
@@ -347,22 +424,30 @@ def run(args: argparse.Namespace) -> int:
             ratio_w.append(res.wall_time / cpp_solve)
             diffs.append((objective - res.objective) / max(1.0, abs(res.objective)))
             viols.append(violation(qp, res.w) if np.all(np.isfinite(res.w)) else np.inf)
-        entry = {"solver_time_median": float(np.median(solver_t)),
-                 "wall_time_median": float(np.median(wall_t)),
-                 "ratio_solver_median": float(np.median(ratio_s)),
-                 "ratio_wall_median": float(np.median(ratio_w)),
-                 "median_abs_rel_objective_diff": float(np.median(np.abs(diffs))),
-                 "max_rel_objective_excess": float(np.max(diffs)),
-                 "max_violation": float(np.max(viols))}
+        entry = {
+            "solver_time_median": float(np.median(solver_t)),
+            "wall_time_median": float(np.median(wall_t)),
+            "ratio_solver_median": float(np.median(ratio_s)),
+            "ratio_wall_median": float(np.median(ratio_w)),
+            "median_abs_rel_objective_diff": float(np.median(np.abs(diffs))),
+            "max_rel_objective_excess": float(np.max(diffs)),
+            "max_violation": float(np.max(viols)),
+        }
         out["baseline"][solver] = entry
-        print(f"  {solver:16s} {1e3 * entry['solver_time_median']:10.3f} "
-              f"{1e3 * entry['wall_time_median']:10.3f} {entry['ratio_solver_median']:13.1f} "
-              f"{entry['ratio_wall_median']:11.1f} {entry['median_abs_rel_objective_diff']:15.1e} "
-              f"{entry['max_rel_objective_excess']:11.1e} {entry['max_violation']:9.1e}")
-    print("ratio = Python backend time / C++ solve time per QP (the step's QPs), median over the sampled QPs "
-          "('solver': the backend's own solve time; 'wall': including cvxpy's problem construction)")
-    print("objective: |rel obj diff| = median |ours - theirs| / |theirs|; max excess = max (ours - theirs) / "
-          "|theirs| (> 0: the C++ optimum is worse than the baseline's)")
+        print(
+            f"  {solver:16s} {1e3 * entry['solver_time_median']:10.3f} "
+            f"{1e3 * entry['wall_time_median']:10.3f} {entry['ratio_solver_median']:13.1f} "
+            f"{entry['ratio_wall_median']:11.1f} {entry['median_abs_rel_objective_diff']:15.1e} "
+            f"{entry['max_rel_objective_excess']:11.1e} {entry['max_violation']:9.1e}"
+        )
+    print(
+        "ratio = Python backend time / C++ solve time per QP (the step's QPs), median over the sampled QPs "
+        "('solver': the backend's own solve time; 'wall': including cvxpy's problem construction)"
+    )
+    print(
+        "objective: |rel obj diff| = median |ours - theirs| / |theirs|; max excess = max (ours - theirs) / "
+        "|theirs| (> 0: the C++ optimum is worse than the baseline's)"
+    )
     if args.json:
         with open(args.json, "w", encoding="utf-8") as f:
             json.dump(out, f, indent=2)

@@ -151,7 +151,8 @@ TEST(Constraints, BodyFixedConeFollowsTheRotationAtRandomTimes) {
       xp(i) += 1e-4;
       xm(i) -= 1e-4;
       const double fd = (glide_slope_constraint(xp, p.glide_slope_angle, apex_L, axis_L) -
-                         glide_slope_constraint(xm, p.glide_slope_angle, apex_L, axis_L)) / 2e-4;
+                         glide_slope_constraint(xm, p.glide_slope_angle, apex_L, axis_L)) /
+                        2e-4;
       EXPECT_NEAR(G(0, i), fd, 1e-6);
     }
   }

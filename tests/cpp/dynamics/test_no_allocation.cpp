@@ -52,7 +52,7 @@ TEST(NoAllocation, DiscretizeConstraintsAndHorizon) {
 
   const long before = g_allocations.load();
   lin.discretize(10.0, 2.0, x, u, A, B, c);
-  lin.rediscretize(10.0, 2.0, x, u, x_attitude, u, A, B, c);  // attitude half only
+  lin.rediscretize(10.0, 2.0, x, u, x_attitude, u, A, B, c);        // attitude half only
   lin.rediscretize(10.0, 2.0, x_attitude, u, x_moved, u, A, B, c);  // full
   lin.discretize(10.0, 2.0, x, u, A, B, c);
   lin.constraints(10.0, x, G, h);

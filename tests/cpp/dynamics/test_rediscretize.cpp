@@ -106,7 +106,8 @@ TEST_P(Rediscretize, PositionToleranceBoundsTheKeptBlocks) {
   const double dA = max_abs(n.A.topRows(6) - want_in.A.topRows(6));
   EXPECT_GT(dA, 0.0);
   EXPECT_LT(dA, 1e-9);
-  const Eigen::VectorXd pred = n.A * x_in + n.B * u0 + n.c, pred_want = want_in.A * x_in + want_in.B * u0 + want_in.c;
+  const Eigen::VectorXd pred = n.A * x_in + n.B * u0 + n.c,
+                        pred_want = want_in.A * x_in + want_in.B * u0 + want_in.c;
   EXPECT_LT(max_abs(pred - pred_want), 1e-13 * max_abs(x_in));  // rounding of ~300 m terms
 
   n = full(lin, 3.0, x0, u0);
@@ -117,7 +118,8 @@ TEST_P(Rediscretize, PositionToleranceBoundsTheKeptBlocks) {
   EXPECT_EQ(max_abs(n.c - want_out.c), 0.0);
 }
 
-INSTANTIATE_TEST_SUITE_P(BothKinematics, Rediscretize, ::testing::Values(Kinematics::Paper, Kinematics::Exact));
+INSTANTIATE_TEST_SUITE_P(BothKinematics, Rediscretize,
+                         ::testing::Values(Kinematics::Paper, Kinematics::Exact));
 
 // An extra acceleration may depend on v_L: the translation is then always re-discretised.
 class LinearDrag final : public ExtraAcceleration {
@@ -133,8 +135,8 @@ class LinearDrag final : public ExtraAcceleration {
 };
 
 TEST(Rediscretize, ExtraAccelerationAndCoupledDataUseDiscretize) {
-  const auto model =
-      std::make_shared<const ProximityModel>(cluster(), fast_frames(Kinematics::Exact), std::make_shared<LinearDrag>());
+  const auto model = std::make_shared<const ProximityModel>(cluster(), fast_frames(Kinematics::Exact),
+                                                            std::make_shared<LinearDrag>());
   const LinearizedProximityModel lin(model);
   const Eigen::VectorXd x0 = state(), u0 = input();
   Eigen::VectorXd x1 = x0;
@@ -146,7 +148,8 @@ TEST(Rediscretize, ExtraAccelerationAndCoupledDataUseDiscretize) {
   EXPECT_EQ(max_abs(n.c - want.c), 0.0);
 
   // Incoming data with a coupling entry are not the decoupled model's: recomputed in full.
-  const LinearizedProximityModel plain(std::make_shared<const ProximityModel>(cluster(), fast_frames(Kinematics::Exact)));
+  const LinearizedProximityModel plain(
+      std::make_shared<const ProximityModel>(cluster(), fast_frames(Kinematics::Exact)));
   Node m = full(plain, 1.0, x0, u0);
   m.A(0, 9) = 1.0;
   plain.rediscretize(1.0, 2.0, x0, u0, x0, u0, m.A, m.B, m.c);
@@ -166,7 +169,8 @@ TEST(Rediscretize, RejectsBadToleranceSizesAndTime) {
   const LinearizedProximityModel lin(model);
   Node n = full(lin, 0.0, state(), input());
   const Eigen::VectorXd short_x = Eigen::VectorXd::Zero(11);
-  EXPECT_THROW(lin.rediscretize(0.0, 2.0, short_x, input(), state(), input(), n.A, n.B, n.c), std::invalid_argument);
+  EXPECT_THROW(lin.rediscretize(0.0, 2.0, short_x, input(), state(), input(), n.A, n.B, n.c),
+               std::invalid_argument);
   EXPECT_THROW(lin.rediscretize(std::nan(""), 2.0, state(), input(), state(), input(), n.A, n.B, n.c),
                std::domain_error);
 }

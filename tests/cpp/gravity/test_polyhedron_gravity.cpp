@@ -36,16 +36,16 @@ struct Prism {
     using LD = long double;  // the closed form cancels too: evaluate it in extended precision
     LD U = 0, ax = 0, ay = 0, az = 0, hxx = 0, hyy = 0, hzz = 0, hxy = 0, hxz = 0, hyz = 0;
     for (int i = 0; i < 8; ++i) {
-      const LD X = LD((i & 1) ? x1 : x0) - p.x(), Y = LD((i & 2) ? y1 : y0) - p.y(), Z = LD((i & 4) ? z1 : z0) - p.z();
+      const LD X = LD((i & 1) ? x1 : x0) - p.x(), Y = LD((i & 2) ? y1 : y0) - p.y(),
+               Z = LD((i & 4) ? z1 : z0) - p.z();
       const int lower = !(i & 1) + !(i & 2) + !(i & 4);
       const LD s = (lower % 2 == 0) ? 1 : -1;
       const LD R = std::sqrt(X * X + Y * Y + Z * Z);
       // ln(W + R) without cancellation for W < 0: W + R = (R^2 - W^2)/(R - W).
       auto ln_plus_r = [R](LD W, LD P, LD Q) { return std::log(W >= 0 ? W + R : (P * P + Q * Q) / (R - W)); };
       const LD lx = ln_plus_r(X, Y, Z), ly = ln_plus_r(Y, Z, X), lz = ln_plus_r(Z, X, Y);
-      U += s * (X * Y * lz + Y * Z * lx + Z * X * ly -
-                X * X / 2 * std::atan(Y * Z / (X * R)) - Y * Y / 2 * std::atan(Z * X / (Y * R)) -
-                Z * Z / 2 * std::atan(X * Y / (Z * R)));
+      U += s * (X * Y * lz + Y * Z * lx + Z * X * ly - X * X / 2 * std::atan(Y * Z / (X * R)) -
+                Y * Y / 2 * std::atan(Z * X / (Y * R)) - Z * Z / 2 * std::atan(X * Y / (Z * R)));
       ax -= s * (Y * lz + Z * ly - X * std::atan(Y * Z / (X * R)));
       ay -= s * (Z * lx + X * lz - Y * std::atan(Z * X / (Y * R)));
       az -= s * (X * ly + Y * lx - Z * std::atan(X * Y / (Z * R)));
@@ -59,9 +59,10 @@ struct Prism {
     }
     const LD g_rho = LD(kGravitationalConstant) * kRho;
     U_out = static_cast<double>(g_rho * U);
-    a_out << static_cast<double>(g_rho * ax), static_cast<double>(g_rho * ay), static_cast<double>(g_rho * az);
+    a_out << static_cast<double>(g_rho * ax), static_cast<double>(g_rho * ay),
+        static_cast<double>(g_rho * az);
     H_out << static_cast<double>(hxx), static_cast<double>(hxy), static_cast<double>(hxz),  //
-        static_cast<double>(hxy), static_cast<double>(hyy), static_cast<double>(hyz),          //
+        static_cast<double>(hxy), static_cast<double>(hyy), static_cast<double>(hyz),       //
         static_cast<double>(hxz), static_cast<double>(hyz), static_cast<double>(hzz);
     H_out *= static_cast<double>(g_rho);
   }
@@ -73,7 +74,7 @@ TEST(PolyhedronGravity, PrismPotentialAccelerationAndHessianMatchClosedForm) {
   const Prism pr{-100.0, 140.0, -60.0, 90.0, -75.0, 55.0};
   const PolyhedronGravity g = model(box(pr.x0, pr.x1, pr.y0, pr.y1, pr.z0, pr.z1));
   const Eigen::Vector3d pts[] = {{300.0, 41.0, -17.0}, {-20.0, 150.0, 230.0}, {1234.0, -987.0, 2345.0},
-                                 {13.0, -7.0, 5.0},    {120.0, 80.0, -70.0}, {141.0, 3.0, 2.0}};
+                                 {13.0, -7.0, 5.0},    {120.0, 80.0, -70.0},  {141.0, 3.0, 2.0}};
   for (const auto& p : pts) {
     double U = 0.0;
     Eigen::Vector3d a;
@@ -99,7 +100,7 @@ TEST(PolyhedronGravity, FarFieldMatchesPointMassPlusQuadrupole) {
     g.evaluate(p, s);
     const double U0 = g.gm() / dist;
     const double U2 = kGravitationalConstant / (2.0 * dist * dist * dist) * (I.trace() - 3.0 * u.dot(I * u));
-    const double rel = std::pow(180.0 / dist, 4);           // size of the first neglected term
+    const double rel = std::pow(180.0 / dist, 4);             // size of the first neglected term
     const double cancel = 1e-15 * std::pow(dist / 180.0, 2);  // the formula's own cancellation
     EXPECT_NEAR(s.potential, U0 + U2, (2.0 * rel + cancel) * U0) << dist;
     EXPECT_GT(std::fabs(s.potential - U0), 10.0 * std::fabs(s.potential - U0 - U2)) << dist;
@@ -115,7 +116,7 @@ TEST(PolyhedronGravity, FarFieldExpansionTakesOverContinuouslyAndStaysExact) {
   const Eigen::Vector3d u = Eigen::Vector3d(-0.2, 0.6, 0.7).normalized();
   const double r_switch = tubempc::gravity::kFarFieldFactor * r_max;
   GravitySample in, out;
-  g.evaluate(c + (1.0 - 1e-14) * r_switch * u, in);  // polyhedron formula
+  g.evaluate(c + (1.0 - 1e-14) * r_switch * u, in);   // polyhedron formula
   g.evaluate(c + (1.0 + 1e-14) * r_switch * u, out);  // expansion
   // The jump: cancellation of the polyhedron sums and truncation of the expansion, both ~1e-10.
   EXPECT_NEAR(out.potential, in.potential, 1e-9 * in.potential);
@@ -131,7 +132,8 @@ TEST(PolyhedronGravity, FarFieldExpansionTakesOverContinuouslyAndStaysExact) {
     g.evaluate(p + h * Eigen::Vector3d::Unit(i), sp);
     g.evaluate(p - h * Eigen::Vector3d::Unit(i), sm);
     EXPECT_NEAR((sp.potential - sm.potential) / (2 * h), s.acceleration(i), 1e-8 * s.acceleration.norm());
-    EXPECT_LT(((sp.acceleration - sm.acceleration) / (2 * h) - s.gradient.col(i)).norm(), 1e-7 * s.gradient.norm());
+    EXPECT_LT(((sp.acceleration - sm.acceleration) / (2 * h) - s.gradient.col(i)).norm(),
+              1e-7 * s.gradient.norm());
   }
   EXPECT_LT((s.gradient - s.gradient.transpose()).norm(), 1e-15 * s.gradient.norm());
   EXPECT_NEAR(s.gradient.trace(), 0.0, 1e-12 * s.gradient.norm());
@@ -177,7 +179,8 @@ TEST(PolyhedronGravity, DerivativesMatchFiniteDifferencesAndHessianIsSymmetric) 
       g.evaluate(p + d, sp);
       g.evaluate(p - d, sm);
       EXPECT_NEAR((sp.potential - sm.potential) / (2 * h), s.acceleration(i), 1e-8 * s.acceleration.norm());
-      EXPECT_LT(((sp.acceleration - sm.acceleration) / (2 * h) - s.gradient.col(i)).norm(), 1e-7 * s.gradient.norm());
+      EXPECT_LT(((sp.acceleration - sm.acceleration) / (2 * h) - s.gradient.col(i)).norm(),
+                1e-7 * s.gradient.norm());
     }
     EXPECT_LT((s.gradient - s.gradient.transpose()).norm(), 1e-14 * s.gradient.norm());
   }
@@ -186,12 +189,14 @@ TEST(PolyhedronGravity, DerivativesMatchFiniteDifferencesAndHessianIsSymmetric) 
 TEST(PolyhedronGravity, InvariantUnderRotatingAndTranslatingMeshAndPointTogether) {
   const Mesh m = gravity_test::lumpy_body(12, 18, 250.0);
   const PolyhedronGravity g = model(m);
-  const Eigen::Matrix3d R = tubempc::math::rotation_matrix(tubempc::math::exp_map(Eigen::Vector3d(0.4, -1.1, 0.7)));
+  const Eigen::Matrix3d R =
+      tubempc::math::rotation_matrix(tubempc::math::exp_map(Eigen::Vector3d(0.4, -1.1, 0.7)));
   const Eigen::Vector3d t(1234.5, -678.9, 4321.0);
   Mesh moved = m;
   for (Eigen::Index i = 0; i < m.v.rows(); ++i) moved.v.row(i) = (R * m.v.row(i).transpose() + t).transpose();
   const PolyhedronGravity gm = model(moved);
-  for (const Eigen::Vector3d p : {Eigen::Vector3d(400.0, -150.0, 120.0), Eigen::Vector3d(20.0, 10.0, -30.0)}) {
+  for (const Eigen::Vector3d p :
+       {Eigen::Vector3d(400.0, -150.0, 120.0), Eigen::Vector3d(20.0, 10.0, -30.0)}) {
     GravitySample s, q;
     g.evaluate(p, s);
     gm.evaluate(R * p + t, q);

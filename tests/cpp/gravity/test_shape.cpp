@@ -29,11 +29,13 @@ void expect_error(const Mesh& m, const std::string& needle, ShapeRepair repair =
 
 TEST(Shape, BoxMassPropertiesMatchClosedForm) {
   const double a = 3.0, b = 5.0, c = 7.0;
-  const Shape s(box(1.0, 1.0 + a, -2.0, -2.0 + b, 10.0, 10.0 + c).v, box(1.0, 1.0 + a, -2.0, -2.0 + b, 10.0, 10.0 + c).f);
+  const Shape s(box(1.0, 1.0 + a, -2.0, -2.0 + b, 10.0, 10.0 + c).v,
+                box(1.0, 1.0 + a, -2.0, -2.0 + b, 10.0, 10.0 + c).f);
   const double V = a * b * c;
   EXPECT_NEAR(s.volume(), V, 1e-12 * V);
   EXPECT_LT((s.center_of_mass() - Eigen::Vector3d(1.0 + a / 2, -2.0 + b / 2, 10.0 + c / 2)).norm(), 1e-12);
-  const Eigen::Matrix3d I = (Eigen::Vector3d(b * b + c * c, a * a + c * c, a * a + b * b) * V / 12.0).asDiagonal();
+  const Eigen::Matrix3d I =
+      (Eigen::Vector3d(b * b + c * c, a * a + c * c, a * a + b * b) * V / 12.0).asDiagonal();
   EXPECT_LT((s.inertia_per_unit_density() - I).norm(), 1e-12 * I.norm());
   EXPECT_LT((s.inertia(2.0) - 2.0 * I).norm(), 1e-12 * I.norm());
   EXPECT_NEAR(s.mean_radius(), std::cbrt(3.0 * V / (4.0 * 3.14159265358979323846)), 1e-12);
@@ -46,7 +48,8 @@ TEST(Shape, RightTetrahedronMassPropertiesMatchClosedForm) {
   // int xy = a^2 b^2 c/120 (and permutations).
   const double a = 2.0, b = 3.0, c = 5.0;
   const Eigen::Vector3d o(0.5, -1.0, 2.0);
-  const Mesh m = tetrahedron(o, o + Eigen::Vector3d(a, 0, 0), o + Eigen::Vector3d(0, b, 0), o + Eigen::Vector3d(0, 0, c));
+  const Mesh m = tetrahedron(o, o + Eigen::Vector3d(a, 0, 0), o + Eigen::Vector3d(0, b, 0),
+                             o + Eigen::Vector3d(0, 0, c));
   const Shape s(m.v, m.f);
   const double V = a * b * c / 6.0;
   EXPECT_NEAR(s.volume(), V, 1e-13);
@@ -54,7 +57,7 @@ TEST(Shape, RightTetrahedronMassPropertiesMatchClosedForm) {
   EXPECT_LT((s.center_of_mass() - o - cm).norm(), 1e-13);
   Eigen::Matrix3d second;  // int x x^T about the right-angle corner
   second << a * a * a * b * c / 60, a * a * b * b * c / 120, a * a * b * c * c / 120,  //
-      a * a * b * b * c / 120, a * b * b * b * c / 60, a * b * b * c * c / 120,         //
+      a * a * b * b * c / 120, a * b * b * b * c / 60, a * b * b * c * c / 120,        //
       a * a * b * c * c / 120, a * b * b * c * c / 120, a * b * c * c * c / 60;
   const Eigen::Matrix3d second_cm = second - V * cm * cm.transpose();
   const Eigen::Matrix3d I = second_cm.trace() * Eigen::Matrix3d::Identity() - second_cm;
@@ -155,7 +158,8 @@ TEST(Shape, OrientRepairRestoresOutwardFaces) {
     const Eigen::Vector3d n = (fixed.vertices().row(fixed.faces()(j, 1)).transpose() - a)
                                   .cross(fixed.vertices().row(fixed.faces()(j, 2)).transpose() - a);
     const Eigen::Vector3d a0 = good.v.row(good.f(j, 0)).transpose();
-    const Eigen::Vector3d n0 = (good.v.row(good.f(j, 1)).transpose() - a0).cross(good.v.row(good.f(j, 2)).transpose() - a0);
+    const Eigen::Vector3d n0 =
+        (good.v.row(good.f(j, 1)).transpose() - a0).cross(good.v.row(good.f(j, 2)).transpose() - a0);
     EXPECT_GT(n.dot(n0), 0.0) << "face " << j;
   }
   for (Eigen::Index j = 0; j < m.f.rows(); ++j) std::swap(m.f(j, 1), m.f(j, 2));

@@ -125,7 +125,8 @@ TEST_F(ShapeIo, MalformedFilesNameTheLine) {
   expect_error("index_text.tab", head + "f 1 2 b\n", 5, "bad vertex index 'b'");
   expect_error("index_float.tab", head + "f 1 2 3.0\n", 5, "bad vertex index '3.0'");
   expect_error("index_zero.obj", head + "f 0 1 2\n", 5, "vertex index 0");
-  expect_error("index_range.tab", head + "f 1 3 2\nf 1 2 9\n", 6, "vertex index 9 out of range (the file has 4");
+  expect_error("index_range.tab", head + "f 1 3 2\nf 1 2 9\n", 6,
+               "vertex index 9 out of range (the file has 4");
   expect_error("index_rel.obj", head + "f -1 -2 -5\n", 5, "relative vertex index -5 with only 4 vertices");
   expect_error("index_neg.tab", head + "f -1 -2 -3\n", 5, "negative vertex index");
   expect_error("unknown.tab", head + "vn 0 0 1\n", 5, "unknown record 'vn'");
@@ -136,11 +137,12 @@ TEST_F(ShapeIo, MalformedFilesNameTheLine) {
   // Mesh errors found by Shape are mapped back to the face's line.
   expect_error("degenerate.tab", kTetra + "f 1 1 2\n", 9, "face 4 is degenerate");
   expect_error("duplicate.tab", head + "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 1 3\n", 8, "face 3 duplicates face 0");
-  expect_error("open.obj", head + "v 1 1 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 5 4\n", 8, "of face 2 belongs to no other face");
+  expect_error("open.obj", head + "v 1 1 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 5 4\n", 8,
+               "of face 2 belongs to no other face");
   expect_error("flipped.tab", head + "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 4 3\n", 8, "face 3");
   // ... which ShapeRepair::Orient repairs.
-  const Shape repaired =
-      load_shape(write("flipped_ok.tab", head + "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 4 3\n"), 1.0, ShapeRepair::Orient);
+  const Shape repaired = load_shape(write("flipped_ok.tab", head + "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 4 3\n"),
+                                    1.0, ShapeRepair::Orient);
   EXPECT_EQ(repaired.n_flipped_faces(), 1);
 }
 
@@ -163,11 +165,13 @@ TEST_F(ShapeIo, MissingFileAndBadScale) {
   const std::string path = write("t.tab", kTetra);
   EXPECT_THROW(load_shape(path, 0.0), std::invalid_argument);
   EXPECT_THROW(load_shape(path, std::nan("")), std::invalid_argument);
-  EXPECT_THROW(save_obj((dir_ / "no" / "such" / "dir.obj").string(), load_shape(path, 1.0)), std::runtime_error);
+  EXPECT_THROW(save_obj((dir_ / "no" / "such" / "dir.obj").string(), load_shape(path, 1.0)),
+               std::runtime_error);
 }
 
 TEST_F(ShapeIo, RoundTripIsExactInMetres) {
-  const gravity_test::Mesh m = gravity_test::box(-1.0 / 3.0, 2.0 / 7.0, -5.5, 1e-3, 12345.678901234567, 12399.1);
+  const gravity_test::Mesh m =
+      gravity_test::box(-1.0 / 3.0, 2.0 / 7.0, -5.5, 1e-3, 12345.678901234567, 12399.1);
   const Shape s(m.v, m.f);
   const std::string path = (dir_ / "box.obj").string();
   save_obj(path, s);

@@ -22,7 +22,8 @@ namespace fs = std::filesystem;
 // Deterministic values with full 17-digit mantissas: scale * sin(seed + 0.7 i).
 Eigen::MatrixXd filled(Eigen::Index rows, Eigen::Index cols, double seed, double scale) {
   Eigen::MatrixXd m(rows, cols);
-  for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] = scale * std::sin(seed + 0.7 * static_cast<double>(i));
+  for (Eigen::Index i = 0; i < m.size(); ++i)
+    m.data()[i] = scale * std::sin(seed + 0.7 * static_cast<double>(i));
   return m;
 }
 
@@ -47,11 +48,11 @@ Scenario sample(int T) {
   s.settings.R = Eigen::VectorXd::LinSpaced(6, 1e3, 1e4).asDiagonal();
   s.settings.u_max = (Eigen::VectorXd(6) << 0.55, 0.55, 0.55, 3.0, 3.0, 3.0).finished();
   s.settings.input_cost = tubempc::mpc::InputCost::FromReference;
-  s.settings.soft_terminal = true;  // set explicitly: the error test below edits its record
+  s.settings.soft_terminal = true;              // set explicitly: the error test below edits its record
   s.settings.qp_preconditioner_iterations = 4;  // not the default: the round trip must carry it
   s.settings.qp_reg_lower_limit = 3e-9;
   s.settings.qp_retry_reg_lower_limit = 0.0;
-  s.settings.reuse_linearization = false;  // not the default
+  s.settings.reuse_linearization = false;                  // not the default
   s.settings.backend = tubempc::mpc::Backend::PiqpSparse;  // not the default
   s.settings.active_set_max_iterations = 5;
   s.settings.G_structure = Eigen::MatrixXd::Ones(2, 12);
@@ -113,7 +114,8 @@ class ScenarioFile : public ::testing::Test {
 
   // Replaces the first occurrence of `from` in the written file, reads it and expects an error whose
   // message starts with "<path>:<line>: " (line 0: "<path>: ") and contains `needle`.
-  void expect_error(const std::string& from, const std::string& to, long line, const std::string& needle) const {
+  void expect_error(const std::string& from, const std::string& to, long line,
+                    const std::string& needle) const {
     std::string text = text_;
     const std::size_t at = text.find(from);
     ASSERT_NE(at, std::string::npos) << from;
@@ -143,8 +145,8 @@ TEST_F(ScenarioFile, RoundTripIsBitExact) {
   const Scenario b = read_scenario(path_);
   EXPECT_EQ(b.directory, dir_.string());
   EXPECT_EQ(b.mission_steps(), 3);
-  for (const auto& [x, y, name] : {std::tuple{&a.controller, &b.controller, "model"},
-                                   std::tuple{&a.truth, &b.truth, "truth"}}) {
+  for (const auto& [x, y, name] :
+       {std::tuple{&a.controller, &b.controller, "model"}, std::tuple{&a.truth, &b.truth, "truth"}}) {
     SCOPED_TRACE(name);
     EXPECT_EQ(x->params.mu_sun, y->params.mu_sun);
     EXPECT_EQ(x->params.orbit_radius, y->params.orbit_radius);
@@ -220,8 +222,8 @@ TEST_F(ScenarioFile, RoundTripIsBitExact) {
 
 TEST_F(ScenarioFile, OptionalRecordsTakeDefaults) {
   std::string text = text_;
-  for (const char* name : {"mpc.trust_region 1 1\ninf\n", "mpc.kkt_solver text\nsparse_ldlt\n",
-                           "mpc.G_structure 2 12\n"}) {
+  for (const char* name :
+       {"mpc.trust_region 1 1\ninf\n", "mpc.kkt_solver text\nsparse_ldlt\n", "mpc.G_structure 2 12\n"}) {
     const std::size_t at = text.find(name);
     ASSERT_NE(at, std::string::npos) << name;
     std::size_t end = at + std::string(name).size();
@@ -240,15 +242,21 @@ TEST_F(ScenarioFile, ErrorsNameFileLineAndRecord) {
   const long mu = line_of("model.mu_sun 1 1");
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\n1.3271x", mu + 1,
                "model.mu_sun: row 0, column 0: bad number '1.3271x'");
-  expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\nnan", mu + 1, "model.mu_sun: row 0, column 0: NaN");
-  expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\ninf", mu + 1, "model.mu_sun: infinite value");
-  expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 2\n1 2", mu, "model.mu_sun: expected size 1 x 1, got 1 x 2");
-  expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 x\n1", mu, "model.mu_sun: bad size '1 x'");
-  expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun text\n1", mu, "expected a numeric record");
+  expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\nnan", mu + 1,
+               "model.mu_sun: row 0, column 0: NaN");
+  expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\ninf", mu + 1,
+               "model.mu_sun: infinite value");
+  expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 2\n1 2", mu,
+               "model.mu_sun: expected size 1 x 1, got 1 x 2");
+  expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 x\n1", mu,
+               "model.mu_sun: bad size '1 x'");
+  expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun text\n1", mu,
+               "expected a numeric record");
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1 1\n1", mu, "bad record header");
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\n1\nmodel.mu_sun 1 1\n2", mu + 2,
                "model.mu_sun: repeated record (first on line " + std::to_string(mu) + ")");
-  expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sunn 1 1\n1", 0, "model.mu_sun: missing record");
+  expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sunn 1 1\n1", 0,
+               "model.mu_sun: missing record");
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\n1\nmodel.extra 1 1\n1", mu + 2,
                "model.extra: unknown record name");
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\n-1", 0, "model.* (ModelParams): ");
@@ -256,22 +264,27 @@ TEST_F(ScenarioFile, ErrorsNameFileLineAndRecord) {
   expect_error("model.kinematics text\nexact", "model.kinematics text\nexactly", kin + 1,
                "model.kinematics: unknown value 'exactly' (known: 'paper', 'exact')");
   const long inertia = line_of("model.inertia_B 3 3");
-  expect_error("model.inertia_B 3 3\n2750 0.33333333333333331 0", "model.inertia_B 3 3\n2750 0.33333333333333331",
-               inertia + 1, "model.inertia_B: row 0: expected 3 values, got 2");
+  expect_error("model.inertia_B 3 3\n2750 0.33333333333333331 0",
+               "model.inertia_B 3 3\n2750 0.33333333333333331", inertia + 1,
+               "model.inertia_B: row 0: expected 3 values, got 2");
   expect_error("model.density 1 1\n1260", "model.density 1 1\n0", line_of("model.density 1 1") + 1,
                "model.density: must be > 0");
   const long sub = line_of("propagator.substeps 1 1");
   expect_error("propagator.substeps 1 1\n8", "propagator.substeps 1 1\n8.5", sub + 1,
                "propagator.substeps: expected an integer, got 8.5");
-  expect_error("propagator.substeps 1 1\n8", "propagator.substeps 1 1\n0", 0, "propagator.* (PropagatorSettings): ");
+  expect_error("propagator.substeps 1 1\n8", "propagator.substeps 1 1\n0", 0,
+               "propagator.* (PropagatorSettings): ");
   const long soft = line_of("mpc.soft_terminal 1 1");
-  expect_error("mpc.soft_terminal 1 1\n1", "mpc.soft_terminal 1 1\n2", soft + 1, "mpc.soft_terminal: expected 0 or 1");
+  expect_error("mpc.soft_terminal 1 1\n1", "mpc.soft_terminal 1 1\n2", soft + 1,
+               "mpc.soft_terminal: expected 0 or 1");
   expect_error("mpc.u_max 6 1\n0.55000000000000004", "mpc.u_max 6 1\n-0.5", 0, "mpc.* (mpc::Settings): ");
-  expect_error("mpc.trust_region 1 1\ninf", "mpc.trust_region 1 1\nnan", line_of("mpc.trust_region 1 1") + 1, "NaN");
+  expect_error("mpc.trust_region 1 1\ninf", "mpc.trust_region 1 1\nnan", line_of("mpc.trust_region 1 1") + 1,
+               "NaN");
   const long u = line_of("reference.u 3 6");
   expect_error("reference.u 3 6\n" + line_at(u + 1) + "\n", "reference.u 2 6\n", u,
                "reference.u: expected size 3 x 6, got 2 x 6");
-  expect_error("tube.Pe 12 12", "tube.Pe 12 13", line_of("tube.Pe 12 12") + 1, "tube.Pe: row 0: expected 13 values");
+  expect_error("tube.Pe 12 12", "tube.Pe 12 13", line_of("tube.Pe 12 12") + 1,
+               "tube.Pe: row 0: expected 13 values");
   expect_error("mission.x0 12 1", "mission.x0 13 1", line_of("mission.xf 12 1"),
                "mission.x0: row 12: expected 1 values, got 3");
   const long xf = line_of("mission.xf 12 1");
@@ -287,5 +300,6 @@ TEST(ScenarioFileErrors, MissingFileAndEmptyFile) {
     EXPECT_EQ(std::string(e.what()).rfind(missing + ": cannot open the file", 0), 0u) << e.what();
   }
   Scenario s;  // default: no weights, no reference
-  EXPECT_THROW(write_scenario((fs::temp_directory_path() / "tubempc_never.txt").string(), s), std::invalid_argument);
+  EXPECT_THROW(write_scenario((fs::temp_directory_path() / "tubempc_never.txt").string(), s),
+               std::invalid_argument);
 }

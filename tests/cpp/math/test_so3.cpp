@@ -112,7 +112,8 @@ TEST(So3, RightJacobianMatchesFiniteDifferences) {
       const Eigen::Matrix3d Rp = rotation_matrix(exp_map(phi + d));
       const Eigen::Matrix3d Rm = rotation_matrix(exp_map(phi - d));
       const Eigen::Vector3d col = (log_map(quat_from_rotation_matrix(R.transpose() * Rp)) -
-                                   log_map(quat_from_rotation_matrix(R.transpose() * Rm))) / (2 * h);
+                                   log_map(quat_from_rotation_matrix(R.transpose() * Rm))) /
+                                  (2 * h);
       EXPECT_LT((col - Jr.col(j)).norm(), 1e-7);
     }
     EXPECT_TRUE((right_jacobian_inverse(phi) * Jr).isApprox(Eigen::Matrix3d::Identity(), 1e-12));

@@ -30,7 +30,9 @@ struct RandomQp {
     std::mt19937 gen(seed);
     std::normal_distribution<double> N01;
     std::uniform_real_distribution<double> U(0.05, 1.0);
-    const auto randn = [&](int r, int c) { return Eigen::MatrixXd(Eigen::MatrixXd::NullaryExpr(r, c, [&] { return N01(gen); })); };
+    const auto randn = [&](int r, int c) {
+      return Eigen::MatrixXd(Eigen::MatrixXd::NullaryExpr(r, c, [&] { return N01(gen); }));
+    };
     const Eigen::MatrixXd M = randn(n, n);
     const Eigen::MatrixXd H = M * M.transpose() / n + 0.1 * Eigen::MatrixXd::Identity(n, n);
     P = H.triangularView<Eigen::Upper>().toDenseMatrix().sparseView();
@@ -87,8 +89,7 @@ TEST(ActiveSetQp, MatchesPiqpOnRandomQps) {
     RandomQp qp(seed);
     ActiveSetQp as;
     Eigen::VectorXi active = set_up_cold(as, qp);
-    ASSERT_EQ(solve(as, qp, active),
-              ActiveSetQp::Status::Solved)
+    ASSERT_EQ(solve(as, qp, active), ActiveSetQp::Status::Solved)
         << "seed " << seed << ": " << to_string(as.info().status);
     with_active_rows += as.info().n_active > 0;
 
@@ -110,8 +111,7 @@ TEST(ActiveSetQp, ReturnedPairSatisfiesTheKktConditions) {
     RandomQp qp(seed);
     ActiveSetQp as;
     Eigen::VectorXi active = set_up_cold(as, qp);
-    ASSERT_EQ(solve(as, qp, active),
-              ActiveSetQp::Status::Solved);
+    ASSERT_EQ(solve(as, qp, active), ActiveSetQp::Status::Solved);
     const Eigen::VectorXd& w = as.w();
     const SpMat Pf = qp.P.selfadjointView<Eigen::Upper>();
     const Eigen::VectorXd stat = Pf * w + qp.q + qp.A.transpose() * as.y() +
@@ -190,7 +190,8 @@ TEST(ActiveSetQp, ReportsBadDataAndUnsolvedProblemsAsStatuses) {
   s = ActiveSetQp::Settings{};
   s.dual_reg = 0.0;
   EXPECT_THROW(s.validate(), std::invalid_argument);
-  EXPECT_THROW(as.setup(qp.P, qp.A, qp.G, qp.boundable.head(3), ActiveSetQp::Settings{}), std::invalid_argument);
+  EXPECT_THROW(as.setup(qp.P, qp.A, qp.G, qp.boundable.head(3), ActiveSetQp::Settings{}),
+               std::invalid_argument);
 }
 
 // The tube MPC with either backend on the same states: the same QPs (a linear plant, no trust

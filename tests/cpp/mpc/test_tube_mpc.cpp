@@ -145,7 +145,8 @@ TEST(SolveDare, SatisfiesTheRiccatiEquation) {
     const Eigen::MatrixXd R = Rh * Rh.transpose() + 0.1 * Eigen::MatrixXd::Identity(m, m);
     const Eigen::MatrixXd X = solve_dare(A, B, Q, R);
     const Eigen::MatrixXd S = R + B.transpose() * X * B;
-    const Eigen::MatrixXd rhs = A.transpose() * X * A - A.transpose() * X * B * S.ldlt().solve(B.transpose() * X * A) + Q;
+    const Eigen::MatrixXd rhs =
+        A.transpose() * X * A - A.transpose() * X * B * S.ldlt().solve(B.transpose() * X * A) + Q;
     EXPECT_LT((X - rhs).cwiseAbs().maxCoeff(), 1e-8 * std::max(1.0, X.cwiseAbs().maxCoeff())) << trial;
     // Stabilising: the closed loop A - B K has spectral radius < 1.
     const Eigen::MatrixXd K = S.ldlt().solve(B.transpose() * X * A);
@@ -157,7 +158,8 @@ TEST(SolveDare, FailsClearlyWhenNotStabilisable) {
   Eigen::MatrixXd A(2, 2), B(2, 1);
   A << 1.5, 0, 0, 0.5;  // the unstable mode is not actuated
   B << 0, 1;
-  EXPECT_THROW(solve_dare(A, B, Eigen::MatrixXd::Identity(2, 2), Eigen::MatrixXd::Identity(1, 1)), std::runtime_error);
+  EXPECT_THROW(solve_dare(A, B, Eigen::MatrixXd::Identity(2, 2), Eigen::MatrixXd::Identity(1, 1)),
+               std::runtime_error);
   EXPECT_THROW(solve_dare(A, B, Eigen::MatrixXd::Identity(3, 3), Eigen::MatrixXd::Identity(1, 1)),
                std::invalid_argument);
 }
@@ -221,8 +223,8 @@ TEST(TubeMPC, KktConditionsHoldAtTheReturnedSolution) {
     const QpSolution sol = mpc.qp_solution();
     const Eigen::VectorXd& w = sol.w;
     const double tol = 1e-6;
-    const Eigen::VectorXd stat = d.P * w + d.q + d.A.transpose() * sol.y + d.G.transpose() * (sol.z_u - sol.z_l) +
-                                 sol.z_bu - sol.z_bl;
+    const Eigen::VectorXd stat =
+        d.P * w + d.q + d.A.transpose() * sol.y + d.G.transpose() * (sol.z_u - sol.z_l) + sol.z_bu - sol.z_bl;
     EXPECT_LT(stat.cwiseAbs().maxCoeff(), tol);
     EXPECT_LT((d.A * w - d.b).cwiseAbs().maxCoeff(), tol);
     const Eigen::VectorXd Gw = d.G * w;
@@ -311,7 +313,8 @@ TEST(TubeMPC, ShrinkingHorizonReachesTheTarget) {
     int shrunk = 0;
     for (int k = 0; k < T; ++k) {
       const StepResult& r = mpc.step(k, x, tube);
-      ASSERT_TRUE(r.status == Status::Solved) << k << " " << to_string(r.status) << " " << to_string(r.failure);
+      ASSERT_TRUE(r.status == Status::Solved)
+          << k << " " << to_string(r.status) << " " << to_string(r.failure);
       EXPECT_EQ(r.horizon, std::min(10, T - k));
       // Linear plant: the re-linearised QP is identical, so one QP per step.
       EXPECT_EQ(r.scp_iterations, 1);
@@ -488,7 +491,8 @@ TEST(TubeMPC, RepeatedAndSkippedStepsUseThePlanShiftedByTheGap) {
   ASSERT_EQ(a.status, Status::Solved);
   EXPECT_LT((a.z - b.z).cwiseAbs().maxCoeff(), 1e-9);
   sab->contradict = true;
-  const StepResult& c = mpc.step(6, x0, tube);  // three steps later, infeasible: candidate = plan shifted by 3
+  const StepResult& c =
+      mpc.step(6, x0, tube);  // three steps later, infeasible: candidate = plan shifted by 3
   EXPECT_EQ(c.status, Status::FallbackShiftedPlan);
   for (int i = 0; i + 3 <= 10; ++i) EXPECT_LT((c.z.col(i) - b.z.col(i + 3)).cwiseAbs().maxCoeff(), 1e-12);
   for (int i = 8; i <= 10; ++i) EXPECT_LT((c.z.col(i) - b.z.col(10)).cwiseAbs().maxCoeff(), 1e-12);
@@ -517,12 +521,14 @@ class RecordingPendulum final : public LinearizedModel {
   }
   // Counts the calls whose incoming data and point are not this node's latest model output.
   void rediscretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_prev,
-                    const Eigen::Ref<const Eigen::VectorXd>& u_prev, const Eigen::Ref<const Eigen::VectorXd>& x,
-                    const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::MatrixXd> A,
-                    Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const override {
+                    const Eigen::Ref<const Eigen::VectorXd>& u_prev,
+                    const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+                    Eigen::Ref<Eigen::MatrixXd> A, Eigen::Ref<Eigen::MatrixXd> B,
+                    Eigen::Ref<Eigen::VectorXd> c) const override {
     ++rediscretize_calls;
     const bool known = dynamics.count(t) == 1;
-    if (!known || !(dynamics[t] == A) || !(points[t] == x_prev) || !(inputs[t] == u_prev)) ++rediscretize_mismatches;
+    if (!known || !(dynamics[t] == A) || !(points[t] == x_prev) || !(inputs[t] == u_prev))
+      ++rediscretize_mismatches;
     discretize(t, dt, x, u, A, B, c);
   }
   void constraints(double t, const Eigen::Ref<const Eigen::VectorXd>& x, Eigen::Ref<Eigen::MatrixXd> G,
@@ -532,8 +538,8 @@ class RecordingPendulum final : public LinearizedModel {
     rows[t] = G;
   }
   mutable std::map<double, Eigen::MatrixXd> dynamics, rows;  // latest output per node time
-  mutable std::map<double, Eigen::VectorXd> points, inputs;   // latest linearisation point per node time
-  mutable std::vector<double> call_times;                     // node time of every discretize call
+  mutable std::map<double, Eigen::VectorXd> points, inputs;  // latest linearisation point per node time
+  mutable std::vector<double> call_times;                    // node time of every discretize call
   mutable int discretize_calls = 0, rediscretize_calls = 0, rediscretize_mismatches = 0;
 
  private:
@@ -573,7 +579,8 @@ TEST(TubeMPC, ReusedLinearizationHoldsEachNodesModelData) {
     ASSERT_EQ(rf.status, Status::Solved) << k;
     EXPECT_EQ(r.model_evaluations, model->discretize_calls - calls_before);
     EXPECT_EQ(rf.model_evaluations, rf.horizon * rf.scp_iterations);
-    if (k > 0) {  // the previous step converged: its first iteration calls the model at the appended node only
+    if (k >
+        0) {  // the previous step converged: its first iteration calls the model at the appended node only
       const int appended = r.horizon == s.horizon ? 1 : 0;
       if (r.scp_iterations == 1) EXPECT_EQ(r.model_evaluations, appended) << k;
       EXPECT_LE(r.model_evaluations, appended + (r.scp_iterations - 1) * r.horizon) << k;
@@ -607,6 +614,7 @@ TEST(TubeMPC, ReusedLinearizationHoldsEachNodesModelData) {
     const std::size_t before = model->call_times.size();
     const StepResult& r = mpc.step(k, x0, tube);
     ASSERT_GE(r.model_evaluations, s.horizon);
-    for (int i = 0; i < s.horizon; ++i) EXPECT_EQ(model->call_times[before + i], ref.t0 + (k + i) * s.dt) << k;
+    for (int i = 0; i < s.horizon; ++i)
+      EXPECT_EQ(model->call_times[before + i], ref.t0 + (k + i) * s.dt) << k;
   }
 }

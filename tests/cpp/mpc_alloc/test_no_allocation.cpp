@@ -6,9 +6,10 @@
 //  2. Eigen's runtime guard: the implementation (and with it PIQP's header-only solver) is compiled
 //     into this translation unit with EIGEN_RUNTIME_NO_MALLOC and an eigen_assert that counts, so
 //     every Eigen allocation while the guard is on is recorded even in a release build.
+#include <malloc.h>
+
 #include <cstddef>
 #include <cstdlib>
-#include <malloc.h>
 #include <new>
 
 namespace alloc_test {
@@ -18,9 +19,9 @@ long eigen_failures = 0;
 }  // namespace alloc_test
 
 #define EIGEN_RUNTIME_NO_MALLOC
-#define eigen_assert(x)                                     \
-  do {                                                      \
-    if (!(x)) ++::alloc_test::eigen_failures;               \
+#define eigen_assert(x)                       \
+  do {                                        \
+    if (!(x)) ++::alloc_test::eigen_failures; \
   } while (false)
 
 extern "C" {
@@ -90,12 +91,12 @@ void operator delete[](void* p, std::align_val_t) noexcept { operator delete(p);
 void operator delete(void* p, std::size_t, std::align_val_t) noexcept { operator delete(p); }
 void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { operator delete(p); }
 
-// The implementation under test (the MPC and its active-set QP solver), compiled here with the Eigen guard (its symbols take precedence
-// over the static library's copy).
+// The implementation under test (the MPC and its active-set QP solver), compiled here with the Eigen guard
+// (its symbols take precedence over the static library's copy).
+#include <gtest/gtest.h>
+
 #include "../../../cpp/src/mpc/active_set_qp.cpp"
 #include "../../../cpp/src/mpc/tube_mpc.cpp"
-
-#include <gtest/gtest.h>
 
 using namespace tubempc::mpc;
 
@@ -161,7 +162,7 @@ TEST(TubeMPCAllocation, StepDoesNotAllocateAfterSetup) {
     s.soft_terminal = soft;
     s.input_cost = soft ? InputCost::FromReference : InputCost::Paper;
     s.qp_scale_cost = !soft;  // PIQP's cost scaling and 1e6 L1 penalties do not mix (Settings::qp_scale_cost)
-    if (soft) {  // block-diagonal structure of the two subsystems (exercises the sparse masks)
+    if (soft) {               // block-diagonal structure of the two subsystems (exercises the sparse masks)
       s.A_structure = Eigen::MatrixXd::Zero(12, 12);
       s.A_structure.topLeftCorner(6, 6).setOnes();
       s.A_structure.bottomRightCorner(6, 6).setOnes();

@@ -39,8 +39,10 @@ double glide_slope_constraint(const StateVector& x, double glide_slope_angle, co
 /// @param grad              if non-null, receives d g_gs / d x (12; m per state unit).
 /// @return g_gs(x) = |r| cos(phi_gs) - r . z_L (m).
 /// @throws std::domain_error at r = 0 or for a non-finite x.
-inline double glide_slope_constraint(const StateVector& x, double glide_slope_angle, StateVector* grad = nullptr) {
-  return glide_slope_constraint(x, glide_slope_angle, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), grad);
+inline double glide_slope_constraint(const StateVector& x, double glide_slope_angle,
+                                     StateVector* grad = nullptr) {
+  return glide_slope_constraint(x, glide_slope_angle, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(),
+                                grad);
 }
 
 /// Line-of-sight constraint g_los(x) = |r| cos(theta_LOS) - r_B . b_B (<= 0 feasible).

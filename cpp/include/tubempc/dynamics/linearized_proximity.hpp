@@ -39,7 +39,8 @@ class LinearizedProximityModel final : public mpc::LinearizedModel {
   /// @param position_tolerance  largest change of r_L (m, per component) for which `rediscretize`
   ///                            keeps the translational blocks (see there); >= 0, finite.
   /// @throws std::invalid_argument for a null model or an invalid position_tolerance.
-  explicit LinearizedProximityModel(std::shared_ptr<const ProximityModel> model, double position_tolerance = 0.1);
+  explicit LinearizedProximityModel(std::shared_ptr<const ProximityModel> model,
+                                    double position_tolerance = 0.1);
 
   int nx() const override { return kNx; }
   int nu() const override { return kNu; }
@@ -70,7 +71,8 @@ class LinearizedProximityModel final : public mpc::LinearizedModel {
   /// gradient over that distance (~1e-9 1/s^2 at 250 m from Bennu for the default 0.1 m, against
   /// gradients of ~1e-7 1/s^2), and the state they predict at the new point by a second-order term
   /// (at most 4.6e-9 m and m/s per 2 s step along the default mission, against a disturbance of
-  /// 0.02 m and 5 mm/s per step). Otherwise this is `discretize`. Sizes and statuses as `discretize`; allocation-free.
+  /// 0.02 m and 5 mm/s per step). Otherwise this is `discretize`. Sizes and statuses as `discretize`;
+  /// allocation-free.
   /// @param t      start time of the step (s).
   /// @param dt     step length (s).
   /// @param x_prev linearisation state of the incoming data (12).
@@ -81,7 +83,8 @@ class LinearizedProximityModel final : public mpc::LinearizedModel {
   /// @param B      likewise Bd (12 x 6).
   /// @param c      likewise cd (12).
   void rediscretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_prev,
-                    const Eigen::Ref<const Eigen::VectorXd>& u_prev, const Eigen::Ref<const Eigen::VectorXd>& x_lin,
+                    const Eigen::Ref<const Eigen::VectorXd>& u_prev,
+                    const Eigen::Ref<const Eigen::VectorXd>& x_lin,
                     const Eigen::Ref<const Eigen::VectorXd>& u_lin, Eigen::Ref<Eigen::MatrixXd> A,
                     Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const override;
 

@@ -44,11 +44,11 @@ const char* to_string(Integrator m);
 /// Settings of propagate().
 struct PropagatorSettings {
   Integrator method{Integrator::RK4};  ///< integration method
-  int substeps{20};          ///< RK4 steps per call, >= 1
-  double rtol{1e-10};        ///< DOPRI5 relative tolerance, > 0
-  double atol{1e-12};        ///< DOPRI5 absolute tolerance (state units), > 0
-  int max_steps{100000};     ///< DOPRI5 step budget (accepted + rejected), >= 1
-  double initial_step{0.0};  ///< DOPRI5 first step (s); 0: Hairer's automatic choice
+  int substeps{20};                    ///< RK4 steps per call, >= 1
+  double rtol{1e-10};                  ///< DOPRI5 relative tolerance, > 0
+  double atol{1e-12};                  ///< DOPRI5 absolute tolerance (state units), > 0
+  int max_steps{100000};               ///< DOPRI5 step budget (accepted + rejected), >= 1
+  double initial_step{0.0};            ///< DOPRI5 first step (s); 0: Hairer's automatic choice
 
   /// Checks the ranges given above.
   /// @throws std::invalid_argument naming the first bad field.

@@ -215,9 +215,11 @@ class ProximityModel {
   /// @param Bd_r       receives the torque block of Bd (6 x 3).
   /// @param cd_r       receives the attitude part of cd (rad, rad/s).
   /// @return DiscretizationStatus::Ok, or why the outputs are not usable.
-  DiscretizationStatus discretize_rotation(double dt, const Eigen::Vector3d& phi, const Eigen::Vector3d& omega_BL_B,
-                                           const Eigen::Vector3d& T_B, Eigen::Matrix<double, 6, 6>& Ad_r,
-                                           Eigen::Matrix<double, 6, 3>& Bd_r, Eigen::Matrix<double, 6, 1>& cd_r) const;
+  DiscretizationStatus discretize_rotation(double dt, const Eigen::Vector3d& phi,
+                                           const Eigen::Vector3d& omega_BL_B, const Eigen::Vector3d& T_B,
+                                           Eigen::Matrix<double, 6, 6>& Ad_r,
+                                           Eigen::Matrix<double, 6, 3>& Bd_r,
+                                           Eigen::Matrix<double, 6, 1>& cd_r) const;
 
   /// Derivative of the 13-dimensional truth state [r, v, q_B/L, w] with the quaternion kinematics
   /// q' = 1/2 q (x) [w; 0] and C_BL = R(q)^T; disturbance = [acceleration in L (m/s^2); angular

@@ -12,7 +12,7 @@ namespace tubempc::gravity {
 
 /// One evaluation of a gravity field at a point.
 struct GravitySample {
-  double potential{0.0};                                 ///< U (m^2/s^2), > 0
+  double potential{0.0};                                  ///< U (m^2/s^2), > 0
   Eigen::Vector3d acceleration{Eigen::Vector3d::Zero()};  ///< a = grad U (m/s^2), frame of the point
   Eigen::Matrix3d gradient{Eigen::Matrix3d::Zero()};      ///< G = Hess U (1/s^2), symmetric
 };

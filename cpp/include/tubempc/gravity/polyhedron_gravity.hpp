@@ -139,17 +139,17 @@ class PolyhedronGravity final : public GravityModel {
     std::int32_t v_begin, v_count, e_begin, e_count, f_begin, f_count;
   };
   std::vector<Cluster> clusters_;
-  std::vector<double> vx_, vy_, vz_;                  // vertices relative to the centre (m)
-  std::vector<std::uint16_t> e_i_, e_j_;              // edge ends (cluster-local)
-  std::vector<double> e_len_;                         // edge length (m)
+  std::vector<double> vx_, vy_, vz_;                             // vertices relative to the centre (m)
+  std::vector<std::uint16_t> e_i_, e_j_;                         // edge ends (cluster-local)
+  std::vector<double> e_len_;                                    // edge length (m)
   std::vector<double> e_xx_, e_xy_, e_xz_, e_yy_, e_yz_, e_zz_;  // E_e (symmetric)
-  std::vector<double> e_evx_, e_evy_, e_evz_;         // E_e v_i (m)
-  std::vector<double> e_vev_;                         // v_i^T E_e v_i (m^2)
-  std::vector<std::uint16_t> f_i_, f_j_, f_k_;        // face vertices (cluster-local)
-  std::vector<double> f_nx_, f_ny_, f_nz_;            // unit outward normal
-  std::vector<double> f_d_;                           // n_f . v1 (m)
-  std::vector<double> f_n2_;                          // |N_f| = 2 area (m^2)
-  std::vector<double> f_l12_, f_l23_, f_l31_;         // squared side lengths (m^2)
+  std::vector<double> e_evx_, e_evy_, e_evz_;                    // E_e v_i (m)
+  std::vector<double> e_vev_;                                    // v_i^T E_e v_i (m^2)
+  std::vector<std::uint16_t> f_i_, f_j_, f_k_;                   // face vertices (cluster-local)
+  std::vector<double> f_nx_, f_ny_, f_nz_;                       // unit outward normal
+  std::vector<double> f_d_;                                      // n_f . v1 (m)
+  std::vector<double> f_n2_;                                     // |N_f| = 2 area (m^2)
+  std::vector<double> f_l12_, f_l23_, f_l31_;                    // squared side lengths (m^2)
 };
 
 }  // namespace tubempc::gravity

@@ -34,32 +34,27 @@
 ///   | `model.glide_slope_apex_A` | 3 1 | optional (default 0): glide-slope cone apex in A (m) |
 ///   | `model.glide_slope_axis_A` | 3 1 | optional (default z_A): glide-slope cone axis in A |
 ///   | `model.density` | 1 1 | asteroid density (kg/m^3) |
-///   | `model.shape` | text | shape file (gravity/shape_io.hpp), relative to the scenario's folder or absolute |
-///   | `model.shape_unit_scale` | 1 1 | metres per unit of the shape file |
-///   | `truth.*` | | the same records for the simulated plant (the truth model) |
-///   | `propagator.method` | text | `rk4` or `dopri5` |
-///   | `propagator.substeps`, `.rtol`, `.atol`, `.max_steps`, `.initial_step` | 1 1 each | dynamics::PropagatorSettings (s for initial_step) |
-///   | `mpc.horizon` | 1 1 | N |
-///   | `mpc.dt` | 1 1 | control period (s) |
-///   | `mpc.Q`, `mpc.R` | 12 12, 6 6 | stage weights |
-///   | `mpc.u_max` | 6 1 | input bounds (m/s^2, N m) |
-///   | `mpc.input_cost` | text | `paper` or `from_reference` |
-///   | `mpc.scp_eps` | 1 1 | SCP threshold (state units) |
-///   | `mpc.initial_condition` (opt.) | text | `whitened_box` or `exact` |
-///   | `mpc.scp_max_iterations`, `mpc.qp_max_iterations`, `mpc.riccati_max_iterations`, `mpc.qp_preconditioner_iterations`, `mpc.active_set_max_iterations` (opt.) | 1 1 | integers |
-///   | `mpc.trust_region` (opt., may be `inf`), `mpc.time_limit` (opt., s, may be `inf`) | 1 1 | |
-///   | `mpc.qp_eps_abs`, `mpc.qp_eps_rel`, `mpc.qp_inaccurate_tol`, `mpc.soft_penalty`, `mpc.riccati_tol`, `mpc.qp_reg_lower_limit`, `mpc.qp_retry_reg_lower_limit` (opt.) | 1 1 | |
-///   | `mpc.soft_state_constraints`, `mpc.soft_terminal`, `mpc.qp_scale_cost`, `mpc.reuse_linearization` (opt.) | 1 1 | 0 or 1 |
-///   | `mpc.kkt_solver` (opt.) | text | `sparse_ldlt` or `sparse_multistage` |
-///   | `mpc.backend` (opt.) | text | `active_set_piqp` or `piqp` |
-///   | `mpc.A_structure`, `mpc.B_structure`, `mpc.G_structure` (opt.) | 12 12, 12 6, 2 12 (or 0 0) | model structures |
-///   | `reference.t0` | 1 1 | time of node 0 (s) |
-///   | `reference.z` | T+1 12 | reference states zbar_0..zbar_T, one node per row |
-///   | `reference.u` | T 6 | reference inputs u_ref_0..u_ref_{T-1}, one node per row |
-///   | `tube.K` | 6 12 | ancillary gain |
-///   | `tube.Pe` | 12 12 | tube shape |
-///   | `mission.x0` | 12 1 | initial state [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)] |
-///   | `mission.xf` | 12 1 | target state, same units |
+///   | `model.shape` | text | shape file (gravity/shape_io.hpp), relative to the scenario's folder or
+///   absolute | | `model.shape_unit_scale` | 1 1 | metres per unit of the shape file | | `truth.*` | | the
+///   same records for the simulated plant (the truth model) | | `propagator.method` | text | `rk4` or
+///   `dopri5` | | `propagator.substeps`, `.rtol`, `.atol`, `.max_steps`, `.initial_step` | 1 1 each |
+///   dynamics::PropagatorSettings (s for initial_step) | | `mpc.horizon` | 1 1 | N | | `mpc.dt` | 1 1 |
+///   control period (s) | | `mpc.Q`, `mpc.R` | 12 12, 6 6 | stage weights | | `mpc.u_max` | 6 1 | input
+///   bounds (m/s^2, N m) | | `mpc.input_cost` | text | `paper` or `from_reference` | | `mpc.scp_eps` | 1 1 |
+///   SCP threshold (state units) | | `mpc.initial_condition` (opt.) | text | `whitened_box` or `exact` | |
+///   `mpc.scp_max_iterations`, `mpc.qp_max_iterations`, `mpc.riccati_max_iterations`,
+///   `mpc.qp_preconditioner_iterations`, `mpc.active_set_max_iterations` (opt.) | 1 1 | integers | |
+///   `mpc.trust_region` (opt., may be `inf`), `mpc.time_limit` (opt., s, may be `inf`) | 1 1 | | |
+///   `mpc.qp_eps_abs`, `mpc.qp_eps_rel`, `mpc.qp_inaccurate_tol`, `mpc.soft_penalty`, `mpc.riccati_tol`,
+///   `mpc.qp_reg_lower_limit`, `mpc.qp_retry_reg_lower_limit` (opt.) | 1 1 | | |
+///   `mpc.soft_state_constraints`, `mpc.soft_terminal`, `mpc.qp_scale_cost`, `mpc.reuse_linearization` (opt.)
+///   | 1 1 | 0 or 1 | | `mpc.kkt_solver` (opt.) | text | `sparse_ldlt` or `sparse_multistage` | |
+///   `mpc.backend` (opt.) | text | `active_set_piqp` or `piqp` | | `mpc.A_structure`, `mpc.B_structure`,
+///   `mpc.G_structure` (opt.) | 12 12, 12 6, 2 12 (or 0 0) | model structures | | `reference.t0` | 1 1 | time
+///   of node 0 (s) | | `reference.z` | T+1 12 | reference states zbar_0..zbar_T, one node per row | |
+///   `reference.u` | T 6 | reference inputs u_ref_0..u_ref_{T-1}, one node per row | | `tube.K` | 6 12 |
+///   ancillary gain | | `tube.Pe` | 12 12 | tube shape | | `mission.x0` | 12 1 | initial state [r_L (m), v_L
+///   (m/s), phi (rad), omega_BL_B (rad/s)] | | `mission.xf` | 12 1 | target state, same units |
 ///
 ///   Optional records default to mpc::Settings' defaults (the structures to dense). Everything else
 ///   is required; unknown names are errors (a later version adds names and bumps the number).
@@ -101,12 +96,12 @@ struct BodyModel {
 struct Scenario {
   /// Folder of the file read (relative shape paths are relative to it); empty if not read from a file.
   std::string directory;
-  BodyModel controller;                    ///< the MPC's model (records `model.*`)
-  BodyModel truth;                         ///< the simulated plant (records `truth.*`)
-  dynamics::PropagatorSettings propagator; ///< truth propagation per control period
-  mpc::Settings settings;                  ///< tube MPC settings
-  mpc::Reference reference;                ///< zbar (12 x (T + 1)), u_ref (6 x T) as columns, t0 (s)
-  mpc::Tube tube;                          ///< TBMPC's fixed tube: K (6 x 12), Pe (12 x 12)
+  BodyModel controller;                     ///< the MPC's model (records `model.*`)
+  BodyModel truth;                          ///< the simulated plant (records `truth.*`)
+  dynamics::PropagatorSettings propagator;  ///< truth propagation per control period
+  mpc::Settings settings;                   ///< tube MPC settings
+  mpc::Reference reference;                 ///< zbar (12 x (T + 1)), u_ref (6 x T) as columns, t0 (s)
+  mpc::Tube tube;                           ///< TBMPC's fixed tube: K (6 x 12), Pe (12 x 12)
   dynamics::StateVector x0{dynamics::StateVector::Zero()};  ///< initial state (m, m/s, rad, rad/s)
   dynamics::StateVector xf{dynamics::StateVector::Zero()};  ///< target state (same units)
 

@@ -47,12 +47,12 @@ class ActiveSetQp {
 
   /// Settings; `validate()` throws std::invalid_argument naming the field.
   struct Settings {
-    int max_iterations = 12;       ///< Factorisations (active-set iterations) per solve (>= 1).
-    double eps_abs = 1e-8;         ///< Absolute tolerance of the KKT verification.
-    double eps_rel = 1e-9;         ///< Relative tolerance of the KKT verification (and of the set updates).
-    double primal_reg = 1e-9;      ///< rho: regularisation of the Hessian block (> 0).
-    double dual_reg = 1e-12;       ///< delta: regularisation of the constraint blocks (> 0).
-    int max_refinement = 10;       ///< Iterative-refinement steps per factorisation (>= 0).
+    int max_iterations = 12;   ///< Factorisations (active-set iterations) per solve (>= 1).
+    double eps_abs = 1e-8;     ///< Absolute tolerance of the KKT verification.
+    double eps_rel = 1e-9;     ///< Relative tolerance of the KKT verification (and of the set updates).
+    double primal_reg = 1e-9;  ///< rho: regularisation of the Hessian block (> 0).
+    double dual_reg = 1e-12;   ///< delta: regularisation of the constraint blocks (> 0).
+    int max_refinement = 10;   ///< Iterative-refinement steps per factorisation (>= 0).
     /// Throws std::invalid_argument naming the offending field.
     void validate() const;
   };
@@ -60,26 +60,26 @@ class ActiveSetQp {
   /// Iterations, residuals and the final active set's size of the last `solve`.
   struct Info {
     Status status = Status::InvalidData;  ///< Outcome.
-    int iterations = 0;        ///< Factorisations.
-    int refinements = 0;       ///< Iterative-refinement steps, summed over the factorisations.
-    int n_active = 0;          ///< Active rows (G rows and bounds) at the end.
-    double primal_res = 0.0;   ///< max(|A w - b|_inf, largest violation of G w and of the bounds).
-    double dual_res = 0.0;     ///< |P w + q + A^T y + G^T (z_u - z_l) + z_bu - z_bl|_inf.
+    int iterations = 0;                   ///< Factorisations.
+    int refinements = 0;                  ///< Iterative-refinement steps, summed over the factorisations.
+    int n_active = 0;                     ///< Active rows (G rows and bounds) at the end.
+    double primal_res = 0.0;              ///< max(|A w - b|_inf, largest violation of G w and of the bounds).
+    double dual_res = 0.0;                ///< |P w + q + A^T y + G^T (z_u - z_l) + z_bu - z_bl|_inf.
   };
 
   ActiveSetQp() = default;  ///< Empty solver; call setup before solve.
 
   /// Fixes the pattern: P (n x n, upper triangle, compressed), A (m x n), G (p x n), and which
   /// variables may carry a finite bound (`boundable`, n). Values are ignored. Allocates.
-  void setup(const SpMat& P_upper, const SpMat& A, const SpMat& G, const Eigen::Array<bool, Eigen::Dynamic, 1>& boundable,
-             const Settings& settings);
+  void setup(const SpMat& P_upper, const SpMat& A, const SpMat& G,
+             const Eigen::Array<bool, Eigen::Dynamic, 1>& boundable, const Settings& settings);
 
   /// Solves the QP whose matrices have the set-up patterns. `active` (p + n entries: the G rows, then
   /// one per variable) holds the guess on entry (+1 upper side, -1 lower side, 0 inactive; entries of
   /// variables that are not boundable are ignored) and the final set on return. Allocates nothing.
-  Status solve(const SpMat& P_upper, const Eigen::VectorXd& q, const SpMat& A, const Eigen::VectorXd& b, const SpMat& G,
-               const Eigen::VectorXd& h_l, const Eigen::VectorXd& h_u, const Eigen::VectorXd& x_l,
-               const Eigen::VectorXd& x_u, Eigen::Ref<Eigen::VectorXi> active);
+  Status solve(const SpMat& P_upper, const Eigen::VectorXd& q, const SpMat& A, const Eigen::VectorXd& b,
+               const SpMat& G, const Eigen::VectorXd& h_l, const Eigen::VectorXd& h_u,
+               const Eigen::VectorXd& x_l, const Eigen::VectorXd& x_u, Eigen::Ref<Eigen::VectorXi> active);
 
   // Solution of the last solve in QpSolution's convention (tube_mpc.hpp).
   const Eigen::VectorXd& w() const { return w_; }        ///< Primal solution (n).
@@ -102,10 +102,10 @@ class ActiveSetQp {
 
   Settings settings_;
   int n_ = 0, m_ = 0, p_ = 0;
-  Eigen::VectorXi bound_var_;   // variable of each bound row
-  Eigen::VectorXi bound_row_;   // bound row of each variable (-1: not boundable)
-  SpMat K_;                     // KKT upper triangle in the permuted order
-  Eigen::VectorXi perm_;        // natural index -> permuted index
+  Eigen::VectorXi bound_var_;  // variable of each bound row
+  Eigen::VectorXi bound_row_;  // bound row of each variable (-1: not boundable)
+  SpMat K_;                    // KKT upper triangle in the permuted order
+  Eigen::VectorXi perm_;       // natural index -> permuted index
   Eigen::VectorXi pos_P_, pos_A_, pos_G_, pos_B_, pos_diag_;  // value positions in K_
   PartialLdlt ldlt_;
   Eigen::VectorXd K_factored_;  // K_'s values at the last factorisation

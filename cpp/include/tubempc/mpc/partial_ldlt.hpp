@@ -7,10 +7,11 @@
 /// upper triangle and on the rows of k's descendants in the elimination tree. When an active-set
 /// iteration changes a few columns of the KKT matrix, only those rows and their ancestors in the
 /// tree change, and `refactorize` recomputes them alone (in the tube MPC's KKT matrix, 10 to 30 of
-/// 1226 rows on the mission QPs inspected; the tree is up to 555 rows deep). Eigen's SimplicialLDLT (the same algorithm, without the partial step) does
-/// the symbolic analysis. The row patterns of L, each in the order Eigen visits it, and the storage
-/// slot of every entry are then fixed, so every entry is computed by the same operations in the same
-/// order as Eigen's factorisation, with no elimination-tree traversal and no allocation.
+/// 1226 rows on the mission QPs inspected; the tree is up to 555 rows deep). Eigen's SimplicialLDLT (the same
+/// algorithm, without the partial step) does the symbolic analysis. The row patterns of L, each in the order
+/// Eigen visits it, and the storage slot of every entry are then fixed, so every entry is computed by the
+/// same operations in the same order as Eigen's factorisation, with no elimination-tree traversal and no
+/// allocation.
 #pragma once
 
 #include <Eigen/Dense>
@@ -55,13 +56,13 @@ class PartialLdlt {
  private:
   bool factorize_row(const SpMat& K_upper, int k);
 
-  Eigen::VectorXi Lp_, Li_;             // L by columns: column starts, row indices (increasing)
+  Eigen::VectorXi Lp_, Li_;  // L by columns: column starts, row indices (increasing)
   Eigen::VectorXd Lx_, D_;
   Eigen::VectorXi row_start_, row_col_, row_slot_;  // L by rows: columns (Eigen's order), slots in Lx_
-  Eigen::VectorXi parent_;              // elimination tree (-1: root)
-  Eigen::VectorXi mark_;                // rows to recompute, zero between calls
-  Eigen::VectorXd y_;                   // dense work row, zero between calls
-  bool valid_ = false;                  // the last factorisation succeeded
+  Eigen::VectorXi parent_;                          // elimination tree (-1: root)
+  Eigen::VectorXi mark_;                            // rows to recompute, zero between calls
+  Eigen::VectorXd y_;                               // dense work row, zero between calls
+  bool valid_ = false;                              // the last factorisation succeeded
   int last_computed_ = 0;
 };
 

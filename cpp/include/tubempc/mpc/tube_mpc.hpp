@@ -38,9 +38,9 @@
 /// node in a step's first SCP iteration), accepted only when it verifies the KKT conditions; if that
 /// guess fails, once more from the empty set (a wrong guess can make dependent rows active); otherwise
 /// PIQP (an interior-point method, which has no warm start) solves the same QP. Each step's SCP starts
-/// from the previous plan shifted to k as its linearisation trajectory. With Settings::reuse_linearization (default), model
-/// data whose linearisation point lies within scp_eps of the plan are kept: a step that follows a
-/// converged step by one period starts from that step's last model data shifted by one node (only
+/// from the previous plan shifted to k as its linearisation trajectory. With Settings::reuse_linearization
+/// (default), model data whose linearisation point lies within scp_eps of the plan are kept: a step that
+/// follows a converged step by one period starts from that step's last model data shifted by one node (only
 /// the appended last node calls the model), and a later SCP iteration re-linearises only the nodes
 /// whose plan moved by scp_eps or more. The convergence test is unchanged. The model must then be a
 /// function of its arguments (t, dt, x, u) only; call reset() after changing it.
@@ -89,7 +89,7 @@ enum class InputCost {
 
 /// QP solver used inside `step`.
 enum class Backend {
-  PiqpSparse,     ///< PIQP's sparse interior-point solver, set up once, updated every QP.
+  PiqpSparse,  ///< PIQP's sparse interior-point solver, set up once, updated every QP.
   /// Warm-started primal-dual active set (ActiveSetQp, at most Settings::active_set_max_iterations
   /// factorisations per try; a second try from the empty set when the warm start fails); a QP it does
   /// not solve to the verified tolerance goes to PIQP (default).
@@ -104,32 +104,33 @@ enum class KktSolver {
 
 /// Settings of the tube MPC; `validate()` throws std::invalid_argument naming the field.
 struct Settings {
-  int horizon = 30;                    ///< N, nodes of the nominal plan.
-  double dt = 2.0;                     ///< Control period (s).
-  Eigen::MatrixXd Q;                   ///< State weight (n_x x n_x, symmetric PSD); empty -> identity.
-  Eigen::MatrixXd R;                   ///< Input weight (n_u x n_u, symmetric PD); empty -> identity.
-  Eigen::VectorXd u_max;               ///< True input bounds |u_i| <= u_max_i (input units); required.
+  int horizon = 30;                         ///< N, nodes of the nominal plan.
+  double dt = 2.0;                          ///< Control period (s).
+  Eigen::MatrixXd Q;                        ///< State weight (n_x x n_x, symmetric PSD); empty -> identity.
+  Eigen::MatrixXd R;                        ///< Input weight (n_u x n_u, symmetric PD); empty -> identity.
+  Eigen::VectorXd u_max;                    ///< True input bounds |u_i| <= u_max_i (input units); required.
   InputCost input_cost = InputCost::Paper;  ///< Input part of the stage cost.
   InitialCondition initial_condition = InitialCondition::WhitenedBox;  ///< How z_0 relates to x_k.
-  double scp_eps = 1e-3;               ///< SCP stops when max_i ||z*_i - z_lin_i||_inf < scp_eps (state units).
-  int scp_max_iterations = 10;         ///< Cap on SCP iterations per step.
-  double trust_region = std::numeric_limits<double>::infinity();  ///< |z_i - z_lin_i|_inf bound (i >= 1); inf: off.
-  double qp_eps_abs = 1e-8;            ///< PIQP absolute tolerance.
-  double qp_eps_rel = 1e-9;            ///< PIQP relative tolerance.
-  int qp_max_iterations = 200;         ///< PIQP iteration cap.
-  double qp_inaccurate_tol = 1e-5;     ///< A capped QP with relative residuals below this is accepted.
-  double time_limit = 1.0;             ///< Wall-clock budget of one step (s); exceeded -> fallback.
-  bool soft_state_constraints = false; ///< Exact L1 penalty on state-constraint violations.
+  double scp_eps = 1e-3;        ///< SCP stops when max_i ||z*_i - z_lin_i||_inf < scp_eps (state units).
+  int scp_max_iterations = 10;  ///< Cap on SCP iterations per step.
+  double trust_region =
+      std::numeric_limits<double>::infinity();  ///< |z_i - z_lin_i|_inf bound (i >= 1); inf: off.
+  double qp_eps_abs = 1e-8;                     ///< PIQP absolute tolerance.
+  double qp_eps_rel = 1e-9;                     ///< PIQP relative tolerance.
+  int qp_max_iterations = 200;                  ///< PIQP iteration cap.
+  double qp_inaccurate_tol = 1e-5;      ///< A capped QP with relative residuals below this is accepted.
+  double time_limit = 1.0;              ///< Wall-clock budget of one step (s); exceeded -> fallback.
+  bool soft_state_constraints = false;  ///< Exact L1 penalty on state-constraint violations.
   /// Exact L1 penalty on z_N - x_f in the shrinking phase (default; plus ||z_N - x_f||^2_Q). The
   /// penalty is exact: the minimiser is the hard constraint's (the paper's Problem 3)
   /// whenever soft_penalty exceeds the terminal multipliers, and the step still returns a plan when
   /// the hard terminal set is out of reach. With the hard equality (false) PIQP's interior point needs
   /// hundreds of iterations on the last steps, whose terminal multipliers reach ~1e6.
   bool soft_terminal = true;
-  double soft_penalty = 1e6;           ///< L1 penalty weight of the slacks (cost units per constraint unit).
-  double riccati_tol = 1e-10;          ///< Relative convergence tolerance of the DARE doubling.
-  int riccati_max_iterations = 100;    ///< Cap on DARE doubling iterations.
-  Backend backend = Backend::ActiveSetPiqp;      ///< QP solver.
+  double soft_penalty = 1e6;         ///< L1 penalty weight of the slacks (cost units per constraint unit).
+  double riccati_tol = 1e-10;        ///< Relative convergence tolerance of the DARE doubling.
+  int riccati_max_iterations = 100;  ///< Cap on DARE doubling iterations.
+  Backend backend = Backend::ActiveSetPiqp;  ///< QP solver.
   /// Factorisations the active-set solver may spend on each of its (at most two) tries on one QP
   /// before PIQP takes over (>= 1). Its KKT
   /// verification uses qp_eps_abs and qp_eps_rel.
@@ -142,7 +143,7 @@ struct Settings {
   /// it off there if QPs stop at the iteration cap (status SolvedInaccurate).
   bool qp_scale_cost = true;
   int qp_preconditioner_iterations = 10;  ///< Ruiz equilibration iterations of PIQP (>= 0).
-  double qp_reg_lower_limit = 1e-10;  ///< Floor of PIQP's proximal regularisation (> 0; PIQP's default).
+  double qp_reg_lower_limit = 1e-10;      ///< Floor of PIQP's proximal regularisation (> 0; PIQP's default).
   /// A QP that ends at the iteration cap (beyond qp_inaccurate_tol) or in a numerical error is solved
   /// once more with this regularisation floor before the step falls back (0: no retry). A few
   /// terminal-phase QPs of the Bennu mission lose KKT accuracy at 1e-10 and stall at the cap; with
@@ -194,23 +195,24 @@ struct Timings {
 
 /// Result of one step. Buffers are allocated at setup and overwritten by every step.
 struct StepResult {
-  Eigen::VectorXd u;   ///< Applied input u = sat(v_0 + K (x_k - z_0)) (n_u).
-  Eigen::MatrixXd z;   ///< Nominal plan z_0..z_N (n_x x (N + 1)); frozen past the mission's end.
-  Eigen::MatrixXd v;   ///< Nominal inputs v_0..v_{N-1} (n_u x N).
-  Status status = Status::NotSolved;   ///< What was applied.
-  Status failure = Status::Solved;     ///< Cause of a fallback (Solved when none).
-  int horizon = 0;                     ///< Active horizon n = min(N, T - k).
-  int scp_iterations = 0;              ///< QPs solved in this step. When re-linearising reproduces the
-                                       ///< last QP's data exactly (a linear plant) and its trust region is
-                                       ///< inactive, the loop stops without re-solving (residual 0).
-  int qp_iterations = 0;               ///< PIQP interior-point iterations summed over the step's QPs.
-  int active_set_solves = 0;           ///< QPs of this step solved by the active-set method (the others: PIQP).
-  int active_set_iterations = 0;       ///< Active-set factorisations summed over the step's QPs (incl. failed tries).
-  int model_evaluations = 0;           ///< Nodes discretised by the model in this step (calls of
-                                       ///< LinearizedModel::discretize; see Settings::reuse_linearization).
-  double scp_residual = 0.0;           ///< Final max_i ||z*_i - z_lin_i||_inf (state units).
-  double objective = 0.0;              ///< Nominal cost of the applied plan's last QP (incl. constant).
-  Timings timings;                     ///< Wall-clock split of the step (s).
+  Eigen::VectorXd u;  ///< Applied input u = sat(v_0 + K (x_k - z_0)) (n_u).
+  Eigen::MatrixXd z;  ///< Nominal plan z_0..z_N (n_x x (N + 1)); frozen past the mission's end.
+  Eigen::MatrixXd v;  ///< Nominal inputs v_0..v_{N-1} (n_u x N).
+  Status status = Status::NotSolved;  ///< What was applied.
+  Status failure = Status::Solved;    ///< Cause of a fallback (Solved when none).
+  int horizon = 0;                    ///< Active horizon n = min(N, T - k).
+  int scp_iterations = 0;             ///< QPs solved in this step. When re-linearising reproduces the
+                                      ///< last QP's data exactly (a linear plant) and its trust region is
+                                      ///< inactive, the loop stops without re-solving (residual 0).
+  int qp_iterations = 0;              ///< PIQP interior-point iterations summed over the step's QPs.
+  int active_set_solves = 0;  ///< QPs of this step solved by the active-set method (the others: PIQP).
+  int active_set_iterations =
+      0;                      ///< Active-set factorisations summed over the step's QPs (incl. failed tries).
+  int model_evaluations = 0;  ///< Nodes discretised by the model in this step (calls of
+                              ///< LinearizedModel::discretize; see Settings::reuse_linearization).
+  double scp_residual = 0.0;  ///< Final max_i ||z*_i - z_lin_i||_inf (state units).
+  double objective = 0.0;     ///< Nominal cost of the applied plan's last QP (incl. constant).
+  Timings timings;            ///< Wall-clock split of the step (s).
 };
 
 /// The last QP built, in PIQP's form (see the file comment). P is the full symmetric matrix.
@@ -224,7 +226,7 @@ struct QpData {
   Eigen::VectorXd h_u;            ///< Upper side of G w (+inf where absent).
   Eigen::VectorXd x_l;            ///< Lower variable bounds (-inf where absent).
   Eigen::VectorXd x_u;            ///< Upper variable bounds (+inf where absent).
-  double constant = 0.0;     ///< Cost = 1/2 w^T P w + q^T w + constant.
+  double constant = 0.0;          ///< Cost = 1/2 w^T P w + q^T w + constant.
 };
 
 /// Primal-dual solution of the last QP. Stationarity: P w + q + A^T y + G^T (z_u - z_l) + z_bu - z_bl = 0,
@@ -258,12 +260,13 @@ class TubeMPC {
   /// DARE with the model's discretisation at the final node (zbar_T, u_ref_{T-1}, t0 + T dt).
   void setup(const Reference& reference);
   /// As above with the terminal weight from the DARE of a given (A, B) (discrete time).
-  void setup(const Reference& reference, const Eigen::MatrixXd& A_terminal, const Eigen::MatrixXd& B_terminal);
+  void setup(const Reference& reference, const Eigen::MatrixXd& A_terminal,
+             const Eigen::MatrixXd& B_terminal);
 
   /// One control step at time index k (0 <= k < T) from the measured state x_k (n_x) with the
   /// tube (K, Pe). The linearisation starts from the last plan shifted to k (when it was made at a
-  /// k' in (k - N, k]), else from the reference. Returns a reference to internal storage, valid until the next step. Numerical
-  /// outcomes are statuses; wrong sizes or k out of range throw std::invalid_argument.
+  /// k' in (k - N, k]), else from the reference. Returns a reference to internal storage, valid until the
+  /// next step. Numerical outcomes are statuses; wrong sizes or k out of range throw std::invalid_argument.
   const StepResult& step(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k, const Tube& tube);
 
   /// Forgets the previous plan and the re-usable model data (the next step linearises about the reference).
@@ -293,8 +296,8 @@ class TubeMPC {
 /// Exact zero-order-hold discretisation of x' = A_c x + B_c u + c_c over dt (s) by one exponential of
 /// the augmented matrix [[A_c, B_c, c_c], [0, 0, 0]] dt (PAPER_NOTES.md "Linearisation and
 /// discretisation"). Allocates.
-void zoh_discretize(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const Eigen::VectorXd& c_c, double dt,
-                    Eigen::MatrixXd& A, Eigen::MatrixXd& B, Eigen::VectorXd& c);
+void zoh_discretize(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const Eigen::VectorXd& c_c,
+                    double dt, Eigen::MatrixXd& A, Eigen::MatrixXd& B, Eigen::VectorXd& c);
 
 /// Linear time-invariant plant x+ = A x + B u + c with constant constraints G x <= h: a test and
 /// benchmark plant (and a stand-in for the 6-DOF model). The discretisation is computed once.

@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# The lint of the test command: fails on any finding. tools/format.sh applies the formatters.
+#   ruff check and ruff format --check (pyproject.toml), mypy --strict (pyproject.toml),
+#   clang-format --dry-run -Werror (.clang-format) on the C++ sources, headers, bindings, tests and examples.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BIN=${VENV_BIN:-.venv/bin}
+"$BIN/ruff" check python tests/py tools
+"$BIN/ruff" format --check python tests/py tools
+"$BIN/mypy"
+git ls-files 'cpp/*.hpp' 'cpp/*.cpp' 'python/src/*.hpp' 'python/src/*.cpp' 'tests/cpp/*.hpp' 'tests/cpp/*.cpp' \
+  'examples/*.cpp' | xargs clang-format --dry-run -Werror
+echo "lint passed"
