@@ -23,7 +23,12 @@ PY=${PYTHON:-python3}
 [ -x .venv/bin/python ] || "$PY" -m venv .venv
 .venv/bin/python -m pip install -q --upgrade pip
 export CMAKE_BUILD_PARALLEL_LEVEL=${CMAKE_BUILD_PARALLEL_LEVEL:-$(nproc)}
-.venv/bin/python -m pip install ".[test,dev]" \
+# The build requirements go into .venv and the build runs there (no isolated environment): the C++
+# package installed from build/test by the install test then finds Eigen where the build found it.
+.venv/bin/python -c "import tomllib; print('\n'.join(tomllib.load(open('pyproject.toml', 'rb'))['build-system']['requires']))" \
+  > .venv/build-requirements.txt
+.venv/bin/python -m pip install -q -r .venv/build-requirements.txt
+.venv/bin/python -m pip install --no-build-isolation ".[test,dev]" \
   --config-settings=build-dir=build/test \
   --config-settings=cmake.define.TUBEMPC_BUILD_TESTS=ON \
   --config-settings=cmake.define.TUBEMPC_INSTALL=ON

@@ -6,8 +6,9 @@
 #include <cmath>
 #include <piqp/piqp.hpp>
 #include <stdexcept>
-#include <unsupported/Eigen/MatrixFunctions>
 #include <vector>
+
+#include "tubempc/dynamics/expm.hpp"
 
 namespace tubempc::mpc {
 
@@ -220,28 +221,16 @@ Eigen::MatrixXd solve_dare(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, c
                            " doubling iterations (is (A, B) stabilisable and (A, Q^1/2) detectable?)");
 }
 
-void zoh_discretize(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const Eigen::VectorXd& c_c,
-                    double dt, Eigen::MatrixXd& A, Eigen::MatrixXd& B, Eigen::VectorXd& c) {
-  const Eigen::Index n = A_c.rows(), m = B_c.cols();
-  if (A_c.cols() != n || B_c.rows() != n || c_c.size() != n)
-    throw std::invalid_argument("zoh_discretize: inconsistent sizes of A_c, B_c, c_c");
-  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n + m + 1, n + m + 1);
-  M.topLeftCorner(n, n) = A_c * dt;
-  M.block(0, n, n, m) = B_c * dt;
-  M.block(0, n + m, n, 1) = c_c * dt;
-  const Eigen::MatrixXd E = M.exp();
-  A = E.topLeftCorner(n, n);
-  B = E.block(0, n, n, m);
-  c = E.block(0, n + m, n, 1);
-}
-
 LtiModel::LtiModel(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const Eigen::VectorXd& c_c,
                    double dt, const Eigen::MatrixXd& G, const Eigen::VectorXd& h)
     : dt_(dt), G_(G), h_(h) {
   if (!(dt > 0.0)) throw std::invalid_argument("LtiModel: dt must be > 0 s");
   if (G.cols() != A_c.rows() || G.rows() != h.size())
     throw std::invalid_argument("LtiModel: G, h sizes mismatch");
-  zoh_discretize(A_c, B_c, c_c, dt, A_, B_, c_);
+  if (A_c.cols() != A_c.rows() || B_c.rows() != A_c.rows() || c_c.size() != A_c.rows())
+    throw std::invalid_argument("LtiModel: inconsistent sizes of A_c, B_c, c_c");
+  if (!dynamics::zoh_discretize<Eigen::Dynamic, Eigen::Dynamic>(A_c, B_c, c_c, dt, A_, B_, c_))
+    throw std::invalid_argument("LtiModel: A_c, B_c, c_c must be finite");
 }
 
 void LtiModel::discretize(double, double dt, const Eigen::Ref<const Eigen::VectorXd>&,
@@ -627,40 +616,32 @@ QpSolution TubeMPC::qp_solution() const {
   return QpSolution{r.x, r.y, r.z_l, r.z_u, r.z_bl, r.z_bu};
 }
 
-const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k, const Tube& tube) {
-  Impl& m = *impl_;
-  const Settings& s = settings_;
-  const int nx = m.nx, nu = m.nu, nc = m.nc, N = m.N, T = m.T;
-  if (T == 0) throw std::invalid_argument("TubeMPC::step: call setup first");
-  if (k < 0 || k >= T) throw std::invalid_argument("TubeMPC::step: k must be in [0, T)");
-  if (x_k.size() != nx) throw std::invalid_argument("TubeMPC::step: x_k must have n_x entries");
-  if (tube.K.rows() != nu || tube.K.cols() != nx || tube.Pe.rows() != nx || tube.Pe.cols() != nx)
-    throw std::invalid_argument("TubeMPC::step: tube.K must be n_u x n_x and tube.Pe n_x x n_x");
-
-  const auto t_start = Clock::now();
-  StepResult& res = m.result;
-  res.timings = Timings{};
-  res.scp_iterations = 0;
-  res.qp_iterations = 0;
-  res.active_set_solves = 0;
-  res.active_set_iterations = 0;
-  res.model_evaluations = 0;
-  res.scp_residual = kInf;
-  res.failure = Status::Solved;
-  const int n = std::min(N, T - k);
-  res.horizon = n;
-  const bool terminal_phase = k >= T - N;
-  const double dt = s.dt;
+// The phases of TubeMPC::step, in order; each works on the controller's preallocated state (Impl) and
+// the step's constants (StepContext). None allocates after setup (tests/cpp/mpc_alloc).
+struct TubeMPC::StepContext {
+  const Settings& s;
+  const LinearizedModel& model;
+  const Eigen::Ref<const Eigen::VectorXd>& x_k;
+  const Tube& tube;
+  Clock::time_point t_start;
+  int k = 0;
+  int n = 0;  // nodes of this step's horizon, min(N, T - k)
+  bool terminal_phase = false;
+  int shift = 0;          // steps since the last plan
+  bool use_plan = false;  // that plan seeds the linearisation (and the shifted fallback)
+  int n_reuse_d = 0;      // nodes whose discretisation is re-used from the previous step
+  int n_reuse_z = 0;      // nodes whose linearisation state and constraints are re-used
   // Time of node i: a function of the absolute node index, so that re-used model data are exact.
-  const auto t_node = [&](int i) { return m.ref.t0 + static_cast<double>(k + i) * dt; };
+  double t_node(double t0, int i) const { return t0 + static_cast<double>(k + i) * s.dt; }
+};
 
-  // Model data of the previous step (converged at k - 1) re-used, shifted by one node
-  // (Settings::reuse_linearization): discretisations of nodes i < n_reuse_d, and linearisation states
-  // and constraints of nodes i < n_reuse_z (the previous step's nodes 1..lin_n).
-  int n_reuse_d = 0, n_reuse_z = 0;
-  if (s.reuse_linearization && m.lin_k >= 0 && k == m.lin_k + 1) {
-    n_reuse_z = std::min(n + 1, m.lin_n);
-    n_reuse_d = std::min(n, m.lin_n - 1);
+// Phase 1: re-use the previous converged step's model data shifted by one node
+// (Settings::reuse_linearization) and shift its final active set as the first QP's guess.
+void TubeMPC::shift_warm_start(StepContext& c) {
+  Impl& m = *impl_;
+  if (c.s.reuse_linearization && m.lin_k >= 0 && c.k == m.lin_k + 1) {
+    c.n_reuse_z = std::min(c.n + 1, m.lin_n);
+    c.n_reuse_d = std::min(c.n, m.lin_n - 1);
     std::rotate(m.Ad.begin(), m.Ad.begin() + 1, m.Ad.end());  // swaps: no allocation
     std::rotate(m.Bd.begin(), m.Bd.begin() + 1, m.Bd.end());
     std::rotate(m.cd.begin(), m.cd.begin() + 1, m.cd.end());
@@ -668,88 +649,106 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     std::rotate(m.hc.begin(), m.hc.begin() + 1, m.hc.end());
   }
   m.lin_k = -1;  // valid again only if this step converges
-  // Active-set guess of the first QP: the previous step's final set shifted by one node.
-  if (m.as_set_k == k - 1) {
+  if (m.as_set_k == c.k - 1) {
     m.as_prev = m.as_set;
     for (int j = 0; j < m.as_set.size(); ++j) m.as_set(j) = m.as_prev(m.as_shift(j));
   } else {
     m.as_set.setZero();
   }
   m.as_set_k = -1;  // valid again only if this step returns a plan
+  for (int i = 0; i < m.N; ++i) m.eval_d(i) = i >= c.n_reuse_d;
+  for (int i = 0; i <= m.N; ++i) m.eval_c(i) = i >= c.n_reuse_z;
+}
 
-  for (int i = 0; i < N; ++i) m.eval_d(i) = i >= n_reuse_d;
-  for (int i = 0; i <= N; ++i) m.eval_c(i) = i >= n_reuse_z;
-
-  // Linearisation trajectory: the previous plan shifted to k (usually by one node), completed from
-  // the reference; the reference alone without a usable plan. Nodes with re-used data take the
-  // trajectory those data were computed about.
-  const int shift = k - m.plan_k;
-  const bool use_plan = m.have_plan && shift >= 0 && shift < N;
+// Phase 2: the linearisation trajectory: the previous plan shifted to k (usually by one node),
+// completed from the reference; the reference alone without a usable plan. Nodes with re-used data
+// take the trajectory those data were computed about.
+void TubeMPC::seed_linearization(StepContext& c) {
+  Impl& m = *impl_;
+  const int N = m.N, T = m.T, k = c.k;
+  c.shift = k - m.plan_k;
+  c.use_plan = m.have_plan && c.shift >= 0 && c.shift < N;
   for (int i = 0; i <= N; ++i) {
-    if (i < n_reuse_z)
+    if (i < c.n_reuse_z)
       m.z_lin.col(i) = m.z_lin_at.col(i + 1);
     else
-      m.z_lin.col(i) = use_plan && i + shift <= N ? m.z_plan.col(i + shift) : m.ref.z.col(std::min(k + i, T));
+      m.z_lin.col(i) =
+          c.use_plan && i + c.shift <= N ? m.z_plan.col(i + c.shift) : m.ref.z.col(std::min(k + i, T));
   }
   for (int i = 0; i < N; ++i) {
-    if (i < n_reuse_d)
+    if (i < c.n_reuse_d)
       m.v_lin.col(i) = m.v_lin_at.col(i + 1);
     else
       m.v_lin.col(i) =
-          use_plan && i + shift < N ? m.v_plan.col(i + shift) : m.ref.u.col(std::min(k + i, T - 1));
+          c.use_plan && i + c.shift < N ? m.v_plan.col(i + c.shift) : m.ref.u.col(std::min(k + i, T - 1));
   }
+}
 
-  auto fallback = [&](Status cause) -> const StepResult& {
-    res.failure = cause;
-    if (use_plan && m.z_plan.allFinite() && m.v_plan.allFinite()) {
-      // Theorem 1's candidate: the previous plan shifted to k, holding its last state, with zero
-      // inputs appended (u_ref with InputCost::FromReference).
-      for (int i = 0; i <= N; ++i) res.z.col(i) = m.z_plan.col(std::min(i + shift, N));
-      for (int i = 0; i < N; ++i) {
-        if (i + shift < N)
-          res.v.col(i) = m.v_plan.col(i + shift);
-        else if (s.input_cost == InputCost::FromReference && k + i < T)
-          res.v.col(i) = m.ref.u.col(k + i);
-        else
-          res.v.col(i).setZero();
-      }
-      m.z_plan = res.z;
-      m.v_plan = res.v;
-      m.plan_k = k;
-      res.status = Status::FallbackShiftedPlan;
-    } else {
-      for (int i = 0; i <= N; ++i) res.z.col(i) = m.ref.z.col(std::min(k + i, T));
-      for (int i = 0; i < N; ++i) res.v.col(i) = m.ref.u.col(std::min(k + i, T - 1));
-      res.status = Status::FallbackSafeInput;
+// The step's outcome when no new plan is applied: Theorem 1's candidate (the previous plan shifted to
+// k, holding its last state, zero inputs appended (u_ref with InputCost::FromReference)) or the
+// reference; the ancillary law on it, saturated and never non-finite.
+const StepResult& TubeMPC::fallback(const StepContext& c, Status cause) {
+  Impl& m = *impl_;
+  StepResult& res = m.result;
+  const Settings& s = c.s;
+  const int N = m.N, T = m.T, k = c.k;
+  res.failure = cause;
+  if (c.use_plan && m.z_plan.allFinite() && m.v_plan.allFinite()) {
+    for (int i = 0; i <= N; ++i) res.z.col(i) = m.z_plan.col(std::min(i + c.shift, N));
+    for (int i = 0; i < N; ++i) {
+      if (i + c.shift < N)
+        res.v.col(i) = m.v_plan.col(i + c.shift);
+      else if (s.input_cost == InputCost::FromReference && k + i < T)
+        res.v.col(i) = m.ref.u.col(k + i);
+      else
+        res.v.col(i).setZero();
     }
-    m.e = x_k - res.z.col(0);
-    res.u = res.v.col(0);
-    if (tube.K.allFinite() && m.e.allFinite()) res.u.noalias() += tube.K * m.e;
-    if (!res.u.allFinite()) res.u = m.ref.u.col(k);
-    res.u = res.u.cwiseMax(-s.u_max).cwiseMin(s.u_max);
-    res.objective = kInf;
-    res.timings.total = seconds_since(t_start);
-    return res;
-  };
-
-  if (!x_k.allFinite() || !tube.K.allFinite() || !tube.Pe.allFinite())
-    return fallback(Status::NumericalError);
-  // Tube: Pe = L L^T and the tightenings sqrt(a^T Pe a).
-  m.llt.compute(tube.Pe);
-  if (m.llt.info() != Eigen::Success) return fallback(Status::NumericalError);
-  m.Lc = m.llt.matrixL();
-  for (int j = 0; j < nu; ++j) {
-    m.tmp_nx.noalias() = tube.Pe * tube.K.row(j).transpose();
-    m.u_tight(j) = s.u_max(j) - std::sqrt(std::max(0.0, tube.K.row(j).dot(m.tmp_nx)));
+    m.z_plan = res.z;
+    m.v_plan = res.v;
+    m.plan_k = k;
+    res.status = Status::FallbackShiftedPlan;
+  } else {
+    for (int i = 0; i <= N; ++i) res.z.col(i) = m.ref.z.col(std::min(k + i, T));
+    for (int i = 0; i < N; ++i) res.v.col(i) = m.ref.u.col(std::min(k + i, T - 1));
+    res.status = Status::FallbackSafeInput;
   }
-  if ((m.u_tight.array() <= 0.0).any()) return fallback(Status::EmptyTightening);
+  m.e = c.x_k - res.z.col(0);
+  res.u = res.v.col(0);
+  if (c.tube.K.allFinite() && m.e.allFinite()) res.u.noalias() += c.tube.K * m.e;
+  if (!res.u.allFinite()) res.u = m.ref.u.col(k);
+  res.u = res.u.cwiseMax(-s.u_max).cwiseMin(s.u_max);
+  res.objective = kInf;
+  res.timings.total = seconds_since(c.t_start);
+  return res;
+}
 
-  // Parts of the QP that do not depend on the linearisation. The QP's state variables are the
-  // deviations dz_i = z_i - zbar_{min(k+i, T)}: the objective then carries no large constant, which
-  // keeps the solvers' relative tolerances meaningful for states of hundreds of metres.
+// Phase 3: the tube's factor Pe = L L^T and the input tightenings sqrt(K_i Pe K_i^T).
+Status TubeMPC::tighten(const StepContext& c) {
+  Impl& m = *impl_;
+  const Tube& tube = c.tube;
+  if (!c.x_k.allFinite() || !tube.K.allFinite() || !tube.Pe.allFinite()) return Status::NumericalError;
+  m.llt.compute(tube.Pe);
+  if (m.llt.info() != Eigen::Success) return Status::NumericalError;
+  m.Lc = m.llt.matrixL();
+  for (int j = 0; j < m.nu; ++j) {
+    m.tmp_nx.noalias() = tube.Pe * tube.K.row(j).transpose();
+    m.u_tight(j) = c.s.u_max(j) - std::sqrt(std::max(0.0, tube.K.row(j).dot(m.tmp_nx)));
+  }
+  return (m.u_tight.array() <= 0.0).any() ? Status::EmptyTightening : Status::Solved;
+}
+
+// Phase 4: the parts of the QP that do not depend on the linearisation: the initial condition, the
+// input box and input cost, the state costs and the soft-constraint and soft-terminal rows. The
+// QP's state variables are the deviations dz_i = z_i - zbar_{min(k+i, T)}: the objective then
+// carries no large constant, which keeps the solvers' relative tolerances meaningful for states of
+// hundreds of metres.
+void TubeMPC::write_cost(const StepContext& c) {
+  Impl& m = *impl_;
+  const Settings& s = c.s;
+  const int nx = m.nx, nu = m.nu, nc = m.nc, N = m.N, T = m.T, k = c.k, n = c.n;
   for (int i = 0; i <= N; ++i) m.z_ref.col(i) = m.ref.z.col(std::min(k + i, T));
   m.constant = 0.0;
-  m.b.head(nx) = x_k - m.z_ref.col(0);
+  m.b.head(nx) = c.x_k - m.z_ref.col(0);
   if (s.initial_condition == InitialCondition::WhitenedBox) {
     write_block(m.A, m.posA_L, m.Lc, -1.0, m.mL);
     const double r = 1.0 / std::sqrt(static_cast<double>(nx));
@@ -769,8 +768,8 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   }
   for (int i = 0; i <= N; ++i) {
     const bool staged = i < n;
-    const bool terminal_cost = i == N && !terminal_phase;
-    const bool soft_end = i == N && terminal_phase && s.soft_terminal;
+    const bool terminal_cost = i == N && !c.terminal_phase;
+    const bool soft_end = i == N && c.terminal_phase && s.soft_terminal;
     // Stage, terminal (zbar_{k+N}, W = P_term) and soft-end (zbar_T = x_f, W = Q) costs are all
     // ||dz_i||^2_W. The soft end takes Q: the exact penalty already holds z_N at x_f, and P_term's
     // rate entries (~1e8) would only worsen the KKT conditioning there.
@@ -786,13 +785,13 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   }
   if (m.off_t >= 0) {
     const int r0 = (N + 1) * nc;
-    m.q.segment(m.off_t, nx).setConstant(terminal_phase ? s.soft_penalty : 0.0);
+    m.q.segment(m.off_t, nx).setConstant(c.terminal_phase ? s.soft_penalty : 0.0);
     m.x_l.segment(m.off_t, nx).setConstant(-kInf);  // t >= 0 follows from |dz_N| <= t: no redundant bound
     const double sign[4] = {1.0, -1.0, 1.0, 1.0};   // dz_N - t <= 0, dz_N + t >= 0 (zbar_T = x_f)
     for (int blk = 0; blk < 4; ++blk)
       for (int j = 0; j < nx; ++j)
-        m.G.valuePtr()[m.posG_term[blk * nx + j]] = terminal_phase ? sign[blk] : 0.0;
-    if (terminal_phase) {
+        m.G.valuePtr()[m.posG_term[blk * nx + j]] = c.terminal_phase ? sign[blk] : 0.0;
+    if (c.terminal_phase) {
       m.h_l.segment(r0, nx).setConstant(-kInf);
       m.h_u.segment(r0, nx).setZero();
       m.h_l.segment(r0 + nx, nx).setZero();
@@ -802,163 +801,257 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
       m.h_u.segment(r0, 2 * nx).setConstant(1.0);
     }
   }
+}
 
+// Phase 5a: linearise about (z_lin, v_lin) the nodes marked for evaluation (the first SCP iteration
+// keeps the re-used nodes' data); NumericalError or ModelStructure when the data cannot be used.
+Status TubeMPC::linearize(const StepContext& c, int it) {
+  Impl& m = *impl_;
+  StepResult& res = m.result;
+  const int nc = m.nc, n = c.n;
+  const double dt = c.s.dt;
+  bool finite = true;
+  for (int i = 0; i < n; ++i) {
+    if (!m.eval_d(i)) continue;
+    if (it > 0)  // the node holds data about (z_lin_at, v_lin_at) for the same time: the model may keep parts
+      c.model.rediscretize(c.t_node(m.ref.t0, i), dt, m.z_lin_at.col(i), m.v_lin_at.col(i), m.z_lin.col(i),
+                           m.v_lin.col(i), m.Ad[i], m.Bd[i], m.cd[i]);
+    else
+      c.model.discretize(c.t_node(m.ref.t0, i), dt, m.z_lin.col(i), m.v_lin.col(i), m.Ad[i], m.Bd[i],
+                         m.cd[i]);
+    finite = finite && m.Ad[i].allFinite() && m.Bd[i].allFinite() && m.cd[i].allFinite();
+    ++res.model_evaluations;
+  }
+  for (int i = 0; i <= n; ++i) {
+    if (nc == 0) break;
+    if (!m.eval_c(i)) continue;
+    c.model.constraints(c.t_node(m.ref.t0, i), m.z_lin.col(i), m.Gc[i], m.hc[i]);
+    finite =
+        finite && m.Gc[i].allFinite() && !m.hc[i].array().isNaN().any() && !(m.hc[i].array() == -kInf).any();
+  }
+  m.z_lin_at = m.z_lin;
+  m.v_lin_at = m.v_lin;
+  if (!finite) return Status::NumericalError;
+  bool structured = true;
+  for (int i = 0; i < n; ++i)
+    structured = structured && !outside_structure(m.Ad[i], m.mA) && !outside_structure(m.Bd[i], m.mB);
+  for (int i = 0; i <= n && nc > 0; ++i) structured = structured && !outside_structure(m.Gc[i], m.mG);
+  return structured ? Status::Solved : Status::ModelStructure;
+}
+
+// Phase 5b: whether the model data equal the previous QP's (then, with its trust region inactive,
+// the QP about the new nominal has the same minimiser: converged without solving it again); keeps
+// the data for the next comparison.
+bool TubeMPC::same_model_data(const StepContext& c, int it, double last_delta) {
+  Impl& m = *impl_;
+  const int nc = m.nc, n = c.n;
+  bool same = it > 0 && last_delta < c.s.trust_region;
+  for (int i = 0; i < n && same; ++i)
+    same = m.Ad[i] == m.Ad_prev[i] && m.Bd[i] == m.Bd_prev[i] && m.cd[i] == m.cd_prev[i];
+  for (int i = 0; i <= n && same && nc > 0; ++i) same = m.Gc[i] == m.Gc_prev[i] && m.hc[i] == m.hc_prev[i];
+  if (same) return true;
+  for (int i = 0; i < n; ++i) {
+    m.Ad_prev[i] = m.Ad[i];
+    m.Bd_prev[i] = m.Bd[i];
+    m.cd_prev[i] = m.cd[i];
+  }
+  for (int i = 0; i <= n && nc > 0; ++i) {
+    m.Gc_prev[i] = m.Gc[i];
+    m.hc_prev[i] = m.hc[i];
+  }
+  return false;
+}
+
+// Phase 5c: the linearisation-dependent QP values: dynamics rows, tightened state constraints
+// (sqrt(a^T Pe a)), the SCP trust region and the hard terminal equality.
+void TubeMPC::write_constraints(const StepContext& c) {
+  Impl& m = *impl_;
+  const Settings& s = c.s;
+  const Eigen::MatrixXd& Pe = c.tube.Pe;
+  const int nx = m.nx, nc = m.nc, N = m.N, n = c.n;
+  for (int i = 0; i < N; ++i) {
+    const int r0 = (i + 1) * nx;
+    if (i < n) {
+      write_block(m.A, m.posA_A[i], m.Ad[i], -1.0, m.mA);
+      write_block(m.A, m.posA_B[i], m.Bd[i], -1.0, m.mB);
+      // dz_{i+1} - A dz_i - B v_i = c + A zbar_i - zbar_{i+1}
+      m.tmp_nx.noalias() = m.Ad[i] * m.z_ref.col(i);
+      m.b.segment(r0, nx) = m.cd[i] + m.tmp_nx - m.z_ref.col(i + 1);
+    } else {  // frozen node: z_{i+1} = z_i, input without effect
+      write_block(m.A, m.posA_A[i], Eigen::MatrixXd::Identity(nx, nx), -1.0, m.mA);
+      zero_block(m.A, m.posA_B[i]);
+      m.b.segment(r0, nx) = m.z_ref.col(i) - m.z_ref.col(i + 1);
+    }
+  }
+  for (int i = 0; i <= N; ++i) {
+    if (nc == 0) break;
+    if (i <= n) {
+      write_block(m.G, m.posG[i], m.Gc[i], 1.0, m.mG);
+      for (int j = 0; j < nc; ++j) {
+        const int row = i * nc + j;
+        if (std::isfinite(m.hc[i](j))) {
+          m.tmp_nx.noalias() = Pe * m.Gc[i].row(j).transpose();
+          m.h_l(row) = -kInf;
+          m.h_u(row) = m.hc[i](j) - std::sqrt(std::max(0.0, m.Gc[i].row(j).dot(m.tmp_nx))) -
+                       m.Gc[i].row(j).dot(m.z_ref.col(i));
+        } else {  // the model marks the row absent
+          zero_block_row(m.G, m.posG[i], m.mG, j);
+          m.h_l(row) = -1.0;
+          m.h_u(row) = 1.0;
+        }
+      }
+    } else {
+      zero_block(m.G, m.posG[i]);
+      m.h_l.segment(i * nc, nc).setConstant(-1.0);
+      m.h_u.segment(i * nc, nc).setConstant(1.0);
+    }
+  }
+  for (int i = 1; i <= N; ++i) {
+    if (i <= n && std::isfinite(s.trust_region)) {
+      m.x_l.segment(m.iz(i), nx).array() = (m.z_lin.col(i) - m.z_ref.col(i)).array() - s.trust_region;
+      m.x_u.segment(m.iz(i), nx).array() = (m.z_lin.col(i) - m.z_ref.col(i)).array() + s.trust_region;
+    } else {
+      m.x_l.segment(m.iz(i), nx).setConstant(-kInf);
+      m.x_u.segment(m.iz(i), nx).setConstant(kInf);
+    }
+  }
+  if (c.terminal_phase && !s.soft_terminal) {  // z_N = x_f = zbar_T
+    m.x_l.segment(m.iz(N), nx).setZero();
+    m.x_u.segment(m.iz(N), nx).setZero();
+  }
+}
+
+// Phase 6: solve the QP: the active set warm-started from the last QP's set, then once more from the
+// empty set if that guess led it astray (it can make dependent rows active); PIQP if neither verifies.
+Status TubeMPC::solve_with_retry(const StepContext& c) {
+  Impl& m = *impl_;
+  StepResult& res = m.result;
+  m.last_qp_active_set = false;
+  if (c.s.backend == Backend::ActiveSetPiqp) {
+    const bool warm = (m.as_set.array() != 0).any();
+    for (int attempt = 0; attempt < (warm ? 2 : 1) && !m.last_qp_active_set; ++attempt) {
+      if (attempt == 1) m.as_set.setZero();
+      m.last_qp_active_set = m.active_set.solve(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u,
+                                                m.as_set) == ActiveSetQp::Status::Solved;
+      res.active_set_iterations += m.active_set.info().iterations;
+    }
+    if (m.last_qp_active_set) ++res.active_set_solves;
+  }
+  return m.last_qp_active_set ? Status::Solved : m.solve_piqp(c.s, res, c.t_start);
+}
+
+// Phase 7: the QP's plan, its largest move from the linearisation (the SCP residual) and the next
+// linearisation point. With reuse_linearization, a node whose plan moved less than scp_eps (it
+// already meets the convergence test) keeps its model data and their point; the others are
+// linearised about the new plan.
+double TubeMPC::update_plan(const StepContext& c, const Eigen::VectorXd& x_qp) {
+  Impl& m = *impl_;
+  const Settings& s = c.s;
+  const int nx = m.nx, nu = m.nu, N = m.N, n = c.n;
+  double delta = 0.0;
+  for (int i = 0; i <= N; ++i) {
+    m.z_star.col(i) = x_qp.segment(m.iz(i), nx) + m.z_ref.col(i);
+    if (i <= n) delta = std::max(delta, (m.z_star.col(i) - m.z_lin.col(i)).cwiseAbs().maxCoeff());
+  }
+  for (int i = 0; i < N; ++i) m.v_star.col(i) = x_qp.segment(m.iv(i), nu);
+  for (int i = 0; i <= N; ++i) {
+    const bool moved = !s.reuse_linearization || i > n ||
+                       (m.z_star.col(i) - m.z_lin.col(i)).cwiseAbs().maxCoeff() >= s.scp_eps;
+    m.eval_c(i) = moved;
+    if (i < N) m.eval_d(i) = moved;
+    if (!moved) continue;
+    m.z_lin.col(i) = m.z_star.col(i);
+    if (i < N) m.v_lin.col(i) = m.v_star.col(i);
+  }
+  return delta;
+}
+
+// Phase 8: apply the plan: the ancillary law u = v_0 + K (x_k - z_0), saturated; keep the plan and
+// (when converged) the model data for the next step.
+const StepResult& TubeMPC::finish(const StepContext& c, bool converged, bool inaccurate) {
+  Impl& m = *impl_;
+  StepResult& res = m.result;
+  res.z = m.z_star;
+  res.v = m.v_star;
+  m.z_plan = m.z_star;
+  m.v_plan = m.v_star;
+  m.have_plan = true;
+  m.plan_k = c.k;
+  m.e = c.x_k - res.z.col(0);
+  res.u = res.v.col(0);
+  res.u.noalias() += c.tube.K * m.e;
+  res.u = res.u.cwiseMax(-c.s.u_max).cwiseMin(c.s.u_max);
+  res.status = !converged ? Status::MaxIterations : (inaccurate ? Status::SolvedInaccurate : Status::Solved);
+  if (!res.u.allFinite()) return fallback(c, Status::NumericalError);
+  if (converged) {
+    m.lin_k = c.k;
+    m.lin_n = c.n;
+  }
+  m.as_set_k = c.k;
+  res.timings.total = seconds_since(c.t_start);
+  return res;
+}
+
+const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k, const Tube& tube) {
+  Impl& m = *impl_;
+  const Settings& s = settings_;
+  if (m.T == 0) throw std::invalid_argument("TubeMPC::step: call setup first");
+  if (k < 0 || k >= m.T) throw std::invalid_argument("TubeMPC::step: k must be in [0, T)");
+  if (x_k.size() != m.nx) throw std::invalid_argument("TubeMPC::step: x_k must have n_x entries");
+  if (tube.K.rows() != m.nu || tube.K.cols() != m.nx || tube.Pe.rows() != m.nx || tube.Pe.cols() != m.nx)
+    throw std::invalid_argument("TubeMPC::step: tube.K must be n_u x n_x and tube.Pe n_x x n_x");
+
+  StepContext c{s, *model_, x_k, tube, Clock::now()};
+  c.k = k;
+  c.n = std::min(m.N, m.T - k);
+  c.terminal_phase = k >= m.T - m.N;
+  StepResult& res = m.result;
+  res.timings = Timings{};
+  res.scp_iterations = 0;
+  res.qp_iterations = 0;
+  res.active_set_solves = 0;
+  res.active_set_iterations = 0;
+  res.model_evaluations = 0;
+  res.scp_residual = kInf;
+  res.failure = Status::Solved;
+  res.horizon = c.n;
+
+  shift_warm_start(c);
+  seed_linearization(c);
+  if (const Status st = tighten(c); st != Status::Solved) return fallback(c, st);
+  write_cost(c);
+
+  // Sequential convex programming (Algorithm 1): linearise, write, solve, until the plan moves less
+  // than scp_eps.
   bool converged = false;
   bool inaccurate = false;
   double last_delta = kInf;
   for (int it = 0; it < s.scp_max_iterations; ++it) {
-    if (it > 0 && seconds_since(t_start) > s.time_limit) return fallback(Status::TimeLimit);
-    // Linearise about (z_lin, v_lin) (the first iteration keeps the re-used nodes' data).
+    if (it > 0 && seconds_since(c.t_start) > s.time_limit) return fallback(c, Status::TimeLimit);
     auto t0 = Clock::now();
-    bool finite = true;
-    for (int i = 0; i < n; ++i) {
-      if (!m.eval_d(i)) continue;
-      if (it >
-          0)  // the node holds data about (z_lin_at, v_lin_at) for the same time: the model may keep parts
-        model_->rediscretize(t_node(i), dt, m.z_lin_at.col(i), m.v_lin_at.col(i), m.z_lin.col(i),
-                             m.v_lin.col(i), m.Ad[i], m.Bd[i], m.cd[i]);
-      else
-        model_->discretize(t_node(i), dt, m.z_lin.col(i), m.v_lin.col(i), m.Ad[i], m.Bd[i], m.cd[i]);
-      finite = finite && m.Ad[i].allFinite() && m.Bd[i].allFinite() && m.cd[i].allFinite();
-      ++res.model_evaluations;
-    }
-    for (int i = 0; i <= n; ++i) {
-      if (nc == 0) break;
-      if (!m.eval_c(i)) continue;
-      model_->constraints(t_node(i), m.z_lin.col(i), m.Gc[i], m.hc[i]);
-      finite = finite && m.Gc[i].allFinite() && !m.hc[i].array().isNaN().any() &&
-               !(m.hc[i].array() == -kInf).any();
-    }
-    m.z_lin_at = m.z_lin;
-    m.v_lin_at = m.v_lin;
+    const Status lin = linearize(c, it);
     res.timings.linearize += seconds_since(t0);
-    if (!finite) return fallback(Status::NumericalError);
-    bool structured = true;
-    for (int i = 0; i < n; ++i)
-      structured = structured && !outside_structure(m.Ad[i], m.mA) && !outside_structure(m.Bd[i], m.mB);
-    for (int i = 0; i <= n && nc > 0; ++i) structured = structured && !outside_structure(m.Gc[i], m.mG);
-    if (!structured) return fallback(Status::ModelStructure);
-    // Same model data as the previous QP and its trust region inactive: the QP about the new nominal
-    // has the same minimiser, so the iteration has converged (residual 0) without solving it again.
-    if (it > 0 && last_delta < s.trust_region) {
-      bool same = true;
-      for (int i = 0; i < n && same; ++i)
-        same = m.Ad[i] == m.Ad_prev[i] && m.Bd[i] == m.Bd_prev[i] && m.cd[i] == m.cd_prev[i];
-      for (int i = 0; i <= n && same && nc > 0; ++i)
-        same = m.Gc[i] == m.Gc_prev[i] && m.hc[i] == m.hc_prev[i];
-      if (same) {
-        res.scp_residual = 0.0;
-        converged = true;
-        break;
-      }
+    if (lin != Status::Solved) return fallback(c, lin);
+    if (same_model_data(c, it, last_delta)) {
+      res.scp_residual = 0.0;
+      converged = true;
+      break;
     }
-    for (int i = 0; i < n; ++i) {
-      m.Ad_prev[i] = m.Ad[i];
-      m.Bd_prev[i] = m.Bd[i];
-      m.cd_prev[i] = m.cd[i];
-    }
-    for (int i = 0; i <= n && nc > 0; ++i) {
-      m.Gc_prev[i] = m.Gc[i];
-      m.hc_prev[i] = m.hc[i];
-    }
-
-    // Write the linearisation-dependent values.
     t0 = Clock::now();
-    for (int i = 0; i < N; ++i) {
-      const int r0 = (i + 1) * nx;
-      if (i < n) {
-        write_block(m.A, m.posA_A[i], m.Ad[i], -1.0, m.mA);
-        write_block(m.A, m.posA_B[i], m.Bd[i], -1.0, m.mB);
-        // dz_{i+1} - A dz_i - B v_i = c + A zbar_i - zbar_{i+1}
-        m.tmp_nx.noalias() = m.Ad[i] * m.z_ref.col(i);
-        m.b.segment(r0, nx) = m.cd[i] + m.tmp_nx - m.z_ref.col(i + 1);
-      } else {  // frozen node: z_{i+1} = z_i, input without effect
-        write_block(m.A, m.posA_A[i], Eigen::MatrixXd::Identity(nx, nx), -1.0, m.mA);
-        zero_block(m.A, m.posA_B[i]);
-        m.b.segment(r0, nx) = m.z_ref.col(i) - m.z_ref.col(i + 1);
-      }
-    }
-    for (int i = 0; i <= N; ++i) {
-      if (nc == 0) break;
-      if (i <= n) {
-        write_block(m.G, m.posG[i], m.Gc[i], 1.0, m.mG);
-        for (int j = 0; j < nc; ++j) {
-          const int row = i * nc + j;
-          if (std::isfinite(m.hc[i](j))) {
-            m.tmp_nx.noalias() = tube.Pe * m.Gc[i].row(j).transpose();
-            m.h_l(row) = -kInf;
-            m.h_u(row) = m.hc[i](j) - std::sqrt(std::max(0.0, m.Gc[i].row(j).dot(m.tmp_nx))) -
-                         m.Gc[i].row(j).dot(m.z_ref.col(i));
-          } else {  // the model marks the row absent
-            zero_block_row(m.G, m.posG[i], m.mG, j);
-            m.h_l(row) = -1.0;
-            m.h_u(row) = 1.0;
-          }
-        }
-      } else {
-        zero_block(m.G, m.posG[i]);
-        m.h_l.segment(i * nc, nc).setConstant(-1.0);
-        m.h_u.segment(i * nc, nc).setConstant(1.0);
-      }
-    }
-    for (int i = 1; i <= N; ++i) {
-      if (i <= n && std::isfinite(s.trust_region)) {
-        m.x_l.segment(m.iz(i), nx).array() = (m.z_lin.col(i) - m.z_ref.col(i)).array() - s.trust_region;
-        m.x_u.segment(m.iz(i), nx).array() = (m.z_lin.col(i) - m.z_ref.col(i)).array() + s.trust_region;
-      } else {
-        m.x_l.segment(m.iz(i), nx).setConstant(-kInf);
-        m.x_u.segment(m.iz(i), nx).setConstant(kInf);
-      }
-    }
-    if (terminal_phase && !s.soft_terminal) {  // z_N = x_f = zbar_T
-      m.x_l.segment(m.iz(N), nx).setZero();
-      m.x_u.segment(m.iz(N), nx).setZero();
-    }
+    write_constraints(c);
     res.timings.build += seconds_since(t0);
-
-    // Solve: the active set warm-started from the last QP's set, then once more from the empty set
-    // if that guess led it astray (it can make dependent rows active); PIQP if neither verifies.
     t0 = Clock::now();
-    m.last_qp_active_set = false;
-    if (s.backend == Backend::ActiveSetPiqp) {
-      const bool warm = (m.as_set.array() != 0).any();
-      for (int attempt = 0; attempt < (warm ? 2 : 1) && !m.last_qp_active_set; ++attempt) {
-        if (attempt == 1) m.as_set.setZero();
-        m.last_qp_active_set = m.active_set.solve(m.P, m.q, m.A, m.b, m.G, m.h_l, m.h_u, m.x_l, m.x_u,
-                                                  m.as_set) == ActiveSetQp::Status::Solved;
-        res.active_set_iterations += m.active_set.info().iterations;
-      }
-      if (m.last_qp_active_set) ++res.active_set_solves;
-    }
-    const Status qp_status = m.last_qp_active_set ? Status::Solved : m.solve_piqp(s, res, t_start);
+    const Status qp_status = solve_with_retry(c);
     res.timings.solve += seconds_since(t0);
     res.scp_iterations = it + 1;
     if (qp_status == Status::SolvedInaccurate)
       inaccurate = true;
     else if (qp_status != Status::Solved)
-      return fallback(qp_status);
+      return fallback(c, qp_status);
     const Eigen::VectorXd& x_qp = m.last_qp_active_set ? m.active_set.w() : m.solver.result().x;
-    if (!x_qp.allFinite()) return fallback(Status::NumericalError);
-    if (seconds_since(t_start) > s.time_limit) return fallback(Status::TimeLimit);
-
-    double delta = 0.0;
-    for (int i = 0; i <= N; ++i) {
-      m.z_star.col(i) = x_qp.segment(m.iz(i), nx) + m.z_ref.col(i);
-      if (i <= n) delta = std::max(delta, (m.z_star.col(i) - m.z_lin.col(i)).cwiseAbs().maxCoeff());
-    }
-    for (int i = 0; i < N; ++i) m.v_star.col(i) = x_qp.segment(m.iv(i), nu);
-    // Next linearisation point. With reuse_linearization, a node whose plan moved less than scp_eps
-    // (it already meets the convergence test) keeps its model data and their point; the others are
-    // linearised about the new plan.
-    for (int i = 0; i <= N; ++i) {
-      const bool moved = !s.reuse_linearization || i > n ||
-                         (m.z_star.col(i) - m.z_lin.col(i)).cwiseAbs().maxCoeff() >= s.scp_eps;
-      m.eval_c(i) = moved;
-      if (i < N) m.eval_d(i) = moved;
-      if (!moved) continue;
-      m.z_lin.col(i) = m.z_star.col(i);
-      if (i < N) m.v_lin.col(i) = m.v_star.col(i);
-    }
+    if (!x_qp.allFinite()) return fallback(c, Status::NumericalError);
+    if (seconds_since(c.t_start) > s.time_limit) return fallback(c, Status::TimeLimit);
+    const double delta = update_plan(c, x_qp);
     res.scp_residual = delta;
     last_delta = delta;
     res.objective =
@@ -968,26 +1061,7 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
       break;
     }
   }
-
-  res.z = m.z_star;
-  res.v = m.v_star;
-  m.z_plan = m.z_star;
-  m.v_plan = m.v_star;
-  m.have_plan = true;
-  m.plan_k = k;
-  m.e = x_k - res.z.col(0);
-  res.u = res.v.col(0);
-  res.u.noalias() += tube.K * m.e;
-  res.u = res.u.cwiseMax(-s.u_max).cwiseMin(s.u_max);
-  res.status = !converged ? Status::MaxIterations : (inaccurate ? Status::SolvedInaccurate : Status::Solved);
-  if (!res.u.allFinite()) return fallback(Status::NumericalError);
-  if (converged) {
-    m.lin_k = k;
-    m.lin_n = n;
-  }
-  m.as_set_k = k;
-  res.timings.total = seconds_since(t_start);
-  return res;
+  return finish(c, converged, inaccurate);
 }
 
 }  // namespace tubempc::mpc

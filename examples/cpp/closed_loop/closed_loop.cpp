@@ -36,94 +36,9 @@
 #include "tubempc/mpc/tube_mpc.hpp"
 
 // ---- allocation counter ------------------------------------------------------------------------
-// Every malloc-family call and every operator new/delete while `counting` is on is counted (the
-// approach of tests/cpp/mpc_alloc): glibc's allocator is reached through its __libc_* entry points,
-// so allocations by the core, Eigen, PIQP, the standard library and C code are all seen. The
-// sanitizers replace malloc themselves, so the counter is left out of sanitizer builds.
-#if defined(__SANITIZE_ADDRESS__)
-#define TUBEMPC_EXAMPLE_SANITIZED 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define TUBEMPC_EXAMPLE_SANITIZED 1
-#endif
-#endif
-#if defined(__GLIBC__) && !defined(TUBEMPC_EXAMPLE_SANITIZED)
-#define TUBEMPC_EXAMPLE_COUNT_ALLOCATIONS 1
-#endif
-
-namespace alloc_count {
-bool counting = false;
-long count = 0;
-}  // namespace alloc_count
-
-#if defined(TUBEMPC_EXAMPLE_COUNT_ALLOCATIONS)
-extern "C" {
-void* __libc_malloc(std::size_t);
-void* __libc_calloc(std::size_t, std::size_t);
-void* __libc_realloc(void*, std::size_t);
-void __libc_free(void*);
-void* __libc_memalign(std::size_t, std::size_t);
-
-void* malloc(std::size_t n) noexcept {
-  if (alloc_count::counting) ++alloc_count::count;
-  return __libc_malloc(n);
-}
-void* calloc(std::size_t n, std::size_t size) noexcept {
-  if (alloc_count::counting) ++alloc_count::count;
-  return __libc_calloc(n, size);
-}
-void* realloc(void* p, std::size_t n) noexcept {
-  if (alloc_count::counting) ++alloc_count::count;
-  return __libc_realloc(p, n);
-}
-void free(void* p) noexcept {
-  if (alloc_count::counting && p != nullptr) ++alloc_count::count;
-  __libc_free(p);
-}
-void* memalign(std::size_t alignment, std::size_t n) noexcept {
-  if (alloc_count::counting) ++alloc_count::count;
-  return __libc_memalign(alignment, n);
-}
-void* aligned_alloc(std::size_t alignment, std::size_t n) noexcept {
-  if (alloc_count::counting) ++alloc_count::count;
-  return __libc_memalign(alignment, n);
-}
-int posix_memalign(void** out, std::size_t alignment, std::size_t n) noexcept {
-  if (alloc_count::counting) ++alloc_count::count;
-  *out = __libc_memalign(alignment, n);
-  return *out != nullptr ? 0 : 12;  // ENOMEM
-}
-}
-
-void* operator new(std::size_t n) {
-  if (alloc_count::counting) ++alloc_count::count;
-  if (void* p = __libc_malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  if (alloc_count::counting) ++alloc_count::count;
-  return __libc_malloc(n == 0 ? 1 : n);
-}
-void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
-void* operator new(std::size_t n, std::align_val_t a) {
-  if (alloc_count::counting) ++alloc_count::count;
-  if (void* p = __libc_memalign(static_cast<std::size_t>(a), n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n, std::align_val_t a) { return operator new(n, a); }
-void operator delete(void* p) noexcept {
-  if (alloc_count::counting && p != nullptr) ++alloc_count::count;
-  __libc_free(p);
-}
-void operator delete[](void* p) noexcept { operator delete(p); }
-void operator delete(void* p, std::size_t) noexcept { operator delete(p); }
-void operator delete[](void* p, std::size_t) noexcept { operator delete(p); }
-void operator delete(void* p, std::align_val_t) noexcept { operator delete(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { operator delete(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { operator delete(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { operator delete(p); }
-#endif
+// Every malloc-family call and every operator new/delete inside an AllocationWindow is counted
+// (tubempc/core/allocation_counter.hpp: glibc only, left out of sanitizer builds).
+#include "tubempc/core/allocation_counter.hpp"
 
 using namespace tubempc;
 
@@ -131,16 +46,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// Allocations counted between construction and count().
-class AllocationWindow {
- public:
-  AllocationWindow() {
-    alloc_count::count = 0;
-    alloc_count::counting = true;
-  }
-  ~AllocationWindow() { alloc_count::counting = false; }
-  long count() const { return alloc_count::count; }
-};
+using tubempc::core::AllocationWindow;
 
 struct Stats {
   double median, p99, max;  // s
@@ -230,8 +136,8 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-#if defined(TUBEMPC_EXAMPLE_COUNT_ALLOCATIONS)
-  {  // The counter sees allocations (called through volatile pointers, which the compiler cannot elide).
+  if constexpr (tubempc::core::kAllocationCounterEnabled) {
+    // The counter sees allocations (called through volatile pointers, which the compiler cannot elide).
     void* (*volatile allocate)(std::size_t) = std::malloc;
     void (*volatile release)(void*) = std::free;
     AllocationWindow window;
@@ -241,7 +147,6 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-#endif
 
   // Setup: everything the loop needs is allocated here.
   const auto t_setup = Clock::now();
@@ -327,14 +232,12 @@ int main(int argc, char** argv) {
   std::printf(
       "\nfinal error vs x_f: position %.4g m, velocity %.4g m/s, attitude %.4g rad, rate %.4g rad/s\n", err_r,
       err_v, err_att, err_w);
-#if defined(TUBEMPC_EXAMPLE_COUNT_ALLOCATIONS)
-  std::printf("heap allocations after setup: MPC step %ld, truth propagation %ld\n", allocations_mpc,
-              allocations_truth);
-  const bool counted = true;
-#else
-  std::printf("heap allocations: not counted (needs glibc and no sanitizer)\n");
-  const bool counted = false;
-#endif
+  const bool counted = tubempc::core::kAllocationCounterEnabled;
+  if (counted)
+    std::printf("heap allocations after setup: MPC step %ld, truth propagation %ld\n", allocations_mpc,
+                allocations_truth);
+  else
+    std::printf("heap allocations: not counted (needs glibc and no sanitizer)\n");
 
   if (!json_path.empty()) {
     std::FILE* f = std::fopen(json_path.c_str(), "w");

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "tubempc/dynamics/expm.hpp"
 #include "tubempc/mpc/tube_mpc.hpp"
 
 using namespace tubempc::mpc;
@@ -70,7 +71,7 @@ class Pendulum final : public LinearizedModel {
     Eigen::VectorXd c_c = f - A_c * x - B_c * u;
     Eigen::MatrixXd Ad, Bd;
     Eigen::VectorXd cd;
-    zoh_discretize(A_c, B_c, c_c, dt, Ad, Bd, cd);
+    tubempc::dynamics::zoh_discretize<Eigen::Dynamic, Eigen::Dynamic>(A_c, B_c, c_c, dt, Ad, Bd, cd);
     A = Ad;
     B = Bd;
     c = cd;

@@ -6,15 +6,10 @@
 //  2. Eigen's runtime guard: the implementation (and with it PIQP's header-only solver) is compiled
 //     into this translation unit with EIGEN_RUNTIME_NO_MALLOC and an eigen_assert that counts, so
 //     every Eigen allocation while the guard is on is recorded even in a release build.
-#include <malloc.h>
-
-#include <cstddef>
-#include <cstdlib>
-#include <new>
+#include "tubempc/core/allocation_counter.hpp"
 
 namespace alloc_test {
-bool counting = false;
-long count = 0;
+using tubempc::core::AllocationCounter;
 long eigen_failures = 0;
 }  // namespace alloc_test
 
@@ -23,73 +18,6 @@ long eigen_failures = 0;
   do {                                        \
     if (!(x)) ++::alloc_test::eigen_failures; \
   } while (false)
-
-extern "C" {
-void* __libc_malloc(std::size_t);
-void* __libc_calloc(std::size_t, std::size_t);
-void* __libc_realloc(void*, std::size_t);
-void __libc_free(void*);
-void* __libc_memalign(std::size_t, std::size_t);
-
-void* malloc(std::size_t n) noexcept {
-  if (alloc_test::counting) ++alloc_test::count;
-  return __libc_malloc(n);
-}
-void* calloc(std::size_t n, std::size_t size) noexcept {
-  if (alloc_test::counting) ++alloc_test::count;
-  return __libc_calloc(n, size);
-}
-void* realloc(void* p, std::size_t n) noexcept {
-  if (alloc_test::counting) ++alloc_test::count;
-  return __libc_realloc(p, n);
-}
-void free(void* p) noexcept {
-  if (alloc_test::counting && p != nullptr) ++alloc_test::count;
-  __libc_free(p);
-}
-void* memalign(std::size_t alignment, std::size_t n) noexcept {
-  if (alloc_test::counting) ++alloc_test::count;
-  return __libc_memalign(alignment, n);
-}
-void* aligned_alloc(std::size_t alignment, std::size_t n) noexcept {
-  if (alloc_test::counting) ++alloc_test::count;
-  return __libc_memalign(alignment, n);
-}
-int posix_memalign(void** out, std::size_t alignment, std::size_t n) noexcept {
-  if (alloc_test::counting) ++alloc_test::count;
-  *out = __libc_memalign(alignment, n);
-  return *out != nullptr ? 0 : 12;  // ENOMEM
-}
-}
-
-void* operator new(std::size_t n) {
-  if (alloc_test::counting) ++alloc_test::count;
-  if (void* p = __libc_malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  if (alloc_test::counting) ++alloc_test::count;
-  return __libc_malloc(n == 0 ? 1 : n);
-}
-void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
-void* operator new(std::size_t n, std::align_val_t a) {
-  if (alloc_test::counting) ++alloc_test::count;
-  if (void* p = __libc_memalign(static_cast<std::size_t>(a), n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n, std::align_val_t a) { return operator new(n, a); }
-void operator delete(void* p) noexcept {
-  if (alloc_test::counting && p != nullptr) ++alloc_test::count;
-  __libc_free(p);
-}
-void operator delete[](void* p) noexcept { operator delete(p); }
-void operator delete(void* p, std::size_t) noexcept { operator delete(p); }
-void operator delete[](void* p, std::size_t) noexcept { operator delete(p); }
-void operator delete(void* p, std::align_val_t) noexcept { operator delete(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { operator delete(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { operator delete(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { operator delete(p); }
 
 // The implementation under test (the MPC and its active-set QP solver), compiled here with the Eigen guard
 // (its symbols take precedence over the static library's copy).
@@ -104,13 +32,13 @@ namespace {
 
 struct Guard {
   Guard() {
-    alloc_test::count = 0;
+    alloc_test::AllocationCounter::count = 0;
     alloc_test::eigen_failures = 0;
     Eigen::internal::set_is_malloc_allowed(false);
-    alloc_test::counting = true;
+    alloc_test::AllocationCounter::counting = true;
   }
   ~Guard() {
-    alloc_test::counting = false;
+    alloc_test::AllocationCounter::counting = false;
     Eigen::internal::set_is_malloc_allowed(true);
   }
 };
@@ -143,7 +71,7 @@ TEST(TubeMPCAllocation, CounterSeesAllocations) {
     void* p = std::malloc(8);
     std::free(p);
   }
-  EXPECT_GE(alloc_test::count, 4);  // new or malloc + free for the vector, malloc + free
+  EXPECT_GE(alloc_test::AllocationCounter::count, 4);  // new or malloc + free for the vector, malloc + free
   EXPECT_GE(alloc_test::eigen_failures, 1);
 }
 
@@ -200,9 +128,9 @@ TEST(TubeMPCAllocation, StepDoesNotAllocateAfterSetup) {
         x_next.noalias() += B * r.u;
         x = x_next + c;
       }
-      total_allocs += alloc_test::count;
+      total_allocs += alloc_test::AllocationCounter::count;
       total_eigen += alloc_test::eigen_failures;
-      EXPECT_EQ(alloc_test::count, 0) << "step " << k << " (" << to_string(status) << ")";
+      EXPECT_EQ(alloc_test::AllocationCounter::count, 0) << "step " << k << " (" << to_string(status) << ")";
       EXPECT_EQ(alloc_test::eigen_failures, 0) << "step " << k;
       if (status == Status::Solved) ++solved;
     }
@@ -213,7 +141,7 @@ TEST(TubeMPCAllocation, StepDoesNotAllocateAfterSetup) {
       Guard g;
       fallbacks += mpc.step(T - 1, x, fat).status == Status::FallbackShiftedPlan;
     }
-    EXPECT_EQ(alloc_test::count, 0);
+    EXPECT_EQ(alloc_test::AllocationCounter::count, 0);
     EXPECT_EQ(solved, T) << "soft = " << soft;
     EXPECT_EQ(fallbacks, 1);
     EXPECT_EQ(total_allocs + total_eigen, 0);

@@ -1,8 +1,9 @@
 /// @file expm.hpp
 /// Matrix exponential of fixed-size matrices (Pade scaling and squaring, Higham 2005) and the exact
 /// zero-order-hold discretisation of an affine system through one exponential of the augmented
-/// matrix (PAPER_NOTES.md, "Linearisation and discretisation"). Fixed-size Eigen types only: no
-/// heap allocation, so both run inside the MPC's allocation-free step.
+/// matrix (PAPER_NOTES.md, "Linearisation and discretisation"). With fixed sizes neither allocates,
+/// so both run inside the MPC's allocation-free step; Eigen::Dynamic sizes (which allocate) serve
+/// models of any size set up once (mpc::LtiModel).
 #pragma once
 
 #include <Eigen/Dense>
@@ -15,17 +16,17 @@ namespace tubempc::dynamics {
 /// matrix exponential revisited", SIAM J. Matrix Anal. Appl. 26(4), 2005, Algorithm 2.3): the lowest
 /// degree whose backward-error bound theta_m covers ||M||_1 is used; otherwise M is scaled by
 /// 2^-s so that ||M/2^s||_1 <= theta_13 and the degree-13 result is squared s times.
-/// @tparam N the matrix size (fixed, > 0).
+/// @tparam N the matrix size (fixed, > 0, or Eigen::Dynamic).
 /// @param M the matrix (dimensionless, e.g. A dt).
 /// @param E receives e^M.
 /// @return false if M or the result is not finite (E is then unspecified).
 template <int N>
 bool expm(const Eigen::Matrix<double, N, N>& M, Eigen::Matrix<double, N, N>& E) {
-  static_assert(N > 0, "expm needs a fixed-size square matrix");
+  static_assert(N > 0 || N == Eigen::Dynamic, "expm needs a square matrix");
   using Mat = Eigen::Matrix<double, N, N>;
-  if (!M.allFinite()) return false;
+  if (M.rows() != M.cols() || M.rows() == 0 || !M.allFinite()) return false;
   const double norm1 = M.cwiseAbs().colwise().sum().maxCoeff();
-  const Mat I = Mat::Identity();
+  const Mat I = Mat::Identity(M.rows(), M.cols());
   Mat U;
   Mat V;
   int squarings = 0;
@@ -73,8 +74,8 @@ bool expm(const Eigen::Matrix<double, N, N>& M, Eigen::Matrix<double, N, N>& E) 
 /// Exact zero-order-hold discretisation of x' = A x + B u + c over dt (s):
 /// Ad = e^{A dt}, Bd = int_0^dt e^{A s} ds B, cd = int_0^dt e^{A s} ds c, read off the single
 /// exponential exp([[A, B, c], [0, 0, 0]] dt) of the (NX + NU + 1)-square augmented matrix.
-/// @tparam NX state dimension.
-/// @tparam NU input dimension.
+/// @tparam NX state dimension (or Eigen::Dynamic, then taken from A).
+/// @tparam NU input dimension (or Eigen::Dynamic, then taken from B).
 /// @param A  continuous state matrix (1/s).
 /// @param B  continuous input matrix (state units / (input units s)).
 /// @param c  continuous affine term (state units / s).
@@ -82,22 +83,23 @@ bool expm(const Eigen::Matrix<double, N, N>& M, Eigen::Matrix<double, N, N>& E) 
 /// @param Ad receives e^{A dt}.
 /// @param Bd receives int_0^dt e^{A s} ds B.
 /// @param cd receives int_0^dt e^{A s} ds c (state units).
-/// @return false if an input or the result is not finite.
+/// @return false if an input or the result is not finite, or the sizes of A, B, c disagree.
 template <int NX, int NU>
 bool zoh_discretize(const Eigen::Matrix<double, NX, NX>& A, const Eigen::Matrix<double, NX, NU>& B,
                     const Eigen::Matrix<double, NX, 1>& c, double dt, Eigen::Matrix<double, NX, NX>& Ad,
                     Eigen::Matrix<double, NX, NU>& Bd, Eigen::Matrix<double, NX, 1>& cd) {
-  constexpr int M = NX + NU + 1;
-  if (!std::isfinite(dt)) return false;
-  Eigen::Matrix<double, M, M> aug = Eigen::Matrix<double, M, M>::Zero();
-  aug.template topLeftCorner<NX, NX>() = A * dt;
-  aug.template block<NX, NU>(0, NX) = B * dt;
-  aug.template block<NX, 1>(0, NX + NU) = c * dt;
+  constexpr int M = (NX == Eigen::Dynamic || NU == Eigen::Dynamic) ? Eigen::Dynamic : NX + NU + 1;
+  const Eigen::Index n = A.rows(), m = B.cols();
+  if (!std::isfinite(dt) || A.cols() != n || B.rows() != n || c.size() != n) return false;
+  Eigen::Matrix<double, M, M> aug = Eigen::Matrix<double, M, M>::Zero(n + m + 1, n + m + 1);
+  aug.topLeftCorner(n, n) = A * dt;
+  aug.block(0, n, n, m) = B * dt;
+  aug.block(0, n + m, n, 1) = c * dt;
   Eigen::Matrix<double, M, M> E;
   if (!expm<M>(aug, E)) return false;
-  Ad = E.template topLeftCorner<NX, NX>();
-  Bd = E.template block<NX, NU>(0, NX);
-  cd = E.template block<NX, 1>(0, NX + NU);
+  Ad = E.topLeftCorner(n, n);
+  Bd = E.block(0, n, n, m);
+  cd = E.block(0, n + m, n, 1);
   return true;
 }
 

@@ -288,16 +288,23 @@ class TubeMPC {
 
  private:
   struct Impl;
+  struct StepContext;  // the step's constants shared by its phases (tube_mpc.cpp)
+  // The phases of step(), in order (tube_mpc.cpp documents each).
+  void shift_warm_start(StepContext& c);
+  void seed_linearization(StepContext& c);
+  Status tighten(const StepContext& c);
+  void write_cost(const StepContext& c);
+  Status linearize(const StepContext& c, int it);
+  bool same_model_data(const StepContext& c, int it, double last_delta);
+  void write_constraints(const StepContext& c);
+  Status solve_with_retry(const StepContext& c);
+  double update_plan(const StepContext& c, const Eigen::VectorXd& x_qp);
+  const StepResult& finish(const StepContext& c, bool converged, bool inaccurate);
+  const StepResult& fallback(const StepContext& c, Status cause);
   std::shared_ptr<const LinearizedModel> model_;
   Settings settings_;
   std::unique_ptr<Impl> impl_;
 };
-
-/// Exact zero-order-hold discretisation of x' = A_c x + B_c u + c_c over dt (s) by one exponential of
-/// the augmented matrix [[A_c, B_c, c_c], [0, 0, 0]] dt (PAPER_NOTES.md "Linearisation and
-/// discretisation"). Allocates.
-void zoh_discretize(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const Eigen::VectorXd& c_c,
-                    double dt, Eigen::MatrixXd& A, Eigen::MatrixXd& B, Eigen::VectorXd& c);
 
 /// Linear time-invariant plant x+ = A x + B u + c with constant constraints G x <= h: a test and
 /// benchmark plant (and a stand-in for the 6-DOF model). The discretisation is computed once.
