@@ -7,6 +7,7 @@
 
 #include "bindings.hpp"
 #include "tubempc/dynamics/linearized_proximity.hpp"
+#include "tubempc/mpc/lti_model.hpp"
 #include "tubempc/mpc/tube_mpc.hpp"
 
 namespace py = pybind11;

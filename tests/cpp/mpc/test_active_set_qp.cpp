@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "tubempc/mpc/active_set_qp.hpp"
+#include "tubempc/mpc/lti_model.hpp"
 #include "tubempc/mpc/tube_mpc.hpp"
 
 using namespace tubempc::mpc;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "tubempc/dynamics/expm.hpp"
+#include "tubempc/mpc/lti_model.hpp"
 #include "tubempc/mpc/tube_mpc.hpp"
 
 using namespace tubempc::mpc;

@@ -24,6 +24,7 @@ long eigen_failures = 0;
 #include <gtest/gtest.h>
 
 #include "../../../cpp/src/mpc/active_set_qp.cpp"
+#include "../../../cpp/src/mpc/lti_model.cpp"
 #include "../../../cpp/src/mpc/tube_mpc.cpp"
 
 using namespace tubempc::mpc;

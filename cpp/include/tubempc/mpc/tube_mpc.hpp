@@ -1,7 +1,8 @@
 /// @file tube_mpc.hpp
 /// Nominal problem of the tube MPC (PAPER_NOTES.md "Tube MPC", "Linearisation and discretisation",
 /// "Constraints"; the paper's Problems 2 and 3 and the inner iteration of Algorithm 1), solved by
-/// sequential convex programming with one sparse QP per iteration (PIQP).
+/// sequential convex programming with one sparse QP per iteration (a warm-started active set,
+/// ActiveSetQp; PIQP where that does not verify). Settings and outcomes: settings.hpp, results.hpp.
 ///
 /// Lifecycle: construct with a plant and Settings, `setup(reference)` once per mission (allocates
 /// everything, computes the terminal weight, builds the QP's sparsity pattern and sets PIQP up),
@@ -54,123 +55,10 @@
 
 #include "tubempc/mpc/active_set_qp.hpp"
 #include "tubempc/mpc/linearized_model.hpp"
+#include "tubempc/mpc/results.hpp"
+#include "tubempc/mpc/settings.hpp"
 
 namespace tubempc::mpc {
-
-/// Outcome of a step (`StepResult::status`) and cause of a fallback (`StepResult::failure`).
-enum class Status {
-  Solved,               ///< SCP converged, QPs solved to tolerance.
-  SolvedInaccurate,     ///< SCP converged; a QP hit its iteration cap with small residuals.
-  MaxIterations,        ///< SCP cap reached; the last QP solution is applied.
-  FallbackShiftedPlan,  ///< The previous plan shifted by one step is applied (paper Theorem 1's candidate).
-  FallbackSafeInput,    ///< No previous plan: u = sat(u_ref_k + K (x_k - zbar_k)) is applied.
-  Infeasible,           ///< Failure cause: a QP was primal (or dual) infeasible.
-  NotSolved,            ///< Failure cause: the QP solver stopped without a usable solution.
-  TimeLimit,            ///< Failure cause: the step exceeded Settings::time_limit.
-  NumericalError,       ///< Failure cause: non-finite data or solution, tube not positive definite.
-  EmptyTightening,      ///< Failure cause: the tightened input box is empty (u_max_i <= sqrt(K_i Pe K_i^T)).
-  ModelStructure,       ///< Failure cause: the model returned a nonzero outside Settings::*_structure.
-};
-
-/// Name of a status ("solved", "fallback_shifted_plan", ...).
-std::string to_string(Status status);
-
-/// Initial-condition handling of the nominal state z_0.
-enum class InitialCondition {
-  WhitenedBox,  ///< z_0 = x_k + L s, |s_j| <= 1/sqrt(n_x) (inside the tube ellipsoid; default).
-  Exact,        ///< z_0 = x_k.
-};
-
-/// Input part of the stage cost.
-enum class InputCost {
-  Paper,          ///< ||v||^2_R (the paper's Problem 2, default).
-  FromReference,  ///< ||v - u_ref||^2_R.
-};
-
-/// QP solver used inside `step`.
-enum class Backend {
-  PiqpSparse,  ///< PIQP's sparse interior-point solver, set up once, updated every QP.
-  /// Warm-started primal-dual active set (ActiveSetQp, at most Settings::active_set_max_iterations
-  /// factorisations per try; a second try from the empty set when the warm start fails); a QP it does
-  /// not solve to the verified tolerance goes to PIQP (default).
-  ActiveSetPiqp,
-};
-
-/// Factorisation of PIQP's KKT systems.
-enum class KktSolver {
-  SparseLdlt,        ///< General sparse LDL^T with fill-reducing ordering (default).
-  SparseMultistage,  ///< Stage-wise block LDL^T; needs PIQP built with BLASFEO (validate() says if not).
-};
-
-/// Settings of the tube MPC; `validate()` throws std::invalid_argument naming the field.
-struct Settings {
-  int horizon = 30;                         ///< N, nodes of the nominal plan.
-  double dt = 2.0;                          ///< Control period (s).
-  Eigen::MatrixXd Q;                        ///< State weight (n_x x n_x, symmetric PSD); empty -> identity.
-  Eigen::MatrixXd R;                        ///< Input weight (n_u x n_u, symmetric PD); empty -> identity.
-  Eigen::VectorXd u_max;                    ///< True input bounds |u_i| <= u_max_i (input units); required.
-  InputCost input_cost = InputCost::Paper;  ///< Input part of the stage cost.
-  InitialCondition initial_condition = InitialCondition::WhitenedBox;  ///< How z_0 relates to x_k.
-  double scp_eps = 1e-3;        ///< SCP stops when max_i ||z*_i - z_lin_i||_inf < scp_eps (state units).
-  int scp_max_iterations = 10;  ///< Cap on SCP iterations per step.
-  double trust_region =
-      std::numeric_limits<double>::infinity();  ///< |z_i - z_lin_i|_inf bound (i >= 1); inf: off.
-  double qp_eps_abs = 1e-8;                     ///< PIQP absolute tolerance.
-  double qp_eps_rel = 1e-9;                     ///< PIQP relative tolerance.
-  int qp_max_iterations = 200;                  ///< PIQP iteration cap.
-  double qp_inaccurate_tol = 1e-5;      ///< A capped QP with relative residuals below this is accepted.
-  double time_limit = 1.0;              ///< Wall-clock budget of one step (s); exceeded -> fallback.
-  bool soft_state_constraints = false;  ///< Exact L1 penalty on state-constraint violations.
-  /// Exact L1 penalty on z_N - x_f in the shrinking phase (default; plus ||z_N - x_f||^2_Q). The
-  /// penalty is exact: the minimiser is the hard constraint's (the paper's Problem 3)
-  /// whenever soft_penalty exceeds the terminal multipliers, and the step still returns a plan when
-  /// the hard terminal set is out of reach. With the hard equality (false) PIQP's interior point needs
-  /// hundreds of iterations on the last steps, whose terminal multipliers reach ~1e6.
-  bool soft_terminal = true;
-  double soft_penalty = 1e6;         ///< L1 penalty weight of the slacks (cost units per constraint unit).
-  double riccati_tol = 1e-10;        ///< Relative convergence tolerance of the DARE doubling.
-  int riccati_max_iterations = 100;  ///< Cap on DARE doubling iterations.
-  Backend backend = Backend::ActiveSetPiqp;  ///< QP solver.
-  /// Factorisations the active-set solver may spend on each of its (at most two) tries on one QP
-  /// before PIQP takes over (>= 1). Its KKT
-  /// verification uses qp_eps_abs and qp_eps_rel.
-  int active_set_max_iterations = 12;
-  KktSolver kkt_solver = KktSolver::SparseLdlt;  ///< Factorisation of PIQP's KKT systems.
-  /// PIQP also scales the cost in its equilibration (on by default): the shrinking-horizon QPs, whose
-  /// terminal-equality multipliers reach ~1e6, need ~14 interior-point iterations instead of 200+
-  /// (PIQP >= 0.7; `tubempc bench mpc` reports the optimum's agreement with Clarabel). With soft
-  /// constraints the L1 penalty dominates PIQP's cost scale and the quadratic part becomes tiny; turn
-  /// it off there if QPs stop at the iteration cap (status SolvedInaccurate).
-  bool qp_scale_cost = true;
-  int qp_preconditioner_iterations = 10;  ///< Ruiz equilibration iterations of PIQP (>= 0).
-  double qp_reg_lower_limit = 1e-10;      ///< Floor of PIQP's proximal regularisation (> 0; PIQP's default).
-  /// A QP that ends at the iteration cap (beyond qp_inaccurate_tol) or in a numerical error is solved
-  /// once more with this regularisation floor before the step falls back (0: no retry). A few
-  /// terminal-phase QPs of the Bennu mission lose KKT accuracy at 1e-10 and stall at the cap; with
-  /// 1e-8 they solve in ~16 iterations (the floor does not move the optimum; as a default it slows the
-  /// last iterations of other QPs, hence a retry).
-  double qp_retry_reg_lower_limit = 1e-8;
-  /// Re-use of model data whose linearisation point already meets the SCP convergence test:
-  ///  - across steps: the first SCP iteration of a step that follows a converged step (status Solved
-  ///    or SolvedInaccurate) at k - 1 takes that step's last model data, shifted by one node, with
-  ///    their linearisation points (within scp_eps of the previous plan) instead of the previous plan;
-  ///  - across SCP iterations: a node whose plan moved less than scp_eps (inf-norm of the state) keeps
-  ///    its model data and point; the others are linearised about the new plan.
-  /// Only the other nodes call the model (StepResult::model_evaluations). Needs a model whose output
-  /// depends on (t, dt, x, u) only. false: every SCP iteration calls the model at every node about
-  /// the latest plan.
-  bool reuse_linearization = true;
-  /// Optional structural patterns of the model's A (n_x x n_x), B (n_x x n_u) and G (n_c x n_x): entries
-  /// != 0 are stored in the QP, the others are structural zeros the model must respect (a nonzero there
-  /// makes the step fall back with failure ModelStructure). Empty: dense. Sparser patterns make the KKT
-  /// factorisation cheaper (e.g. block-diagonal translational/rotational subsystems).
-  Eigen::MatrixXd A_structure;  ///< Pattern of A (n_x x n_x) or empty (dense).
-  Eigen::MatrixXd B_structure;  ///< Pattern of B (n_x x n_u) or empty (dense).
-  Eigen::MatrixXd G_structure;  ///< Pattern of G (n_c x n_x) or empty (dense).
-
-  /// Throws std::invalid_argument naming the offending field; n_x, n_u are the plant's sizes.
-  void validate(int nx, int nu) const;
-};
 
 /// Mission reference: zbar (n_x x (T + 1)) and u_ref (n_u x T), node j at time t0 + j dt.
 struct Reference {
@@ -183,61 +71,6 @@ struct Reference {
 struct Tube {
   Eigen::MatrixXd K;   ///< Ancillary gain (n_u x n_x).
   Eigen::MatrixXd Pe;  ///< Tube shape (n_x x n_x, symmetric positive definite).
-};
-
-/// Wall-clock split of one step (s).
-struct Timings {
-  double linearize = 0.0;  ///< Model discretisation and constraint linearisation.
-  double build = 0.0;      ///< Writing the QP's values.
-  double solve = 0.0;      ///< QP solves.
-  double total = 0.0;      ///< Whole step.
-};
-
-/// Result of one step. Buffers are allocated at setup and overwritten by every step.
-struct StepResult {
-  Eigen::VectorXd u;  ///< Applied input u = sat(v_0 + K (x_k - z_0)) (n_u).
-  Eigen::MatrixXd z;  ///< Nominal plan z_0..z_N (n_x x (N + 1)); frozen past the mission's end.
-  Eigen::MatrixXd v;  ///< Nominal inputs v_0..v_{N-1} (n_u x N).
-  Status status = Status::NotSolved;  ///< What was applied.
-  Status failure = Status::Solved;    ///< Cause of a fallback (Solved when none).
-  int horizon = 0;                    ///< Active horizon n = min(N, T - k).
-  int scp_iterations = 0;             ///< QPs solved in this step. When re-linearising reproduces the
-                                      ///< last QP's data exactly (a linear plant) and its trust region is
-                                      ///< inactive, the loop stops without re-solving (residual 0).
-  int qp_iterations = 0;              ///< PIQP interior-point iterations summed over the step's QPs.
-  int active_set_solves = 0;  ///< QPs of this step solved by the active-set method (the others: PIQP).
-  int active_set_iterations =
-      0;                      ///< Active-set factorisations summed over the step's QPs (incl. failed tries).
-  int model_evaluations = 0;  ///< Nodes discretised by the model in this step (calls of
-                              ///< LinearizedModel::discretize; see Settings::reuse_linearization).
-  double scp_residual = 0.0;  ///< Final max_i ||z*_i - z_lin_i||_inf (state units).
-  double objective = 0.0;     ///< Nominal cost of the applied plan's last QP (incl. constant).
-  Timings timings;            ///< Wall-clock split of the step (s).
-};
-
-/// The last QP built, in PIQP's form (see the file comment). P is the full symmetric matrix.
-struct QpData {
-  Eigen::SparseMatrix<double> P;  ///< Hessian (n_w x n_w, symmetric, both triangles).
-  Eigen::VectorXd q;              ///< Linear cost (n_w).
-  Eigen::SparseMatrix<double> A;  ///< Equality rows: initial condition and dynamics.
-  Eigen::VectorXd b;              ///< Equality right-hand side.
-  Eigen::SparseMatrix<double> G;  ///< Inequality rows: tightened state constraints (and soft-terminal rows).
-  Eigen::VectorXd h_l;            ///< Lower side of G w (-inf where absent).
-  Eigen::VectorXd h_u;            ///< Upper side of G w (+inf where absent).
-  Eigen::VectorXd x_l;            ///< Lower variable bounds (-inf where absent).
-  Eigen::VectorXd x_u;            ///< Upper variable bounds (+inf where absent).
-  double constant = 0.0;          ///< Cost = 1/2 w^T P w + q^T w + constant.
-};
-
-/// Primal-dual solution of the last QP. Stationarity: P w + q + A^T y + G^T (z_u - z_l) + z_bu - z_bl = 0,
-/// z_l, z_u, z_bl, z_bu >= 0 and complementary to the lower/upper sides.
-struct QpSolution {
-  Eigen::VectorXd w;     ///< Primal solution (n_w).
-  Eigen::VectorXd y;     ///< Multipliers of A w = b.
-  Eigen::VectorXd z_l;   ///< Multipliers of h_l <= G w.
-  Eigen::VectorXd z_u;   ///< Multipliers of G w <= h_u.
-  Eigen::VectorXd z_bl;  ///< Multipliers of x_l <= w.
-  Eigen::VectorXd z_bu;  ///< Multipliers of w <= x_u.
 };
 
 /// Stabilising solution X of the discrete algebraic Riccati equation
@@ -304,31 +137,6 @@ class TubeMPC {
   std::shared_ptr<const LinearizedModel> model_;
   Settings settings_;
   std::unique_ptr<Impl> impl_;
-};
-
-/// Linear time-invariant plant x+ = A x + B u + c with constant constraints G x <= h: a test and
-/// benchmark plant (and a stand-in for the 6-DOF model). The discretisation is computed once.
-class LtiModel final : public LinearizedModel {
- public:
-  /// Continuous-time (A_c, B_c, c_c), discretised with a zero-order hold over dt (s).
-  LtiModel(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const Eigen::VectorXd& c_c, double dt,
-           const Eigen::MatrixXd& G, const Eigen::VectorXd& h);
-  int nx() const override { return static_cast<int>(A_.rows()); }
-  int nu() const override { return static_cast<int>(B_.cols()); }
-  int n_constraints() const override { return static_cast<int>(G_.rows()); }
-  /// Writes the precomputed (A, B, c); throws std::invalid_argument if dt differs from the construction's.
-  void discretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_lin,
-                  const Eigen::Ref<const Eigen::VectorXd>& u_lin, Eigen::Ref<Eigen::MatrixXd> A,
-                  Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const override;
-  void constraints(double t, const Eigen::Ref<const Eigen::VectorXd>& x_lin, Eigen::Ref<Eigen::MatrixXd> G,
-                   Eigen::Ref<Eigen::VectorXd> h) const override;
-
- private:
-  Eigen::MatrixXd A_, B_;
-  Eigen::VectorXd c_;
-  double dt_;
-  Eigen::MatrixXd G_;
-  Eigen::VectorXd h_;
 };
 
 }  // namespace tubempc::mpc

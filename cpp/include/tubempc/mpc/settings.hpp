@@ -1,0 +1,108 @@
+/// @file settings.hpp
+/// Settings of the tube MPC (TubeMPC, tube_mpc.hpp): the option enums and Settings, with in-class
+/// defaults and validate(). Each enum's text form (to_string) is its name in scenario files.
+#pragma once
+
+#include <Eigen/Dense>
+#include <limits>
+
+namespace tubempc::mpc {
+
+/// Initial-condition handling of the nominal state z_0.
+enum class InitialCondition {
+  WhitenedBox,  ///< z_0 = x_k + L s, |s_j| <= 1/sqrt(n_x) (inside the tube ellipsoid; default).
+  Exact,        ///< z_0 = x_k.
+};
+
+/// Input part of the stage cost.
+enum class InputCost {
+  Paper,          ///< ||v||^2_R (the paper's Problem 2, default).
+  FromReference,  ///< ||v - u_ref||^2_R.
+};
+
+/// QP solver used inside `step`.
+enum class Backend {
+  PiqpSparse,  ///< PIQP's sparse interior-point solver, set up once, updated every QP.
+  /// Warm-started primal-dual active set (ActiveSetQp, at most Settings::active_set_max_iterations
+  /// factorisations per try; a second try from the empty set when the warm start fails); a QP it does
+  /// not solve to the verified tolerance goes to PIQP (default).
+  ActiveSetPiqp,
+};
+
+/// Factorisation of PIQP's KKT systems.
+enum class KktSolver {
+  SparseLdlt,        ///< General sparse LDL^T with fill-reducing ordering (default).
+  SparseMultistage,  ///< Stage-wise block LDL^T; needs PIQP built with BLASFEO (validate() says if not).
+};
+
+/// Settings of the tube MPC; `validate()` throws std::invalid_argument naming the field.
+struct Settings {
+  int horizon = 30;                         ///< N, nodes of the nominal plan.
+  double dt = 2.0;                          ///< Control period (s).
+  Eigen::MatrixXd Q;                        ///< State weight (n_x x n_x, symmetric PSD); empty -> identity.
+  Eigen::MatrixXd R;                        ///< Input weight (n_u x n_u, symmetric PD); empty -> identity.
+  Eigen::VectorXd u_max;                    ///< True input bounds |u_i| <= u_max_i (input units); required.
+  InputCost input_cost = InputCost::Paper;  ///< Input part of the stage cost.
+  InitialCondition initial_condition = InitialCondition::WhitenedBox;  ///< How z_0 relates to x_k.
+  double scp_eps = 1e-3;        ///< SCP stops when max_i ||z*_i - z_lin_i||_inf < scp_eps (state units).
+  int scp_max_iterations = 10;  ///< Cap on SCP iterations per step.
+  double trust_region =
+      std::numeric_limits<double>::infinity();  ///< |z_i - z_lin_i|_inf bound (i >= 1); inf: off.
+  double qp_eps_abs = 1e-8;                     ///< PIQP absolute tolerance.
+  double qp_eps_rel = 1e-9;                     ///< PIQP relative tolerance.
+  int qp_max_iterations = 200;                  ///< PIQP iteration cap.
+  double qp_inaccurate_tol = 1e-5;      ///< A capped QP with relative residuals below this is accepted.
+  double time_limit = 1.0;              ///< Wall-clock budget of one step (s); exceeded -> fallback.
+  bool soft_state_constraints = false;  ///< Exact L1 penalty on state-constraint violations.
+  /// Exact L1 penalty on z_N - x_f in the shrinking phase (default; plus ||z_N - x_f||^2_Q). The
+  /// penalty is exact: the minimiser is the hard constraint's (the paper's Problem 3)
+  /// whenever soft_penalty exceeds the terminal multipliers, and the step still returns a plan when
+  /// the hard terminal set is out of reach. With the hard equality (false) PIQP's interior point needs
+  /// hundreds of iterations on the last steps, whose terminal multipliers reach ~1e6.
+  bool soft_terminal = true;
+  double soft_penalty = 1e6;         ///< L1 penalty weight of the slacks (cost units per constraint unit).
+  double riccati_tol = 1e-10;        ///< Relative convergence tolerance of the DARE doubling.
+  int riccati_max_iterations = 100;  ///< Cap on DARE doubling iterations.
+  Backend backend = Backend::ActiveSetPiqp;  ///< QP solver.
+  /// Factorisations the active-set solver may spend on each of its (at most two) tries on one QP
+  /// before PIQP takes over (>= 1). Its KKT
+  /// verification uses qp_eps_abs and qp_eps_rel.
+  int active_set_max_iterations = 12;
+  KktSolver kkt_solver = KktSolver::SparseLdlt;  ///< Factorisation of PIQP's KKT systems.
+  /// PIQP also scales the cost in its equilibration (on by default): the shrinking-horizon QPs, whose
+  /// terminal-equality multipliers reach ~1e6, need ~14 interior-point iterations instead of 200+
+  /// (PIQP >= 0.7; `tubempc bench mpc` reports the optimum's agreement with Clarabel). With soft
+  /// constraints the L1 penalty dominates PIQP's cost scale and the quadratic part becomes tiny; turn
+  /// it off there if QPs stop at the iteration cap (status SolvedInaccurate).
+  bool qp_scale_cost = true;
+  int qp_preconditioner_iterations = 10;  ///< Ruiz equilibration iterations of PIQP (>= 0).
+  double qp_reg_lower_limit = 1e-10;      ///< Floor of PIQP's proximal regularisation (> 0; PIQP's default).
+  /// A QP that ends at the iteration cap (beyond qp_inaccurate_tol) or in a numerical error is solved
+  /// once more with this regularisation floor before the step falls back (0: no retry). A few
+  /// terminal-phase QPs of the Bennu mission lose KKT accuracy at 1e-10 and stall at the cap; with
+  /// 1e-8 they solve in ~16 iterations (the floor does not move the optimum; as a default it slows the
+  /// last iterations of other QPs, hence a retry).
+  double qp_retry_reg_lower_limit = 1e-8;
+  /// Re-use of model data whose linearisation point already meets the SCP convergence test:
+  ///  - across steps: the first SCP iteration of a step that follows a converged step (status Solved
+  ///    or SolvedInaccurate) at k - 1 takes that step's last model data, shifted by one node, with
+  ///    their linearisation points (within scp_eps of the previous plan) instead of the previous plan;
+  ///  - across SCP iterations: a node whose plan moved less than scp_eps (inf-norm of the state) keeps
+  ///    its model data and point; the others are linearised about the new plan.
+  /// Only the other nodes call the model (StepResult::model_evaluations). Needs a model whose output
+  /// depends on (t, dt, x, u) only. false: every SCP iteration calls the model at every node about
+  /// the latest plan.
+  bool reuse_linearization = true;
+  /// Optional structural patterns of the model's A (n_x x n_x), B (n_x x n_u) and G (n_c x n_x): entries
+  /// != 0 are stored in the QP, the others are structural zeros the model must respect (a nonzero there
+  /// makes the step fall back with failure ModelStructure). Empty: dense. Sparser patterns make the KKT
+  /// factorisation cheaper (e.g. block-diagonal translational/rotational subsystems).
+  Eigen::MatrixXd A_structure;  ///< Pattern of A (n_x x n_x) or empty (dense).
+  Eigen::MatrixXd B_structure;  ///< Pattern of B (n_x x n_u) or empty (dense).
+  Eigen::MatrixXd G_structure;  ///< Pattern of G (n_c x n_x) or empty (dense).
+
+  /// Throws std::invalid_argument naming the offending field; n_x, n_u are the plant's sizes.
+  void validate(int nx, int nu) const;
+};
+
+}  // namespace tubempc::mpc
