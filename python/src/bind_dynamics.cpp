@@ -164,7 +164,7 @@ void bind_dynamics(py::module_& m) {
   auto d = m.def_submodule("dynamics", "6-DOF proximity dynamics in the orbital frame L (PAPER_NOTES.md)");
 
   py::enum_<dynamics::Kinematics>(d, "Kinematics", "Rotation-vector kinematics of the model state")
-      .value("Paper", dynamics::Kinematics::Paper, "phi' = omega_BL_B")
+      .value("FirstOrder", dynamics::Kinematics::FirstOrder, "phi' = omega_BL_B")
       .value("Exact", dynamics::Kinematics::Exact, "phi' = Jr(phi)^-1 omega_BL_B");
   py::enum_<dynamics::Integrator>(d, "Integrator")
       .value("RK4", dynamics::Integrator::RK4)

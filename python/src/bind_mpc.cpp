@@ -98,11 +98,14 @@ void bind_mpc(py::module_& m) {
       .value("WhitenedBox", mpc::InitialCondition::WhitenedBox)
       .value("Exact", mpc::InitialCondition::Exact);
   py::enum_<mpc::InputCost>(s, "InputCost")
-      .value("Paper", mpc::InputCost::Paper)
-      .value("FromReference", mpc::InputCost::FromReference);
-  py::enum_<mpc::Backend>(s, "Backend")
-      .value("PiqpSparse", mpc::Backend::PiqpSparse)
-      .value("ActiveSetPiqp", mpc::Backend::ActiveSetPiqp);
+      .value("Absolute", mpc::InputCost::Absolute)
+      .value("Deviation", mpc::InputCost::Deviation);
+  py::enum_<mpc::QpSolver>(s, "QpSolver")
+      .value("Piqp", mpc::QpSolver::Piqp)
+      .value("ActiveSet", mpc::QpSolver::ActiveSet);
+  py::enum_<mpc::Linearization>(s, "Linearization")
+      .value("Reuse", mpc::Linearization::Reuse)
+      .value("EveryIteration", mpc::Linearization::EveryIteration);
   py::enum_<mpc::KktSolver>(s, "KktSolver")
       .value("SparseLdlt", mpc::KktSolver::SparseLdlt)
       .value("SparseMultistage", mpc::KktSolver::SparseMultistage);
@@ -130,10 +133,10 @@ void bind_mpc(py::module_& m) {
       .def_readwrite("soft_penalty", &mpc::Settings::soft_penalty)
       .def_readwrite("riccati_tol", &mpc::Settings::riccati_tol)
       .def_readwrite("riccati_max_iterations", &mpc::Settings::riccati_max_iterations)
-      .def_readwrite("backend", &mpc::Settings::backend)
+      .def_readwrite("qp_solver", &mpc::Settings::qp_solver)
       .def_readwrite("kkt_solver", &mpc::Settings::kkt_solver)
       .def_readwrite("qp_scale_cost", &mpc::Settings::qp_scale_cost)
-      .def_readwrite("reuse_linearization", &mpc::Settings::reuse_linearization)
+      .def_readwrite("linearization", &mpc::Settings::linearization)
       .def_readwrite("active_set_max_iterations", &mpc::Settings::active_set_max_iterations)
       .def_readwrite("qp_preconditioner_iterations", &mpc::Settings::qp_preconditioner_iterations)
       .def_readwrite("qp_reg_lower_limit", &mpc::Settings::qp_reg_lower_limit)

@@ -11,7 +11,7 @@ _Vec = npt.ArrayLike
 _Arr = npt.NDArray[np.float64]
 
 class Kinematics(enum.Enum):
-    Paper = 0
+    FirstOrder = 0
     Exact = 1
 
 class Integrator(enum.Enum):

@@ -59,7 +59,7 @@ __all__ = [
 _Arr = npt.NDArray[np.float64]
 Disturbance = npt.ArrayLike | Callable[[float, _Arr], npt.ArrayLike] | None
 
-_KINEMATICS = {"paper": Kinematics.Paper, "exact": Kinematics.Exact}
+_KINEMATICS = {"first_order": Kinematics.FirstOrder, "exact": Kinematics.Exact}
 _SCALARS = (
     "mu_sun",
     "orbit_radius",
@@ -76,7 +76,7 @@ _FIELDS = (*_SCALARS, "srp_enabled", "inertia_B", "kinematics", *_VECTORS)
 def model_params(config: ModelParams | Mapping[str, Any] | None = None) -> ModelParams:
     """A validated ``ModelParams`` from None (the paper's defaults), a ``ModelParams`` or a dict.
 
-    Dict keys are the field names (SI units, angles in rad); ``kinematics`` is ``"paper"`` or
+    Dict keys are the field names (SI units, angles in rad); ``kinematics`` is ``"first_order"`` or
     ``"exact"``; ``inertia_B`` a 3x3 matrix or its 3 principal moments. Unknown keys raise ValueError.
     """
     if isinstance(config, ModelParams):
@@ -92,7 +92,7 @@ def model_params(config: ModelParams | Mapping[str, Any] | None = None) -> Model
                 elif str(value).lower() in _KINEMATICS:
                     p.kinematics = _KINEMATICS[str(value).lower()]
                 else:
-                    raise ValueError(f"kinematics must be 'paper' or 'exact', got {value!r}")
+                    raise ValueError(f"kinematics must be 'first_order' or 'exact', got {value!r}")
             elif key == "inertia_B":
                 J = np.asarray(value, dtype=float)
                 if J.shape == (3,):
@@ -118,7 +118,7 @@ def params_to_config(p: ModelParams) -> dict[str, Any]:
     out: dict[str, Any] = {k: float(getattr(p, k)) for k in _SCALARS}
     out["srp_enabled"] = bool(p.srp_enabled)
     out["inertia_B"] = np.asarray(p.inertia_B).tolist()
-    out["kinematics"] = "exact" if p.kinematics == Kinematics.Exact else "paper"
+    out["kinematics"] = "exact" if p.kinematics == Kinematics.Exact else "first_order"
     for key in _VECTORS:
         out[key] = np.asarray(getattr(p, key)).tolist()
     return out

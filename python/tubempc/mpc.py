@@ -21,15 +21,16 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from ._core.mpc import (
-    Backend,
     InitialCondition,
     InputCost,
     KktSolver,
+    Linearization,
     LinearizedModel,
     LinearizedProximityModel,
     LtiModel,
     QpData,
     QpSolution,
+    QpSolver,
     Reference,
     Settings,
     Status,
@@ -41,16 +42,17 @@ from ._core.mpc import (
 )
 
 __all__ = [
-    "Backend",
     "InitialCondition",
     "InputCost",
     "KktSolver",
+    "Linearization",
     "LinearizedModel",
     "LinearizedProximityModel",
     "LtiModel",
     "QpData",
     "QpResult",
     "QpSolution",
+    "QpSolver",
     "Reference",
     "Settings",
     "Status",

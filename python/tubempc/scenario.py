@@ -46,6 +46,10 @@ __all__ = [
 
 Array = npt.NDArray[np.float64]
 METHODS = ("tbmpc", "ffa")
+# Configuration option -> C++ enum: the same names in the TOML, the C++ to_string and scenario files.
+_INPUT_COSTS = {"absolute": _core.mpc.InputCost.Absolute, "deviation": _core.mpc.InputCost.Deviation}
+_LINEARIZATIONS = {"reuse": _core.mpc.Linearization.Reuse, "every_iteration": _core.mpc.Linearization.EveryIteration}
+_QP_SOLVERS = {"active_set": _core.mpc.QpSolver.ActiveSet, "piqp": _core.mpc.QpSolver.Piqp}
 P_STATES, R_STATES = slice(0, 6), slice(6, 12)  # translational x_p = [r_L, v_L], rotational x_r = [phi, omega_BL_B]
 P_INPUTS, R_INPUTS = slice(0, 3), slice(3, 6)  # u_p (m/s^2, L), T (N m, B)
 
@@ -106,7 +110,7 @@ def model_params(cfg: Config, srp_scale: float = 1.0, site: Site | None = None) 
         "beta_srp": e.beta_srp * srp_scale,
         "inertia_B": np.asarray(s.J).tolist(),
         "spin_rate": a.spin_sign * 2.0 * np.pi / a.spin_period,
-        "kinematics": "paper" if cfg.mpc.kinematics == "first_order" else "exact",
+        "kinematics": cfg.mpc.kinematics,
         "glide_slope_angle": c.glide_slope_angle,
         "los_angle": c.los_angle,
         "boresight_B": np.asarray(s.boresight_B, dtype=float).tolist(),
@@ -330,9 +334,9 @@ def mpc_settings(scn: Scenario) -> Any:
     st.R = np.diag(np.concatenate([m.R_p, m.R_r]))
     st.u_max = np.r_[[cfg.spacecraft.u_max] * 3, [cfg.spacecraft.T_max] * 3]
     st.scp_eps = m.scp_eps
-    st.input_cost = _core.mpc.InputCost.Paper if m.input_cost == "absolute" else _core.mpc.InputCost.FromReference
-    st.reuse_linearization = m.linearization == "reuse"
-    st.backend = _core.mpc.Backend.ActiveSetPiqp if m.qp_solver == "active_set" else _core.mpc.Backend.PiqpSparse
+    st.input_cost = _INPUT_COSTS[m.input_cost]
+    st.linearization = _LINEARIZATIONS[m.linearization]
+    st.qp_solver = _QP_SOLVERS[m.qp_solver]
     return st
 
 

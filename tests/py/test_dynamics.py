@@ -51,7 +51,7 @@ def _augmented(model: ProximityModel, t: float, x: np.ndarray, u: np.ndarray, dt
     return M * dt
 
 
-@pytest.mark.parametrize("kinematics", ["paper", "exact"])
+@pytest.mark.parametrize("kinematics", ["first_order", "exact"])
 @pytest.mark.parametrize("dt", [2.0, 60.0])
 def test_discretisation_matches_scipy_expm(kinematics: str, dt: float) -> None:
     model = ProximityModel(PointMassGravity(GM_BENNU), _fast(kinematics))
@@ -107,7 +107,7 @@ def test_horizon_equals_node_by_node_calls() -> None:
 
 
 def test_jacobians_match_finite_differences() -> None:
-    for kin in ("paper", "exact"):
+    for kin in ("first_order", "exact"):
         model = ProximityModel(PointMassGravity(GM_BENNU), _fast(kin))
         for t, x, u in _random_points(3, seed=5):
             A, B = model.jacobians(t, x, u)
@@ -145,7 +145,7 @@ def test_config_validation_names_the_field() -> None:
     with pytest.raises(ValueError, match="gm"):
         PointMassGravity(-1.0)
     model = ProximityModel(g)
-    assert model.params.kinematics == tubempc.Kinematics.Paper
+    assert model.params.kinematics == tubempc.Kinematics.FirstOrder
     assert model.mean_motion == pytest.approx(np.sqrt(1.32712440018e20 / 1.685e11**3), rel=1e-15)
     bad = X0.copy()
     bad[3] = np.inf
@@ -169,7 +169,7 @@ def test_frames_rotate_at_spin_minus_orbital_rate() -> None:
 
 
 def test_propagation_api() -> None:
-    model = ProximityModel(PointMassGravity(GM_BENNU), _fast("paper"))
+    model = ProximityModel(PointMassGravity(GM_BENNU), _fast("first_order"))
     s0 = model.state_to_truth(X0)
     u = np.r_[1e-4, 0, -1e-4, 0.1, 0, 0.2]
     rk4 = model.propagate(0.0, s0, u, 2.0, "rk4", substeps=50)

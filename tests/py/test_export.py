@@ -82,10 +82,10 @@ def test_scenario_file_holds_the_closed_loops_inputs_bit_for_bit(exported: tuple
         "riccati_max_iterations",
         "kkt_solver",
         "qp_scale_cost",
-        "reuse_linearization",
+        "linearization",
         "qp_preconditioner_iterations",
         "qp_reg_lower_limit",
-        "backend",
+        "qp_solver",
         "active_set_max_iterations",
         "qp_retry_reg_lower_limit",
         "A_structure",
@@ -96,7 +96,7 @@ def test_scenario_file_holds_the_closed_loops_inputs_bit_for_bit(exported: tuple
         assert (
             (a == b)
             if isinstance(
-                a, (bool, int, _core.mpc.InputCost, _core.mpc.InitialCondition, _core.mpc.KktSolver, _core.mpc.Backend)
+                a, (bool, int, _core.mpc.InputCost, _core.mpc.InitialCondition, _core.mpc.KktSolver, _core.mpc.QpSolver, _core.mpc.Linearization)
             )
             else _same_bits(a, b)
         ), name

@@ -214,7 +214,7 @@ def test_reused_linearization_calls_the_model_less_with_identical_plans() -> Non
     for reuse in (True, False):
         model = CountingDoubleIntegrator(dt, 1.0, 0.3)
         s = _settings(False)
-        s.reuse_linearization = reuse
+        s.linearization = mpc.Linearization.Reuse if reuse else mpc.Linearization.EveryIteration
         ctrl = TubeMPC(model, s)
         ctrl.setup(_reference(T))
         model.times.clear()

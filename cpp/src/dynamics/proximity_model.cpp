@@ -43,8 +43,8 @@ Eigen::Vector3d hill_tidal(double n, const Eigen::Vector3d& r) {
 
 const char* to_string(Kinematics k) {
   switch (k) {
-    case Kinematics::Paper:
-      return "paper";
+    case Kinematics::FirstOrder:
+      return "first_order";
     case Kinematics::Exact:
       return "exact";
   }
@@ -85,7 +85,7 @@ void ModelParams::validate() const {
   require(std::isfinite(an) && an > 1e-12, "glide_slope_axis_A", "finite and nonzero (norm)", an);
   const double pn = glide_slope_apex_A.norm();
   require(std::isfinite(pn), "glide_slope_apex_A", "finite (norm, m)", pn);
-  if (kinematics != Kinematics::Paper && kinematics != Kinematics::Exact) {
+  if (kinematics != Kinematics::FirstOrder && kinematics != Kinematics::Exact) {
     throw std::invalid_argument("ModelParams.kinematics: unknown value");
   }
 }
@@ -177,7 +177,7 @@ Eigen::Vector3d ProximityModel::rotational(const Eigen::Matrix3d& C_BL, const Ei
 }
 
 Eigen::Vector3d ProximityModel::phi_dot(const Eigen::Vector3d& phi, const Eigen::Vector3d& omega_BL_B) const {
-  if (params_.kinematics == Kinematics::Paper) return omega_BL_B;
+  if (params_.kinematics == Kinematics::FirstOrder) return omega_BL_B;
   return math::right_jacobian_inverse(phi) * omega_BL_B;
 }
 
@@ -240,7 +240,7 @@ void ProximityModel::rotational_jacobians(const Eigen::Vector3d& phi, const Eige
   A_r.setZero();
   B_r.setZero();
   // Kinematics.
-  if (params_.kinematics == Kinematics::Paper) {
+  if (params_.kinematics == Kinematics::FirstOrder) {
     f_r.head<3>() = w;
     A_r.block<3, 3>(0, 3).setIdentity();
   } else {

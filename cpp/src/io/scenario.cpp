@@ -25,19 +25,26 @@ using core::text::format_double;
 
 constexpr const char* kMagic = "tubempc-scenario";
 
-// Text <-> enum of the options (the names written in the file).
+// Text <-> enum of the options: the names written in the file (the first for each value, the same as
+// the configuration's and to_string's), then the names of format version 1, still read.
 template <typename E>
 using Options = std::initializer_list<std::pair<const char*, E>>;
-const Options<dynamics::Kinematics> kKinematics = {{"paper", dynamics::Kinematics::Paper},
-                                                   {"exact", dynamics::Kinematics::Exact}};
+const Options<dynamics::Kinematics> kKinematics = {{"first_order", dynamics::Kinematics::FirstOrder},
+                                                   {"exact", dynamics::Kinematics::Exact},
+                                                   {"paper", dynamics::Kinematics::FirstOrder}};
 const Options<dynamics::Integrator> kIntegrators = {{"rk4", dynamics::Integrator::RK4},
                                                     {"dopri5", dynamics::Integrator::DOPRI5}};
-const Options<mpc::InputCost> kInputCosts = {{"paper", mpc::InputCost::Paper},
-                                             {"from_reference", mpc::InputCost::FromReference}};
+const Options<mpc::InputCost> kInputCosts = {{"absolute", mpc::InputCost::Absolute},
+                                             {"deviation", mpc::InputCost::Deviation},
+                                             {"paper", mpc::InputCost::Absolute},
+                                             {"from_reference", mpc::InputCost::Deviation}};
 const Options<mpc::InitialCondition> kInitialConditions = {
     {"whitened_box", mpc::InitialCondition::WhitenedBox}, {"exact", mpc::InitialCondition::Exact}};
-const Options<mpc::Backend> kBackends = {{"piqp", mpc::Backend::PiqpSparse},
-                                         {"active_set_piqp", mpc::Backend::ActiveSetPiqp}};
+const Options<mpc::QpSolver> kQpSolvers = {{"piqp", mpc::QpSolver::Piqp}, {"active_set", mpc::QpSolver::ActiveSet}};
+const Options<mpc::QpSolver> kBackendsV1 = {{"piqp", mpc::QpSolver::Piqp},
+                                            {"active_set_piqp", mpc::QpSolver::ActiveSet}};
+const Options<mpc::Linearization> kLinearizations = {{"reuse", mpc::Linearization::Reuse},
+                                                     {"every_iteration", mpc::Linearization::EveryIteration}};
 const Options<mpc::KktSolver> kKktSolvers = {{"sparse_ldlt", mpc::KktSolver::SparseLdlt},
                                              {"sparse_multistage", mpc::KktSolver::SparseMultistage}};
 
@@ -64,6 +71,7 @@ struct Record {
 class Reader {
  public:
   explicit Reader(std::string path) : path_(std::move(path)) {}
+  int version() const { return version_; }
 
   [[noreturn]] void fail(long line, const std::string& what) const {
     throw std::invalid_argument(line > 0 ? path_ + ":" + std::to_string(line) + ": " + what
@@ -94,10 +102,11 @@ class Reader {
       fail(1, "not a tubempc scenario file (the first line must be '" + std::string(kMagic) + " " +
                   std::to_string(kScenarioFormatVersion) + "')");
     }
-    if (version != kScenarioFormatVersion) {
-      fail(1, "format version " + std::to_string(version) + " is not supported (this reader reads version " +
+    if (version != kScenarioFormatVersion && version != 1) {
+      fail(1, "format version " + std::to_string(version) + " is not supported (this reader reads versions 1 and " +
                   std::to_string(kScenarioFormatVersion) + ")");
     }
+    version_ = static_cast<int>(version);
     while (next()) {
       const std::string name(tokens[0]);
       Record rec;
@@ -264,7 +273,7 @@ class Reader {
 
   void check_all_used() const {
     for (const auto& [name, rec] : records_) {
-      if (!rec.used) fail(rec.line, name + ": unknown record name (format version 1)");
+      if (!rec.used) fail(rec.line, name + ": unknown record name (format version " + std::to_string(version_) + ")");
     }
   }
 
@@ -272,6 +281,7 @@ class Reader {
 
  private:
   std::string path_;
+  int version_ = 0;
   std::map<std::string, Record> records_;
 };
 
@@ -403,10 +413,17 @@ Scenario read_scenario(const std::string& path) {
   r.optional_scalar("mpc.riccati_tol", st.riccati_tol);
   r.integer("mpc.riccati_max_iterations", st.riccati_max_iterations, false);
   r.option("mpc.kkt_solver", kKktSolvers, st.kkt_solver, false);
-  r.option("mpc.backend", kBackends, st.backend, false);
+  if (r.version() == 1) {  // version 1: mpc.backend and the 0/1 flag mpc.reuse_linearization
+    r.option("mpc.backend", kBackendsV1, st.qp_solver, false);
+    bool reuse = true;
+    r.flag("mpc.reuse_linearization", reuse, false);
+    st.linearization = reuse ? mpc::Linearization::Reuse : mpc::Linearization::EveryIteration;
+  } else {
+    r.option("mpc.qp_solver", kQpSolvers, st.qp_solver, false);
+    r.option("mpc.linearization", kLinearizations, st.linearization, false);
+  }
   r.integer("mpc.active_set_max_iterations", st.active_set_max_iterations, false);
   r.flag("mpc.qp_scale_cost", st.qp_scale_cost, false);
-  r.flag("mpc.reuse_linearization", st.reuse_linearization, false);
   r.integer("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations, false);
   r.optional_scalar("mpc.qp_reg_lower_limit", st.qp_reg_lower_limit);
   r.optional_scalar("mpc.qp_retry_reg_lower_limit", st.qp_retry_reg_lower_limit);
@@ -481,10 +498,10 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   w.scalar("mpc.riccati_tol", st.riccati_tol);
   w.scalar("mpc.riccati_max_iterations", st.riccati_max_iterations);
   w.text("mpc.kkt_solver", option_name(kKktSolvers, st.kkt_solver));
-  w.text("mpc.backend", option_name(kBackends, st.backend));
+  w.text("mpc.qp_solver", option_name(kQpSolvers, st.qp_solver));
   w.scalar("mpc.active_set_max_iterations", st.active_set_max_iterations);
   w.scalar("mpc.qp_scale_cost", st.qp_scale_cost ? 1.0 : 0.0);
-  w.scalar("mpc.reuse_linearization", st.reuse_linearization ? 1.0 : 0.0);
+  w.text("mpc.linearization", option_name(kLinearizations, st.linearization));
   w.scalar("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations);
   w.scalar("mpc.qp_reg_lower_limit", st.qp_reg_lower_limit);
   w.scalar("mpc.qp_retry_reg_lower_limit", st.qp_retry_reg_lower_limit);

@@ -110,6 +110,10 @@ void check_square_symmetric(const Eigen::MatrixXd& M, int n, const char* field) 
 
 }  // namespace
 
+const char* to_string(InputCost c) { return c == InputCost::Absolute ? "absolute" : "deviation"; }
+const char* to_string(QpSolver q) { return q == QpSolver::Piqp ? "piqp" : "active_set"; }
+const char* to_string(Linearization l) { return l == Linearization::Reuse ? "reuse" : "every_iteration"; }
+
 std::string to_string(Status status) {
   switch (status) {
     case Status::Solved:
@@ -174,8 +178,9 @@ void Settings::validate(int nx, int nu) const {
   if (G_structure.size() != 0 && G_structure.cols() != nx) fail("G_structure", "must be empty or n_c x n_x");
   if (riccati_max_iterations < 1) fail("riccati_max_iterations", "must be >= 1");
   if (active_set_max_iterations < 1) fail("active_set_max_iterations", "must be >= 1");
-  if (backend != Backend::PiqpSparse && backend != Backend::ActiveSetPiqp)
-    fail("backend", "is not a known backend");
+  if (qp_solver != QpSolver::Piqp && qp_solver != QpSolver::ActiveSet) fail("qp_solver", "is not a known QP solver");
+  if (linearization != Linearization::Reuse && linearization != Linearization::EveryIteration)
+    fail("linearization", "is not a known policy");
   if (qp_preconditioner_iterations < 0) fail("qp_preconditioner_iterations", "must be >= 0");
   if (!(qp_reg_lower_limit > 0.0) || !std::isfinite(qp_reg_lower_limit))
     fail("qp_reg_lower_limit", "must be finite and > 0");
@@ -609,10 +614,10 @@ struct TubeMPC::StepContext {
 };
 
 // Phase 1: re-use the previous converged step's model data shifted by one node
-// (Settings::reuse_linearization) and shift its final active set as the first QP's guess.
+// (Settings::linearization) and shift its final active set as the first QP's guess.
 void TubeMPC::shift_warm_start(StepContext& c) {
   Impl& m = *impl_;
-  if (c.s.reuse_linearization && m.lin_k >= 0 && c.k == m.lin_k + 1) {
+  if (c.s.linearization == Linearization::Reuse && m.lin_k >= 0 && c.k == m.lin_k + 1) {
     c.n_reuse_z = std::min(c.n + 1, m.lin_n);
     c.n_reuse_d = std::min(c.n, m.lin_n - 1);
     std::rotate(m.Ad.begin(), m.Ad.begin() + 1, m.Ad.end());  // swaps: no allocation
@@ -658,7 +663,7 @@ void TubeMPC::seed_linearization(StepContext& c) {
 }
 
 // The step's outcome when no new plan is applied: Theorem 1's candidate (the previous plan shifted to
-// k, holding its last state, zero inputs appended (u_ref with InputCost::FromReference)) or the
+// k, holding its last state, zero inputs appended (u_ref with InputCost::Deviation)) or the
 // reference; the ancillary law on it, saturated and never non-finite.
 const StepResult& TubeMPC::fallback(const StepContext& c, Status cause) {
   Impl& m = *impl_;
@@ -671,7 +676,7 @@ const StepResult& TubeMPC::fallback(const StepContext& c, Status cause) {
     for (int i = 0; i < N; ++i) {
       if (i + c.shift < N)
         res.v.col(i) = m.v_plan.col(i + c.shift);
-      else if (s.input_cost == InputCost::FromReference && k + i < T)
+      else if (s.input_cost == InputCost::Deviation && k + i < T)
         res.v.col(i) = m.ref.u.col(k + i);
       else
         res.v.col(i).setZero();
@@ -731,7 +736,7 @@ void TubeMPC::write_cost(const StepContext& c) {
   for (int i = 0; i < N; ++i) {
     m.x_l.segment(m.iv(i), nu) = -m.u_tight;
     m.x_u.segment(m.iv(i), nu) = m.u_tight;
-    if (s.input_cost == InputCost::FromReference && i < n) {
+    if (s.input_cost == InputCost::Deviation && i < n) {
       m.tmp_nu.noalias() = m.R * m.ref.u.col(k + i);
       m.q.segment(m.iv(i), nu) = -2.0 * m.tmp_nu;
       m.constant += m.ref.u.col(k + i).dot(m.tmp_nu);
@@ -900,7 +905,7 @@ Status TubeMPC::solve_with_retry(const StepContext& c) {
   Impl& m = *impl_;
   StepResult& res = m.result;
   m.last_qp_active_set = false;
-  if (c.s.backend == Backend::ActiveSetPiqp) {
+  if (c.s.qp_solver == QpSolver::ActiveSet) {
     const bool warm = (m.as_set.array() != 0).any();
     for (int attempt = 0; attempt < (warm ? 2 : 1) && !m.last_qp_active_set; ++attempt) {
       if (attempt == 1) m.as_set.setZero();
@@ -914,7 +919,7 @@ Status TubeMPC::solve_with_retry(const StepContext& c) {
 }
 
 // Phase 7: the QP's plan, its largest move from the linearisation (the SCP residual) and the next
-// linearisation point. With reuse_linearization, a node whose plan moved less than scp_eps (it
+// linearisation point. With Linearization::Reuse, a node whose plan moved less than scp_eps (it
 // already meets the convergence test) keeps its model data and their point; the others are
 // linearised about the new plan.
 double TubeMPC::update_plan(const StepContext& c, const Eigen::VectorXd& x_qp) {
@@ -928,7 +933,7 @@ double TubeMPC::update_plan(const StepContext& c, const Eigen::VectorXd& x_qp) {
   }
   for (int i = 0; i < N; ++i) m.v_star.col(i) = x_qp.segment(m.iv(i), nu);
   for (int i = 0; i <= N; ++i) {
-    const bool moved = !s.reuse_linearization || i > n ||
+    const bool moved = s.linearization != Linearization::Reuse || i > n ||
                        (m.z_star.col(i) - m.z_lin.col(i)).cwiseAbs().maxCoeff() >= s.scp_eps;
     m.eval_c(i) = moved;
     if (i < N) m.eval_d(i) = moved;

@@ -88,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"gravity: {label}")
     print(f"horizon: N = {args.nodes}, dt = {args.dt} s; min over {args.batches} batches of {args.repeats} calls")
     results: dict[str, Any] = {"machine": info, "gravity": label, "nodes": args.nodes, "dt": args.dt}
-    for kin in ("paper", "exact"):
+    for kin in ("first_order", "exact"):
         model = ProximityModel(gravity, {"kinematics": kin})
         t = _core.dynamics.time_kernels(model._impl, 0.0, args.dt, X, U, args.repeats, args.batches)
         t.pop("checksum")

@@ -221,17 +221,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "truth propagation with the scenario's disturbance); stand-in: a 12/6 LTI plant",
     )
     parser.add_argument(
-        "--no-reuse-linearization",
-        action="store_true",
-        help="call the model at every node in every SCP iteration (mpc::Settings::reuse_linearization "
-        "off; default: a step re-uses the previous converged step's model data)",
+        "--linearization",
+        choices=("reuse", "every_iteration"),
+        default="reuse",
+        help="every_iteration: call the model at every node in every SCP iteration (mpc::Linearization; "
+        "default reuse: a step re-uses the previous converged step's model data)",
     )
     parser.add_argument(
-        "--backend",
-        choices=("active-set", "piqp"),
-        default="active-set",
+        "--qp-solver",
+        choices=("active_set", "piqp"),
+        default="active_set",
         help="QP solver of the step: the warm-started active set with PIQP when it does not verify "
-        "(default, mpc::Backend::ActiveSetPiqp) or PIQP alone",
+        "(default, mpc::QpSolver::ActiveSet) or PIQP alone",
     )
     parser.add_argument(
         "--repeats",
@@ -316,8 +317,10 @@ def run(args: argparse.Namespace) -> int:
         plant_text = "plant: 12-state/6-input stand-in (Hill/CW translation + linearised rigid body, 4 glide-slope planes)"
 
     samples = set(np.linspace(0, args.steps - 1, args.qp_samples).round().astype(int).tolist())
-    settings.reuse_linearization = not args.no_reuse_linearization
-    settings.backend = mpc.Backend.ActiveSetPiqp if args.backend == "active-set" else mpc.Backend.PiqpSparse
+    settings.linearization = {"reuse": mpc.Linearization.Reuse, "every_iteration": mpc.Linearization.EveryIteration}[
+        args.linearization
+    ]
+    settings.qp_solver = mpc.QpSolver.ActiveSet if args.qp_solver == "active_set" else mpc.QpSolver.Piqp
     records, qps = run_mission(model, settings, reference, tube, truth, samples)
     final = records.pop()
     # Further flights of the same (deterministic) mission, for the timings' spread between runs.
@@ -352,7 +355,7 @@ def run(args: argparse.Namespace) -> int:
     as_steps = [r for r in records if r["scp"] > 0 and r["as_solves"] == r["scp"]]
     piqp_qp = n_qp - as_qp
     print(
-        f"QP solver ({settings.backend.name}): {as_qp} of {n_qp} QPs by the active set "
+        f"QP solver ({settings.qp_solver.name}): {as_qp} of {n_qp} QPs by the active set "
         f"({np.mean([r['as_iter'] / r['scp'] for r in as_steps]) if as_steps else 0.0:.2f} factorisations per QP on "
         f"steps it solved alone), {piqp_qp} by PIQP "
         f"({sum(r['qp_iter'] for r in records) / max(1, piqp_qp):.1f} interior-point iterations per PIQP QP); "
@@ -367,10 +370,10 @@ def run(args: argparse.Namespace) -> int:
         "qp_size": [n_var, n_eq, n_in],
         "statuses": statuses,
         "final_error_inf": final["final_error_inf"],
-        "reuse_linearization": bool(settings.reuse_linearization),
+        "linearization": settings.linearization.name,
         "model_evaluations_mean": float(np.mean(evals)),
         "scp_iterations_mean": scp_mean,
-        "backend": settings.backend.name,
+        "qp_solver": settings.qp_solver.name,
         "active_set_qps": as_qp,
         "qps": n_qp,
         "step": {},

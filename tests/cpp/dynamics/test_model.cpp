@@ -100,7 +100,7 @@ void check_jacobians(const ProximityModel& model, int trials, unsigned seed, dou
 }
 
 TEST(ProximityModel, JacobiansMatchFiniteDifferencesBothKinematics) {
-  for (Kinematics k : {Kinematics::Paper, Kinematics::Exact}) {
+  for (Kinematics k : {Kinematics::FirstOrder, Kinematics::Exact}) {
     const ProximityModel model(cluster(), fast_frames(k), std::make_shared<TestExtra>());
     check_jacobians(model, 25, 7u, 3.0, 1e-6);
   }

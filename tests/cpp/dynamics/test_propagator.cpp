@@ -33,7 +33,7 @@ double state_error(const TruthState& a, const TruthState& b) {
 }
 
 TEST(Propagator, Rk4IsFourthOrder) {
-  const ProximityModel model(testing::cluster(), testing::fast_frames(Kinematics::Paper));
+  const ProximityModel model(testing::cluster(), testing::fast_frames(Kinematics::FirstOrder));
   const TruthState s0 = initial_state();
   InputVector u;
   u << 1e-4, -2e-4, 5e-5, 0.3, -0.2, 0.1;
@@ -60,7 +60,7 @@ TEST(Propagator, Rk4IsFourthOrder) {
 }
 
 TEST(Propagator, Dopri5MeetsItsToleranceAgainstFineRk4) {
-  const ProximityModel model(testing::cluster(), testing::fast_frames(Kinematics::Paper));
+  const ProximityModel model(testing::cluster(), testing::fast_frames(Kinematics::FirstOrder));
   const TruthState s0 = initial_state();
   PropagatorSettings fine;
   fine.substeps = 4000;
@@ -147,7 +147,7 @@ TEST(Propagator, TorqueFreeMotionConservesInertialAngularMomentum) {
 }
 
 TEST(Propagator, DisturbanceChannelsActLikeInputs) {
-  const ProximityModel model(testing::cluster(), testing::fast_frames(Kinematics::Paper));
+  const ProximityModel model(testing::cluster(), testing::fast_frames(Kinematics::FirstOrder));
   const TruthState s0 = initial_state();
   const Eigen::Vector3d a(1e-4, -3e-4, 2e-4);
   const Eigen::Vector3d alpha(1e-4, 2e-4, -1e-4);
@@ -172,7 +172,7 @@ TEST(Propagator, DisturbanceChannelsActLikeInputs) {
 }
 
 TEST(Propagator, StatusesAndErrors) {
-  const ProximityModel model(testing::cluster(), testing::fast_frames(Kinematics::Paper));
+  const ProximityModel model(testing::cluster(), testing::fast_frames(Kinematics::FirstOrder));
   const TruthState s0 = initial_state();
   PropagatorSettings set;
   set.method = Integrator::DOPRI5;

@@ -119,7 +119,7 @@ TEST_P(Rediscretize, PositionToleranceBoundsTheKeptBlocks) {
 }
 
 INSTANTIATE_TEST_SUITE_P(BothKinematics, Rediscretize,
-                         ::testing::Values(Kinematics::Paper, Kinematics::Exact));
+                         ::testing::Values(Kinematics::FirstOrder, Kinematics::Exact));
 
 // An extra acceleration may depend on v_L: the translation is then always re-discretised.
 class LinearDrag final : public ExtraAcceleration {
@@ -157,7 +157,7 @@ TEST(Rediscretize, ExtraAccelerationAndCoupledDataUseDiscretize) {
 }
 
 TEST(Rediscretize, RejectsBadToleranceSizesAndTime) {
-  const auto model = std::make_shared<const ProximityModel>(cluster(), fast_frames(Kinematics::Paper));
+  const auto model = std::make_shared<const ProximityModel>(cluster(), fast_frames(Kinematics::FirstOrder));
   for (const double tol : {-1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
     try {
       LinearizedProximityModel bad(model, tol);

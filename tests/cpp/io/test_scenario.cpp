@@ -47,13 +47,13 @@ Scenario sample(int T) {
   s.settings.Q = Eigen::MatrixXd::Identity(12, 12) * (1.0 + 1e-16);
   s.settings.R = Eigen::VectorXd::LinSpaced(6, 1e3, 1e4).asDiagonal();
   s.settings.u_max = (Eigen::VectorXd(6) << 0.55, 0.55, 0.55, 3.0, 3.0, 3.0).finished();
-  s.settings.input_cost = tubempc::mpc::InputCost::FromReference;
+  s.settings.input_cost = tubempc::mpc::InputCost::Deviation;
   s.settings.soft_terminal = true;              // set explicitly: the error test below edits its record
   s.settings.qp_preconditioner_iterations = 4;  // not the default: the round trip must carry it
   s.settings.qp_reg_lower_limit = 3e-9;
   s.settings.qp_retry_reg_lower_limit = 0.0;
-  s.settings.reuse_linearization = false;                  // not the default
-  s.settings.backend = tubempc::mpc::Backend::PiqpSparse;  // not the default
+  s.settings.linearization = tubempc::mpc::Linearization::EveryIteration;                  // not the default
+  s.settings.qp_solver = tubempc::mpc::QpSolver::Piqp;  // not the default
   s.settings.active_set_max_iterations = 5;
   s.settings.G_structure = Eigen::MatrixXd::Ones(2, 12);
   s.reference.t0 = 0.25;
@@ -177,7 +177,7 @@ TEST_F(ScenarioFile, RoundTripIsBitExact) {
   expect_same_bits(sa.Q, sb.Q, "Q");
   expect_same_bits(sa.R, sb.R, "R");
   expect_same_bits(sa.u_max, sb.u_max, "u_max");
-  EXPECT_EQ(sb.input_cost, tubempc::mpc::InputCost::FromReference);
+  EXPECT_EQ(sb.input_cost, tubempc::mpc::InputCost::Deviation);
   EXPECT_EQ(sb.initial_condition, sa.initial_condition);
   EXPECT_EQ(sb.scp_eps, sa.scp_eps);
   EXPECT_EQ(sb.scp_max_iterations, sa.scp_max_iterations);
@@ -194,8 +194,8 @@ TEST_F(ScenarioFile, RoundTripIsBitExact) {
   EXPECT_EQ(sb.riccati_max_iterations, sa.riccati_max_iterations);
   EXPECT_EQ(sb.kkt_solver, sa.kkt_solver);
   EXPECT_EQ(sb.qp_scale_cost, sa.qp_scale_cost);
-  EXPECT_EQ(sb.reuse_linearization, sa.reuse_linearization);
-  EXPECT_EQ(sb.backend, sa.backend);
+  EXPECT_EQ(sb.linearization, sa.linearization);
+  EXPECT_EQ(sb.qp_solver, sa.qp_solver);
   EXPECT_EQ(sb.active_set_max_iterations, sa.active_set_max_iterations);
   EXPECT_EQ(sb.qp_preconditioner_iterations, sa.qp_preconditioner_iterations);
   EXPECT_EQ(sb.qp_reg_lower_limit, sa.qp_reg_lower_limit);
@@ -236,9 +236,46 @@ TEST_F(ScenarioFile, OptionalRecordsTakeDefaults) {
   EXPECT_EQ(s.settings.G_structure.size(), 0);
 }
 
+// A version-1 file (the option names before the one-name-per-option change) reads to the same scenario.
+TEST_F(ScenarioFile, VersionOneFilesAreRead) {
+  std::string text = text_;
+  const auto replace = [&text](const std::string& from, const std::string& to) {
+    const std::size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+  };
+  replace("tubempc-scenario 2", "tubempc-scenario 1");
+  const Scenario fresh = read_scenario(path_);
+  const std::string kin = std::string("model.kinematics text\n") + to_string(fresh.controller.params.kinematics);
+  if (fresh.controller.params.kinematics == tubempc::dynamics::Kinematics::FirstOrder)
+    replace(kin, "model.kinematics text\npaper");
+  if (fresh.truth.params.kinematics == tubempc::dynamics::Kinematics::FirstOrder)
+    replace("truth.kinematics text\nfirst_order", "truth.kinematics text\npaper");
+  replace(std::string("mpc.input_cost text\n") + tubempc::mpc::to_string(fresh.settings.input_cost),
+          fresh.settings.input_cost == tubempc::mpc::InputCost::Absolute ? "mpc.input_cost text\npaper"
+                                                                         : "mpc.input_cost text\nfrom_reference");
+  replace(std::string("mpc.qp_solver text\n") + tubempc::mpc::to_string(fresh.settings.qp_solver),
+          fresh.settings.qp_solver == tubempc::mpc::QpSolver::Piqp ? "mpc.backend text\npiqp"
+                                                                   : "mpc.backend text\nactive_set_piqp");
+  replace(std::string("mpc.linearization text\n") + tubempc::mpc::to_string(fresh.settings.linearization),
+          fresh.settings.linearization == tubempc::mpc::Linearization::Reuse ? "mpc.reuse_linearization 1 1\n1"
+                                                                              : "mpc.reuse_linearization 1 1\n0");
+  const std::string path = (dir_ / "v1.txt").string();
+  std::ofstream(path, std::ios::binary) << text;
+  const Scenario old = read_scenario(path);
+  EXPECT_EQ(old.controller.params.kinematics, fresh.controller.params.kinematics);
+  EXPECT_EQ(old.truth.params.kinematics, fresh.truth.params.kinematics);
+  EXPECT_EQ(old.settings.input_cost, fresh.settings.input_cost);
+  EXPECT_EQ(old.settings.qp_solver, fresh.settings.qp_solver);
+  EXPECT_EQ(old.settings.linearization, fresh.settings.linearization);
+  // and a version-2 name in a version-1 file is unknown there
+  std::ofstream(path, std::ios::binary) << text << "mpc.qp_solver text\npiqp\n";
+  EXPECT_THROW(read_scenario(path), std::invalid_argument);
+}
+
 TEST_F(ScenarioFile, ErrorsNameFileLineAndRecord) {
-  expect_error("tubempc-scenario 1", "tubempc-scenario 2", 1, "format version 2 is not supported");
-  expect_error("tubempc-scenario 1", "tubempc 1", 1, "not a tubempc scenario file");
+  expect_error("tubempc-scenario 2", "tubempc-scenario 3", 1, "format version 3 is not supported");
+  expect_error("tubempc-scenario 2", "tubempc 2", 1, "not a tubempc scenario file");
   const long mu = line_of("model.mu_sun 1 1");
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\n1.3271x", mu + 1,
                "model.mu_sun: row 0, column 0: bad number '1.3271x'");
@@ -262,7 +299,7 @@ TEST_F(ScenarioFile, ErrorsNameFileLineAndRecord) {
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\n-1", 0, "model.* (ModelParams): ");
   const long kin = line_of("model.kinematics text");
   expect_error("model.kinematics text\nexact", "model.kinematics text\nexactly", kin + 1,
-               "model.kinematics: unknown value 'exactly' (known: 'paper', 'exact')");
+               "model.kinematics: unknown value 'exactly' (known: 'first_order', 'exact', 'paper')");
   const long inertia = line_of("model.inertia_B 3 3");
   expect_error("model.inertia_B 3 3\n2750 0.33333333333333331 0",
                "model.inertia_B 3 3\n2750 0.33333333333333331", inertia + 1,

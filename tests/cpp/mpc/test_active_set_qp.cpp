@@ -227,7 +227,7 @@ TEST(TubeMPC, ActiveSetBackendMatchesPiqp) {
     s.dt = dt;
     s.u_max = Eigen::VectorXd::Constant(6, 0.05);
     s.time_limit = kInf;
-    s.backend = b == 0 ? Backend::ActiveSetPiqp : Backend::PiqpSparse;
+    s.qp_solver = b == 0 ? QpSolver::ActiveSet : QpSolver::Piqp;
     mpc[b] = std::make_unique<TubeMPC>(model, s);
     mpc[b]->setup(ref);
   }

@@ -92,7 +92,7 @@ Settings pendulum_settings(int horizon) {
   s.R = 1e-2 * Eigen::MatrixXd::Identity(1, 1);
   s.Q = 10.0 * Eigen::MatrixXd::Identity(2, 2);
   s.time_limit = kInf;
-  s.input_cost = InputCost::FromReference;
+  s.input_cost = InputCost::Deviation;
   return s;
 }
 
@@ -560,7 +560,7 @@ TEST(TubeMPC, ReusedLinearizationHoldsEachNodesModelData) {
   auto fresh_model = std::make_shared<RecordingPendulum>();
   const Settings s = pendulum_settings(12);
   Settings s_fresh = s;
-  s_fresh.reuse_linearization = false;
+  s_fresh.linearization = Linearization::EveryIteration;
   TubeMPC mpc(model, s), fresh(fresh_model, s_fresh);
   const int T = 30;
   Eigen::VectorXd x0(2), xf(2);

@@ -89,7 +89,7 @@ TEST(TubeMPCAllocation, StepDoesNotAllocateAfterSetup) {
     s.trust_region = 50.0;
     s.soft_state_constraints = soft;
     s.soft_terminal = soft;
-    s.input_cost = soft ? InputCost::FromReference : InputCost::Paper;
+    s.input_cost = soft ? InputCost::Deviation : InputCost::Absolute;
     s.qp_scale_cost = !soft;  // PIQP's cost scaling and 1e6 L1 penalties do not mix (Settings::qp_scale_cost)
     if (soft) {               // block-diagonal structure of the two subsystems (exercises the sparse masks)
       s.A_structure = Eigen::MatrixXd::Zero(12, 12);

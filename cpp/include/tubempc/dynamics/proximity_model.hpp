@@ -21,7 +21,7 @@
 ///     r' = v
 ///     v' = -2 n z x v + n^2 diag(3, 0, -1) r + (beta_SRP / R^2) x_L + C_AL^T a_A(C_AL r) + u_p
 ///          [+ extra acceleration hook]
-///     phi' = w (Kinematics::Paper) or Jr(phi)^-1 w (Kinematics::Exact)
+///     phi' = w (Kinematics::FirstOrder) or Jr(phi)^-1 w (Kinematics::Exact)
 ///     w' = J^-1 (T - (w + w_LI) x J (w + w_LI)) + w x w_LI,  w_LI = C_BL n z_L = Exp(phi)^T n z
 #pragma once
 
@@ -50,12 +50,12 @@ using InputMatrix = Eigen::Matrix<double, kNx, kNu>;
 
 /// Attitude kinematics of the rotation vector (PAPER_NOTES.md, "Attitude").
 enum class Kinematics {
-  Paper,  ///< phi' = omega_BL_B (the paper's first-order law)
+  FirstOrder,  ///< phi' = omega_BL_B (the paper's first-order law)
   Exact,  ///< phi' = Jr(phi)^-1 omega_BL_B
 };
 /// Name of a kinematics variant.
 /// @param k the variant.
-/// @return "paper" or "exact".
+/// @return "first_order" or "exact".
 const char* to_string(Kinematics k);
 
 /// Model constants; in-class defaults are the paper's scenario (Table 1, PAPER_NOTES.md).
@@ -70,7 +70,7 @@ struct ModelParams {
   /// about +z_L). Default 2 pi / 4.296 h (Bennu).
   double spin_rate{2.0 * 3.14159265358979323846 / (4.296 * 3600.0)};
   double spin_angle0{0.0};                   ///< theta_0 (rad): angle from x_L to x_A about z at t = 0
-  Kinematics kinematics{Kinematics::Paper};  ///< rotation-vector kinematics of the model x
+  Kinematics kinematics{Kinematics::FirstOrder};  ///< rotation-vector kinematics of the model x
   double glide_slope_angle{70.0 * 3.14159265358979323846 / 180.0};  ///< phi_gs (rad), in (0, pi/2)
   double los_angle{80.0 * 3.14159265358979323846 / 180.0};          ///< theta_LOS (rad), in (0, pi/2)
   Eigen::Vector3d boresight_B{0.0, 0.0, 1.0};  ///< camera boresight b_B in B (normalised on use)

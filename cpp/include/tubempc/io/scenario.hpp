@@ -5,9 +5,9 @@
 /// target states and the truth propagator's settings. Plain text, versioned, exact (every double
 /// written with 17 significant digits, so reading gives back the same bits).
 ///
-/// Format, version 1
-/// -----------------
-/// - Line 1: `tubempc-scenario 1`. Lines starting with `#` (after optional blanks) and blank lines
+/// Format, version 2 (version 1 files are read too; see below)
+/// -----------------------------------------------------------
+/// - Line 1: `tubempc-scenario 2`. Lines starting with `#` (after optional blanks) and blank lines
 ///   are comments anywhere else.
 /// - Then records in any order, each name at most once:
 ///   - numeric: a header line `<name> <rows> <cols>` followed by `rows` lines of `cols` numbers each
@@ -27,41 +27,50 @@
 ///   | `model.inertia_B` | 3 3 | spacecraft inertia in B (kg m^2) |
 ///   | `model.spin_rate` | 1 1 | asteroid spin rate omega_A (rad/s, signed, about z_L) |
 ///   | `model.spin_angle0` | 1 1 | theta_0 (rad) |
-///   | `model.kinematics` | text | `paper` or `exact` |
+///   | `model.kinematics` | text | `first_order` or `exact` |
 ///   | `model.glide_slope_angle` | 1 1 | phi_gs (rad) |
 ///   | `model.los_angle` | 1 1 | theta_LOS (rad) |
 ///   | `model.boresight_B` | 3 1 | boresight in B |
 ///   | `model.glide_slope_apex_A` | 3 1 | optional (default 0): glide-slope cone apex in A (m) |
 ///   | `model.glide_slope_axis_A` | 3 1 | optional (default z_A): glide-slope cone axis in A |
 ///   | `model.density` | 1 1 | asteroid density (kg/m^3) |
-///   | `model.shape` | text | shape file (gravity/shape_io.hpp), relative to the scenario's folder or
-///   absolute | | `model.shape_unit_scale` | 1 1 | metres per unit of the shape file | | `truth.*` | | the
-///   same records for the simulated plant (the truth model) | | `propagator.method` | text | `rk4` or
-///   `dopri5` | | `propagator.substeps`, `.rtol`, `.atol`, `.max_steps`, `.initial_step` | 1 1 each |
-///   dynamics::PropagatorSettings (s for initial_step) | | `mpc.horizon` | 1 1 | N | | `mpc.dt` | 1 1 |
-///   control period (s) | | `mpc.Q`, `mpc.R` | 12 12, 6 6 | stage weights | | `mpc.u_max` | 6 1 | input
-///   bounds (m/s^2, N m) | | `mpc.input_cost` | text | `paper` or `from_reference` | | `mpc.scp_eps` | 1 1 |
-///   SCP threshold (state units) | | `mpc.initial_condition` (opt.) | text | `whitened_box` or `exact` | |
-///   `mpc.scp_max_iterations`, `mpc.qp_max_iterations`, `mpc.riccati_max_iterations`,
-///   `mpc.qp_preconditioner_iterations`, `mpc.active_set_max_iterations` (opt.) | 1 1 | integers | |
-///   `mpc.trust_region` (opt., may be `inf`), `mpc.time_limit` (opt., s, may be `inf`) | 1 1 | | |
-///   `mpc.qp_eps_abs`, `mpc.qp_eps_rel`, `mpc.qp_inaccurate_tol`, `mpc.soft_penalty`, `mpc.riccati_tol`,
-///   `mpc.qp_reg_lower_limit`, `mpc.qp_retry_reg_lower_limit` (opt.) | 1 1 | | |
-///   `mpc.soft_state_constraints`, `mpc.soft_terminal`, `mpc.qp_scale_cost`, `mpc.reuse_linearization` (opt.)
-///   | 1 1 | 0 or 1 | | `mpc.kkt_solver` (opt.) | text | `sparse_ldlt` or `sparse_multistage` | |
-///   `mpc.backend` (opt.) | text | `active_set_piqp` or `piqp` | | `mpc.A_structure`, `mpc.B_structure`,
-///   `mpc.G_structure` (opt.) | 12 12, 12 6, 2 12 (or 0 0) | model structures | | `reference.t0` | 1 1 | time
-///   of node 0 (s) | | `reference.z` | T+1 12 | reference states zbar_0..zbar_T, one node per row | |
-///   `reference.u` | T 6 | reference inputs u_ref_0..u_ref_{T-1}, one node per row | | `tube.K` | 6 12 |
-///   ancillary gain | | `tube.Pe` | 12 12 | tube shape | | `mission.x0` | 12 1 | initial state [r_L (m), v_L
-///   (m/s), phi (rad), omega_BL_B (rad/s)] | | `mission.xf` | 12 1 | target state, same units |
+///   | `model.shape` | text | shape file (gravity/shape_io.hpp), relative to the scenario's folder or absolute |
+///   | `model.shape_unit_scale` | 1 1 | metres per unit of the shape file |
+///   | `truth.*` | | the same records for the simulated plant (the truth model) |
+///   | `propagator.method` | text | `rk4` or `dopri5` |
+///   | `propagator.substeps`, `.rtol`, `.atol`, `.max_steps`, `.initial_step` | 1 1 each | dynamics::PropagatorSettings (s for initial_step) |
+///   | `mpc.horizon` | 1 1 | N |
+///   | `mpc.dt` | 1 1 | control period (s) |
+///   | `mpc.Q`, `mpc.R` | 12 12, 6 6 | stage weights |
+///   | `mpc.u_max` | 6 1 | input bounds (m/s^2, N m) |
+///   | `mpc.input_cost` | text | `absolute` or `deviation` |
+///   | `mpc.scp_eps` | 1 1 | SCP threshold (state units) |
+///   | `mpc.initial_condition` (opt.) | text | `whitened_box` or `exact` |
+///   | `mpc.scp_max_iterations`, `mpc.qp_max_iterations`, `mpc.riccati_max_iterations`, `mpc.qp_preconditioner_iterations`, `mpc.active_set_max_iterations` (opt.) | 1 1 | integers |
+///   | `mpc.trust_region` (opt., may be `inf`), `mpc.time_limit` (opt., s, may be `inf`) | 1 1 | |
+///   | `mpc.qp_eps_abs`, `mpc.qp_eps_rel`, `mpc.qp_inaccurate_tol`, `mpc.soft_penalty`, `mpc.riccati_tol`, `mpc.qp_reg_lower_limit`, `mpc.qp_retry_reg_lower_limit` (opt.) | 1 1 | |
+///   | `mpc.soft_state_constraints`, `mpc.soft_terminal`, `mpc.qp_scale_cost` (opt.) | 1 1 | 0 or 1 |
+///   | `mpc.linearization` (opt.) | text | `reuse` or `every_iteration` |
+///   | `mpc.kkt_solver` (opt.) | text | `sparse_ldlt` or `sparse_multistage` |
+///   | `mpc.qp_solver` (opt.) | text | `active_set` or `piqp` |
+///   | `mpc.A_structure`, `mpc.B_structure`, `mpc.G_structure` (opt.) | 12 12, 12 6, 2 12 (or 0 0) | model structures |
+///   | `reference.t0` | 1 1 | time of node 0 (s) |
+///   | `reference.z` | T+1 12 | reference states zbar_0..zbar_T, one node per row |
+///   | `reference.u` | T 6 | reference inputs u_ref_0..u_ref_{T-1}, one node per row |
+///   | `tube.K` | 6 12 | ancillary gain |
+///   | `tube.Pe` | 12 12 | tube shape |
+///   | `mission.x0` | 12 1 | initial state [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)] |
+///   | `mission.xf` | 12 1 | target state, same units |
 ///
 ///   Optional records default to mpc::Settings' defaults (the structures to dense). Everything else
 ///   is required; unknown names are errors (a later version adds names and bumps the number).
+///   Version 1 files are read too: they name the options `paper` (kinematics `first_order`, input
+///   cost `absolute`) and `from_reference` (`deviation`), and carry `mpc.backend` (`active_set_piqp`
+///   or `piqp`) and the flag `mpc.reuse_linearization` instead of `mpc.qp_solver` and `mpc.linearization`.
 ///
 /// Example (abridged):
 ///
-///     tubempc-scenario 1
+///     tubempc-scenario 2
 ///     # exported by tubempc 0.1.0
 ///     model.mu_sun 1 1
 ///     1.32712440018e+20
@@ -81,7 +90,7 @@
 namespace tubempc::io {
 
 /// Version of the scenario format this library reads and writes.
-inline constexpr int kScenarioFormatVersion = 1;
+inline constexpr int kScenarioFormatVersion = 2;
 
 /// One 6-DOF model of the scenario: the inputs of gravity::load_shape, gravity::PolyhedronGravity
 /// and dynamics::ProximityModel.
@@ -96,12 +105,12 @@ struct BodyModel {
 struct Scenario {
   /// Folder of the file read (relative shape paths are relative to it); empty if not read from a file.
   std::string directory;
-  BodyModel controller;                     ///< the MPC's model (records `model.*`)
-  BodyModel truth;                          ///< the simulated plant (records `truth.*`)
-  dynamics::PropagatorSettings propagator;  ///< truth propagation per control period
-  mpc::Settings settings;                   ///< tube MPC settings
-  mpc::Reference reference;                 ///< zbar (12 x (T + 1)), u_ref (6 x T) as columns, t0 (s)
-  mpc::Tube tube;                           ///< TBMPC's fixed tube: K (6 x 12), Pe (12 x 12)
+  BodyModel controller;                    ///< the MPC's model (records `model.*`)
+  BodyModel truth;                         ///< the simulated plant (records `truth.*`)
+  dynamics::PropagatorSettings propagator; ///< truth propagation per control period
+  mpc::Settings settings;                  ///< tube MPC settings
+  mpc::Reference reference;                ///< zbar (12 x (T + 1)), u_ref (6 x T) as columns, t0 (s)
+  mpc::Tube tube;                          ///< TBMPC's fixed tube: K (6 x 12), Pe (12 x 12)
   dynamics::StateVector x0{dynamics::StateVector::Zero()};  ///< initial state (m, m/s, rad, rad/s)
   dynamics::StateVector xf{dynamics::StateVector::Zero()};  ///< target state (same units)
 
@@ -113,7 +122,7 @@ struct Scenario {
   std::string resolve(const std::string& path) const;
 };
 
-/// Reads and validates a scenario file (format version 1).
+/// Reads and validates a scenario file (format version 2, or 1).
 /// @param path the scenario file.
 /// @return its contents; `directory` is the file's folder. The shape files are not opened.
 /// @throws std::invalid_argument `<path>:<line>: <record>: <what>` for a malformed record (bad header,
@@ -124,7 +133,7 @@ struct Scenario {
 ///         size checks of the reference, the tube and the states.
 Scenario read_scenario(const std::string& path);
 
-/// Writes a scenario file (format version 1) with every record, optional ones included.
+/// Writes a scenario file (format version 2) with every record, optional ones included.
 /// @param path     file to create or overwrite.
 /// @param scenario contents; shape paths are written as they are (relative ones stay relative).
 /// @param comment  optional text written as `#` comment lines after the version line.

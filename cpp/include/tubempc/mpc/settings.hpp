@@ -16,18 +16,38 @@ enum class InitialCondition {
 
 /// Input part of the stage cost.
 enum class InputCost {
-  Paper,          ///< ||v||^2_R (the paper's Problem 2, default).
-  FromReference,  ///< ||v - u_ref||^2_R.
+  Absolute,   ///< ||v||^2_R (the paper's Problem 2, default).
+  Deviation,  ///< ||v - u_ref||^2_R (the deviation from the reference input).
 };
+/// Name of an input cost (as in configuration and scenario files).
+/// @param c the input cost.
+/// @return "absolute" or "deviation".
+const char* to_string(InputCost c);
 
 /// QP solver used inside `step`.
-enum class Backend {
-  PiqpSparse,  ///< PIQP's sparse interior-point solver, set up once, updated every QP.
+enum class QpSolver {
+  Piqp,  ///< PIQP's sparse interior-point solver, set up once, updated every QP.
   /// Warm-started primal-dual active set (ActiveSetQp, at most Settings::active_set_max_iterations
   /// factorisations per try; a second try from the empty set when the warm start fails); a QP it does
   /// not solve to the verified tolerance goes to PIQP (default).
-  ActiveSetPiqp,
+  ActiveSet,
 };
+/// Name of a QP solver (as in configuration and scenario files).
+/// @param q the solver.
+/// @return "piqp" or "active_set".
+const char* to_string(QpSolver q);
+
+/// Which nodes the SCP iterations re-linearise.
+enum class Linearization {
+  /// Model data whose linearisation point lies within scp_eps of the plan are kept, across steps and
+  /// SCP iterations (default; see tube_mpc.hpp).
+  Reuse,
+  EveryIteration,  ///< Every node re-linearised about the latest plan at every SCP iteration (Algorithm 1).
+};
+/// Name of a linearisation policy (as in configuration and scenario files).
+/// @param l the policy.
+/// @return "reuse" or "every_iteration".
+const char* to_string(Linearization l);
 
 /// Factorisation of PIQP's KKT systems.
 enum class KktSolver {
@@ -42,7 +62,7 @@ struct Settings {
   Eigen::MatrixXd Q;                        ///< State weight (n_x x n_x, symmetric PSD); empty -> identity.
   Eigen::MatrixXd R;                        ///< Input weight (n_u x n_u, symmetric PD); empty -> identity.
   Eigen::VectorXd u_max;                    ///< True input bounds |u_i| <= u_max_i (input units); required.
-  InputCost input_cost = InputCost::Paper;  ///< Input part of the stage cost.
+  InputCost input_cost = InputCost::Absolute;  ///< Input part of the stage cost.
   InitialCondition initial_condition = InitialCondition::WhitenedBox;  ///< How z_0 relates to x_k.
   double scp_eps = 1e-3;        ///< SCP stops when max_i ||z*_i - z_lin_i||_inf < scp_eps (state units).
   int scp_max_iterations = 10;  ///< Cap on SCP iterations per step.
@@ -63,7 +83,7 @@ struct Settings {
   double soft_penalty = 1e6;         ///< L1 penalty weight of the slacks (cost units per constraint unit).
   double riccati_tol = 1e-10;        ///< Relative convergence tolerance of the DARE doubling.
   int riccati_max_iterations = 100;  ///< Cap on DARE doubling iterations.
-  Backend backend = Backend::ActiveSetPiqp;  ///< QP solver.
+  QpSolver qp_solver = QpSolver::ActiveSet;  ///< QP solver.
   /// Factorisations the active-set solver may spend on each of its (at most two) tries on one QP
   /// before PIQP takes over (>= 1). Its KKT
   /// verification uses qp_eps_abs and qp_eps_rel.
@@ -90,9 +110,9 @@ struct Settings {
   ///  - across SCP iterations: a node whose plan moved less than scp_eps (inf-norm of the state) keeps
   ///    its model data and point; the others are linearised about the new plan.
   /// Only the other nodes call the model (StepResult::model_evaluations). Needs a model whose output
-  /// depends on (t, dt, x, u) only. false: every SCP iteration calls the model at every node about
-  /// the latest plan.
-  bool reuse_linearization = true;
+  /// depends on (t, dt, x, u) only. Linearization::EveryIteration: every SCP iteration calls the model
+  /// at every node about the latest plan.
+  Linearization linearization = Linearization::Reuse;
   /// Optional structural patterns of the model's A (n_x x n_x), B (n_x x n_u) and G (n_c x n_x): entries
   /// != 0 are stored in the QP, the others are structural zeros the model must respect (a nonzero there
   /// makes the step fall back with failure ModelStructure). Empty: dense. Sparser patterns make the KKT

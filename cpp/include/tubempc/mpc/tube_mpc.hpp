@@ -28,18 +28,18 @@
 /// ||z_N - zbar_{k+N}||^2_P while k + N < T (with a soft terminal constraint, ||z_N - x_f||^2_Q
 /// after: P's angular-rate entries, ~1e8 on the Bennu scenario, stalled PIQP there); the QP's P is
 /// twice the weights and the constant dropped
-/// from the QP is `QpData::constant` (nonzero only with InputCost::FromReference). Constraints: the
+/// from the QP is `QpData::constant` (nonzero only with InputCost::Deviation). Constraints: the
 /// linearised dynamics, the model's state constraints tightened by sqrt(a^T Pe a) at nodes 0..n, the
 /// input box tightened by sqrt(K_i Pe K_i^T), and the SCP trust region |z_i - z_lin_i| <= r (i >= 1).
 /// The nodes past the mission's end (k + i > T) are padded with frozen nodes z_{i+1} = z_i, zero state
 /// cost and free (costed, unused) inputs so the sparsity pattern never changes; in that shrinking
 /// phase (k >= T - N, the paper's Problem 3) z_N = x_f = zbar_T (hard, or L1-penalised).
-/// QP solver (Settings::backend): by default a warm-started primal-dual active-set method
+/// QP solver (Settings::qp_solver): by default a warm-started primal-dual active-set method
 /// (active_set_qp.hpp) whose guess is the previous QP's active set (the previous step's shifted by one
 /// node in a step's first SCP iteration), accepted only when it verifies the KKT conditions; if that
 /// guess fails, once more from the empty set (a wrong guess can make dependent rows active); otherwise
 /// PIQP (an interior-point method, which has no warm start) solves the same QP. Each step's SCP starts
-/// from the previous plan shifted to k as its linearisation trajectory. With Settings::reuse_linearization
+/// from the previous plan shifted to k as its linearisation trajectory. With Settings::linearization
 /// (default), model data whose linearisation point lies within scp_eps of the plan are kept: a step that
 /// follows a converged step by one period starts from that step's last model data shifted by one node (only
 /// the appended last node calls the model), and a later SCP iteration re-linearises only the nodes
