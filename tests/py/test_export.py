@@ -93,13 +93,14 @@ def test_scenario_file_holds_the_closed_loops_inputs_bit_for_bit(exported: tuple
         "G_structure",
     ):
         a, b = getattr(s.settings, name), getattr(expected_settings, name)
-        assert (
-            (a == b)
-            if isinstance(
-                a, (bool, int, _core.mpc.InputCost, _core.mpc.InitialCondition, _core.mpc.KktSolver, _core.mpc.QpSolver, _core.mpc.Linearization)
-            )
-            else _same_bits(a, b)
-        ), name
+        enums = (
+            _core.mpc.InputCost,
+            _core.mpc.InitialCondition,
+            _core.mpc.KktSolver,
+            _core.mpc.QpSolver,
+            _core.mpc.Linearization,
+        )
+        assert (a == b) if isinstance(a, (bool, int, *enums)) else _same_bits(a, b), name
     assert s.propagator.method == _core.dynamics.Integrator.RK4
     assert s.propagator.substeps == scn.config.simulation.substeps
     assert _same_bits(s.reference.z, scn.reference.x.T) and _same_bits(s.reference.u, scn.reference.u.T)

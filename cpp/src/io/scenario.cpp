@@ -40,7 +40,8 @@ const Options<mpc::InputCost> kInputCosts = {{"absolute", mpc::InputCost::Absolu
                                              {"from_reference", mpc::InputCost::Deviation}};
 const Options<mpc::InitialCondition> kInitialConditions = {
     {"whitened_box", mpc::InitialCondition::WhitenedBox}, {"exact", mpc::InitialCondition::Exact}};
-const Options<mpc::QpSolver> kQpSolvers = {{"piqp", mpc::QpSolver::Piqp}, {"active_set", mpc::QpSolver::ActiveSet}};
+const Options<mpc::QpSolver> kQpSolvers = {{"piqp", mpc::QpSolver::Piqp},
+                                           {"active_set", mpc::QpSolver::ActiveSet}};
 const Options<mpc::QpSolver> kBackendsV1 = {{"piqp", mpc::QpSolver::Piqp},
                                             {"active_set_piqp", mpc::QpSolver::ActiveSet}};
 const Options<mpc::Linearization> kLinearizations = {{"reuse", mpc::Linearization::Reuse},
@@ -103,7 +104,8 @@ class Reader {
                   std::to_string(kScenarioFormatVersion) + "')");
     }
     if (version != kScenarioFormatVersion && version != 1) {
-      fail(1, "format version " + std::to_string(version) + " is not supported (this reader reads versions 1 and " +
+      fail(1, "format version " + std::to_string(version) +
+                  " is not supported (this reader reads versions 1 and " +
                   std::to_string(kScenarioFormatVersion) + ")");
     }
     version_ = static_cast<int>(version);
@@ -273,7 +275,8 @@ class Reader {
 
   void check_all_used() const {
     for (const auto& [name, rec] : records_) {
-      if (!rec.used) fail(rec.line, name + ": unknown record name (format version " + std::to_string(version_) + ")");
+      if (!rec.used)
+        fail(rec.line, name + ": unknown record name (format version " + std::to_string(version_) + ")");
     }
   }
 

@@ -178,7 +178,8 @@ void Settings::validate(int nx, int nu) const {
   if (G_structure.size() != 0 && G_structure.cols() != nx) fail("G_structure", "must be empty or n_c x n_x");
   if (riccati_max_iterations < 1) fail("riccati_max_iterations", "must be >= 1");
   if (active_set_max_iterations < 1) fail("active_set_max_iterations", "must be >= 1");
-  if (qp_solver != QpSolver::Piqp && qp_solver != QpSolver::ActiveSet) fail("qp_solver", "is not a known QP solver");
+  if (qp_solver != QpSolver::Piqp && qp_solver != QpSolver::ActiveSet)
+    fail("qp_solver", "is not a known QP solver");
   if (linearization != Linearization::Reuse && linearization != Linearization::EveryIteration)
     fail("linearization", "is not a known policy");
   if (qp_preconditioner_iterations < 0) fail("qp_preconditioner_iterations", "must be >= 0");

@@ -52,8 +52,8 @@ Scenario sample(int T) {
   s.settings.qp_preconditioner_iterations = 4;  // not the default: the round trip must carry it
   s.settings.qp_reg_lower_limit = 3e-9;
   s.settings.qp_retry_reg_lower_limit = 0.0;
-  s.settings.linearization = tubempc::mpc::Linearization::EveryIteration;                  // not the default
-  s.settings.qp_solver = tubempc::mpc::QpSolver::Piqp;  // not the default
+  s.settings.linearization = tubempc::mpc::Linearization::EveryIteration;  // not the default
+  s.settings.qp_solver = tubempc::mpc::QpSolver::Piqp;                     // not the default
   s.settings.active_set_max_iterations = 5;
   s.settings.G_structure = Eigen::MatrixXd::Ones(2, 12);
   s.reference.t0 = 0.25;
@@ -246,20 +246,23 @@ TEST_F(ScenarioFile, VersionOneFilesAreRead) {
   };
   replace("tubempc-scenario 2", "tubempc-scenario 1");
   const Scenario fresh = read_scenario(path_);
-  const std::string kin = std::string("model.kinematics text\n") + to_string(fresh.controller.params.kinematics);
+  const std::string kin =
+      std::string("model.kinematics text\n") + to_string(fresh.controller.params.kinematics);
   if (fresh.controller.params.kinematics == tubempc::dynamics::Kinematics::FirstOrder)
     replace(kin, "model.kinematics text\npaper");
   if (fresh.truth.params.kinematics == tubempc::dynamics::Kinematics::FirstOrder)
     replace("truth.kinematics text\nfirst_order", "truth.kinematics text\npaper");
   replace(std::string("mpc.input_cost text\n") + tubempc::mpc::to_string(fresh.settings.input_cost),
-          fresh.settings.input_cost == tubempc::mpc::InputCost::Absolute ? "mpc.input_cost text\npaper"
-                                                                         : "mpc.input_cost text\nfrom_reference");
+          fresh.settings.input_cost == tubempc::mpc::InputCost::Absolute
+              ? "mpc.input_cost text\npaper"
+              : "mpc.input_cost text\nfrom_reference");
   replace(std::string("mpc.qp_solver text\n") + tubempc::mpc::to_string(fresh.settings.qp_solver),
           fresh.settings.qp_solver == tubempc::mpc::QpSolver::Piqp ? "mpc.backend text\npiqp"
                                                                    : "mpc.backend text\nactive_set_piqp");
   replace(std::string("mpc.linearization text\n") + tubempc::mpc::to_string(fresh.settings.linearization),
-          fresh.settings.linearization == tubempc::mpc::Linearization::Reuse ? "mpc.reuse_linearization 1 1\n1"
-                                                                              : "mpc.reuse_linearization 1 1\n0");
+          fresh.settings.linearization == tubempc::mpc::Linearization::Reuse
+              ? "mpc.reuse_linearization 1 1\n1"
+              : "mpc.reuse_linearization 1 1\n0");
   const std::string path = (dir_ / "v1.txt").string();
   std::ofstream(path, std::ios::binary) << text;
   const Scenario old = read_scenario(path);

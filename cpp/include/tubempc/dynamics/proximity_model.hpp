@@ -51,7 +51,7 @@ using InputMatrix = Eigen::Matrix<double, kNx, kNu>;
 /// Attitude kinematics of the rotation vector (PAPER_NOTES.md, "Attitude").
 enum class Kinematics {
   FirstOrder,  ///< phi' = omega_BL_B (the paper's first-order law)
-  Exact,  ///< phi' = Jr(phi)^-1 omega_BL_B
+  Exact,       ///< phi' = Jr(phi)^-1 omega_BL_B
 };
 /// Name of a kinematics variant.
 /// @param k the variant.
@@ -69,7 +69,7 @@ struct ModelParams {
   /// Asteroid spin rate omega_A (rad/s) about z_A = z_L, inertial, signed (+: counter-clockwise
   /// about +z_L). Default 2 pi / 4.296 h (Bennu).
   double spin_rate{2.0 * 3.14159265358979323846 / (4.296 * 3600.0)};
-  double spin_angle0{0.0};                   ///< theta_0 (rad): angle from x_L to x_A about z at t = 0
+  double spin_angle0{0.0};                        ///< theta_0 (rad): angle from x_L to x_A about z at t = 0
   Kinematics kinematics{Kinematics::FirstOrder};  ///< rotation-vector kinematics of the model x
   double glide_slope_angle{70.0 * 3.14159265358979323846 / 180.0};  ///< phi_gs (rad), in (0, pi/2)
   double los_angle{80.0 * 3.14159265358979323846 / 180.0};          ///< theta_LOS (rad), in (0, pi/2)

@@ -105,12 +105,12 @@ struct BodyModel {
 struct Scenario {
   /// Folder of the file read (relative shape paths are relative to it); empty if not read from a file.
   std::string directory;
-  BodyModel controller;                    ///< the MPC's model (records `model.*`)
-  BodyModel truth;                         ///< the simulated plant (records `truth.*`)
-  dynamics::PropagatorSettings propagator; ///< truth propagation per control period
-  mpc::Settings settings;                  ///< tube MPC settings
-  mpc::Reference reference;                ///< zbar (12 x (T + 1)), u_ref (6 x T) as columns, t0 (s)
-  mpc::Tube tube;                          ///< TBMPC's fixed tube: K (6 x 12), Pe (12 x 12)
+  BodyModel controller;                     ///< the MPC's model (records `model.*`)
+  BodyModel truth;                          ///< the simulated plant (records `truth.*`)
+  dynamics::PropagatorSettings propagator;  ///< truth propagation per control period
+  mpc::Settings settings;                   ///< tube MPC settings
+  mpc::Reference reference;                 ///< zbar (12 x (T + 1)), u_ref (6 x T) as columns, t0 (s)
+  mpc::Tube tube;                           ///< TBMPC's fixed tube: K (6 x 12), Pe (12 x 12)
   dynamics::StateVector x0{dynamics::StateVector::Zero()};  ///< initial state (m, m/s, rad, rad/s)
   dynamics::StateVector xf{dynamics::StateVector::Zero()};  ///< target state (same units)
 

@@ -57,12 +57,12 @@ enum class KktSolver {
 
 /// Settings of the tube MPC; `validate()` throws std::invalid_argument naming the field.
 struct Settings {
-  int horizon = 30;                         ///< N, nodes of the nominal plan.
-  double dt = 2.0;                          ///< Control period (s).
-  Eigen::MatrixXd Q;                        ///< State weight (n_x x n_x, symmetric PSD); empty -> identity.
-  Eigen::MatrixXd R;                        ///< Input weight (n_u x n_u, symmetric PD); empty -> identity.
-  Eigen::VectorXd u_max;                    ///< True input bounds |u_i| <= u_max_i (input units); required.
-  InputCost input_cost = InputCost::Absolute;  ///< Input part of the stage cost.
+  int horizon = 30;       ///< N, nodes of the nominal plan.
+  double dt = 2.0;        ///< Control period (s).
+  Eigen::MatrixXd Q;      ///< State weight (n_x x n_x, symmetric PSD); empty -> identity.
+  Eigen::MatrixXd R;      ///< Input weight (n_u x n_u, symmetric PD); empty -> identity.
+  Eigen::VectorXd u_max;  ///< True input bounds |u_i| <= u_max_i (input units); required.
+  InputCost input_cost = InputCost::Absolute;                          ///< Input part of the stage cost.
   InitialCondition initial_condition = InitialCondition::WhitenedBox;  ///< How z_0 relates to x_k.
   double scp_eps = 1e-3;        ///< SCP stops when max_i ||z*_i - z_lin_i||_inf < scp_eps (state units).
   int scp_max_iterations = 10;  ///< Cap on SCP iterations per step.
