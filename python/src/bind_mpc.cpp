@@ -199,8 +199,9 @@ void bind_mpc(py::module_& m) {
       .def_readonly("x_u", &mpc::QpData::x_u)
       .def_readonly("constant", &mpc::QpData::constant);
 
-  py::class_<mpc::QpSolution>(s, "QpSolution",
-                              "PIQP's primal-dual solution: P w + q + A'y + G'(z_u - z_l) + z_bu - z_bl = 0")
+  py::class_<mpc::QpSolution>(
+      s, "QpSolution",
+      "The primal-dual solution (PIQP's sign convention): P w + q + A'y + G'(z_u - z_l) + z_bu - z_bl = 0")
       .def_readonly("w", &mpc::QpSolution::w)
       .def_readonly("y", &mpc::QpSolution::y)
       .def_readonly("z_l", &mpc::QpSolution::z_l)
@@ -264,7 +265,8 @@ void bind_mpc(py::module_& m) {
           py::arg("k"), py::arg("x"), py::arg("tube"), "One control step; returns a StepResult copy")
       .def("reset", &mpc::TubeMPC::reset)
       .def("qp_data", &mpc::TubeMPC::qp_data, "The last QP built")
-      .def("qp_solution", &mpc::TubeMPC::qp_solution, "The last QP's primal-dual solution (PIQP)")
+      .def("qp_solution", &mpc::TubeMPC::qp_solution,
+           "The last QP's primal-dual solution (from the active set or PIQP, whichever solved it)")
       .def_property_readonly("settings", &mpc::TubeMPC::settings)
       .def_property_readonly("terminal_weight", &mpc::TubeMPC::terminal_weight)
       .def_property_readonly("mission_steps", &mpc::TubeMPC::mission_steps)

@@ -57,7 +57,7 @@ struct StepResult {
   Timings timings;            ///< Wall-clock split of the step (s).
 };
 
-/// The last QP built, in PIQP's form (see the file comment). P is the full symmetric matrix.
+/// The last QP built, in PIQP's standard form (see tube_mpc.hpp). P is the full symmetric matrix.
 struct QpData {
   Eigen::SparseMatrix<double> P;  ///< Hessian (n_w x n_w, symmetric, both triangles).
   Eigen::VectorXd q;              ///< Linear cost (n_w).
