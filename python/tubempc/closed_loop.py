@@ -182,6 +182,9 @@ def simulate(
         margin=cfg.tube.redesign_margin,
         alpha_search_period=cfg.tube.alpha_search_period,
         threads=tube_threads,
+        update=cfg.tube.update,
+        design_delay=cfg.tube.design_delay,
+        adopt_when_ready=cfg.tube.design_adoption == "when_ready",
     )
     bar = None
     if progress:
@@ -191,9 +194,13 @@ def simulate(
     wall0 = time.perf_counter()
     n_run = T if max_steps is None else max(1, min(int(max_steps), T))
     with policy:
+        # The first tube design is part of the set-up (before step 0's clock): every later tube update
+        # is the per-step cost.
+        first_tubes, first_status = _tube_update(scn, policy, 0, idents)
+        rec.tube_statuses.append(str(first_status))
         for k in range(n_run):
             t0 = time.perf_counter()
-            tubes, tube_status = _tube_update(scn, policy, k, idents)
+            tubes, tube_status = (first_tubes, None) if k == 0 else _tube_update(scn, policy, k, idents)
             if tube_status is not None:
                 rec.tube_statuses.append(tube_status)
             K, Pe = block_tube(tubes[0], tubes[1])

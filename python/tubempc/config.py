@@ -288,13 +288,21 @@ class Tube:
     1 searches at every step. redesign_margin (TBMPC-FFA; project option) delta >= 0: the tube is
     designed for (1 + delta) P_W and kept between alpha searches while it stays invariant for the
     identified P_W and P_W has not shrunk below P_W_design / (1 + delta)^2 in every direction;
-    0 re-designs at every step as the paper does."""
+    0 re-designs at every step as the paper does. update (TBMPC-FFA): "lmi" (the LMI design as
+    above) or "lyapunov" (LMI designs on the alpha-search steps only; in between the certified
+    Lyapunov update of the last design's K and alpha for the identified P_W, microseconds per step;
+    tube_policy.py). design_delay (with "lyapunov"): 0 runs the LMI designs synchronously; d >= 1
+    runs them in a background thread, adopted d steps after they start ("deterministic", a
+    reproducible run) or as soon as they are done ("when_ready", never waits)."""
 
     weighting: str = field(metadata=_opt("mpc", "normalized"))
     input_weight: float = field(metadata=_num(check=_POS))
     max_solves: int = field(metadata=_int(check=_GE1))
     alpha_search_period: int = field(metadata=_int(check=_GE1))
     redesign_margin: float = field(metadata=_num(check=_NONNEG))
+    update: str = field(metadata=_opt("lmi", "lyapunov"))
+    design_delay: int = field(metadata=_int(check=(lambda v: v >= 0, ">= 0")))
+    design_adoption: str = field(metadata=_opt("deterministic", "when_ready"))
 
 
 @dataclass(frozen=True, eq=False)

@@ -6,6 +6,17 @@ in between at the last alpha; with ``margin`` > 0 it designs for (1 + margin) P_
 current tube (status ``KEPT``) while :func:`tubempc.tube.tube_still_valid` certifies it for the step's
 linearisation and P_W. A failed design falls back to the designer's last feasible tube, else to the
 current one; a failed first design is an error.
+
+With ``update = "lyapunov"`` (TBMPC-FFA) the LMI design runs only on the alpha-search steps; at
+every other step the tube is the certified Lyapunov update of the last design's K and alpha for the
+step's linearisation and identified P_W (:func:`tubempc.tube.lyapunov_tube`, status ``LYAPUNOV``),
+or, when that cannot be certified, the last certified tube (status ``LAST_CERTIFIED``). With
+``design_delay`` = 0 the designs run synchronously at those steps. With ``design_delay`` = d >= 1 they
+run in a background thread off the critical path: submitted at the search step and adopted (their K
+and alpha, from then on in the Lyapunov update) at step k + d, a deterministic step, so a run stays
+reproducible (in real time d dt = 2d s leaves the design ample time; a simulation running faster
+than real time may wait there); ``adopt_when_ready`` adopts at the first step after the design is
+done instead and never waits (flight-like; the adoption step then depends on the machine).
 """
 
 from __future__ import annotations
@@ -16,7 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from .tube import TubeDesigner, TubeResult, tube_still_valid
+from .tube import TubeDesigner, TubeResult, lyapunov_tube, tube_still_valid
 
 __all__ = ["TubeUpdatePolicy"]
 
@@ -40,17 +51,30 @@ class TubeUpdatePolicy:
         margin: float = 0.0,
         alpha_search_period: int = 1,
         threads: int = 2,
+        update: str = "lmi",
+        design_delay: int = 0,
+        adopt_when_ready: bool = False,
     ) -> None:
         if alpha_search_period < 1:
             raise ValueError(f"alpha_search_period must be >= 1, got {alpha_search_period}")
         if margin < 0.0:
             raise ValueError(f"margin must be >= 0, got {margin}")
+        if update not in ("lmi", "lyapunov"):
+            raise ValueError(f"update must be 'lmi' or 'lyapunov', got {update!r}")
+        if design_delay < 0:
+            raise ValueError(f"design_delay must be >= 0 steps, got {design_delay}")
+        self.update_kind = update
+        self.design_delay = design_delay
+        self.adopt_when_ready = adopt_when_ready
+        self.adoptions: list[int] = []  # steps at which a background design was adopted
+        self._pending: tuple[int, list[cf.Future[TubeResult]], list[Array]] | None = None
         self.designers = list(designers)
         self.adaptive = adaptive
         self.margin = margin if adaptive else 0.0
         self.alpha_search_period = alpha_search_period
         self.tubes: list[TubeResult] | None = None
         self._designed_for: list[Array | None] = [None] * len(self.designers)  # the P_W of each tube
+        self._designed: list[TubeResult | None] = [None] * len(self.designers)  # each one's last LMI design
         self._pool = cf.ThreadPoolExecutor(max_workers=max(1, min(len(self.designers), int(threads))))
 
     def close(self, wait: bool = True) -> None:
@@ -72,6 +96,12 @@ class TubeUpdatePolicy:
         if self.tubes is not None and not self.adaptive:
             return self.tubes, None
         search = k % self.alpha_search_period == 0
+        if self.update_kind == "lyapunov" and self.tubes is not None:
+            if self.design_delay > 0:
+                self._background(k, search, A, B, P_W)
+                return self._lyapunov(A, B, P_W)
+            if not search:
+                return self._lyapunov(A, B, P_W)
         jobs: list[tuple[cf.Future[TubeResult], Array] | None] = []
         for i, des in enumerate(self.designers):
             prev = None if self.tubes is None else self.tubes[i]
@@ -106,6 +136,7 @@ class TubeUpdatePolicy:
             if res.feasible:
                 tubes.append(res)
                 self._designed_for[i] = job[1]
+                self._designed[i] = res
             elif last is not None:
                 tubes.append(last)
             elif self.tubes is not None:
@@ -116,3 +147,38 @@ class TubeUpdatePolicy:
                 )
         self.tubes = tubes
         return tubes, "/".join(names)
+
+    def _lyapunov(self, A: Sequence[Array], B: Sequence[Array], P_W: Sequence[Array]) -> tuple[list[TubeResult], str]:
+        assert self.tubes is not None
+        tubes: list[TubeResult] = []
+        names: list[str] = []
+        for i, des in enumerate(self.designers):
+            design = self._designed[i]
+            tube = None if design is None else lyapunov_tube(A[i], B[i], design, P_W[i], des.u_max)[0]
+            tubes.append(self.tubes[i] if tube is None else tube)
+            names.append("LAST_CERTIFIED" if tube is None else "LYAPUNOV")
+        self.tubes = tubes
+        return tubes, "/".join(names)
+
+    def _background(self, k: int, search: bool, A: Sequence[Array], B: Sequence[Array], P_W: Sequence[Array]) -> None:
+        """Adopts a finished (or due) background design; starts one on a search step."""
+        if self._pending is not None:
+            k0, futures, designs_for = self._pending
+            due = all(f.done() for f in futures) if self.adopt_when_ready else k >= k0 + self.design_delay
+            if due:
+                for i, future in enumerate(futures):
+                    res = future.result()  # waits only for a deterministic adoption not yet done
+                    if res.feasible:
+                        self._designed[i] = res
+                        self._designed_for[i] = designs_for[i]
+                self._pending = None
+                self.adoptions.append(k)
+        if search and self._pending is None:
+            futures, designs_for = [], []
+            for i, des in enumerate(self.designers):
+                design = self._designed[i]
+                P_design = (1.0 + self.margin) * P_W[i]
+                alpha_prev = design.alpha if design is not None else None
+                futures.append(self._pool.submit(des.design, A[i], B[i], P_design, alpha_prev))
+                designs_for.append(P_design)
+            self._pending = (k, futures, designs_for)

@@ -4,6 +4,7 @@ import time
 
 import numpy as np
 import pytest
+import scipy.linalg
 
 from tubempc.tube import (
     TubeDesigner,
@@ -197,3 +198,93 @@ def test_tube_kept_only_while_certified() -> None:
     # no tube, nothing to keep
     none = TubeResult(None, None, 0.5, float("inf"), TubeStatus.INFEASIBLE, float("nan"), 0.0, 1)
     assert not tube_still_valid(none, A_DI, B_TRANS, PW_TRANS, PW_design, d)
+
+
+def _random_stable(rng: np.random.Generator, n: int, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    A = rng.normal(size=(n, n)) * 0.6
+    B = rng.normal(size=(n, m))
+    # a gain placing A + B K well inside the unit circle: LQR-like via a Riccati solve
+    P = scipy.linalg.solve_discrete_are(A, B, np.eye(n), np.eye(m))
+    K = -np.linalg.solve(B.T @ P @ B + np.eye(m), B.T @ P @ A)
+    return A, B, K
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_lyapunov_tube_is_invariant_and_minimal(seed: int) -> None:
+    """The Lyapunov tube meets the LMI condition (independent check: the Schur form and sampling) and is
+    the smallest of its family: shrunk by 1 % it violates the condition."""
+    from tubempc.tube import lyapunov_tube
+
+    rng = np.random.default_rng(seed)
+    A, B, K = _random_stable(rng, 6, 3)
+    rho = float(np.max(np.abs(np.linalg.eigvals(A + B @ K))))
+    alpha = min(0.99, max(rho**2 * 1.2, 0.3))
+    design = TubeResult(
+        K=K,
+        Pe=np.eye(6),
+        alpha=alpha,
+        objective=1.0,
+        status=TubeStatus.OPTIMAL,
+        lmi_residual=-1.0,
+        solve_time_s=0.0,
+        n_solves=1,
+    )
+    L = rng.normal(size=(6, 6))
+    P_W = 1e-3 * (L @ L.T + 0.1 * np.eye(6))
+    tube, why = lyapunov_tube(A, B, design, P_W, u_max=1e6)
+    assert tube is not None, why
+    assert tube.status == TubeStatus.LYAPUNOV
+    Pe = tube.Pe
+    # independent: the Schur-complement LMI [[Pe - P_W/(1-a), A_K Pe], [Pe A_K^T, a Pe]] >= 0
+    AK = A + B @ K
+    M = np.block([[Pe - P_W / (1 - alpha), AK @ Pe], [Pe @ AK.T, alpha * Pe]])
+    scale = np.sqrt(np.outer(np.r_[np.diag(Pe), np.diag(Pe)], np.r_[np.diag(Pe), np.diag(Pe)]))
+    assert np.linalg.eigvalsh(M / scale).min() > -1e-9
+    assert sample_invariance(A, B, K, Pe, P_W, 4000, rng) <= 1.0 + 1e-9
+    assert lmi_residual(A, B, K, 0.99 * Pe, P_W, alpha) > 0.0  # minimal: a smaller one is not invariant
+
+
+def test_lyapunov_tube_certification_refuses_what_it_cannot_certify() -> None:
+    from tubempc.tube import lyapunov_tube
+
+    rng = np.random.default_rng(1)
+    A, B, K = _random_stable(rng, 4, 2)
+    rho2 = float(np.max(np.abs(np.linalg.eigvals(A + B @ K)))) ** 2
+    design = TubeResult(
+        K=K,
+        Pe=np.eye(4),
+        alpha=min(0.99, rho2 * 1.5 + 0.05),
+        objective=1.0,
+        status=TubeStatus.OPTIMAL,
+        lmi_residual=-1.0,
+        solve_time_s=0.0,
+        n_solves=1,
+    )
+    P_W = 1e-4 * np.eye(4)
+    ok, _ = lyapunov_tube(A, B, design, P_W, u_max=1e6)
+    assert ok is not None
+    slow = TubeResult(
+        K=K,
+        Pe=np.eye(4),
+        alpha=rho2 * 0.5,
+        objective=1.0,
+        status=TubeStatus.OPTIMAL,
+        lmi_residual=-1.0,
+        solve_time_s=0.0,
+        n_solves=1,
+    )
+    refused, why = lyapunov_tube(A, B, slow, P_W, u_max=1e6)
+    assert refused is None and "not contractive enough" in why
+    _, why = lyapunov_tube(A, B, design, P_W, u_max=1e-9)
+    assert "empty input tightening" in why
+    failed = TubeResult(
+        K=None,
+        Pe=None,
+        alpha=0.5,
+        objective=np.inf,
+        status=TubeStatus.INFEASIBLE,
+        lmi_residual=np.inf,
+        solve_time_s=0.0,
+        n_solves=1,
+    )
+    assert lyapunov_tube(A, B, failed, P_W, u_max=1.0)[1] == "no designed gain"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import numpy as np
@@ -39,6 +40,7 @@ class ScriptedDesigner(TubeDesigner):
         self.results = list(results)
         self.calls: list[tuple[str, Any, float | None]] = []
         self.last_feasible: TubeResult | None = None
+        self.u_max = 10.0
 
     def _next(self) -> TubeResult:
         r = self.results.pop(0)
@@ -121,3 +123,58 @@ def test_bad_settings_are_rejected() -> None:
         TubeUpdatePolicy([], adaptive=True, alpha_search_period=0)
     with pytest.raises(ValueError, match="margin"):
         TubeUpdatePolicy([], adaptive=True, margin=-0.1)
+
+
+class SlowDesigner(ScriptedDesigner):
+    """A design that takes ``delay`` seconds (the background worker must not hold up the steps)."""
+
+    def __init__(self, results: list[TubeResult], delay: float) -> None:
+        super().__init__(results)
+        self.delay = delay
+
+    def design(self, A: Any, B: Any, P_W: Any, alpha_prev: float | None = None) -> TubeResult:  # type: ignore[override]
+        if self.calls:  # the first (set-up) design is immediate
+            time.sleep(self.delay)
+        return super().design(A, B, P_W, alpha_prev)
+
+
+def test_lyapunov_updates_between_designs_use_the_designs_gain() -> None:
+    des = ScriptedDesigner([_tube(0.02, 0.9), _tube(0.02, 0.9)])
+    with TubeUpdatePolicy([des], adaptive=True, alpha_search_period=3, threads=1, update="lyapunov") as policy:
+        statuses = [_update(policy, k, 1e-3 * (1 + k))[1] for k in range(4)]
+        tubes, _ = _update(policy, 4, 5e-3)
+    assert statuses == ["OPTIMAL", "LYAPUNOV", "LYAPUNOV", "OPTIMAL"]
+    assert tubes[0].K is K and tubes[0].alpha == 0.9 and tubes[0].Pe is not None
+    # the Lyapunov tube follows P_W: for P_W = s I it is s times the unit one (here PE_1 is for alpha 0.9, P_W = I)
+    np.testing.assert_allclose(tubes[0].Pe, 5e-3 * PE_1, rtol=1e-6)
+
+
+def test_background_design_is_adopted_at_a_deterministic_step() -> None:
+    des = ScriptedDesigner([_tube(0.02, 0.9), _tube(0.03, 0.8)])
+    with TubeUpdatePolicy(
+        [des], adaptive=True, alpha_search_period=4, threads=1, update="lyapunov", design_delay=2
+    ) as policy:
+        alphas = [_update(policy, k, 1e-3)[0][0].alpha for k in range(8)]
+    assert policy.adoptions == [6]  # submitted at k = 4, adopted at k = 4 + 2
+    assert alphas == [0.9] * 6 + [0.8] * 2
+
+
+def test_a_slow_background_design_does_not_delay_the_steps() -> None:
+    des = SlowDesigner([_tube(0.02, 0.9), _tube(0.03, 0.8)], delay=1.0)
+    with TubeUpdatePolicy(
+        [des], adaptive=True, alpha_search_period=2, threads=1, update="lyapunov", design_delay=1, adopt_when_ready=True
+    ) as policy:
+        _update(policy, 0, 1e-3)
+        t0 = time.perf_counter()
+        durations = []
+        for k in range(1, 40):
+            s = time.perf_counter()
+            _update(policy, k, 1e-3)
+            durations.append(time.perf_counter() - s)
+            time.sleep(0.005)
+        elapsed = time.perf_counter() - t0
+        assert max(durations) < 0.1 and elapsed < 1.0  # no step waited for the 1 s design
+        assert policy.adoptions == []
+        time.sleep(1.1)
+        _update(policy, 40, 1e-3)
+    assert policy.adoptions == [40]
