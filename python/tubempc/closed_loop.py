@@ -136,6 +136,42 @@ def _record_step(
     rec.failures.append(str(step.failure))
 
 
+def _new_record(scn: Scenario, method: str, seed: int) -> RunRecord:
+    """A record for the whole mission with its time base, reference and initial state filled in."""
+    T, dt = scn.n_steps, scn.config.mpc.dt
+    rec = RunRecord.allocate(method, seed, T, scn.config.mpc.horizon)
+    rec.t[:] = np.arange(T + 1, dtype=np.float64) * dt
+    rec.zbar[:], rec.ubar[:] = scn.reference.x, scn.reference.u
+    rec.x[0] = scn.x0
+    rec.g[0] = [scn.truth.glide_slope(scn.x0)[0], scn.truth.line_of_sight(scn.x0)[0]]
+    return rec
+
+
+def _new_policy(scn: Scenario, method: str, tube_threads: int) -> TubeUpdatePolicy:
+    t = scn.config.tube
+    return TubeUpdatePolicy(
+        tube_designers(scn.config),
+        adaptive=method == "ffa",
+        margin=t.redesign_margin,
+        alpha_search_period=t.alpha_search_period,
+        threads=tube_threads,
+        update=t.update,
+        design_delay=t.design_delay,
+        adopt_when_ready=t.design_adoption == "when_ready",
+    )
+
+
+def _new_plant(scn: Scenario, seed: int) -> _Plant:
+    dist = scn.config.disturbance
+    return _Plant(
+        scn,
+        AdditiveDisturbance(dist.S_p, dist.S_r, seed=seed),
+        ActuatorMismatch(seed + 1, dist.scale_error_p, dist.misalignment_p, dist.scale_error_r, dist.misalignment_r),
+        propagator_options(scn.config),
+        scn.model.state_to_truth(scn.x0),
+    )
+
+
 def simulate(
     scn: Scenario,
     method: str,
@@ -156,36 +192,14 @@ def simulate(
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    cfg = scn.config
-    T, dt, N = scn.n_steps, cfg.mpc.dt, cfg.mpc.horizon
+    T, dt = scn.n_steps, scn.config.mpc.dt
     ref = scn.reference
     ctrl = _core.mpc.TubeMPC(_core.mpc.LinearizedProximityModel(scn.model.core), mpc_settings(scn))
     ctrl.setup(_core.mpc.Reference(ref.x.T.copy(), ref.u.T.copy(), 0.0))
-    idents = identifiers(cfg, lambda_p, lambda_r)
-    dist = cfg.disturbance
-    plant = _Plant(
-        scn,
-        AdditiveDisturbance(dist.S_p, dist.S_r, seed=seed),
-        ActuatorMismatch(seed + 1, dist.scale_error_p, dist.misalignment_p, dist.scale_error_r, dist.misalignment_r),
-        propagator_options(cfg),
-        scn.model.state_to_truth(scn.x0),
-    )
-    rec = RunRecord.allocate(method, seed, T, N)
-    rec.t[:] = np.arange(T + 1, dtype=np.float64) * dt
-    rec.zbar[:], rec.ubar[:] = ref.x, ref.u
+    idents = identifiers(scn.config, lambda_p, lambda_r)
+    plant = _new_plant(scn, seed)
+    rec = _new_record(scn, method, seed)
     x = scn.x0.copy()
-    rec.x[0] = x
-    rec.g[0] = [scn.truth.glide_slope(x)[0], scn.truth.line_of_sight(x)[0]]
-    policy = TubeUpdatePolicy(
-        tube_designers(cfg),
-        adaptive=method == "ffa",
-        margin=cfg.tube.redesign_margin,
-        alpha_search_period=cfg.tube.alpha_search_period,
-        threads=tube_threads,
-        update=cfg.tube.update,
-        design_delay=cfg.tube.design_delay,
-        adopt_when_ready=cfg.tube.design_adoption == "when_ready",
-    )
     bar = None
     if progress:
         from tqdm import tqdm
@@ -193,7 +207,7 @@ def simulate(
         bar = tqdm(total=T, desc=method, unit="step", leave=False)
     wall0 = time.perf_counter()
     n_run = T if max_steps is None else max(1, min(int(max_steps), T))
-    with policy:
+    with _new_policy(scn, method, tube_threads) as policy:
         # The first tube design is part of the set-up (before step 0's clock): every later tube update
         # is the per-step cost.
         first_tubes, first_status = _tube_update(scn, policy, 0, idents)
