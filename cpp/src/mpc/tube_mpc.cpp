@@ -320,6 +320,9 @@ struct TubeMPC::Impl {
     result.v.setZero(nu, N);
   }
 
+  // The QP's fixed sparsity pattern and the positions of every block in it, set up once. Longer than
+  // the other functions on purpose: one pass lays out the variables, the equality, inequality and
+  // soft-terminal rows in the order their position tables assume; split, that order would be implicit.
   void build_pattern(const Settings& s) {
     const bool box_ic = s.initial_condition == InitialCondition::WhitenedBox;
     n_var = N * (nx + nu) + nx;
