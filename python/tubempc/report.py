@@ -209,34 +209,22 @@ def write_report(root: Path) -> tuple[Path, Path]:
         rows = []
         for name, r in s["rows"].items():
             key = "TBMPC" if name == "TBMPC" else f"{r['lambda_p']:g}"
-            ref = PAPER_TABLE3.get(key) if paper else None
+            ref = PAPER_TABLE3.get(key)
+            paper_cols = [_fmt(ref[0]) if ref else "-", _fmt(ref[1]) if ref else "-"] if paper else []
             rows.append(
                 [
                     name,
                     _fmt(r["J_p"]),
-                    _fmt(ref[0]) if ref else "-",
                     _fmt(r["J_r"]),
-                    _fmt(ref[1]) if ref else "-",
+                    *paper_cols,
                     _fmt(r["control_effort"]["translation"]),
                     _fmt(r["control_effort"]["rotation"]),
                     _fmt(r["terminal_error"]["position"]),
                     _fmt(r["rms_error"]["position"]),
                 ]
             )
-        table(
-            [
-                "case",
-                "J_p",
-                "paper J_p",
-                "J_r",
-                "paper J_r",
-                "effort u_p (m/s^2)",
-                "effort T (N m)",
-                "terminal position error (m)",
-                "RMS r (m)",
-            ],
-            rows,
-        )
+        head = ["case", "J_p", "J_r", *(["paper J_p", "paper J_r"] if paper else [])]
+        table([*head, "effort u_p (m/s^2)", "effort T (N m)", "terminal position error (m)", "RMS r (m)"], rows)
         figures += sorted(sweep.parent.glob("fig1[56]*.png"))
     if mc is not None:
         s = json.loads(mc.read_text())
@@ -248,38 +236,24 @@ def write_report(root: Path) -> tuple[Path, Path]:
             f"wall time {s.get('wall_time_s', 0.0):.0f} s; {_scenario_text(cfg, paper)}",
         )
         rows = []
-        nan = {"J_p": (float("nan"),) * 2, "J_r": (float("nan"),) * 2}
         for m, r in s["methods"].items():
-            p = PAPER_TABLE4.get(m, nan) if paper else nan
+            p = PAPER_TABLE4.get(m)
+            paper_cols = [_fmt(p["J_p"][0]), _fmt(p["J_p"][1]), _fmt(p["J_r"][0]), _fmt(p["J_r"][1])] if paper and p else []
             rows.append(
                 [
                     m,
                     _fmt(r["J_p"]["mean"]),
-                    _fmt(p["J_p"][0]),
                     _fmt(r["J_p"]["3sigma"]),
-                    _fmt(p["J_p"][1]),
                     _fmt(r["J_r"]["mean"]),
-                    _fmt(p["J_r"][0]),
                     _fmt(r["J_r"]["3sigma"]),
-                    _fmt(p["J_r"][1]),
+                    *paper_cols,
                     f"{r['runs_outside_tube']}/{s['runs']}",
                 ]
             )
-        table(
-            [
-                "method",
-                "J_p mean",
-                "paper",
-                "J_p 3 sigma",
-                "paper",
-                "J_r mean",
-                "paper",
-                "J_r 3 sigma",
-                "paper",
-                "runs outside the tube",
-            ],
-            rows,
-        )
+        head = ["method", "J_p mean", "J_p 3 sigma", "J_r mean", "J_r 3 sigma"]
+        if paper:
+            head += ["paper J_p mean", "paper J_p 3 sigma", "paper J_r mean", "paper J_r 3 sigma"]
+        table([*head, "runs outside the tube"], rows)
         if "J_p_mean_reduction_percent" in s:
             red = s["J_p_mean_reduction_percent"]
             paragraph(f"Mean J_p reduction: {red:.1f} %" + (" (paper: 90.4 %)." if paper else "."))
