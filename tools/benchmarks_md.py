@@ -76,10 +76,14 @@ def _mpc(d: dict[str, Any]) -> list[tuple[str, str]]:
 
 
 def _embed(d: dict[str, Any]) -> list[tuple[str, str]]:
+    c, p = d["summary"]["cpp"]["mpc"], d["summary"]["python"]["mpc"]
+    what = f"MPC step of the exported mission: C++ example against the same loop over the bindings, {d['repeats']} runs"
     return [
         (
-            "MPC step: C++ example against the same loop over the bindings",
-            json.dumps({k: d[k] for k in d if k not in ("machine", "runs", "config")})[:300],
+            what,
+            f"C++ median {_ms(c['median'])} (p99 {_ms(c['p99'])}), bindings median {_ms(p['median'])} (p99 "
+            f"{_ms(p['p99'])}), ratio {d['python_over_cpp_mpc_median']:.3f}; spread of the final states "
+            f"{d['final_state_spread']:.1g}",
         )
     ]
 
@@ -97,13 +101,13 @@ def _fuzz(d: dict[str, Any]) -> list[tuple[str, str]]:
     ]
 
 
-def _run(d: dict[str, Any]) -> list[tuple[str, str]]:
+def _run(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     rows = []
     for m, r in d["methods"].items():
         st = r["step_time"]
         rows.append(
             (
-                f"closed loop {m}, seed {d['seed']}, {d['shape']}",
+                f"closed loop {m}, {name.removeprefix('run_')}, seed {d['seed']}",
                 f"J_p {r['J_p']:.4g}, J_r {r['J_r']:.4g}, terminal error "
                 f"{1e3 * r['terminal_error']['position']:.3g} mm, "
                 f"steps outside the tube {r['steps_outside_tube']}, fallbacks {r.get('fallback_steps', 0)}; step "
@@ -114,12 +118,12 @@ def _run(d: dict[str, Any]) -> list[tuple[str, str]]:
     return rows
 
 
-def _montecarlo(d: dict[str, Any]) -> list[tuple[str, str]]:
+def _montecarlo(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     rows = []
     for m, r in d["methods"].items():
         rows.append(
             (
-                f"Monte Carlo {m}, {d['runs']} runs, master seed {d.get('master_seed')}",
+                f"Monte Carlo {m}, {name.removeprefix('montecarlo_')}, {d['runs']} runs, master seed {d.get('master_seed')}",
                 f"J_p {r['J_p']['mean']:.4g} (3 sigma {r['J_p']['3sigma']:.2g}), J_r {r['J_r']['mean']:.4g}; runs "
                 f"outside the tube {r['runs_outside_tube']}/{d['runs']}; campaign {d['wall_time_s']:.0f} s",
             )
@@ -136,15 +140,15 @@ def _test_command(d: dict[str, Any]) -> list[tuple[str, str]]:
     ]
 
 
-EXTRACTORS: dict[str, Callable[[dict[str, Any]], list[tuple[str, str]]]] = {
-    "gravity": _gravity,
-    "dynamics": _dynamics,
-    "mpc": _mpc,
-    "embed": _embed,
-    "fuzz": _fuzz,
+EXTRACTORS: dict[str, Callable[[dict[str, Any], str], list[tuple[str, str]]]] = {
+    "gravity": lambda d, _: _gravity(d),
+    "dynamics": lambda d, _: _dynamics(d),
+    "mpc": lambda d, _: _mpc(d),
+    "embed": lambda d, _: _embed(d),
+    "fuzz": lambda d, _: _fuzz(d),
     "run": _run,
     "montecarlo": _montecarlo,
-    "test_command": _test_command,
+    "test_command": lambda d, _: _test_command(d),
 }
 
 
@@ -171,7 +175,7 @@ def main() -> int:
         m = d.get("machine", {})
         where = f"{m.get('cpu', '?')}, {m.get('cores', '?')} cores; {m.get('date', '?')}"
         command = d.get("command") or m.get("command", "?")
-        for what, figure in EXTRACTORS[_kind(path.stem)](d):
+        for what, figure in EXTRACTORS[_kind(path.stem)](d, path.stem):
             lines.append(f"| {what} | {figure} | `{command}` | {where} |")
     out = ROOT / "docs" / "benchmarks.md"
     out.write_text("\n".join(lines) + "\n", encoding="utf-8")
