@@ -79,3 +79,51 @@ def test_module_entry_point_exit_status(tmp_path: Path) -> None:
         timeout=120,
     )
     assert r.returncode == EXIT_INPUT and "unknown scenario" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_a_runaway_configuration_is_announced_before_it_starts(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    cfg = tmp_path / "fine.toml"  # 6000 steps of 0.1 s; the missing shape stops it right after the warning
+    cfg.write_text('[mpc]\ndt = "0.1 s"\n[asteroid]\nshape = "missing.obj"\n', encoding="utf-8")
+    assert main(["run", "--config", str(cfg), "--out", str(tmp_path / "o"), "--quiet"]) == EXIT_INPUT
+    err = capsys.readouterr().err
+    assert "warning: 6000 control steps per run" in err and "Ctrl-C stops" in err
+
+
+def test_ctrl_c_stops_within_a_second(tmp_path: Path) -> None:
+    """SIGINT during a run ends the command with status 130 at once (no wait for a running solve)."""
+    import signal
+    import time
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tubempc", "run", "--out", str(tmp_path / "o"), "--quiet", "--no-figures", "--method", "ffa"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while not (tmp_path / "o" / "config.toml").exists():  # written once the scenario is built
+            assert proc.poll() is None and time.monotonic() < deadline
+            time.sleep(0.05)
+        time.sleep(0.5)  # inside the closed loop
+        sent = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=30)
+        assert time.monotonic() - sent < 1.5
+    finally:
+        proc.kill()
+    assert proc.returncode == 130 and "interrupted" in err
+
+
+def test_a_figure_that_cannot_be_drawn_never_loses_the_run(tmp_path: Path) -> None:
+    from tubempc.closed_loop import simulate
+    from tubempc.config import load_config
+    from tubempc.runner import save_figures
+    from tubempc.scenario import build_scenario
+
+    scn = build_scenario(load_config(), cache_dir=tmp_path / "cache")
+    rec = simulate(scn, "tbmpc", seed=0, max_steps=4)
+    rec.x = rec.zbar[: rec.x.shape[0]].copy()  # no velocity error at all: fig14's fit is undefined
+    with pytest.warns(RuntimeWarning, match="fig14_convergence_tbmpc.png: figure not drawn"):
+        failed = save_figures(scn, {"tbmpc": rec}, tmp_path)
+    assert list(failed) == ["fig14_convergence_tbmpc.png"] and (tmp_path / "fig03_trajectory.png").exists()
