@@ -131,6 +131,21 @@ def _montecarlo(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     return rows
 
 
+def _controller(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
+    rows = []
+    for m, r in d["methods"].items():
+        c, t = r["controller"], r["tube"]
+        rows.append(
+            (
+                f"controller step (identify + tube + MPC) {m}, {name.removeprefix('controller_')}",
+                f"median {c['median_ms']:.3g} ms, p99 {c['p99_ms']:.3g} ms, max {c['max_ms']:.3g} ms; tube update "
+                f"median {t['median_ms']:.3g} ms ({r['tube_over_mpc_median']:.2f}x the MPC step's), max "
+                f"{t['max_ms']:.3g} ms; steps outside the tube {r['steps_outside_tube']}",
+            )
+        )
+    return rows
+
+
 def _test_command(d: dict[str, Any]) -> list[tuple[str, str]]:
     return [
         (
@@ -147,6 +162,7 @@ EXTRACTORS: dict[str, Callable[[dict[str, Any], str], list[tuple[str, str]]]] = 
     "embed": lambda d, _: _embed(d),
     "fuzz": lambda d, _: _fuzz(d),
     "run": _run,
+    "controller": _controller,
     "montecarlo": _montecarlo,
     "test_command": lambda d, _: _test_command(d),
 }

@@ -127,3 +127,13 @@ def test_a_figure_that_cannot_be_drawn_never_loses_the_run(tmp_path: Path) -> No
     with pytest.warns(RuntimeWarning, match="fig14_convergence_tbmpc.png: figure not drawn"):
         failed = save_figures(scn, {"tbmpc": rec}, tmp_path)
     assert list(failed) == ["fig14_convergence_tbmpc.png"] and (tmp_path / "fig03_trajectory.png").exists()
+
+
+def test_bench_controller_reports_the_whole_step(tmp_path: Path) -> None:
+    out = tmp_path / "controller.json"
+    assert main(["bench", "controller", "--method", "tbmpc", "--json", str(out)]) == EXIT_OK
+    d = json.loads(out.read_text())
+    row = d["methods"]["tbmpc"]
+    assert row["controller"]["median_ms"] >= row["mpc"]["median_ms"] > 0.0
+    assert row["controller"]["max_ms"] >= row["controller"]["p99_ms"] >= row["controller"]["median_ms"]
+    assert d["config"]["mpc"]["horizon"] == 30 and d["machine"]["cores"] >= 1
