@@ -149,7 +149,7 @@ def _controller(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
 def _test_command(d: dict[str, Any]) -> list[tuple[str, str]]:
     return [
         (
-            f"test command `{d['command']}`" + (" (cold, fresh clone)" if d.get("cold") else ""),
+            f"test command `{d['command']}`",
             f"{d['seconds'] / 60:.1f} min ({d['seconds']:.0f} s)",
         )
     ]

@@ -11,11 +11,11 @@ from scipy.spatial.transform import Rotation
 
 from tubempc import _core, so3
 from tubempc.bodies import contact_binary_shape, ellipsoid_shape
-from tubempc.config import SCENARIOS, ConfigError, load_config
+from tubempc.config import SCENARIOS, Config, ConfigError, load_config
 from tubempc.dynamics import ProximityModel
 from tubempc.scenario import ScenarioError, boundary_states, build_scenario, landing_site, model_params, scenario_shape
 from tubempc.shapes import bennu_like_shape, save_shape
-from tubempc.site import inside, ray_cast, site_from_lat_lon, terminal_state
+from tubempc.site import Site, inside, ray_cast, site_from_lat_lon, terminal_state
 
 HERE = Path(__file__).parent
 
@@ -50,13 +50,17 @@ def test_inside_test_against_the_ellipsoid() -> None:
     np.testing.assert_array_equal(inside(shape, pts[clear]), q[clear] < 1.0)
 
 
-def test_moving_site_terminal_state_against_an_independent_rotation(bennu: _core.gravity.Shape) -> None:
+def _equator(bennu: _core.gravity.Shape) -> tuple[Config, Site, ProximityModel]:
+    """The bennu-equator scenario's configuration, site and controller model on the generated Bennu."""
     cfg = load_config(scenario="bennu-equator")
     site = landing_site(cfg, bennu)
     assert site is not None
-    model = ProximityModel(
-        _core.gravity.PolyhedronGravity(bennu.vertices, bennu.faces, 1260.0), model_params(cfg, site=site)
-    )
+    gravity = _core.gravity.PolyhedronGravity(bennu.vertices, bennu.faces, 1260.0)
+    return cfg, site, ProximityModel(gravity, model_params(cfg, site=site))
+
+
+def test_moving_site_terminal_state_against_an_independent_rotation(bennu: _core.gravity.Shape) -> None:
+    cfg, site, model = _equator(bennu)
     _, xf = boundary_states(cfg, bennu, model, site)
     p = model.params
     rate = p.spin_rate - model.mean_motion  # the body's rate relative to L
@@ -85,12 +89,7 @@ def test_terminal_state_turns_the_hint_minimally() -> None:
 
 
 def test_site_cone_at_random_times_matches_its_definition(bennu: _core.gravity.Shape) -> None:
-    cfg = load_config(scenario="bennu-equator")
-    site = landing_site(cfg, bennu)
-    assert site is not None
-    model = ProximityModel(
-        _core.gravity.PolyhedronGravity(bennu.vertices, bennu.faces, 1260.0), model_params(cfg, site=site)
-    )
+    cfg, site, model = _equator(bennu)
     rng = np.random.default_rng(5)
     cos_gs = np.cos(cfg.constraints.glide_slope_angle)
     for t in rng.uniform(0.0, 2e4, size=25):
