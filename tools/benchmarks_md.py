@@ -146,6 +146,21 @@ def _controller(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     return rows
 
 
+def _integrator(d: dict[str, Any]) -> list[tuple[str, str]]:
+    rows = []
+    for name, r in d["candidates"].items():
+        o, f = r["one_step_max"], r["final"]
+        rows.append(
+            (
+                f"truth integrator {name} over {d['intervals']} intervals, against {d['reference']['method']}",
+                f"one step <= {o['position_m']:.2g} m, {o['velocity_m_s']:.2g} m/s ({r['one_step_over_sigma']:.1e} of "
+                f"the disturbance sigma); after the mission {f['position_m']:.2g} m; "
+                f"{r['evaluations_per_interval']:.0f} evaluations, {r['ms_per_interval']:.3g} ms per interval",
+            )
+        )
+    return rows
+
+
 def _test_command(d: dict[str, Any]) -> list[tuple[str, str]]:
     return [
         (
@@ -163,6 +178,7 @@ EXTRACTORS: dict[str, Callable[[dict[str, Any], str], list[tuple[str, str]]]] = 
     "fuzz": lambda d, _: _fuzz(d),
     "run": _run,
     "controller": _controller,
+    "integrator": lambda d, _: _integrator(d),
     "montecarlo": _montecarlo,
     "test_command": lambda d, _: _test_command(d),
 }

@@ -20,11 +20,10 @@ void bind_core(py::module_& m) {
         d["eigen_version"] = b.eigen_version;
         d["eigen_simd"] = b.eigen_simd;
         d["piqp_version"] = b.piqp_version;
-        d["osqp_backend"] = b.osqp_backend;
         d["hardware_threads"] = b.hardware_threads;
         return d;
       },
-      "Facts about how the C++ core was built (compiler, flags, Eigen, PIQP, OSQP, threads).");
+      "Facts about how the C++ core was built (compiler, flags, Eigen, PIQP, threads).");
 }
 
 }  // namespace tubempc::python

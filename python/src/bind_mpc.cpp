@@ -235,7 +235,7 @@ void bind_mpc(py::module_& m) {
              return std::make_shared<dynamics::LinearizedProximityModel>(std::move(model),
                                                                          position_tolerance);
            }),
-           py::arg("model"), py::arg("position_tolerance") = 0.1)
+           py::arg("model"), py::arg("position_tolerance") = dynamics::kDefaultPositionTolerance)
       .def_property_readonly(
           "position_tolerance", &dynamics::LinearizedProximityModel::position_tolerance,
           "Largest change of r_L (m) for which a later SCP iteration keeps the translational "

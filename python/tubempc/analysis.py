@@ -49,8 +49,11 @@ def _montecarlo_run(
     scn = _scenario(cfg, cache_dir)
     out: dict[str, Any] = {}
     arrays: dict[str, np.ndarray] = {}
+    # The campaign's processes fill the cores: background designs run inline, with the same numbers
+    # when their adoption is deterministic (tube_policy.py).
+    worker = "inline" if cfg.tube.design_adoption == "deterministic" else None
     for m in methods:
-        rec = simulate(scn, m, seed, max_steps=max_steps, tube_threads=tube_threads)
+        rec = simulate(scn, m, seed, max_steps=max_steps, tube_threads=tube_threads, design_worker=worker)
         s = run_metrics(rec, cfg.mpc.dt, scn.xf)
         out[m] = {
             k: s[k]

@@ -25,7 +25,7 @@ from typing import Any
 
 from . import __version__, benchmarks
 
-_PYTHON_PACKAGES = ("numpy", "scipy", "cvxpy", "clarabel", "osqp", "piqp")
+_PYTHON_PACKAGES = ("numpy", "scipy", "cvxpy", "clarabel", "piqp")
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INPUT = 0, 1, 2, 3
 EXIT_GUARANTEE_LOST, EXIT_FAILED_RUNS, EXIT_INTERRUPTED = 4, 5, 130
 #: Control steps of one run above which ``run`` warns before starting (the default mission has 300).
@@ -60,7 +60,6 @@ def _cmd_info(_: argparse.Namespace) -> int:
         "eigen_version",
         "eigen_simd",
         "piqp_version",
-        "osqp_backend",
         "hardware_threads",
     ):
         print(f"  {key:17s} {info[key]}")
@@ -396,11 +395,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def entry_point() -> None:
     """Console script: exits with main()'s status, at once on Ctrl-C (a running LMI or QP solve in a
-    worker thread is not waited for; results already written stay)."""
+    worker thread or the design process is not waited for; results already written stay)."""
     try:
         status = main()
     except KeyboardInterrupt:
         status = EXIT_INTERRUPTED
+    policy = sys.modules.get("tubempc.tube_policy")  # imported only if a run used it
+    if policy is not None:
+        policy.shutdown_design_worker(wait=status != EXIT_INTERRUPTED)
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(status)

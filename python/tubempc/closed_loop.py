@@ -115,8 +115,10 @@ def _record_step(
     w_true: Array,
     idents: tuple[ForgettingFactorIdentifier, ForgettingFactorIdentifier],
     times: tuple[float, float, float, float, float],
+    wait: float,
 ) -> None:
-    """Step 5: everything the step produced (``times`` = the perf_counter stamps t0..t4)."""
+    """Step 5: everything the step produced (``times`` = the perf_counter stamps t0..t4; ``wait`` =
+    the tube update's wait for a due background design, counted apart from the controller's time)."""
     z_plan = np.asarray(step.z)
     rec.z[k], rec.z_plan[k] = z_plan[:, 0], z_plan.T
     rec.u[k], rec.v[k] = np.asarray(step.u, dtype=float), np.asarray(step.v)[:, 0]
@@ -130,8 +132,8 @@ def _record_step(
     tm = step.timings
     rec.time_linearize[k], rec.time_build[k], rec.time_solve[k] = tm.linearize, tm.build, tm.solve
     t0, t1, t2, t3, t4 = times
-    rec.time_tube[k], rec.time_mpc[k], rec.time_propagate[k] = t1 - t0, t2 - t1, t3 - t2
-    rec.time_identify[k], rec.time_step[k] = t4 - t3, t4 - t0
+    rec.time_tube[k], rec.time_mpc[k], rec.time_propagate[k] = t1 - t0 - wait, t2 - t1, t3 - t2
+    rec.time_identify[k], rec.time_step[k], rec.time_design_wait[k] = t4 - t3, t4 - t0 - wait, wait
     rec.statuses.append(str(step.status))
     rec.failures.append(str(step.failure))
 
@@ -147,7 +149,7 @@ def _new_record(scn: Scenario, method: str, seed: int) -> RunRecord:
     return rec
 
 
-def _new_policy(scn: Scenario, method: str, tube_threads: int) -> TubeUpdatePolicy:
+def _new_policy(scn: Scenario, method: str, tube_threads: int, design_worker: str | None) -> TubeUpdatePolicy:
     t = scn.config.tube
     return TubeUpdatePolicy(
         tube_designers(scn.config),
@@ -158,6 +160,7 @@ def _new_policy(scn: Scenario, method: str, tube_threads: int) -> TubeUpdatePoli
         update=t.update,
         design_delay=t.design_delay,
         adopt_when_ready=t.design_adoption == "when_ready",
+        worker=design_worker or t.design_worker,
     )
 
 
@@ -182,13 +185,15 @@ def simulate(
     lambda_r: float | None = None,
     max_steps: int | None = None,
     tube_threads: int = 2,
+    design_worker: str | None = None,
 ) -> RunRecord:
     """One closed-loop run of ``method`` ("tbmpc" or "ffa") with disturbance seed ``seed``.
 
     ``lambda_p``/``lambda_r`` override the configuration's forgetting factors; ``max_steps`` stops
     the run early (arrays are then cut to the steps run); ``tube_threads`` = 2 designs the two
     subsystems' tubes in parallel threads, 1 one after the other (for campaigns whose worker
-    processes already occupy every core).
+    processes already occupy every core); ``design_worker`` overrides ``tube.design_worker`` (the
+    numbers do not depend on it when adoption is deterministic).
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -207,7 +212,7 @@ def simulate(
         bar = tqdm(total=T, desc=method, unit="step", leave=False)
     wall0 = time.perf_counter()
     n_run = T if max_steps is None else max(1, min(int(max_steps), T))
-    with _new_policy(scn, method, tube_threads) as policy:
+    with _new_policy(scn, method, tube_threads, design_worker) as policy:
         # The first tube design is part of the set-up (before step 0's clock): every later tube update
         # is the per-step cost.
         first_tubes, first_status = _tube_update(scn, policy, 0, idents)
@@ -234,7 +239,8 @@ def simulate(
                 tube_excursion(x_next[None, sx], z1[None, sx], np.asarray(tube.Pe))[0]
                 for sx, tube in zip((P_STATES, R_STATES), tubes, strict=True)
             ]
-            _record_step(rec, k, step, tubes, K, w_meas, w_true, idents, (t0, t1, t2, t3, t4))
+            wait = policy.last_wait_s if k > 0 else 0.0
+            _record_step(rec, k, step, tubes, K, w_meas, w_true, idents, (t0, t1, t2, t3, t4), wait)
             x = x_next
             rec.x[k + 1] = x
             rec.g[k + 1] = [scn.truth.glide_slope(x, (k + 1) * dt)[0], scn.truth.line_of_sight(x)[0]]

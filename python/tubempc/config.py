@@ -292,8 +292,9 @@ class Tube:
     above) or "lyapunov" (LMI designs on the alpha-search steps only; in between the certified
     Lyapunov update of the last design's K and alpha for the identified P_W, microseconds per step;
     tube_policy.py). design_delay (with "lyapunov"): 0 runs the LMI designs synchronously; d >= 1
-    runs them in a background thread, adopted d steps after they start ("deterministic", a
-    reproducible run) or as soon as they are done ("when_ready", never waits)."""
+    runs them off the critical path in design_worker ("process", "thread" or "inline"), adopted d
+    steps after they start ("deterministic", a reproducible run, the same numbers with every
+    worker) or as soon as they are done ("when_ready", never waits; needs a concurrent worker)."""
 
     weighting: str = field(metadata=_opt("mpc", "normalized"))
     input_weight: float = field(metadata=_num(check=_POS))
@@ -303,6 +304,7 @@ class Tube:
     update: str = field(metadata=_opt("lmi", "lyapunov"))
     design_delay: int = field(metadata=_int(check=(lambda v: v >= 0, ">= 0")))
     design_adoption: str = field(metadata=_opt("deterministic", "when_ready"))
+    design_worker: str = field(metadata=_opt("process", "thread", "inline"))
 
 
 @dataclass(frozen=True, eq=False)
@@ -649,6 +651,8 @@ def _check_consistency(c: Config) -> None:
         raise ConfigError(f'{c.source}: boundary.initial: "hover" needs boundary.terminal = "site"')
     if c.mpc.horizon > c.mpc.n_steps:
         raise ConfigError(f"{c.source}: mpc.horizon: horizon {c.mpc.horizon} exceeds t_f / dt = {c.mpc.n_steps} steps")
+    if c.tube.design_adoption == "when_ready" and c.tube.design_worker == "inline":
+        raise ConfigError(f'{c.source}: tube.design_adoption: "when_ready" needs a concurrent tube.design_worker')
 
 
 #: Packaged scenarios (``tubempc scenarios``): name -> (file under tubempc/data, one-line description).

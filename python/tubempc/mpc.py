@@ -3,9 +3,9 @@
 The controller (:class:`TubeMPC`: its QPs by a warm-started active set, PIQP where that does not
 verify; see ``cpp/include/tubempc/mpc/tube_mpc.hpp`` and PAPER_NOTES.md "Tube MPC") runs in
 C++. :func:`solve_qp` solves the QP returned by
-``TubeMPC.qp_data()`` with a second, independent backend: OSQP (the Python package; OSQP's C
-library is not linked into the core) or, through cvxpy, Clarabel, OSQP or PIQP. It serves
-cross-checks and the ``tubempc bench mpc`` baseline; it is not used inside ``step``.
+``TubeMPC.qp_data()`` with an independent backend through cvxpy: Clarabel or PIQP (OSQP was removed:
+docs/decisions.md, "Dependencies"). It serves cross-checks and the ``tubempc bench mpc`` baseline;
+it is not used inside ``step``.
 
 QP form (PIQP's): ``min 1/2 w'Pw + q'w  s.t.  A w = b,  h_l <= G w <= h_u,  x_l <= w <= x_u``;
 the nominal cost is the QP objective plus ``qp.constant``.
@@ -18,7 +18,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-import scipy.sparse as sp
 
 from ._core.mpc import (
     InitialCondition,
@@ -65,7 +64,7 @@ __all__ = [
     "solve_qp_per_node",
 ]
 
-SOLVERS = ("osqp", "cvxpy-clarabel", "cvxpy-osqp", "cvxpy-piqp")
+SOLVERS = ("cvxpy-clarabel", "cvxpy-piqp")
 
 
 @dataclass
@@ -77,34 +76,6 @@ class QpResult:
     status: str
     solve_time: float  # the solver's own time (s); nan when the backend does not report it
     wall_time: float  # including problem construction (s)
-
-
-def _osqp(qp: QpData, eps: float) -> QpResult:
-    import osqp
-
-    t0 = time.perf_counter()
-    n = qp.P.shape[0]
-    C = sp.vstack([qp.A, qp.G, sp.identity(n, format="csc")], format="csc")
-    lo = np.concatenate([qp.b, qp.h_l, qp.x_l])
-    hi = np.concatenate([qp.b, qp.h_u, qp.x_u])
-    solver = osqp.OSQP()
-    solver.setup(
-        sp.triu(qp.P, format="csc"),
-        qp.q,
-        C,
-        lo,
-        hi,
-        eps_abs=eps,
-        eps_rel=eps,
-        max_iter=200000,
-        polishing=True,
-        verbose=False,
-    )
-    res = solver.solve(raise_error=False)
-    wall = time.perf_counter() - t0
-    w = np.asarray(res.x, dtype=float)
-    obj = float(0.5 * w @ (qp.P @ w) + qp.q @ w + qp.constant)
-    return QpResult(w, obj, str(res.info.status), float(res.info.run_time), wall)
 
 
 def _cvxpy(qp: QpData, solver: str, eps: float) -> QpResult:
@@ -140,8 +111,6 @@ def _cvxpy(qp: QpData, solver: str, eps: float) -> QpResult:
 
 
 def _cvxpy_opts(solver: str, eps: float) -> dict[str, float]:
-    if solver == "OSQP":
-        return {"eps_abs": eps, "eps_rel": eps, "max_iter": 200000}
     if solver == "CLARABEL":
         return {"tol_gap_abs": eps, "tol_gap_rel": eps, "tol_feas": eps}
     if solver == "PIQP":
@@ -164,6 +133,8 @@ def solve_qp_per_node(
     """
     import cvxpy as cp
 
+    if solver not in SOLVERS:
+        raise ValueError(f"solve_qp_per_node: unknown solver {solver!r}; choose one of {SOLVERS}")
     name = solver.removeprefix("cvxpy-").upper()
     n_w = qp.P.shape[0]
     n_t = nx if qp.G.shape[0] == (horizon + 1) * nc + 2 * nx else 0
@@ -243,10 +214,8 @@ def solve_qp_per_node(
     return QpResult(w, obj, str(prob.status), solve_time, wall)
 
 
-def solve_qp(qp: QpData, solver: str = "osqp", eps: float = 1e-9) -> QpResult:
+def solve_qp(qp: QpData, solver: str = "cvxpy-clarabel", eps: float = 1e-9) -> QpResult:
     """Solves an exported QP with ``solver`` in :data:`SOLVERS` to tolerance ``eps``."""
-    if solver == "osqp":
-        return _osqp(qp, eps)
-    if solver.startswith("cvxpy-"):
+    if solver in SOLVERS:
         return _cvxpy(qp, solver.removeprefix("cvxpy-"), eps)
     raise ValueError(f"solve_qp: unknown solver {solver!r}; choose one of {SOLVERS}")

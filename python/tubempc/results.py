@@ -66,7 +66,10 @@ class RunRecord:
     qp_iterations: Array = _array(("T",), "1", "QP solver iterations of the step")
     active_set_solves: Array = _array(("T",), "1", "QPs of the step solved by the active set")
     model_evaluations: Array = _array(("T",), "1", "model linearisations of the step")
-    time_tube: Array = _array(("T",), "s", "wall time of the tube update")
+    time_tube: Array = _array(("T",), "s", "wall time of the tube update (a design wait excluded)")
+    time_design_wait: Array = _array(
+        ("T",), "s", "wait for a due background design (a simulation faster than real time; not control time)"
+    )
     time_linearize: Array = _array(("T",), "s", "wall time of the MPC's linearisation")
     time_build: Array = _array(("T",), "s", "wall time of the MPC's QP assembly")
     time_solve: Array = _array(("T",), "s", "wall time of the MPC's QP solves")
@@ -189,6 +192,8 @@ def load_record(path: str | Path) -> tuple[RunRecord, dict[str, Any]]:
     """Reads a file written by :func:`save_record`: the record and the file's ``config``, ``metadata``
     and ``tubempc_version``."""
     raw = load_result(path)
+    if "time_design_wait" not in raw and "time_tube" in raw:  # a record from before this field: no wait recorded
+        raw["time_design_wait"] = np.zeros_like(raw["time_tube"])
     missing = [f.name for f in RunRecord.array_fields() if f.name not in raw]
     if missing:
         raise ValueError(f"{path}: not a run record (missing arrays {missing})")

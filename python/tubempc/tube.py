@@ -174,6 +174,24 @@ class TubeDesigner:
         solver_options: dict[str, object] | None = None,
     ) -> None:
         self.n_x, self.n_u = n_x, n_u
+        # The constructor's arguments: a designer rebuilt from them (another process) designs alike.
+        self.spec: dict[str, Any] = {
+            "n_x": n_x,
+            "n_u": n_u,
+            "Q": np.array(Q, dtype=np.float64),
+            "R": np.array(R, dtype=np.float64),
+            "u_max": u_max,
+            "solver": solver,
+            "state_scale": None if state_scale is None else np.array(state_scale, dtype=np.float64),
+            "lmi_margin": lmi_margin,
+            "alpha_grid": tuple(alpha_grid),
+            "warm_halfwidth": warm_halfwidth,
+            "s_xtol": s_xtol,
+            "obj_rtol": obj_rtol,
+            "max_solves": max_solves,
+            "residual_tol": residual_tol,
+            "solver_options": dict(solver_options or {}),
+        }
         self.Q = _sym(_as_matrix("Q", Q, (n_x, n_x)))
         self.R = _sym(_as_matrix("R", R, (n_u, n_u)))
         if np.linalg.eigvalsh(self.Q).min() < 0.0 or np.linalg.eigvalsh(self.R).min() <= 0.0:
@@ -257,7 +275,10 @@ class TubeDesigner:
                 # An inaccurate solution is reported through TubeStatus.OPTIMAL_INACCURATE.
                 warnings.filterwarnings("ignore", "Solution may be inaccurate", UserWarning)
                 solve: Callable[..., object] = self.problem.solve
-                solve(solver=self.solver, **self.solver_options)
+                # No warm start: Clarabel would reuse the previous solve's data and a design would
+                # depend on the designs before it (1e-5 in Pe), so that a design in another process
+                # (tube_policy.py) would differ from the same design here.
+                solve(solver=self.solver, **{"warm_start": False, **self.solver_options})
         except cp.error.SolverError:
             return _Eval(s, TubeStatus.SOLVER_ERROR)
         status = _STATUS.get(self.problem.status, TubeStatus.SOLVER_ERROR)

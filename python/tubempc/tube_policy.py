@@ -12,26 +12,99 @@ every other step the tube is the certified Lyapunov update of the last design's 
 step's linearisation and identified P_W (:func:`tubempc.tube.lyapunov_tube`, status ``LYAPUNOV``),
 or, when that cannot be certified, the last certified tube (status ``LAST_CERTIFIED``). With
 ``design_delay`` = 0 the designs run synchronously at those steps. With ``design_delay`` = d >= 1 they
-run in a background thread off the critical path: submitted at the search step and adopted (their K
-and alpha, from then on in the Lyapunov update) at step k + d, a deterministic step, so a run stays
-reproducible (in real time d dt = 2d s leaves the design ample time; a simulation running faster
-than real time may wait there); ``adopt_when_ready`` adopts at the first step after the design is
+run off the critical path, in the ``worker``: "process" (a separate process, so that the cvxpy work
+never holds the control loop's GIL), "thread" (a background thread) or "inline" (at the search step
+itself: no concurrency, for campaigns whose processes already fill every core). A design is
+submitted at the search step and adopted (its K and alpha, from then on in the Lyapunov update) at
+step k + d, a deterministic step, so a run is reproducible and gives the same numbers with every
+worker. In real time d dt = 2d s leaves the design ample time; a simulation running faster than real
+time may have to wait for it at the adoption step: that wait is pacing, not controller time, and is
+reported apart (``last_wait_s``). ``adopt_when_ready`` adopts at the first step after the design is
 done instead and never waits (flight-like; the adoption step then depends on the machine).
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
+import multiprocessing
+import os
+import pickle
+import signal
+import threading
+import time
+import warnings
 from collections.abc import Sequence
+from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 import numpy.typing as npt
 
 from .tube import TubeDesigner, TubeResult, lyapunov_tube, tube_still_valid
 
-__all__ = ["TubeUpdatePolicy"]
+__all__ = ["DESIGN_WORKERS", "TubeUpdatePolicy", "shutdown_design_worker"]
 
 Array = npt.NDArray[np.float64]
+
+DESIGN_WORKERS = ("process", "thread", "inline")
+
+# The process that runs background designs: one per Python process, started on first use and shared
+# by every policy (its start-up, mostly importing cvxpy, is paid once); its designers are rebuilt
+# from their spec once and kept.
+_PROCESS_POOL: cf.ProcessPoolExecutor | None = None
+_PROCESS_LOCK = threading.Lock()
+_WORKER_DESIGNERS: dict[bytes, TubeDesigner] = {}
+
+
+def _process_pool() -> cf.ProcessPoolExecutor:
+    global _PROCESS_POOL
+    with _PROCESS_LOCK:
+        if _PROCESS_POOL is None:
+            ctx = multiprocessing.get_context("spawn")  # no fork of a process with threads
+            _PROCESS_POOL = cf.ProcessPoolExecutor(
+                max_workers=1, mp_context=ctx, initializer=_worker_init, initargs=(os.getpid(),)
+            )
+        return _PROCESS_POOL
+
+
+def shutdown_design_worker(wait: bool = True) -> None:
+    """Stops the background design process (if started); ``wait=False`` (Ctrl-C) cancels what has not
+    started, terminates this process's children and returns at once."""
+    global _PROCESS_POOL
+    with _PROCESS_LOCK:
+        pool, _PROCESS_POOL = _PROCESS_POOL, None
+    if pool is not None:
+        if not wait:  # the process may still be starting (importing cvxpy): end it now
+            for child in multiprocessing.active_children():
+                child.terminate()
+        pool.shutdown(wait=wait, cancel_futures=True)
+
+
+def _worker_init(parent: int) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
+
+
+def _watch_parent(parent: int) -> None:
+    """Ends the design process within 0.2 s once its parent is gone (a parent that exits through
+    os._exit, or is killed, never shuts the pool down), also when it was gone before this started."""
+    while os.getppid() == parent:
+        time.sleep(0.2)
+    os._exit(0)
+
+
+def _worker_designer(key: bytes) -> TubeDesigner:
+    des = _WORKER_DESIGNERS.get(key)
+    if des is None:
+        des = _WORKER_DESIGNERS[key] = TubeDesigner(**pickle.loads(key))
+    return des
+
+
+def _warm_worker(key: bytes) -> None:
+    _worker_designer(key)
+
+
+def _design_in_worker(key: bytes, A: Array, B: Array, P_W: Array, alpha_prev: float | None) -> TubeResult:
+    return _worker_designer(key).design(A, B, P_W, alpha_prev)
 
 
 class TubeUpdatePolicy:
@@ -54,6 +127,7 @@ class TubeUpdatePolicy:
         update: str = "lmi",
         design_delay: int = 0,
         adopt_when_ready: bool = False,
+        worker: str = "process",
     ) -> None:
         if alpha_search_period < 1:
             raise ValueError(f"alpha_search_period must be >= 1, got {alpha_search_period}")
@@ -63,11 +137,17 @@ class TubeUpdatePolicy:
             raise ValueError(f"update must be 'lmi' or 'lyapunov', got {update!r}")
         if design_delay < 0:
             raise ValueError(f"design_delay must be >= 0 steps, got {design_delay}")
+        if worker not in DESIGN_WORKERS:
+            raise ValueError(f"worker must be one of {DESIGN_WORKERS}, got {worker!r}")
+        if adopt_when_ready and worker == "inline":
+            raise ValueError("adopt_when_ready needs a concurrent worker ('process' or 'thread')")
         self.update_kind = update
         self.design_delay = design_delay
         self.adopt_when_ready = adopt_when_ready
         self.adoptions: list[int] = []  # steps at which a background design was adopted
+        self.last_wait_s = 0.0  # time the last update waited for a due design (pacing, not control)
         self._pending: tuple[int, list[cf.Future[TubeResult]], list[Array]] | None = None
+        self._pending_args: list[tuple[TubeDesigner, tuple[Array, Array, Array, float | None]]] = []
         self.designers = list(designers)
         self.adaptive = adaptive
         self.margin = margin if adaptive else 0.0
@@ -76,9 +156,35 @@ class TubeUpdatePolicy:
         self._designed_for: list[Array | None] = [None] * len(self.designers)  # the P_W of each tube
         self._designed: list[TubeResult | None] = [None] * len(self.designers)  # each one's last LMI design
         self._pool = cf.ThreadPoolExecutor(max_workers=max(1, min(len(self.designers), int(threads))))
+        self.worker = worker
+        self._keys: list[bytes] = []
+        if update == "lyapunov" and design_delay > 0 and worker == "process" and adaptive:
+            self._keys = [pickle.dumps(d.spec) for d in self.designers]
+            # Start the worker and build its designers now, in the set-up, not in a control step.
+            try:
+                for key in self._keys:
+                    _process_pool().submit(_warm_worker, key).result()
+            except BrokenProcessPool as exc:
+                self._to_thread(exc)
+
+    def _to_thread(self, exc: BaseException) -> None:
+        """The documented fallback when the design process cannot run (e.g. a main script that a
+        spawned process cannot import, such as code piped to ``python -``): designs go to a thread."""
+        warnings.warn(
+            f"tube design process unavailable ({type(exc).__name__}: {exc}); designs run in a thread instead",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        shutdown_design_worker(wait=False)
+        self.worker = "thread"
 
     def close(self, wait: bool = True) -> None:
-        """Stops the design threads; ``wait=False`` returns at once (a running design finishes alone)."""
+        """Stops the design threads; ``wait=False`` returns at once (a running design finishes alone).
+        The shared design process stays up for the next policy; a pending design of this one is
+        cancelled if it has not started."""
+        if self._pending is not None:
+            for future in self._pending[1]:
+                future.cancel()
         self._pool.shutdown(wait=wait, cancel_futures=not wait)
 
     def __enter__(self) -> TubeUpdatePolicy:
@@ -93,6 +199,7 @@ class TubeUpdatePolicy:
         """The tubes for step ``k`` given each subsystem's discretised (A, B) about the reference and
         identified P_W. Returns the tubes and the step's status ("<status>/<status>", None when the
         policy did not look at the tubes: TBMPC after k = 0)."""
+        self.last_wait_s = 0.0
         if self.tubes is not None and not self.adaptive:
             return self.tubes, None
         search = k % self.alpha_search_period == 0
@@ -166,8 +273,14 @@ class TubeUpdatePolicy:
             k0, futures, designs_for = self._pending
             due = all(f.done() for f in futures) if self.adopt_when_ready else k >= k0 + self.design_delay
             if due:
-                for i, future in enumerate(futures):
-                    res = future.result()  # waits only for a deterministic adoption not yet done
+                t0 = time.perf_counter()
+                try:
+                    results = [future.result() for future in futures]  # waits only for a due design not yet done
+                except BrokenProcessPool as exc:  # the design process died: this design is redone in a thread
+                    self._to_thread(exc)
+                    results = [self._submit(i, des, *args).result() for i, (des, args) in enumerate(self._pending_args)]
+                self.last_wait_s = time.perf_counter() - t0
+                for i, res in enumerate(results):
                     if res.feasible:
                         self._designed[i] = res
                         self._designed_for[i] = designs_for[i]
@@ -175,10 +288,23 @@ class TubeUpdatePolicy:
                 self.adoptions.append(k)
         if search and self._pending is None:
             futures, designs_for = [], []
+            self._pending_args = []
             for i, des in enumerate(self.designers):
                 design = self._designed[i]
                 P_design = (1.0 + self.margin) * P_W[i]
                 alpha_prev = design.alpha if design is not None else None
-                futures.append(self._pool.submit(des.design, A[i], B[i], P_design, alpha_prev))
+                self._pending_args.append((des, (A[i], B[i], P_design, alpha_prev)))
+                futures.append(self._submit(i, des, A[i], B[i], P_design, alpha_prev))
                 designs_for.append(P_design)
             self._pending = (k, futures, designs_for)
+
+    def _submit(
+        self, i: int, des: TubeDesigner, A: Array, B: Array, P_W: Array, alpha_prev: float | None
+    ) -> cf.Future[TubeResult]:
+        if self.worker == "process":
+            return _process_pool().submit(_design_in_worker, self._keys[i], A, B, P_W, alpha_prev)
+        if self.worker == "thread":
+            return self._pool.submit(des.design, A, B, P_W, alpha_prev)
+        future: cf.Future[TubeResult] = cf.Future()
+        future.set_result(des.design(A, B, P_W, alpha_prev))
+        return future

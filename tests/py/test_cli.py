@@ -129,6 +129,18 @@ def test_a_figure_that_cannot_be_drawn_never_loses_the_run(tmp_path: Path) -> No
     assert list(failed) == ["fig14_convergence_tbmpc.png"] and (tmp_path / "fig03_trajectory.png").exists()
 
 
+def test_bench_integrator_orders_rk4_by_its_substeps(tmp_path: Path) -> None:
+    out = tmp_path / "integrator.json"
+    args = ["bench", "integrator", "--intervals", "10", "--substeps", "1,4", "--dopri-rtol", "1e-10", "--repeats", "1"]
+    assert main([*args, "--json", str(out)]) == EXIT_OK
+    rows = json.loads(out.read_text())["candidates"]
+    coarse, fine = rows["rk4, 1 substeps"], rows["rk4, 4 substeps"]
+    # fourth order: 4x the substeps, ~256x smaller one-step error (a wrong reference would not show it)
+    assert fine["one_step_max"]["velocity_m_s"] < coarse["one_step_max"]["velocity_m_s"] / 30.0
+    assert fine["evaluations_per_interval"] == 4 * coarse["evaluations_per_interval"] == 16
+    assert rows["dopri5, rtol 1e-10"]["final"]["position_m"] < 1e-6
+
+
 def test_bench_controller_reports_the_whole_step(tmp_path: Path) -> None:
     out = tmp_path / "controller.json"
     assert main(["bench", "controller", "--method", "tbmpc", "--json", str(out)]) == EXIT_OK

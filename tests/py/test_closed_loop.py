@@ -56,10 +56,12 @@ def test_short_closed_loop(scenario, method: str) -> None:  # type: ignore[no-un
 
 
 def test_ffa_keeps_a_tube_only_between_designs(scenario) -> None:  # type: ignore[no-untyped-def]
+    """The LMI re-use policy (tube.update = "lmi"): a certified tube is kept between designs."""
     cfg = scenario.config
     period = cfg.tube.alpha_search_period
     for margin in (0.0, 0.5):
-        scn = dataclasses.replace(scenario, config=cfg.with_overrides({"tube.redesign_margin": margin}))
+        overrides = {"tube.redesign_margin": margin, "tube.update": "lmi", "tube.design_delay": 0}
+        scn = dataclasses.replace(scenario, config=cfg.with_overrides(overrides))
         res = simulate(scn, "ffa", seed=3, max_steps=12)
         kept = [i for i, s in enumerate(res.tube_statuses) if "KEPT" in s]
         assert bool(kept) == (margin > 0.0), res.tube_statuses

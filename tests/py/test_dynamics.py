@@ -155,7 +155,7 @@ def test_config_validation_names_the_field() -> None:
         model.f(0.0, X0[:11], np.zeros(6))
     with pytest.raises(ValueError, match="position_tolerance"):
         tubempc.mpc.LinearizedProximityModel(model.core, position_tolerance=-1e-6)
-    assert tubempc.mpc.LinearizedProximityModel(model.core).position_tolerance == 0.1
+    assert tubempc.mpc.LinearizedProximityModel(model.core).position_tolerance == 0.3
 
 
 def test_frames_rotate_at_spin_minus_orbital_rate() -> None:

@@ -123,6 +123,10 @@ def test_bad_settings_are_rejected() -> None:
         TubeUpdatePolicy([], adaptive=True, alpha_search_period=0)
     with pytest.raises(ValueError, match="margin"):
         TubeUpdatePolicy([], adaptive=True, margin=-0.1)
+    with pytest.raises(ValueError, match="worker"):
+        TubeUpdatePolicy([], adaptive=True, worker="gpu")
+    with pytest.raises(ValueError, match="concurrent worker"):
+        TubeUpdatePolicy([], adaptive=True, adopt_when_ready=True, worker="inline")
 
 
 class SlowDesigner(ScriptedDesigner):
@@ -152,7 +156,7 @@ def test_lyapunov_updates_between_designs_use_the_designs_gain() -> None:
 def test_background_design_is_adopted_at_a_deterministic_step() -> None:
     des = ScriptedDesigner([_tube(0.02, 0.9), _tube(0.03, 0.8)])
     with TubeUpdatePolicy(
-        [des], adaptive=True, alpha_search_period=4, threads=1, update="lyapunov", design_delay=2
+        [des], adaptive=True, alpha_search_period=4, threads=1, update="lyapunov", design_delay=2, worker="thread"
     ) as policy:
         alphas = [_update(policy, k, 1e-3)[0][0].alpha for k in range(8)]
     assert policy.adoptions == [6]  # submitted at k = 4, adopted at k = 4 + 2
@@ -162,7 +166,14 @@ def test_background_design_is_adopted_at_a_deterministic_step() -> None:
 def test_a_slow_background_design_does_not_delay_the_steps() -> None:
     des = SlowDesigner([_tube(0.02, 0.9), _tube(0.03, 0.8)], delay=1.0)
     with TubeUpdatePolicy(
-        [des], adaptive=True, alpha_search_period=2, threads=1, update="lyapunov", design_delay=1, adopt_when_ready=True
+        [des],
+        adaptive=True,
+        alpha_search_period=2,
+        threads=1,
+        update="lyapunov",
+        design_delay=1,
+        adopt_when_ready=True,
+        worker="thread",
     ) as policy:
         _update(policy, 0, 1e-3)
         t0 = time.perf_counter()
@@ -178,3 +189,22 @@ def test_a_slow_background_design_does_not_delay_the_steps() -> None:
         time.sleep(1.1)
         _update(policy, 40, 1e-3)
     assert policy.adoptions == [40]
+
+
+@pytest.mark.parametrize("worker", ["process", "inline"])
+def test_every_design_worker_gives_the_threads_numbers(worker: str) -> None:
+    """Deterministic adoption: the tubes do not depend on where the designs ran (a real SDP designer,
+    rebuilt from its spec in the design process)."""
+    A2, B2 = np.array([[1.0, 0.1], [0.0, 1.0]]), np.array([[0.005], [0.1]])
+
+    def fly(w: str) -> list[np.ndarray]:
+        des = TubeDesigner(2, 1, Q=np.eye(2), R=np.eye(1), u_max=1.0)
+        with TubeUpdatePolicy(
+            [des], adaptive=True, alpha_search_period=3, update="lyapunov", design_delay=2, worker=w
+        ) as policy:
+            pes = [np.asarray(policy.update(k, [A2], [B2], [(1e-4 + 2e-5 * k) * np.eye(2)])[0][0].Pe) for k in range(10)]
+        assert policy.adoptions == [5, 8]
+        return pes
+
+    for a, b in zip(fly("thread"), fly(worker), strict=True):
+        np.testing.assert_array_equal(a, b)

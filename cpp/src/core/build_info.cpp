@@ -32,9 +32,6 @@ BuildInfo build_info() {
                        std::to_string(EIGEN_MINOR_VERSION);
   info.eigen_simd = Eigen::SimdInstructionSetsInUse();
   info.piqp_version = TUBEMPC_PIQP_VERSION_STRING;
-  info.osqp_backend =
-      "Python package osqp on the QP matrices built by the core (OSQP's C library is not "
-      "distributed by PyPI or Debian; see README, design notes)";
   info.hardware_threads = std::thread::hardware_concurrency();
   return info;
 }

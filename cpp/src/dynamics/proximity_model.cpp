@@ -144,7 +144,12 @@ void ProximityModel::translational(double t, const Eigen::Vector3d& r, const Eig
                                    Eigen::Matrix3d* da_dv) const {
   Eigen::Vector3d a_g;
   Eigen::Matrix3d G_L;
-  gravity_L(t, r, a_g, G_L);
+  if (da_dr) {
+    gravity_L(t, r, a_g, G_L);
+  } else {  // no Jacobian wanted (the truth derivative): the field's acceleration alone
+    const Eigen::Matrix3d C = C_AL(t);
+    a_g.noalias() = C.transpose() * gravity_->acceleration(C * r);
+  }
   // -2 n z x v = 2 n [v_y, -v_x, 0]
   a_L = Eigen::Vector3d(2.0 * n_ * v.y(), -2.0 * n_ * v.x(), 0.0) + hill_tidal(n_, r) + a_g + u_p;
   a_L.x() += srp_accel_;

@@ -234,8 +234,10 @@ PolyhedronGravity::PolyhedronGravity(Shape shape, double density)
   }
 }
 
-void PolyhedronGravity::accumulate(const Eigen::Vector3d& p, double tol_plane, bool with_edges,
-                                   Sums& s) const {
+template <PolyhedronGravity::Terms kTerms>
+void PolyhedronGravity::accumulate(const Eigen::Vector3d& p, double tol_plane, Sums& s) const {
+  constexpr bool kEdges = kTerms != Terms::Laplacian;
+  constexpr bool kHessian = kTerms == Terms::All;
   alignas(64) double rn[kMaxClusterVertices];
   alignas(64) double num[kMaxClusterFaces];
   alignas(64) double den[kMaxClusterFaces];
@@ -284,15 +286,17 @@ void PolyhedronGravity::accumulate(const Eigen::Vector3d& p, double tol_plane, b
       ax_f += nx * hw;
       ay_f += ny * hw;
       az_f += nz * hw;
-      const A4 nxw = nx * wk, nyw = ny * wk;
-      hxx_f += nx * nxw;
-      hxy_f += ny * nxw;
-      hxz_f += nz * nxw;
-      hyy_f += ny * nyw;
-      hyz_f += nz * nyw;
-      hzz_f += nz * nz * wk;
+      if constexpr (kHessian) {
+        const A4 nxw = nx * wk, nyw = ny * wk;
+        hxx_f += nx * nxw;
+        hxy_f += ny * nxw;
+        hxz_f += nz * nxw;
+        hyy_f += ny * nyw;
+        hyz_f += nz * nyw;
+        hzz_f += nz * nz * wk;
+      }
     }
-    if (!with_edges) continue;
+    if constexpr (!kEdges) continue;
 
     // Edges: L = ln((a+b+e)/max(a+b-e, eps (a+b+e))), E r = E v_i - E p, r^T E r = v^T E v - p.(E v + E r).
     const int eb = cl.e_begin;
@@ -320,12 +324,14 @@ void PolyhedronGravity::accumulate(const Eigen::Vector3d& p, double tol_plane, b
       ax_e += erx * L;
       ay_e += ery * L;
       az_e += erz * L;
-      hxx_e += exx * L;
-      hxy_e += exy * L;
-      hxz_e += exz * L;
-      hyy_e += eyy * L;
-      hyz_e += eyz * L;
-      hzz_e += ezz * L;
+      if constexpr (kHessian) {
+        hxx_e += exx * L;
+        hxy_e += exy * L;
+        hxz_e += exz * L;
+        hyy_e += eyy * L;
+        hyz_e += eyz * L;
+        hzz_e += ezz * L;
+      }
     }
   }
   s.u_edge = u_e.sum();
@@ -376,7 +382,7 @@ void PolyhedronGravity::evaluate(const Eigen::Vector3d& r_A, GravitySample& out)
     return;
   }
   Sums s;
-  accumulate(p, 16.0 * kEps * (r + r_max_), true, s);
+  accumulate<Terms::All>(p, 16.0 * kEps * (r + r_max_), s);
   out.potential = 0.5 * g_rho_ * (s.u_edge - s.u_face);
   out.acceleration = -g_rho_ * (s.a_edge - s.a_face);
   const std::array<double, 6> h{s.h_edge[0] - s.h_face[0], s.h_edge[1] - s.h_face[1],
@@ -386,12 +392,25 @@ void PolyhedronGravity::evaluate(const Eigen::Vector3d& r_A, GravitySample& out)
   out.gradient *= g_rho_;
 }
 
+Eigen::Vector3d PolyhedronGravity::acceleration(const Eigen::Vector3d& r_A) const {
+  Eigen::Vector3d p;
+  const double r = checked_offset(r_A, center_, p);
+  if (r > r_far_) {
+    GravitySample g;
+    far_field(p, r, g);
+    return g.acceleration;
+  }
+  Sums s;
+  accumulate<Terms::Acceleration>(p, 16.0 * kEps * (r + r_max_), s);
+  return -g_rho_ * (s.a_edge - s.a_face);
+}
+
 double PolyhedronGravity::laplacian(const Eigen::Vector3d& r_A) const {
   Eigen::Vector3d p;
   const double r = checked_offset(r_A, center_, p);
   if (r > r_far_) return 0.0;  // far outside the body
   Sums s;
-  accumulate(p, 16.0 * kEps * (r + r_max_), false, s);
+  accumulate<Terms::Laplacian>(p, 16.0 * kEps * (r + r_max_), s);
   return -g_rho_ * s.w_sum;
 }
 

@@ -249,14 +249,24 @@ ActiveSetQp::Status ActiveSetQp::solve(const SpMat& P_upper, const Eigen::Vector
     for (Eigen::Index i = 0; i < rhs_.size(); ++i) rhs_p_(perm_(i)) = rhs_(i);
     sol_p_ = rhs_p_;
     ldlt_.solve_in_place(sol_p_);
-    const double rhs_norm = rhs_.lpNorm<Eigen::Infinity>();
+    // Stationarity rows scale with q (which holds the L1 penalty weights, ~1e6), constraint rows with
+    // b and the bounds: each block is judged against its own scale, or a 1e6 penalty would let the
+    // constraint rows keep residuals of ~1e-9, which the large multipliers of the shrinking phase
+    // turn into objective errors of ~1e-5 relative.
+    const double dual_rhs = q_norm, primal_rhs = rhs_.tail(rhs_.size() - n).lpNorm<Eigen::Infinity>();
     double last = inf;
     for (int r = 0; r <= settings_.max_refinement; ++r) {
       residual();
-      const double norm = res_p_.lpNorm<Eigen::Infinity>();
+      double dual_norm = 0.0, primal_norm = 0.0;
+      for (int i = 0; i < n; ++i) dual_norm = std::max(dual_norm, std::abs(res_p_(perm_(i))));
+      for (Eigen::Index i = n; i < rhs_.size(); ++i)
+        primal_norm = std::max(primal_norm, std::abs(res_p_(perm_(i))));
+      const double norm = std::max(dual_norm, primal_norm);
       if (!std::isfinite(norm)) return info_.status = Status::Singular;
       // Accurate enough at a hundredth of the verification tolerance, or stagnating.
-      if (r == settings_.max_refinement || norm <= 1e-2 * settings_.eps_abs + 1e-15 * rhs_norm ||
+      const double tol = 1e-2 * settings_.eps_abs;
+      if (r == settings_.max_refinement ||
+          (dual_norm <= tol + 1e-15 * dual_rhs && primal_norm <= 1e-2 * tol + 1e-15 * primal_rhs) ||
           norm > 0.5 * last)
         break;
       last = norm;

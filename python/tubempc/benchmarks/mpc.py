@@ -1,4 +1,4 @@
-"""Tube MPC step time over a whole mission, and the same QPs through cvxpy (Clarabel, OSQP, PIQP).
+"""Tube MPC step time over a whole mission, and the same QPs through cvxpy (Clarabel, PIQP).
 
 Default plant (``--plant bennu``): the default scenario's 6-DOF model (polyhedral gravity of the
 generated Bennu-like shape, exact ZOH), TBMPC's prior tube, truth = RK4 propagation plus the
@@ -8,8 +8,7 @@ translation plus a linearised rigid body, the glide-slope cone replaced by its f
 a cubic Hermite reference. ``run_mission`` takes any ``LinearizedModel``, reference, tube and truth.
 
 Baselines on QPs of solved steps: the exported matrices through cvxpy (``cvxpy-*``), the same QP
-written node by node as a Python user would (``node-cvxpy-*``, :func:`tubempc.mpc.solve_qp_per_node`)
-and OSQP's Python package (``osqp``).
+written node by node as a Python user would (``node-cvxpy-*``, :func:`tubempc.mpc.solve_qp_per_node`).
 """
 
 from __future__ import annotations
@@ -195,12 +194,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--qp-samples", type=int, default=12, help="QPs re-solved through cvxpy (default 12)")
     parser.add_argument(
         "--solvers",
-        default="node-cvxpy-clarabel,node-cvxpy-osqp,node-cvxpy-piqp,cvxpy-clarabel,cvxpy-piqp,osqp",
+        default="node-cvxpy-clarabel,node-cvxpy-piqp,cvxpy-clarabel,cvxpy-piqp",
         help="Python backends for the baseline (comma separated): node-cvxpy-* the QP written "
-        "node by node in cvxpy, cvxpy-* the exported matrices through cvxpy, osqp",
+        "node by node in cvxpy, cvxpy-* the exported matrices through cvxpy (Clarabel, PIQP)",
     )
     parser.add_argument("--eps", type=float, default=1e-8, help="interior-point baseline tolerance")
-    parser.add_argument("--osqp-eps", type=float, default=1e-5, help="OSQP baseline tolerance (first order)")
     parser.add_argument(
         "--disturbance",
         type=float,
@@ -241,6 +239,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="fly the mission this many times and report the spread of the per-run medians and "
         "p99s (the machine's speed drifts between runs; default 1)",
     )
+    parser.add_argument(
+        "--position-tolerance",
+        type=float,
+        help="bennu plant: LinearizedProximityModel's position_tolerance (m; default: the model's)",
+    )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", metavar="PATH", help="write the figures as JSON")
 
@@ -273,7 +276,10 @@ def _bennu_plant(args: argparse.Namespace) -> tuple[Any, Any, Any, Any, Callable
             dtype=np.float64,
         )
 
-    model = mpc.LinearizedProximityModel(scn.model.core)
+    if args.position_tolerance is None:
+        model = mpc.LinearizedProximityModel(scn.model.core)
+    else:
+        model = mpc.LinearizedProximityModel(scn.model.core, args.position_tolerance)
     return model, settings, reference, mpc.Tube(K, Pe), truth
 
 
@@ -416,7 +422,7 @@ def run(args: argparse.Namespace) -> int:
     for solver in [s for s in args.solvers.split(",") if s]:
         solver_t, wall_t, ratio_s, ratio_w, diffs, viols = [], [], [], [], [], []
         for qp, cpp_solve, objective, _ in qps.values():
-            eps = args.osqp_eps if "osqp" in solver else args.eps
+            eps = args.eps
             if solver.startswith("node-"):
                 res = solve_qp_per_node(qp, 12, 6, model.n_constraints(), args.horizon, solver.removeprefix("node-"), eps)
             else:

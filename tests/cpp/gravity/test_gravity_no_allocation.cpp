@@ -1,4 +1,4 @@
-// PolyhedronGravity::evaluate and laplacian must not allocate (the MPC calls them inside its
+// PolyhedronGravity::evaluate, acceleration and laplacian must not allocate (the MPC calls them inside its
 // allocation-free step): global operator new is replaced by a counting one in this test binary.
 #include <gtest/gtest.h>
 
@@ -16,7 +16,7 @@ struct CountFromStart {
 } count_from_start;
 }  // namespace
 
-TEST(PolyhedronGravity, EvaluateAndLaplacianDoNotAllocate) {
+TEST(PolyhedronGravity, EvaluateAccelerationAndLaplacianDoNotAllocate) {
   if (!tubempc::core::kAllocationCounterEnabled) GTEST_SKIP() << "counting needs glibc, no sanitizer";
   const auto m = gravity_test::lumpy_body(16, 24, 250.0);
   const tubempc::gravity::PolyhedronGravity g(tubempc::gravity::Shape(m.v, m.f), 1260.0);
@@ -25,7 +25,8 @@ TEST(PolyhedronGravity, EvaluateAndLaplacianDoNotAllocate) {
   double sum = 0.0;
   for (int i = 0; i < 20; ++i) {
     g.evaluate(Eigen::Vector3d(300.0 + i, -100.0, 50.0), s);
-    sum += s.potential + g.laplacian(Eigen::Vector3d(10.0 * i, 0.0, 0.0));
+    sum += s.potential + g.laplacian(Eigen::Vector3d(10.0 * i, 0.0, 0.0)) +
+           g.acceleration(Eigen::Vector3d(0.0, 200.0 + i, 30.0)).norm();
   }
   EXPECT_EQ(allocations() - before, 0);
   EXPECT_TRUE(std::isfinite(sum));

@@ -270,6 +270,22 @@ TEST(PolyhedronGravity, BatchOnManyThreadsEqualsSingleThreadExactly) {
   EXPECT_THROW(model(m, -1.0), std::invalid_argument);
 }
 
+TEST(PolyhedronGravity, AccelerationAloneEqualsEvaluateToTheBit) {
+  // The truth propagation's acceleration-only path sums the same terms in the same order.
+  const Mesh m = gravity_test::lumpy_body(12, 18, 250.0);
+  const PolyhedronGravity g = model(m);
+  tubempc::gravity::Points r = tubempc::gravity::Points::Random(40, 3) * 600.0;
+  r.row(0) << 0.0, 0.0, 0.0;                                      // inside
+  r.row(1) << 1e3 * tubempc::gravity::kFarFieldFactor, 0.0, 0.0;  // far field
+  for (Eigen::Index i = 0; i < r.rows(); ++i) {
+    GravitySample s;
+    g.evaluate(r.row(i).transpose(), s);
+    const Eigen::Vector3d a = g.acceleration(r.row(i).transpose());
+    EXPECT_TRUE((a.array() == s.acceleration.array()).all()) << "point " << i;
+  }
+  EXPECT_THROW(g.acceleration(Eigen::Vector3d(std::nan(""), 0.0, 0.0)), std::domain_error);
+}
+
 TEST(PolyhedronGravity, BennuRadarModelMassAndSurfaceGravity) {
   const auto bennu = gravity_test::bennu_radar();
   if (!bennu) GTEST_SKIP() << "../shared/data/101955bennu.tab not present";

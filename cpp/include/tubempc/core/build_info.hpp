@@ -15,7 +15,6 @@ struct BuildInfo {
   std::string eigen_version;     ///< Eigen version the core was compiled against
   std::string eigen_simd;        ///< SIMD instruction sets Eigen uses
   std::string piqp_version;      ///< PIQP version (header-only C++ backend)
-  std::string osqp_backend;      ///< how the OSQP backend is provided
   unsigned hardware_threads{0};  ///< std::thread::hardware_concurrency() at run time
 };
 

@@ -30,6 +30,9 @@ struct DiscreteHorizon {
   int first_failed_node{-1};  ///< index of the first node whose discretisation failed, -1 if none
 };
 
+/// Default LinearizedProximityModel::position_tolerance (m): see `rediscretize`.
+inline constexpr double kDefaultPositionTolerance = 0.3;
+
 /// mpc::LinearizedModel over a ProximityModel. nx = 12, nu = 6, 2 constraint rows per node:
 /// row 0 the glide slope, row 1 the line of sight, both tangent linearisations g(x_ref) +
 /// grad g(x_ref) (x - x_ref) <= 0 (constraints.hpp).
@@ -40,7 +43,7 @@ class LinearizedProximityModel final : public mpc::LinearizedModel {
   ///                            keeps the translational blocks (see there); >= 0, finite.
   /// @throws std::invalid_argument for a null model or an invalid position_tolerance.
   explicit LinearizedProximityModel(std::shared_ptr<const ProximityModel> model,
-                                    double position_tolerance = 0.1);
+                                    double position_tolerance = kDefaultPositionTolerance);
 
   int nx() const override { return kNx; }
   int nu() const override { return kNu; }
@@ -68,10 +71,10 @@ class LinearizedProximityModel final : public mpc::LinearizedModel {
   /// attitude blocks are recomputed (ProximityModel::discretize_rotation, ~5 us against ~100 us for
   /// the polyhedral field). The kept blocks are then the tangent model about a point at most
   /// position_tolerance() away: their slope differs from `discretize`'s by the change of the gravity
-  /// gradient over that distance (~1e-9 1/s^2 at 250 m from Bennu for the default 0.1 m, against
-  /// gradients of ~1e-7 1/s^2), and the state they predict at the new point by a second-order term
-  /// (at most 4.6e-9 m and m/s per 2 s step along the default mission, against a disturbance of
-  /// 0.02 m and 5 mm/s per step). Otherwise this is `discretize`. Sizes and statuses as `discretize`;
+  /// gradient over that distance (~3e-9 1/s^2 at 250 m from Bennu for the default 0.3 m, against
+  /// gradients of ~1e-7 1/s^2), and the state they predict at the new point (at most 1.9e-8 m and m/s
+  /// per 2 s step along the default mission, against a disturbance of 0.02 m and 5 mm/s per step;
+  /// docs/decisions.md). Otherwise this is `discretize`. Sizes and statuses as `discretize`;
   /// allocation-free.
   /// @param t      start time of the step (s).
   /// @param dt     step length (s).

@@ -28,6 +28,16 @@ class GravityModel {
   /// @param out receives U (m^2/s^2), a (m/s^2) and G (1/s^2) at r_A, in frame A.
   virtual void evaluate(const Eigen::Vector3d& r_A, GravitySample& out) const = 0;
 
+  /// The acceleration alone, for callers that need no Hessian (the truth propagation). The default
+  /// calls `evaluate`; a model overrides it where skipping the Hessian saves work.
+  /// @param r_A position in the body-fixed frame A (m).
+  /// @return a = grad U (m/s^2) at r_A, in frame A: the same value as `evaluate`'s.
+  virtual Eigen::Vector3d acceleration(const Eigen::Vector3d& r_A) const {
+    GravitySample g;
+    evaluate(r_A, g);
+    return g.acceleration;
+  }
+
   /// Gravitational parameter of the body.
   /// @return G M (m^3/s^2).
   virtual double gm() const = 0;

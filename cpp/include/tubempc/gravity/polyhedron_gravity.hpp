@@ -80,6 +80,12 @@ class PolyhedronGravity final : public GravityModel {
   /// @throws std::domain_error for a non-finite or too large r_A.
   void evaluate(const Eigen::Vector3d& r_A, GravitySample& out) const override;
 
+  /// a = grad U alone (the sums of `evaluate` without the Hessian's; the same value to the bit).
+  /// @param r_A position in frame A (m), finite with |r_A| < 1e150 m.
+  /// @return a (m/s^2) in frame A.
+  /// @throws std::domain_error for a non-finite or too large r_A.
+  Eigen::Vector3d acceleration(const Eigen::Vector3d& r_A) const override;
+
   /// Laplacian of U at a point.
   /// @param r_A position in frame A (m), finite with |r_A| < 1e150 m.
   /// @return -G rho sum_f w_f (1/s^2): 0 outside, -4 pi G rho inside.
@@ -119,7 +125,10 @@ class PolyhedronGravity final : public GravityModel {
  private:
   // Per-point work of one cluster of faces (see the constructor): partial sums.
   struct Sums;
-  void accumulate(const Eigen::Vector3d& p, double tol_plane, bool with_edges, Sums& s) const;
+  // What accumulate sums: the faces' solid angles only, also U and a, or also Hess U.
+  enum class Terms { Laplacian, Acceleration, All };
+  template <Terms kTerms>
+  void accumulate(const Eigen::Vector3d& p, double tol_plane, Sums& s) const;
   // Degree-2 exterior expansion at p (relative to the centre of mass), |p| = r.
   void far_field(const Eigen::Vector3d& p, double r, GravitySample& out) const;
 
