@@ -3,7 +3,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=${VENV_BIN:-.venv/bin}
-"$BIN/ruff" check --fix python tests/py tools
-"$BIN/ruff" format python tests/py tools
+"$BIN/ruff" check --fix python tests/py tools docs
+"$BIN/ruff" format python tests/py tools docs
 git ls-files 'cpp/*.hpp' 'cpp/*.cpp' 'python/src/*.hpp' 'python/src/*.cpp' 'tests/cpp/*.hpp' 'tests/cpp/*.cpp' \
   'examples/*.cpp' | xargs clang-format -i

@@ -5,8 +5,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=${VENV_BIN:-.venv/bin}
-"$BIN/ruff" check python tests/py tools
-"$BIN/ruff" format --check python tests/py tools
+"$BIN/ruff" check python tests/py tools docs
+"$BIN/ruff" format --check python tests/py tools docs
 "$BIN/mypy"
 git ls-files 'cpp/*.hpp' 'cpp/*.cpp' 'python/src/*.hpp' 'python/src/*.cpp' 'tests/cpp/*.hpp' 'tests/cpp/*.cpp' \
   'examples/*.cpp' | xargs clang-format --dry-run -Werror

@@ -3,7 +3,8 @@
 # (ruff check, ruff format --check, mypy --strict, clang-format), ctest (GoogleTest, the C++ examples,
 # the Doxygen check), the install test (tools/install_test.sh: the C++ package installed from the same
 # build tree into a temporary prefix, both C++ examples built against it, closed_loop flying a scenario
-# exported by the installed package) and pytest. One build tree serves them all: build/test. Its
+# exported by the installed package), the documentation site (tools/docs.sh: Sphinx with the executed
+# tutorials, the API and the Doxygen C++ reference) and pytest. One build tree serves them all: build/test. Its
 # duration goes to build/test/test_command.json (docs/benchmarks/ keeps the published one).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -28,7 +29,7 @@ export CMAKE_BUILD_PARALLEL_LEVEL=${CMAKE_BUILD_PARALLEL_LEVEL:-$(nproc)}
 .venv/bin/python -c "import tomllib; print('\n'.join(tomllib.load(open('pyproject.toml', 'rb'))['build-system']['requires']))" \
   > .venv/build-requirements.txt
 .venv/bin/python -m pip install -q -r .venv/build-requirements.txt
-.venv/bin/python -m pip install --no-build-isolation ".[test,dev]" \
+.venv/bin/python -m pip install --no-build-isolation ".[test,dev,docs]" \
   --config-settings=build-dir=build/test \
   --config-settings=cmake.define.TUBEMPC_BUILD_TESTS=ON \
   --config-settings=cmake.define.TUBEMPC_INSTALL=ON
@@ -38,6 +39,10 @@ bash tools/lint.sh
 ctest --test-dir build/test --output-on-failure -j"$(nproc)"
 
 bash tools/install_test.sh --build build/test --python .venv/bin/python
+
+# The documentation site, warnings as errors; its three tutorials run in it (the third embeds the C++
+# core installed from build/test).
+TUBEMPC_BUILD_DIR=build/test bash tools/docs.sh
 
 # pytest exit code 5 means "no tests collected": a failure here.
 set +e

@@ -16,12 +16,13 @@ import numpy as np
 from . import figures
 from .campaign import CampaignResult, run_campaign
 from .closed_loop import simulate
-from .config import Config
+from .config import Config, load_config
 from .machine import machine_info
 from .metrics import run_metrics
+from .results import RunRecord, save_record
 from .scenario import METHODS, Scenario, build_scenario
 
-__all__ = ["montecarlo", "montecarlo_summary", "sweep"]
+__all__ = ["MONTECARLO_METRICS", "montecarlo", "montecarlo_summary", "refly_montecarlo_run", "sweep"]
 
 _SCENARIOS: dict[str, Scenario] = {}
 
@@ -34,6 +35,40 @@ def _scenario(cfg: Config, cache_dir: str) -> Scenario:
     return _SCENARIOS[key]
 
 
+#: The metrics a Monte Carlo run keeps per method (its record's "result"; run_time_s is the machine's).
+MONTECARLO_METRICS = (
+    "J_p",
+    "J_r",
+    "control_effort",
+    "terminal_error",
+    "rms_error",
+    "max_tube_excursion",
+    "steps_outside_tube",
+    "constraint_violations",
+    "statuses",
+    "run_time_s",
+)
+
+
+def _fly_montecarlo_run(
+    cfg: Config, scn: Scenario, methods: tuple[str, ...], max_steps: int | None, tube_threads: int, seed: int
+) -> tuple[dict[str, Any], dict[str, RunRecord]]:
+    """Every method with disturbance seed ``seed`` as a campaign flies it: the run's result (metrics per
+    method and the dispersions applied) and the records."""
+    # The campaign's processes fill the cores: background designs run inline, with the same numbers
+    # when their adoption is deterministic (tube_policy.py).
+    worker = "inline" if cfg.tube.design_adoption == "deterministic" else None
+    out: dict[str, Any] = {}
+    records: dict[str, RunRecord] = {}
+    for m in methods:
+        rec = simulate(scn, m, seed, max_steps=max_steps, tube_threads=tube_threads, design_worker=worker)
+        s = run_metrics(rec, cfg.mpc.dt, scn.xf)
+        out[m] = {k: s[k] for k in MONTECARLO_METRICS}
+        out["applied"] = rec.applied  # the same for every method: one seed, one sequence of draws
+        records[m] = rec
+    return out, records
+
+
 def _montecarlo_run(
     cfg: Config,
     cache_dir: str,
@@ -44,32 +79,12 @@ def _montecarlo_run(
     index: int,
     seed: int,
 ) -> dict[str, Any]:
-    """One Monte Carlo run: every method with the same disturbance seed. Metrics go in the result;
-    the error trajectories x - z and tube half-widths in runs/run_<i>.npz (for the envelopes)."""
-    scn = _scenario(cfg, cache_dir)
-    out: dict[str, Any] = {}
+    """One Monte Carlo run: every method with the same disturbance seed. Metrics and the dispersions
+    applied go in the result; the error trajectories x - z and tube half-widths in runs/run_<i>.npz
+    (for the envelopes)."""
+    out, records = _fly_montecarlo_run(cfg, _scenario(cfg, cache_dir), methods, max_steps, tube_threads, seed)
     arrays: dict[str, np.ndarray] = {}
-    # The campaign's processes fill the cores: background designs run inline, with the same numbers
-    # when their adoption is deterministic (tube_policy.py).
-    worker = "inline" if cfg.tube.design_adoption == "deterministic" else None
-    for m in methods:
-        rec = simulate(scn, m, seed, max_steps=max_steps, tube_threads=tube_threads, design_worker=worker)
-        s = run_metrics(rec, cfg.mpc.dt, scn.xf)
-        out[m] = {
-            k: s[k]
-            for k in (
-                "J_p",
-                "J_r",
-                "control_effort",
-                "terminal_error",
-                "rms_error",
-                "max_tube_excursion",
-                "steps_outside_tube",
-                "constraint_violations",
-                "statuses",
-                "run_time_s",
-            )
-        }
+    for m, rec in records.items():
         arrays[f"{m}_error"] = (rec.x[:-1] - rec.z).astype(np.float32)
         arrays[f"{m}_half_width"] = np.sqrt(
             np.concatenate([np.diagonal(rec.Pe_p, axis1=1, axis2=2), np.diagonal(rec.Pe_r, axis1=1, axis2=2)], axis=1)
@@ -79,6 +94,45 @@ def _montecarlo_run(
     np.savez_compressed(tmp, allow_pickle=False, **arrays)
     os.replace(tmp, path)
     return out
+
+
+def refly_montecarlo_run(campaign_dir: Path, index: int, out: Path) -> dict[str, Any]:
+    """Flies run ``index`` of the campaign in ``campaign_dir`` again, alone, from its configuration and
+    its record's seed and cut, writes ``out/<method>.h5`` and ``out/refly.json`` and returns the
+    comparison: every metric (but run_time_s) and the applied dispersions against the record's, with
+    ``equal`` True when all are the same to the bit."""
+    path = campaign_dir / "runs" / f"run_{index:05d}.json"
+    if not path.exists():
+        raise ValueError(f"{path}: no such run in the campaign (see {campaign_dir / 'runs'})")
+    record = json.loads(path.read_text(encoding="utf-8"))
+    if not record.get("ok"):
+        raise ValueError(f"{path}: the run failed in the campaign: {record.get('error')}")
+    result = record["result"]
+    if "applied" not in result:
+        raise ValueError(f"{path}: written before runs recorded their dispersions; rerun the campaign")
+    cfg = load_config(campaign_dir / "config.toml")
+    methods = tuple(m for m in METHODS if m in result)
+    scn = build_scenario(cfg, cache_dir=campaign_dir / "cache")
+    again, records = _fly_montecarlo_run(cfg, scn, methods, result["applied"]["max_steps"], 1, int(record["seed"]))
+    out.mkdir(parents=True, exist_ok=True)
+    for m, rec in records.items():
+        save_record(out / f"{m}.h5", rec, config=cfg.to_dict(), metadata=again[m])
+    # JSON round trip: the record's numbers were read from JSON (floats survive it exactly).
+    again = json.loads(json.dumps(again))
+    differences = [
+        f"{m}.{k}" for m in methods for k in MONTECARLO_METRICS if k != "run_time_s" and again[m][k] != result[m][k]
+    ] + (["applied"] if again["applied"] != result["applied"] else [])
+    comparison = {
+        "campaign": str(campaign_dir),
+        "index": index,
+        "seed": int(record["seed"]),
+        "methods": {m: {"J_p": again[m]["J_p"], "J_r": again[m]["J_r"]} for m in methods},
+        "differences": differences,
+        "equal": not differences,
+        "machine": machine_info(),
+    }
+    (out / "refly.json").write_text(json.dumps(comparison, indent=1, sort_keys=True))
+    return comparison
 
 
 def montecarlo_summary(campaign: CampaignResult, methods: tuple[str, ...]) -> dict[str, Any]:

@@ -2,7 +2,7 @@
 
 Both are star-shaped about their construction origin: a geodesic sphere (20 n^2 faces, 10 n^2 + 2
 vertices for ``subdivisions`` = n) whose vertex in direction u sits at the body's radius r(u), times
-a seeded smooth roughness 1 + roughness * s(u) with s a sum of random low-order waves (|s| <= 1).
+a seeded smooth roughness 1 + roughness * s(u) with s a sum of random low-order waves (``|s| <= 1``).
 The result is translated so that its centre of mass (constant density) is the origin of the frame A,
 with z the intended spin axis (the axis of largest extent in x). Units: metres.
 """

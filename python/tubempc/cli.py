@@ -122,11 +122,41 @@ def _cmd_make_body(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_refly(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .analysis import refly_montecarlo_run
+
+    given = [f"--{n.replace('_', '-')}" for n in ("config", "scenario", "shape", "seed") if getattr(args, n) is not None]
+    if given or args.method != "both" or args.index is None:
+        print(
+            f"tubempc run --from-campaign: give --index and none of {', '.join(given) or '--config/--scenario/...'} "
+            "(the campaign fixes the configuration, the seed and the methods)",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE
+    cmp = refly_montecarlo_run(Path(args.from_campaign), args.index, Path(args.out))
+    for m, r in cmp["methods"].items():
+        print(f"{m:6s} J_p={r['J_p']:.10g} J_r={r['J_r']:.10g}")
+    if not cmp["equal"]:
+        differences = ", ".join(cmp["differences"])
+        print(f"run {args.index} re-flown differs from the campaign record: {differences}", file=sys.stderr)
+        return EXIT_INTERNAL
+    print(f"run {args.index} (seed {cmp['seed']}) re-flown: every metric and dispersion equals the campaign record")
+    print(f"results in {args.out}/ (refly.json, <method>.h5)")
+    return EXIT_OK
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from .runner import run_methods
 
+    if args.from_campaign is not None:
+        return _cmd_refly(args)
+    if args.index is not None:
+        print("tubempc run: --index goes with --from-campaign", file=sys.stderr)
+        return EXIT_USAGE
     cfg = _config(args)
     if cfg.defaulted:
         print(
@@ -325,6 +355,13 @@ def build_parser() -> argparse.ArgumentParser:
     p_run.add_argument("--cache-dir", help="reference-trajectory cache (default: OUT/cache)")
     p_run.add_argument("--no-figures", action="store_true")
     p_run.add_argument("--quiet", action="store_true", help="no progress bar")
+    p_run.add_argument(
+        "--from-campaign",
+        metavar="DIR",
+        help="re-fly one run of a Monte Carlo campaign (its configuration, seed and cut) and compare it with "
+        "the campaign's record",
+    )
+    p_run.add_argument("--index", type=int, help="with --from-campaign: the run's index")
     p_run.set_defaults(func=_cmd_run)
     p_exp = sub.add_parser(
         "export-scenario", help="write the closed loop's scenario file for C++ programs (examples/cpp/closed_loop)"

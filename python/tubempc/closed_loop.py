@@ -15,7 +15,7 @@ Each control step k (dt = 2 s, T = t_f / dt steps):
 5. recording into a :class:`tubempc.results.RunRecord`.
 
 The controller's state x = [r_L, v_L, phi, omega_BL_B] takes phi = log(q_B/L) on the branch nearest
-to the reference (so that phi follows the reference through |phi| = pi).
+to the reference (so that phi follows the reference through ``|phi| = pi``).
 """
 
 from __future__ import annotations
@@ -251,4 +251,28 @@ def simulate(
     rec.wall_time_s = time.perf_counter() - wall0
     if n_run < T:
         rec.truncate(n_run)
+    rec.applied = _applied(scn, plant, rec, max_steps)
     return rec
+
+
+def _applied(scn: Scenario, plant: _Plant, rec: RunRecord, max_steps: int | None) -> dict[str, Any]:
+    """The dispersions the run actually applied, with the realised disturbance's statistics (SI units,
+    per state component: mean, standard deviation and largest |w|) for checking that they were."""
+    sim = scn.config.simulation
+    w = rec.w_true
+    return {
+        "seed": rec.seed,
+        "max_steps": max_steps,
+        "disturbance": plant.disturbance.describe(),
+        "actuators": plant.actuators.describe(),
+        "truth": {
+            "density_scale": sim.density_scale,
+            "srp_scale": sim.srp_scale,
+            "truth_shape_subdivisions": sim.truth_shape_subdivisions,
+        },
+        "realised_disturbance": {
+            "mean": w.mean(axis=0).tolist(),
+            "std": w.std(axis=0).tolist(),
+            "max_abs": np.abs(w).max(axis=0).tolist(),
+        },
+    }

@@ -4,6 +4,7 @@ Arrays follow the state layout x = [r_L (m), v_L (m/s), phi (rad), omega_BL_B (r
 layout u = [u_p (m/s^2, frame L), T (N m, frame B)]. ``x`` has T + 1 rows (k = 0..T), ``u`` has T rows.
 
 Definitions used throughout (the paper gives no index range; this is the project's reading):
+
 - J_p = sum_{k=0}^{T-1} ||x_p(k) - zbar_p(k)||^2_Q + ||u_p(k)||^2_R with Q = I, R = I (Eq. 54), and J_r
   likewise for [phi, omega] and T (Eq. 55).
 - total control effort per group = sum_k ||u_g(k)||_2 (the paper's units m/s^2 and N m);

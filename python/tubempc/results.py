@@ -81,6 +81,9 @@ class RunRecord:
     failures: list[str] = field(default_factory=list)  # cause of each fallback ("solved": none)
     tube_statuses: list[str] = field(default_factory=list)  # per tube update: "<translation>/<rotation>"
     wall_time_s: float = 0.0
+    # What the run actually applied: its seeds, the disturbance model, the actuator errors drawn, the
+    # truth's physical mismatches (closed_loop.simulate; Monte Carlo runs keep it in their records).
+    applied: dict[str, Any] = field(default_factory=dict)
 
     @staticmethod
     def array_fields() -> list[dataclasses.Field[Any]]:
@@ -182,7 +185,7 @@ def save_record(
     arrays.update(
         status=np.array(record.statuses), failure=np.array(record.failures), tube_status=np.array(record.tube_statuses)
     )
-    meta = {"wall_time_s": record.wall_time_s, **(metadata or {})}
+    meta = {"wall_time_s": record.wall_time_s, "applied": record.applied, **(metadata or {})}
     return save_result(
         path, arrays, config=config, seed=record.seed, method=record.method, units=RunRecord.units(), metadata=meta
     )
@@ -207,5 +210,6 @@ def load_record(path: str | Path) -> tuple[RunRecord, dict[str, Any]]:
         failures=[str(v) for v in raw.get("failure", [])],
         tube_statuses=[str(v) for v in raw.get("tube_status", [])],
         wall_time_s=float(meta.get("wall_time_s", 0.0)),
+        applied=dict(meta.get("applied", {})),
     )
     return record, {k: raw[k] for k in ("config", "metadata", "tubempc_version")}

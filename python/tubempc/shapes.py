@@ -356,7 +356,7 @@ def bennu_like_shape(
 
     A geodesic sphere (each icosahedron edge cut into ``n_subdivisions`` segments: 20 n^2 faces,
     10 n^2 + 2 vertices; the default 12 gives 2880 faces, like the radar model's 2692) whose radius
-    in the direction of latitude phi and longitude lam is
+    in the direction of latitude phi and longitude lam is::
 
         r = s (1 + h exp(-(phi / w)^2)) (1 + b cos(2 lam) cos(phi)^2)
               / ((cos phi)^p + (|sin phi| / c)^p)^(1/p)

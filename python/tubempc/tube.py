@@ -17,7 +17,7 @@ P_W / (1 - alpha) <= 0). Since B Z B^T >= B Y Pe^-1 Y^T B^T, every point feasibl
 paper's form satisfies (*): the exact form used here is never more restrictive than the
 paper's, and the tube it certifies is invariant by the same argument. The other constraints
 and the objective are the paper's: [[Z, Y], [Y^T, Pe]] >= 0, [[Pe, Y^T], [Y, u_max^2 I]] >= 0
-(which gives K_i Pe K_i^T <= u_max^2 for every input row i, so |K e|_i <= u_max on Z), and
+(which gives K_i Pe K_i^T <= u_max^2 for every input row i, so ``|K e|_i <= u_max`` on Z), and
 min Tr(Q Pe) + Tr(R Z), i.e. Tr(C Pe C^T + B2 Z B2^T) with C = [Q^1/2; 0], B2 = [0; R^1/2].
 
 The scalar alpha is found by a one-dimensional search on the optimal value f(alpha), done in

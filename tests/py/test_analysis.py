@@ -62,3 +62,26 @@ def test_report_compares_with_the_paper_only_for_the_paper_scenario(tmp_path: Pa
         assert ("not the paper scenario" in text) == (not paper)
         assert "reference converged" in text and "steps outside the tube" in text and "fallback steps" in text
         assert "Theorem 2 envelope" in text  # the figure's caption
+
+
+def test_a_campaign_run_reflies_to_the_bit_and_a_changed_record_is_caught(tmp_path: Path) -> None:
+    from tubempc.cli import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, main
+
+    cfg = load_config().with_overrides({"disturbance.scale_error_p": 0.05, "disturbance.misalignment_p": "1 deg"})
+    out = tmp_path / "mc"
+    montecarlo(cfg, 2, out, master_seed=7, workers=2, progress=False, max_steps=12)
+    record_path = out / "runs" / "run_00001.json"
+    applied = json.loads(record_path.read_text())["result"]["applied"]
+    # the dispersions actually drawn and realised are in the record
+    assert applied["max_steps"] == 12 and applied["actuators"]["scale_error_p"] == 0.05
+    assert len(applied["actuators"]["scale_p"]) == 3 and applied["actuators"]["scale_p"] != [1.0, 1.0, 1.0]
+    assert len(applied["realised_disturbance"]["std"]) == 12 and max(applied["realised_disturbance"]["std"]) > 0.0
+    assert main(["run", "--from-campaign", str(out), "--index", "1", "--out", str(tmp_path / "again")]) == EXIT_OK
+    assert json.loads((tmp_path / "again" / "refly.json").read_text())["equal"]
+    # a record that does not match what the run flies is reported, metric by metric
+    rec = json.loads(record_path.read_text())
+    rec["result"]["ffa"]["J_p"] *= 1.0 + 1e-15
+    record_path.write_text(json.dumps(rec))
+    assert main(["run", "--from-campaign", str(out), "--index", "1", "--out", str(tmp_path / "b")]) == EXIT_INTERNAL
+    assert json.loads((tmp_path / "b" / "refly.json").read_text())["differences"] == ["ffa.J_p"]
+    assert main(["run", "--from-campaign", str(out), "--out", str(tmp_path / "c")]) == EXIT_USAGE
