@@ -40,6 +40,15 @@ def _gravity(d: dict[str, Any]) -> list[tuple[str, str]]:
                 f"{d['max_rel_diff_acceleration']:.1e}, gradient {d['max_rel_diff_gradient']:.1e} (max relative)",
             )
         )
+    if "basilisk_version" in d:
+        rows.append(
+            (
+                f"Basilisk {d['basilisk_version']} PolyhedralGravityModel (acceleration), same points",
+                f"{d['basilisk_us_per_point_1_thread']:.0f} us on 1 thread ({d['basilisk_ratio_1_thread']:.1f}x the "
+                f"time of tubempc's U, a and Hess U); agreement: potential {d['basilisk_max_rel_diff_potential']:.1e} "
+                f"(max relative), acceleration {d['basilisk_max_rel_diff_acceleration']:.1e} (relative to the largest)",
+            )
+        )
     return rows
 
 

@@ -64,6 +64,25 @@ def test_agrees_with_polyhedral_gravity(shape: tubempc.Shape) -> None:
     assert np.all(np.einsum("ij,ij->i", a[far], pts[far]) < 0)
 
 
+def test_agrees_with_basilisk(shape: tubempc.Shape) -> None:
+    """Basilisk's PolyhedralGravityModel (an independent implementation of the same formulas; vertices in
+    m, facets 1-based, muBody = G M) gives our U and a, at near, far and interior points."""
+    polyhedral = pytest.importorskip("Basilisk.simulation.polyhedralGravityModel")
+    model = PolyhedronGravity(shape.vertices, shape.faces, RHO)
+    poly = polyhedral.PolyhedralGravityModel()
+    poly.xyzVertex = shape.vertices.tolist()
+    poly.orderFacet = (shape.faces + 1).tolist()
+    poly.muBody = model.gm
+    poly.initializeParameters()
+    pts = _points(shape.mean_radius, seed=2)
+    U, a, _ = model.evaluate(pts)
+    a_bsk = np.array([np.asarray(poly.computeField(p), dtype=float).ravel() for p in pts])
+    U_bsk = np.array([poly.computePotentialEnergy(p) for p in pts])
+    assert np.max(np.abs(U - U_bsk) / U) < 1e-10
+    # relative to the largest |a|: the interior points come close to the centre of mass, where a -> 0
+    assert np.max(np.linalg.norm(a - a_bsk, axis=1)) < 1e-11 * np.max(np.linalg.norm(a, axis=1))
+
+
 def _extended_precision_reference(shape: tubempc.Shape, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     """Werner and Scheeres' formulas evaluated directly (vertex-relative vectors, triple product,
     ln of the ratio) in numpy's 80-bit long double: an independent implementation whose own
