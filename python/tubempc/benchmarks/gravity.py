@@ -183,7 +183,8 @@ def run(args: argparse.Namespace) -> int:
         # of mass, where a = 0 and a pointwise relative difference means nothing.
         rel_a = float(np.max(np.linalg.norm(a - bsk["a"], axis=1)) / np.max(np.linalg.norm(a, axis=1)))
         rel_u = float(np.max(np.abs(U - bsk["U"]) / np.abs(U)))
-        print(f"{'Basilisk ' + bsk['version']:24s}{1e6 * bsk['t1'] / n:11.1f} us   (PolyhedralGravityModel, one point per call)")
+        name = "Basilisk " + bsk["version"]
+        print(f"{name:24s}{1e6 * bsk['t1'] / n:11.1f} us   (PolyhedralGravityModel, one point per call)")
         print(f"{'ratio (theirs / ours)':24s}{bsk['t1'] / t1:13.1f}x")
         print(f"max difference: U {rel_u:.2e} (relative), a {rel_a:.2e} (relative to the largest |a|)")
         result.update(
