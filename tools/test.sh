@@ -14,8 +14,10 @@ missing=()
 [ -f /usr/include/gtest/gtest.h ] || missing+=(libgtest-dev)
 command -v doxygen > /dev/null || missing+=(doxygen)
 command -v clang-format > /dev/null || missing+=(clang-format)
+command -v chromium > /dev/null || missing+=(chromium)
 if [ ${#missing[@]} -gt 0 ]; then
-  echo "installing Debian's ${missing[*]} (GoogleTest for ctest, Doxygen for the header check, clang-format for the lint)"
+  echo "installing Debian's ${missing[*]} (GoogleTest for ctest, Doxygen for the header check and the C++ reference," \
+    "clang-format for the lint, Chromium for the report's 3D view test)"
   if [ "$(id -u)" = 0 ]; then SUDO=""; else SUDO="sudo"; fi
   $SUDO apt-get update -q && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q "${missing[@]}"
 fi

@@ -71,7 +71,14 @@ print(f"campaign: {mc['wall_time_s']:.1f} s on {mc['workers']} workers")
 # %%
 # The report
 # ----------
-# One self-contained HTML file (figures embedded) and its Markdown twin, from a results folder.
+# One self-contained HTML file (figures embedded) and its Markdown twin, from a results folder. The
+# HTML carries an interactive 3D view of the mission (plotly, inlined: it opens offline): the
+# asteroid and the glide-slope cone at t_f, the reference and both trajectories, the translational
+# tubes at true scale and the site. The test suite opens it in headless Chromium; its screenshot:
+#
+# .. image:: /img/view3d.png
+#    :alt: the report's 3D view of the default mission
+#    :width: 100%
 html, md = write_report(work / "run")
 print(f"{html.name}: {html.stat().st_size / 1e6:.1f} MB; {md.name}: {len(md.read_text().splitlines())} lines")
 print(np.round([summary["methods"][m]["J_p"] for m in ("tbmpc", "ffa")], 4))

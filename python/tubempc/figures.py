@@ -20,6 +20,7 @@ from matplotlib.figure import Figure
 
 from .metrics import ConvergenceFit
 from .results import RunRecord
+from .site import cone_grid
 
 __all__ = [
     "constraints",
@@ -64,14 +65,7 @@ def save(fig: Figure, path: str | Path, dpi: int = 110) -> Path:
 def _cone_surface(
     ax: Any, half_angle: float, apex: np.ndarray, axis: np.ndarray, height: float, color: str, label: str
 ) -> None:
-    a = axis / np.linalg.norm(axis)
-    e1 = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(a, e1)
-    H, TH = np.meshgrid(np.linspace(0.0, height, 12), np.linspace(0.0, 2 * np.pi, 48))
-    R = H * np.tan(half_angle)
-    pts = [apex[i] + H * a[i] + R * (np.cos(TH) * e1[i] + np.sin(TH) * e2[i]) for i in range(3)]
-    ax.plot_surface(*pts, color=color, alpha=0.07, linewidth=0)
+    ax.plot_surface(*cone_grid(apex, axis, half_angle, height), color=color, alpha=0.07, linewidth=0)
     ax.plot([], [], color=color, alpha=0.4, label=label)
 
 

@@ -99,6 +99,27 @@ def _scenario(folder: Path) -> tuple[Config | None, bool]:
     return cfg, cfg == load_config()
 
 
+def _mission_view(folder: Path, cfg: Config | None, methods: list[str]) -> tuple[str, str]:
+    """The interactive 3D view (HTML, tubempc.view3d) of a run folder and the section's note; a view
+    that cannot be drawn leaves a note instead and never fails the report."""
+    if cfg is None:
+        return "", "No 3D view: no readable config.toml beside the results."
+    try:
+        from .results import load_record
+        from .scenario import build_scenario
+        from .view3d import mission_view_html
+
+        scn = build_scenario(cfg, cache_dir=folder / "cache")
+        records = {m: load_record(folder / f"{m}.h5")[0] for m in methods}
+        view = mission_view_html(scn, records)
+    except Exception as exc:  # the report of the numbers must not depend on the view
+        return "", f"No 3D view: {type(exc).__name__}: {exc}"
+    return view, (
+        "Interactive in the HTML report (drag to turn, scroll to zoom): the asteroid and the glide-slope cone "
+        "at t_f, the reference and the actual trajectories, the translational tubes (true scale) and the site."
+    )
+
+
 def _scenario_text(cfg: Config | None, paper: bool) -> str:
     if cfg is None:
         return "scenario: unknown (no readable config.toml beside the results)"
@@ -200,6 +221,9 @@ def write_report(root: Path) -> tuple[Path, Path]:
         if "comparison" in s:
             red = s["comparison"]["J_p_reduction_percent"]
             paragraph(f"TBMPC-FFA's J_p is {red:.1f} % below TBMPC's" + (" (paper: 90.9 %)." if paper else "."))
+        view, note = _mission_view(run.parent, cfg, list(s["methods"]))
+        section("The mission in 3D", note)
+        parts_h.append(view)
         figures += sorted(run.parent.glob("fig*.png"))
     if sweep is not None:
         s = json.loads(sweep.read_text())

@@ -21,7 +21,7 @@ from .closed_loop import simulate
 from .config import Config
 from .machine import machine_info
 from .results import RunRecord, save_record
-from .scenario import Scenario, build_scenario
+from .scenario import Scenario, build_scenario, landing_geometry
 
 __all__ = ["run_methods", "run_summary", "save_figures"]
 
@@ -36,8 +36,8 @@ def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dic
     is skipped with a warning (the run's results are already written); returns {file: error}."""
     c = scn.config
     t_f = c.mpc.t_f
-    body_L = (np.asarray(scn.shape.vertices) @ np.asarray(scn.model.C_AL(t_f)), np.asarray(scn.shape.faces))
-    cone_L = scn.model.glide_slope_cone_L(t_f)
+    vertices_L, faces, apex_L, axis_L = landing_geometry(scn, t_f)
+    body_L, cone_L = (vertices_L, faces), (apex_L, axis_L)
     prior = np.concatenate([np.diag(c.identification.S0_p), np.diag(c.identification.S0_r)])
     jobs: list[tuple[str, Callable[[], Any]]] = [
         (

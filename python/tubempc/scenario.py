@@ -34,6 +34,7 @@ __all__ = [
     "build_scenario",
     "identifiers",
     "initial_tube",
+    "landing_geometry",
     "landing_site",
     "model_params",
     "model_structure",
@@ -418,3 +419,11 @@ def initial_tube(scn: Scenario) -> tuple[Array, Array]:
             )
         results.append(res)
     return block_tube(results[0], results[1])
+
+
+def landing_geometry(scn: Scenario, t: float) -> tuple[Array, Array, Array, Array]:
+    """The body and the glide-slope cone in the orbital frame L at time ``t`` (s): the shape's
+    vertices in L (m, (n, 3)), its faces ((m, 3), 0-based), the cone's apex in L (m) and its unit axis."""
+    vertices_L = np.asarray(scn.shape.vertices) @ np.asarray(scn.model.C_AL(t))
+    apex_L, axis_L = scn.model.glide_slope_cone_L(t)
+    return vertices_L, np.asarray(scn.shape.faces), np.asarray(apex_L), np.asarray(axis_L)

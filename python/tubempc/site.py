@@ -19,9 +19,35 @@ import numpy.typing as npt
 from ._core import so3
 from ._core.gravity import Shape
 
-__all__ = ["Site", "inside", "ray_cast", "site_from_lat_lon", "site_from_vector", "surface_normal", "terminal_state"]
+__all__ = [
+    "Site",
+    "cone_grid",
+    "inside",
+    "ray_cast",
+    "site_from_lat_lon",
+    "site_from_vector",
+    "surface_normal",
+    "terminal_state",
+]
 
 Array = npt.NDArray[np.float64]
+
+
+def cone_grid(
+    apex: npt.ArrayLike, axis: npt.ArrayLike, half_angle: float, height: float, n_height: int = 12, n_turn: int = 48
+) -> tuple[Array, Array, Array]:
+    """Surface grid (x, y, z, each (n_turn, n_height)) of the glide-slope cone with ``apex`` (m),
+    ``axis`` (any length), ``half_angle`` (rad) from the axis, up to ``height`` (m) along it (for plots)."""
+    c = np.asarray(apex, dtype=np.float64)
+    a = np.asarray(axis, dtype=np.float64)
+    a = a / np.linalg.norm(a)
+    e1 = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(a, e1)
+    h, t = np.meshgrid(np.linspace(0.0, height, n_height), np.linspace(0.0, 2.0 * np.pi, n_turn))
+    r = h * np.tan(half_angle)
+    x, y, z = (c[i] + h * a[i] + r * (np.cos(t) * e1[i] + np.sin(t) * e2[i]) for i in range(3))
+    return x, y, z
 
 
 def _triangles(shape: Shape) -> tuple[Array, Array, Array]:

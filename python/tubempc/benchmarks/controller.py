@@ -9,13 +9,12 @@ the same run. The JSON carries the machine and the configuration it ran with.
 from __future__ import annotations
 
 import argparse
-import json
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..machine import machine_info
+from . import write_json
 
 DESCRIPTION = "controller step (identify + tube update + MPC) per step of the closed loop, both methods"
 
@@ -63,7 +62,5 @@ def run(args: argparse.Namespace) -> int:
             f"tube median {t['median_ms']:.3g} (x{row['tube_over_mpc_median']:.2f} the MPC step's), p99 "
             f"{t['p99_ms']:.3g}, max {t['max_ms']:.3g}; steps outside the tube {row['steps_outside_tube']}"
         )
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(out, indent=1, sort_keys=True))
+    write_json(args.json, out)
     return 0

@@ -14,15 +14,14 @@ interval.
 from __future__ import annotations
 
 import argparse
-import json
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from ..machine import machine_info
+from . import write_json
 
 DESCRIPTION = "truth integrators (RK4 substeps, DOPRI5) against a tight DOP853 reference: error and cost"
 
@@ -156,7 +155,5 @@ def run(args: argparse.Namespace) -> int:
             f"{f['attitude_rad']:.2e} rad; {row['evaluations_per_interval']:.0f} evaluations, "
             f"{row['ms_per_interval']:.3g} ms per interval"
         )
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(out, indent=1, sort_keys=True))
+    write_json(args.json, out)
     return 0
