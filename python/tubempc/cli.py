@@ -25,7 +25,7 @@ from typing import Any
 
 from . import __version__, benchmarks
 
-_PYTHON_PACKAGES = ("numpy", "scipy", "cvxpy", "clarabel", "piqp")
+_PYTHON_PACKAGES = ("numpy", "scipy", "cvxpy", "clarabel", "piqp", "plotly")
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INPUT = 0, 1, 2, 3
 EXIT_GUARANTEE_LOST, EXIT_FAILED_RUNS, EXIT_INTERRUPTED = 4, 5, 130
 #: Control steps of one run above which ``run`` warns before starting (the default mission has 300).
