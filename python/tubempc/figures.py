@@ -28,6 +28,7 @@ __all__ = [
     "convergence",
     "disturbances",
     "errors",
+    "exceedances",
     "lambda_sensitivity",
     "montecarlo_envelopes",
     "save",
@@ -118,9 +119,15 @@ def trajectory_3d(
     return fig
 
 
-def _state_grid() -> tuple[Figure, Any]:
-    """A 4 x 3 grid: one row per state group, one column per axis."""
-    return plt.subplots(4, 3, figsize=(12, 11), sharex=True)
+#: State groups of the paper's figure pairs: position and velocity (Figs. 4, 6, 9), attitude and
+#: angular velocity (Figs. 5, 7, 10).
+TRANSLATION, ROTATION = (0, 1), (2, 3)
+
+
+def _state_grid(groups: Sequence[int] = (0, 1, 2, 3)) -> tuple[Figure, Any]:
+    """A grid of one row per state group in ``groups`` and one column per axis."""
+    fig, axes = plt.subplots(len(groups), 3, figsize=(12, 2.75 * len(groups) + 0.5), sharex=True, squeeze=False)
+    return fig, axes
 
 
 def _finish_state_grid(
@@ -130,13 +137,14 @@ def _finish_state_grid(
     title_prefix: str | None = None,
     suptitle: str = "",
     legend_size: int = 8,
+    groups: Sequence[int] = (0, 1, 2, 3),
 ) -> Figure:
-    for g in range(4):
+    for row, g in enumerate(groups):
         for i in range(3):
-            axes[g, i].set_ylabel(ylabel_prefix + _STATE_LABELS[g][i])
-            axes[g, i].grid(alpha=0.3)
+            axes[row, i].set_ylabel(ylabel_prefix + _STATE_LABELS[g][i])
+            axes[row, i].grid(alpha=0.3)
         if title_prefix is not None:
-            axes[g, 1].set_title(title_prefix + _GROUP_TITLES[g])
+            axes[row, 1].set_title(title_prefix + _GROUP_TITLES[g])
     for i in range(3):
         axes[-1, i].set_xlabel("t (s)")
     axes[0, 0].legend(fontsize=legend_size)
@@ -146,29 +154,28 @@ def _finish_state_grid(
     return fig
 
 
-def states(results: Mapping[str, RunRecord]) -> Figure:
-    """Figs. 4-5: the 12 states against the reference."""
-    fig, axes = _state_grid()
-    for name, r in results.items():
-        t = r.t
-        for g in range(4):
-            for i in range(3):
-                axes[g, i].plot(t, r.x[:, 3 * g + i], color=_COLORS.get(name), lw=1.2, label=name)
+def states(results: Mapping[str, RunRecord], groups: Sequence[int] = TRANSLATION) -> Figure:
+    """Fig. 4 (``groups`` = TRANSLATION) or Fig. 5 (ROTATION): the states against the reference."""
+    fig, axes = _state_grid(groups)
     ref = next(iter(results.values()))
-    for j in range(12):
-        axes[j // 3, j % 3].plot(ref.t, ref.zbar[:, j], "k--", lw=0.8, label="reference")
-    return _finish_state_grid(fig, axes, "", "")
+    for row, g in enumerate(groups):
+        for i in range(3):
+            j = 3 * g + i
+            for name, r in results.items():
+                axes[row, i].plot(r.t, r.x[:, j], **_style(name), label=name)
+            axes[row, i].plot(ref.t, ref.zbar[:, j], "k:", lw=1.0, label="reference", zorder=4)
+    return _finish_state_grid(fig, axes, "", "", "States (TBMPC solid, TBMPC-FFA dashed, reference dotted)", groups=groups)
 
 
-def errors(results: Mapping[str, RunRecord]) -> Figure:
-    """Figs. 6-7: tracking errors x - zbar per state."""
-    fig, axes = _state_grid()
+def errors(results: Mapping[str, RunRecord], groups: Sequence[int] = TRANSLATION) -> Figure:
+    """Fig. 6 (``groups`` = TRANSLATION) or Fig. 7 (ROTATION): tracking errors x - zbar."""
+    fig, axes = _state_grid(groups)
     for name, r in results.items():
         e = r.x - r.zbar
-        for g in range(4):
+        for row, g in enumerate(groups):
             for i in range(3):
-                axes[g, i].plot(r.t, e[:, 3 * g + i], color=_COLORS.get(name), lw=1.0, label=name)
-    return _finish_state_grid(fig, axes, "error ", "tracking error, ")
+                axes[row, i].plot(r.t, e[:, 3 * g + i], **_style(name), label=name)
+    return _finish_state_grid(fig, axes, "error ", "tracking error, ", groups=groups)
 
 
 def controls(results: Mapping[str, RunRecord], u_max: float, T_max: float) -> Figure:
@@ -196,12 +203,16 @@ def controls(results: Mapping[str, RunRecord], u_max: float, T_max: float) -> Fi
 
 
 def disturbances(
-    results: Mapping[str, RunRecord], pw_scale: float = 9.0, prior_variances: np.ndarray | None = None
+    results: Mapping[str, RunRecord],
+    pw_scale: float = 9.0,
+    prior_variances: np.ndarray | None = None,
+    groups: Sequence[int] = TRANSLATION,
 ) -> Figure:
-    """Fig. 9: measured exogenous inputs w with sqrt(pw_scale) sigma bounds: TBMPC-FFA's identified
-    (mean and covariance after each step) and TBMPC's fixed ones from the prior variances (12,)
-    when given (TBMPC designs its tube from the prior only)."""
-    fig, axes = _state_grid()
+    """Fig. 9 (``groups`` = TRANSLATION) or Fig. 10 (ROTATION): measured exogenous inputs w with
+    sqrt(pw_scale) sigma bounds: TBMPC-FFA's identified (mean and covariance after each step) and
+    TBMPC's fixed ones from the prior variances (12,) when given (TBMPC designs its tube from the
+    prior only)."""
+    fig, axes = _state_grid(groups)
     k_sigma = float(np.sqrt(pw_scale))
     for name, r in results.items():
         t = r.t[1:]
@@ -210,19 +221,58 @@ def disturbances(
         if name == "tbmpc" and prior_variances is not None:
             S = np.broadcast_to(np.asarray(prior_variances, dtype=float), S.shape)
             w_hat = np.zeros_like(w_hat)
-        for j in range(12):
-            ax = axes[j // 3, j % 3]
-            c = _COLORS.get(name)
-            if name == "tbmpc":  # dots under the FFA's line: the two w nearly coincide (same disturbance)
-                ax.plot(t, r.w[:, j], ".", color=c, ms=2.5, zorder=2, label=f"{name} w")
-            else:
-                ax.plot(t, r.w[:, j], color=c, lw=0.6, alpha=0.8, zorder=3, label=f"{name} w")
-            bound = k_sigma * np.sqrt(S[:, j])
-            style = _style(name, lw=_STYLE.get(name, {}).get("lw", 1.0))
-            ax.plot(t, w_hat[:, j] + bound, **style, label=f"{name} ±{k_sigma:.0f} sigma")
-            ax.plot(t, w_hat[:, j] - bound, **style)
+        for row, g in enumerate(groups):
+            for i in range(3):
+                j = 3 * g + i
+                _disturbance_axis(axes[row, i], name, t, r.w[:, j], w_hat[:, j], np.sqrt(S[:, j]), k_sigma)
     return _finish_state_grid(
-        fig, axes, "w ", None, "Exogenous inputs per step and identified bounds (TBMPC: wide solid, FFA: dashed)", 7
+        fig,
+        axes,
+        "w ",
+        None,
+        "Exogenous inputs per step and identified bounds (TBMPC: wide solid, FFA: dashed)",
+        7,
+        groups=groups,
+    )
+
+
+def _disturbance_axis(
+    ax: Any, name: str, t: np.ndarray, w: np.ndarray, w_hat: np.ndarray, sigma: np.ndarray, k_sigma: float
+) -> None:
+    c = _COLORS.get(name)
+    if name == "tbmpc":  # dots under the FFA's line: the two w nearly coincide (same disturbance)
+        ax.plot(t, w, ".", color=c, ms=2.5, zorder=2, label=f"{name} w")
+    else:
+        ax.plot(t, w, color=c, lw=0.6, alpha=0.8, zorder=3, label=f"{name} w")
+    style = _style(name, lw=_STYLE.get(name, {}).get("lw", 1.0))
+    ax.plot(t, w_hat + k_sigma * sigma, **style, label=f"{name} ±{k_sigma:.0f} sigma")
+    ax.plot(t, w_hat - k_sigma * sigma, **style)
+
+
+def exceedances(record: RunRecord, prior_variances: np.ndarray, pw_scale: float = 9.0) -> Figure:
+    """Fig. 11: TBMPC's measured attitude and angular-velocity exogenous inputs against its fixed
+    sqrt(pw_scale)-sigma bounds from the prior variances (12,), the steps outside them marked."""
+    fig, axes = _state_grid(ROTATION)
+    k_sigma = float(np.sqrt(pw_scale))
+    t = record.t[1:]
+    for row, g in enumerate(ROTATION):
+        for i in range(3):
+            j, ax = 3 * g + i, axes[row, i]
+            bound = k_sigma * float(np.sqrt(prior_variances[j]))
+            out = np.abs(record.w[:, j]) > bound
+            ax.plot(t, record.w[:, j], color=_COLORS["tbmpc"], lw=0.7, label="w (TBMPC)")
+            ax.axhline(bound, color="k", ls="--", lw=1.0, label=f"TBMPC ±{k_sigma:.0f} sigma (prior)")
+            ax.axhline(-bound, color="k", ls="--", lw=1.0)
+            ax.plot(t[out], record.w[out, j], "rx", ms=5, label="outside the bound")
+            ax.set_title(f"{int(out.sum())} of {out.size} steps outside", fontsize=8)
+    return _finish_state_grid(
+        fig,
+        axes,
+        "w ",
+        None,
+        "TBMPC's attitude exogenous inputs against its fixed bounds (paper Fig. 11)",
+        7,
+        groups=ROTATION,
     )
 
 

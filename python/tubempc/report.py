@@ -61,12 +61,18 @@ def _fmt(v: float) -> str:
 CAPTIONS = {
     "fig03_trajectory": "Trajectories in the orbital frame L with the asteroid and the glide-slope cone at t_f, "
     "the reference (dotted) and predicted horizons (paper Fig. 3).",
-    "fig04_states": "States of both methods against the reference (paper Figs. 4-5).",
-    "fig06_errors": "Tracking errors x - zbar (paper Figs. 6-7).",
+    "fig04_states_translation": "Position and velocity of both methods against the reference (paper Fig. 4).",
+    "fig05_states_rotation": "Attitude (Lie algebra) and angular velocity against the reference (paper Fig. 5).",
+    "fig06_errors_translation": "Tracking errors x - zbar of position and velocity (paper Fig. 6).",
+    "fig07_errors_rotation": "Tracking errors x - zbar of attitude and angular velocity (paper Fig. 7).",
     "fig08_controls": "Inputs with their limits (paper Fig. 8).",
-    "fig09_disturbances": "Measured exogenous inputs with TBMPC's fixed and TBMPC-FFA's identified 3-sigma bounds "
-    "(paper Figs. 9-11).",
-    "fig12_tube": "Actual minus nominal state inside the tube's projections (paper Figs. 10, 12).",
+    "fig09_disturbances_translation": "Measured exogenous inputs of position and velocity with TBMPC's fixed and "
+    "TBMPC-FFA's identified 3-sigma bounds (paper Fig. 9).",
+    "fig10_disturbances_rotation": "Measured exogenous inputs of attitude and angular velocity with TBMPC's fixed and "
+    "TBMPC-FFA's identified 3-sigma bounds (paper Fig. 10).",
+    "fig11_exceedances": "TBMPC's attitude exogenous inputs against its fixed 3-sigma bounds, the steps outside "
+    "them marked (paper Fig. 11).",
+    "fig12_tube": "Actual minus nominal state inside the tube's projections (paper Fig. 12).",
     "fig13_constraints": "Glide-slope and line-of-sight constraint values of the actual trajectories, feasible "
     "below 0 (paper Fig. 13).",
     "fig14_convergence_tbmpc": "TBMPC: velocity error norm and the fitted Theorem 2 envelope (paper Fig. 14).",

@@ -44,13 +44,27 @@ def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dic
             "fig03_trajectory.png",
             lambda: figures.trajectory_3d(records, c.constraints.glide_slope_angle, body_L=body_L, cone_L=cone_L),
         ),
-        ("fig04_states.png", lambda: figures.states(records)),
-        ("fig06_errors.png", lambda: figures.errors(records)),
+        ("fig04_states_translation.png", lambda: figures.states(records, figures.TRANSLATION)),
+        ("fig05_states_rotation.png", lambda: figures.states(records, figures.ROTATION)),
+        ("fig06_errors_translation.png", lambda: figures.errors(records, figures.TRANSLATION)),
+        ("fig07_errors_rotation.png", lambda: figures.errors(records, figures.ROTATION)),
         ("fig08_controls.png", lambda: figures.controls(records, c.spacecraft.u_max, c.spacecraft.T_max)),
-        ("fig09_disturbances.png", lambda: figures.disturbances(records, c.identification.pw_scale, prior)),
+        (
+            "fig09_disturbances_translation.png",
+            lambda: figures.disturbances(records, c.identification.pw_scale, prior, figures.TRANSLATION),
+        ),
+        (
+            "fig10_disturbances_rotation.png",
+            lambda: figures.disturbances(records, c.identification.pw_scale, prior, figures.ROTATION),
+        ),
         ("fig12_tube.png", lambda: figures.tube_projections(records)),
         ("fig13_constraints.png", lambda: figures.constraints(records)),
     ]
+
+    if "tbmpc" in records:
+        jobs.append(
+            ("fig11_exceedances.png", lambda: figures.exceedances(records["tbmpc"], prior, c.identification.pw_scale))
+        )
 
     def convergence(m: str, r: RunRecord) -> Callable[[], Any]:
         title = f"{m}: velocity error ||v - vbar|| and the Theorem 2 envelope"

@@ -134,13 +134,24 @@ def test_figures_render_from_a_short_run(scenario, tmp_path: Path) -> None:  # t
     cfg = scenario.config
     made = [
         figures.save(figures.trajectory_3d(runs, cfg.constraints.glide_slope_angle, every=1), tmp_path / "a.png"),
-        figures.save(figures.states(runs), tmp_path / "b.png"),
-        figures.save(figures.errors(runs), tmp_path / "c.png"),
         figures.save(figures.controls(runs, cfg.spacecraft.u_max, cfg.spacecraft.T_max), tmp_path / "d.png"),
-        figures.save(figures.disturbances(runs), tmp_path / "e.png"),
         figures.save(figures.tube_projections(runs), tmp_path / "f.png"),
         figures.save(figures.constraints(runs), tmp_path / "g.png"),
     ]
+    # the paper's figure pairs: translation (Figs. 4, 6, 9) and rotation (Figs. 5, 7, 10)
+    for groups in (figures.TRANSLATION, figures.ROTATION):
+        made += [
+            figures.save(figures.states(runs, groups), tmp_path / f"states{groups}.png"),
+            figures.save(figures.errors(runs, groups), tmp_path / f"errors{groups}.png"),
+            figures.save(figures.disturbances(runs, groups=groups), tmp_path / f"w{groups}.png"),
+        ]
+    # Fig. 11: a disturbance beyond TBMPC's prior bound is counted and marked
+    rec = runs["tbmpc"]
+    prior = np.r_[np.diag(cfg.identification.S0_p), np.diag(cfg.identification.S0_r)]
+    rec.w[1, 7] = 4.0 * np.sqrt(prior[7])  # phi_y, beyond 3 sigma
+    fig = figures.exceedances(rec, prior, 9.0)
+    assert [ax.get_title() for ax in fig.axes[:3]][1].startswith("1 of 3 steps outside")
+    made.append(figures.save(fig, tmp_path / "fig11.png"))
     for p in made:
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 10_000
 
