@@ -295,12 +295,15 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from .analysis import sweep
 
     s = sweep(_config(args), args.lambda_p, args.lambda_r, Path(args.out), seed=args.seed, progress=not args.quiet)
-    print(f"{'':40s} {'J_p':>8s} {'J_r':>8s} {'|dr(T)| m':>10s} {'RMS r m':>9s}")
+    print(f"{'':40s} {'J_p':>8s} {'J_r':>8s} {'|dr(T)| m':>10s} {'RMS r m':>9s} {'tube feasible':>14s}")
     for name, row in s["rows"].items():
+        feasible = "every step" if row["tube_feasible_every_step"] else f"no ({row['tube_design_failures']} designs)"
         print(
             f"{name:40s} {row['J_p']:8.4g} {row['J_r']:8.4g} {row['terminal_error']['position']:10.3g} "
-            f"{row['rms_error']['position']:9.3g}"
+            f"{row['rms_error']['position']:9.3g} {feasible:>14s}"
         )
+    smallest = s["smallest_feasible_lambda_p"]
+    print(f"smallest lambda_p with a feasible tube at every step: {smallest if smallest is not None else 'none'}")
     print(f"{args.out}/sweep.json and figures")
     return 0
 

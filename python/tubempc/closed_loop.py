@@ -248,6 +248,7 @@ def simulate(
                 bar.update()
     if bar is not None:
         bar.close()
+    rec.design_failures = list(policy.design_failures)
     rec.wall_time_s = time.perf_counter() - wall0
     if n_run < T:
         rec.truncate(n_run)

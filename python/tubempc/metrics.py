@@ -227,6 +227,11 @@ def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> dict[str, Any]:
             "velocity_convergence_fit": _fit_dict(rec),
             "statuses": dict(collections.Counter(rec.statuses)),
             "tube_statuses": dict(collections.Counter(rec.tube_statuses)),
+            # Every step flew a designed or certified tube: no failed LMI design, no step on a last
+            # certified tube because the step's could not be certified.
+            "tube_design_failures": len(rec.design_failures),
+            "tube_feasible_every_step": not rec.design_failures
+            and not any("LAST_CERTIFIED" in s or "INFEASIBLE" in s for s in rec.tube_statuses),
             "run_time_s": rec.wall_time_s,
             "seed": rec.seed,
         }

@@ -80,6 +80,7 @@ class RunRecord:
     statuses: list[str] = field(default_factory=list)  # MPC step status per step
     failures: list[str] = field(default_factory=list)  # cause of each fallback ("solved": none)
     tube_statuses: list[str] = field(default_factory=list)  # per tube update: "<translation>/<rotation>"
+    design_failures: list[str] = field(default_factory=list)  # failed LMI designs: "<step>:<subsystem>:<status>"
     wall_time_s: float = 0.0
     # What the run actually applied: its seeds, the disturbance model, the actuator errors drawn, the
     # truth's physical mismatches (closed_loop.simulate; Monte Carlo runs keep it in their records).
@@ -183,7 +184,10 @@ def save_record(
     and the seed) to an HDF5 file; returns the path."""
     arrays: dict[str, Any] = {f.name: getattr(record, f.name) for f in RunRecord.array_fields()}
     arrays.update(
-        status=np.array(record.statuses), failure=np.array(record.failures), tube_status=np.array(record.tube_statuses)
+        status=np.array(record.statuses),
+        failure=np.array(record.failures),
+        tube_status=np.array(record.tube_statuses),
+        design_failure=np.array(record.design_failures, dtype=str),
     )
     meta = {"wall_time_s": record.wall_time_s, "applied": record.applied, **(metadata or {})}
     return save_result(
@@ -209,6 +213,7 @@ def load_record(path: str | Path) -> tuple[RunRecord, dict[str, Any]]:
         statuses=[str(v) for v in raw.get("status", [])],
         failures=[str(v) for v in raw.get("failure", [])],
         tube_statuses=[str(v) for v in raw.get("tube_status", [])],
+        design_failures=[str(v) for v in raw.get("design_failure", [])],
         wall_time_s=float(meta.get("wall_time_s", 0.0)),
         applied=dict(meta.get("applied", {})),
     )

@@ -145,6 +145,8 @@ class TubeUpdatePolicy:
         self.design_delay = design_delay
         self.adopt_when_ready = adopt_when_ready
         self.adoptions: list[int] = []  # steps at which a background design was adopted
+        # LMI designs that failed, "<step started>:<subsystem>:<status>" (their tube was not used)
+        self.design_failures: list[str] = []
         self.last_wait_s = 0.0  # time the last update waited for a due design (pacing, not control)
         self._pending: tuple[int, list[cf.Future[TubeResult]], list[Array]] | None = None
         self._pending_args: list[tuple[TubeDesigner, tuple[Array, Array, Array, float | None]]] = []
@@ -239,6 +241,8 @@ class TubeUpdatePolicy:
                 continue
             res = job[0].result()
             names.append(res.status.name)
+            if not res.feasible:
+                self.design_failures.append(f"{k}:{i}:{res.status.name}")
             last = self.designers[i].last_feasible
             if res.feasible:
                 tubes.append(res)
@@ -284,6 +288,8 @@ class TubeUpdatePolicy:
                     if res.feasible:
                         self._designed[i] = res
                         self._designed_for[i] = designs_for[i]
+                    else:
+                        self.design_failures.append(f"{k0}:{i}:{res.status.name}")
                 self._pending = None
                 self.adoptions.append(k)
         if search and self._pending is None:
