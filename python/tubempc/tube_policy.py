@@ -9,7 +9,8 @@ current one; a failed first design is an error.
 
 With ``update = "lyapunov"`` (TBMPC-FFA) the LMI design runs only on the alpha-search steps; at
 every other step the tube is the certified Lyapunov update of the last design's K and alpha for the
-step's linearisation and identified P_W (:func:`tubempc.tube.lyapunov_tube`, status ``LYAPUNOV``),
+step's linearisation and identified P_W, inflated by (1 + ``margin``) as the designs are
+(:func:`tubempc.tube.lyapunov_tube`, status ``LYAPUNOV``),
 or, when that cannot be certified, the last certified tube (status ``LAST_CERTIFIED``). With
 ``design_delay`` = 0 the designs run synchronously at those steps. With ``design_delay`` = d >= 1 they
 run off the critical path, in the ``worker``: "process" (a separate process, so that the cvxpy work
@@ -265,7 +266,7 @@ class TubeUpdatePolicy:
         names: list[str] = []
         for i, des in enumerate(self.designers):
             design = self._designed[i]
-            tube = None if design is None else lyapunov_tube(A[i], B[i], design, P_W[i], des.u_max)[0]
+            tube = None if design is None else lyapunov_tube(A[i], B[i], design, (1.0 + self.margin) * P_W[i], des.u_max)[0]
             tubes.append(self.tubes[i] if tube is None else tube)
             names.append("LAST_CERTIFIED" if tube is None else "LYAPUNOV")
         self.tubes = tubes

@@ -151,6 +151,13 @@ def test_lyapunov_updates_between_designs_use_the_designs_gain() -> None:
     assert tubes[0].K is K and tubes[0].alpha == 0.9 and tubes[0].Pe is not None
     # the Lyapunov tube follows P_W: for P_W = s I it is s times the unit one (here PE_1 is for alpha 0.9, P_W = I)
     np.testing.assert_allclose(tubes[0].Pe, 5e-3 * PE_1, rtol=1e-6)
+    # with a redesign margin the Lyapunov tube is for (1 + margin) P_W, as the designs are
+    des = ScriptedDesigner([_tube(0.02, 0.9)])
+    with TubeUpdatePolicy([des], adaptive=True, alpha_search_period=3, threads=1, update="lyapunov", margin=0.5) as p:
+        _update(p, 0, 1e-3)
+        tubes, status = _update(p, 1, 4e-3)
+    assert status == "LYAPUNOV"
+    np.testing.assert_allclose(tubes[0].Pe, 1.5 * 4e-3 * PE_1, rtol=1e-6)
 
 
 def test_background_design_is_adopted_at_a_deterministic_step() -> None:
