@@ -297,7 +297,11 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     s = sweep(_config(args), args.lambda_p, args.lambda_r, Path(args.out), seed=args.seed, progress=not args.quiet)
     print(f"{'':40s} {'J_p':>8s} {'J_r':>8s} {'|dr(T)| m':>10s} {'RMS r m':>9s} {'tube feasible':>14s}")
     for name, row in s["rows"].items():
-        feasible = "every step" if row["tube_feasible_every_step"] else f"no ({row['tube_design_failures']} designs)"
+        feasible = (
+            "every step"
+            if row["tube_feasible_every_step"]
+            else f"no: {row['tube_design_failures']} designs failed, {row['tube_uncertified_steps']} steps uncertified"
+        )
         print(
             f"{name:40s} {row['J_p']:8.4g} {row['J_r']:8.4g} {row['terminal_error']['position']:10.3g} "
             f"{row['rms_error']['position']:9.3g} {feasible:>14s}"

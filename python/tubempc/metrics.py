@@ -230,6 +230,7 @@ def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> dict[str, Any]:
             # Every step flew a designed or certified tube: no failed LMI design, no step on a last
             # certified tube because the step's could not be certified.
             "tube_design_failures": len(rec.design_failures),
+            "tube_uncertified_steps": sum("LAST_CERTIFIED" in s or "INFEASIBLE" in s for s in rec.tube_statuses),
             "tube_feasible_every_step": not rec.design_failures
             and not any("LAST_CERTIFIED" in s or "INFEASIBLE" in s for s in rec.tube_statuses),
             "run_time_s": rec.wall_time_s,
