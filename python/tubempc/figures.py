@@ -18,11 +18,14 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
-from .metrics import ConvergenceFit
+from .metrics import ConvergenceFit, prior_bound_exceedances
 from .results import RunRecord
 from .site import cone_grid
 
 __all__ = [
+    "METHOD_COLORS",
+    "ROTATION",
+    "TRANSLATION",
     "constraints",
     "controls",
     "convergence",
@@ -44,14 +47,15 @@ _STATE_LABELS = [
     ("omega_x (rad/s)", "omega_y (rad/s)", "omega_z (rad/s)"),
 ]
 _GROUP_TITLES = ["position r_L", "velocity v_L", "attitude phi (Lie algebra)", "angular velocity omega_BL_B"]
-_COLORS = {"tbmpc": "tab:orange", "ffa": "tab:blue", "ref": "k"}
+#: Colour of each method (and the reference) in every figure and the report's 3D view.
+METHOD_COLORS = {"tbmpc": "tab:orange", "ffa": "tab:blue", "ref": "k"}
 # Both methods are drawn in the same axes and often nearly coincide: TBMPC wide and solid underneath,
 # TBMPC-FFA narrow and dashed on top, so that every legend entry stays visible.
 _STYLE = {"tbmpc": {"lw": 2.4, "ls": "-", "zorder": 2}, "ffa": {"lw": 1.0, "ls": "--", "zorder": 3}}
 
 
 def _style(name: str, **extra: Any) -> dict[str, Any]:
-    return {"color": _COLORS.get(name), **_STYLE.get(name, {"lw": 1.2}), **extra}
+    return {"color": METHOD_COLORS.get(name), **_STYLE.get(name, {"lw": 1.2}), **extra}
 
 
 def save(fig: Figure, path: str | Path, dpi: int = 110) -> Path:
@@ -103,7 +107,7 @@ def trajectory_3d(
         ax.plot(x[:, 0], x[:, 1], x[:, 2], **_style(name), label=f"{name} actual")
         for k in range(0, r.z_plan.shape[0], every):
             zp = r.z_plan[k]
-            ax.plot(zp[:, 0], zp[:, 1], zp[:, 2], color=_COLORS.get(name), lw=0.6, alpha=0.5)
+            ax.plot(zp[:, 0], zp[:, 1], zp[:, 2], color=METHOD_COLORS.get(name), lw=0.6, alpha=0.5)
     ax.scatter(*ref[0, :3], color="g", s=30, label="start")
     ax.scatter(*ref[-1, :3], color="r", s=30, label="target at t_f")
     ax.set_xlim(centre[0] - half, centre[0] + half)
@@ -186,7 +190,7 @@ def controls(results: Mapping[str, RunRecord], u_max: float, T_max: float) -> Fi
         t = r.t[:-1]
         for g in range(2):
             for i in range(3):
-                axes[g, i].step(t, r.u[:, 3 * g + i], where="post", color=_COLORS.get(name), lw=1.0, label=name)
+                axes[g, i].step(t, r.u[:, 3 * g + i], where="post", color=METHOD_COLORS.get(name), lw=1.0, label=name)
     for g, lim in enumerate((u_max, T_max)):
         for i in range(3):
             ax = axes[g, i]
@@ -239,7 +243,7 @@ def disturbances(
 def _disturbance_axis(
     ax: Any, name: str, t: np.ndarray, w: np.ndarray, w_hat: np.ndarray, sigma: np.ndarray, k_sigma: float
 ) -> None:
-    c = _COLORS.get(name)
+    c = METHOD_COLORS.get(name)
     if name == "tbmpc":  # dots under the FFA's line: the two w nearly coincide (same disturbance)
         ax.plot(t, w, ".", color=c, ms=2.5, zorder=2, label=f"{name} w")
     else:
@@ -255,12 +259,13 @@ def exceedances(record: RunRecord, prior_variances: np.ndarray, pw_scale: float 
     fig, axes = _state_grid(ROTATION)
     k_sigma = float(np.sqrt(pw_scale))
     t = record.t[1:]
+    outside = prior_bound_exceedances(record.w, prior_variances, pw_scale)
     for row, g in enumerate(ROTATION):
         for i in range(3):
             j, ax = 3 * g + i, axes[row, i]
             bound = k_sigma * float(np.sqrt(prior_variances[j]))
-            out = np.abs(record.w[:, j]) > bound
-            ax.plot(t, record.w[:, j], color=_COLORS["tbmpc"], lw=0.7, label="w (TBMPC)")
+            out = outside[:, j]
+            ax.plot(t, record.w[:, j], color=METHOD_COLORS["tbmpc"], lw=0.7, label="w (TBMPC)")
             ax.axhline(bound, color="k", ls="--", lw=1.0, label=f"TBMPC ±{k_sigma:.0f} sigma (prior)")
             ax.axhline(-bound, color="k", ls="--", lw=1.0)
             ax.plot(t[out], record.w[out, j], "rx", ms=5, label="outside the bound")
@@ -287,7 +292,7 @@ def tube_projections(results: Mapping[str, RunRecord]) -> Figure:
         )
         for j in range(12):
             ax = axes[j // 3, j % 3]
-            c = _COLORS.get(name)
+            c = METHOD_COLORS.get(name)
             ax.plot(t, e[:, j], color=c, lw=1.0, label=f"{name} x - z")
             ax.fill_between(t, -half[:, j], half[:, j], color=c, alpha=0.12, label=f"{name} tube")
     return _finish_state_grid(fig, axes, "", None, "Actual minus nominal state inside the tube projections", 7)

@@ -34,6 +34,7 @@ __all__ = [
     "control_effort",
     "fit_exponential_convergence",
     "performance_index",
+    "prior_bound_exceedances",
     "rms_error",
     "run_metrics",
     "step_time_stats",
@@ -238,3 +239,9 @@ def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> dict[str, Any]:
         }
     )
     return s
+
+
+def prior_bound_exceedances(w: Array, prior_variances: Array, pw_scale: float) -> npt.NDArray[np.bool_]:
+    """Where the measured exogenous inputs ``w`` (T, 12) leave TBMPC's fixed per-component bound
+    sqrt(pw_scale * prior variance) (paper Fig. 11): a boolean (T, 12) array."""
+    return np.asarray(np.abs(w) > np.sqrt(pw_scale * np.asarray(prior_variances, dtype=np.float64)))

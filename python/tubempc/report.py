@@ -17,18 +17,10 @@ from pathlib import Path
 from typing import Any
 
 from . import __version__
-from .claims import paper_claims
+from .claims import PAPER_REDUCTION_TABLE3, PAPER_REDUCTION_TABLE4, PAPER_TABLE3, PAPER_TABLE4, paper_claims
 from .config import Config, ConfigError, load_config
 
-__all__ = ["PAPER_TABLE3", "PAPER_TABLE4", "write_report"]
-
-#: Paper Table 3 (J_p, J_r) for TBMPC and TBMPC-FFA at lambda_p = 0.96, 0.97, 0.98.
-PAPER_TABLE3 = {"TBMPC": (16.2627, 16.3634), "0.96": (1.4787, 21.2822), "0.97": (1.5708, 22.2176), "0.98": (1.6187, 24.2805)}
-#: Paper Table 4: mean and 3 sigma of J_p and J_r over 100 Monte Carlo runs.
-PAPER_TABLE4 = {
-    "tbmpc": {"J_p": (12.2953, 0.9761), "J_r": (16.4749, 2.3100)},
-    "ffa": {"J_p": (1.1763, 0.1054), "J_r": (20.9028, 2.88102)},
-}
+__all__ = ["write_report"]
 
 _WHY = (
     "The paper does not publish its disturbance realisation, its truth model or its spacecraft inertia, so "
@@ -227,7 +219,8 @@ def write_report(root: Path) -> tuple[Path, Path]:
         )
         if "comparison" in s:
             red = s["comparison"]["J_p_reduction_percent"]
-            paragraph(f"TBMPC-FFA's J_p is {red:.1f} % below TBMPC's" + (" (paper: 90.9 %)." if paper else "."))
+            paper_red = f" (paper: {PAPER_REDUCTION_TABLE3:.1f} %)." if paper else "."
+            paragraph(f"TBMPC-FFA's J_p is {red:.1f} % below TBMPC's" + paper_red)
         view, note = _mission_view(run.parent, cfg, list(s["methods"]))
         section("The mission in 3D", note)
         parts_h.append(view)
@@ -287,7 +280,7 @@ def write_report(root: Path) -> tuple[Path, Path]:
         table([*head, "runs outside the tube"], rows)
         if "J_p_mean_reduction_percent" in s:
             red = s["J_p_mean_reduction_percent"]
-            paragraph(f"Mean J_p reduction: {red:.1f} %" + (" (paper: 90.4 %)." if paper else "."))
+            paragraph(f"Mean J_p reduction: {red:.1f} %" + (f" (paper: {PAPER_REDUCTION_TABLE4:.1f} %)." if paper else "."))
         figures += sorted(mc.parent.glob("fig*.png"))
     claims = paper_claims(
         run.parent if run is not None else None,

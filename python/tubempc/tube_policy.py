@@ -48,6 +48,9 @@ Array = npt.NDArray[np.float64]
 
 DESIGN_WORKERS = ("process", "thread", "inline")
 
+# One subsystem's design: its designer, A, B, the P_W designed for and the previous alpha.
+_DesignArgs = tuple[TubeDesigner, Array, Array, Array, float | None]
+
 # The process that runs background designs: one per Python process, started on first use and shared
 # by every policy (its start-up, mostly importing cvxpy, is paid once); its designers are rebuilt
 # from their spec once and kept.
@@ -149,8 +152,8 @@ class TubeUpdatePolicy:
         # LMI designs that failed, "<step started>:<subsystem>:<status>" (their tube was not used)
         self.design_failures: list[str] = []
         self.last_wait_s = 0.0  # time the last update waited for a due design (pacing, not control)
-        self._pending: tuple[int, list[cf.Future[TubeResult]], list[Array]] | None = None
-        self._pending_args: list[tuple[TubeDesigner, tuple[Array, Array, Array, float | None]]] = []
+        # a background design in flight: the step it started, its futures and each subsystem's arguments
+        self._pending: tuple[int, list[cf.Future[TubeResult]], list[_DesignArgs]] | None = None
         self.designers = list(designers)
         self.adaptive = adaptive
         self.margin = margin if adaptive else 0.0
@@ -275,7 +278,7 @@ class TubeUpdatePolicy:
     def _background(self, k: int, search: bool, A: Sequence[Array], B: Sequence[Array], P_W: Sequence[Array]) -> None:
         """Adopts a finished (or due) background design; starts one on a search step."""
         if self._pending is not None:
-            k0, futures, designs_for = self._pending
+            k0, futures, args = self._pending
             due = all(f.done() for f in futures) if self.adopt_when_ready else k >= k0 + self.design_delay
             if due:
                 t0 = time.perf_counter()
@@ -283,27 +286,22 @@ class TubeUpdatePolicy:
                     results = [future.result() for future in futures]  # waits only for a due design not yet done
                 except BrokenProcessPool as exc:  # the design process died: this design is redone in a thread
                     self._to_thread(exc)
-                    results = [self._submit(i, des, *args).result() for i, (des, args) in enumerate(self._pending_args)]
+                    results = [self._submit(i, *a).result() for i, a in enumerate(args)]
                 self.last_wait_s = time.perf_counter() - t0
                 for i, res in enumerate(results):
                     if res.feasible:
                         self._designed[i] = res
-                        self._designed_for[i] = designs_for[i]
+                        self._designed_for[i] = args[i][3]  # the P_W it was designed for
                     else:
                         self.design_failures.append(f"{k0}:{i}:{res.status.name}")
                 self._pending = None
                 self.adoptions.append(k)
         if search and self._pending is None:
-            futures, designs_for = [], []
-            self._pending_args = []
-            for i, des in enumerate(self.designers):
-                design = self._designed[i]
-                P_design = (1.0 + self.margin) * P_W[i]
-                alpha_prev = design.alpha if design is not None else None
-                self._pending_args.append((des, (A[i], B[i], P_design, alpha_prev)))
-                futures.append(self._submit(i, des, A[i], B[i], P_design, alpha_prev))
-                designs_for.append(P_design)
-            self._pending = (k, futures, designs_for)
+            jobs: list[_DesignArgs] = [
+                (des, A[i], B[i], (1.0 + self.margin) * P_W[i], None if d is None else d.alpha)
+                for i, (des, d) in enumerate(zip(self.designers, self._designed, strict=True))
+            ]
+            self._pending = (k, [self._submit(i, *job) for i, job in enumerate(jobs)], jobs)
 
     def _submit(
         self, i: int, des: TubeDesigner, A: Array, B: Array, P_W: Array, alpha_prev: float | None

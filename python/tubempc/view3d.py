@@ -22,7 +22,6 @@ __all__ = ["mission_view_html"]
 
 Array = npt.NDArray[np.float64]
 
-_COLORS = {"tbmpc": "#1f77b4", "ffa": "#d62728"}
 _NAMES = {"tbmpc": "TBMPC", "ffa": "TBMPC-FFA"}
 
 
@@ -44,6 +43,9 @@ def mission_view_html(
 ) -> str:
     """An HTML fragment (a div with the figure and plotly.js inlined) of the mission's 3D view."""
     import plotly.graph_objects as go
+    from matplotlib.colors import to_hex
+
+    from .figures import METHOD_COLORS
 
     cfg = scn.config
     t_f = cfg.mpc.t_f
@@ -97,7 +99,7 @@ def mission_view_html(
         )
     )
     for method, rec in records.items():
-        color, name = _COLORS.get(method, "#555555"), _NAMES.get(method, method)
+        color, name = to_hex(METHOD_COLORS.get(method, "0.35")), _NAMES.get(method, method)
         x = rec.x[:, :3]
         fig.add_trace(
             go.Scatter3d(

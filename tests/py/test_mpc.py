@@ -249,30 +249,11 @@ def test_shrinking_phase_qps_have_clarabels_optimum() -> None:
     terminal penalty, multipliers up to ~1e6) against Clarabel at 1e-10: the objectives agree to 1e-6
     relative. Before the active set judged its constraint rows on their own scale, 7 of them differed
     by up to 1.4e-5 (a violation of ~1e-9 times multipliers of ~5e5)."""
-    from tubempc.benchmarks.mpc import run_mission
-    from tubempc.config import load_config
-    from tubempc.disturbances import AdditiveDisturbance
-    from tubempc.scenario import build_scenario, initial_tube, mpc_settings
+    from tubempc.benchmarks.mpc import bennu_plant, run_mission
 
-    cfg = load_config()
-    scn = build_scenario(cfg)
-    ref, dt = scn.reference, cfg.mpc.dt
-    dist = AdditiveDisturbance(cfg.disturbance.S_p, cfg.disturbance.S_r, seed=0)
-
-    def truth(k: int, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        prop = scn.truth.propagate(k * dt, scn.truth.state_to_truth(x), u, dt, method="rk4", substeps=2)
-        w_p, w_r = dist.sample()
-        return np.asarray(scn.truth.truth_to_state(np.asarray(prop.state), ref.x[k + 1, 6:9])) + np.r_[w_p, w_r]
-
-    T, N = scn.n_steps, cfg.mpc.horizon
-    _, qps = run_mission(
-        mpc.LinearizedProximityModel(scn.model.core),
-        mpc_settings(scn),
-        mpc.Reference(ref.x.T.copy(), ref.u.T.copy(), 0.0),
-        mpc.Tube(*initial_tube(scn)),
-        truth,
-        set(range(T - N, T)),
-    )
+    model, settings, reference, tube, truth = bennu_plant(0)
+    T, N = reference.z.shape[1] - 1, settings.horizon
+    _, qps = run_mission(model, settings, reference, tube, truth, set(range(T - N, T)))
     assert len(qps) >= N - 2  # every solved step of the phase
     worst = 0.0
     for qp, _, objective, _ in qps.values():

@@ -248,38 +248,41 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", metavar="PATH", help="write the figures as JSON")
 
 
-def _bennu_plant(args: argparse.Namespace) -> tuple[Any, Any, Any, Any, Callable[[int, Arr, Arr], Arr]]:
-    """The default scenario's controller, reference, TBMPC tube and truth (tubempc.scenario)."""
+def bennu_plant(
+    seed: int = 0, *, steps: int | None = None, dense: bool = False, position_tolerance: float | None = None
+) -> tuple[Any, Any, Any, Any, Callable[[int, Arr, Arr], Arr]]:
+    """The default scenario's controller model, MPC settings, reference (its first ``steps`` steps),
+    TBMPC tube and truth (tubempc.scenario; the configured propagator and disturbance with ``seed``):
+    the arguments of :func:`run_mission`. ``dense`` drops the block structure of the QP matrices."""
     from ..config import load_config
     from ..disturbances import AdditiveDisturbance
-    from ..scenario import build_scenario, initial_tube, mpc_settings
+    from ..scenario import build_scenario, initial_tube, mpc_settings, propagator_options
 
     cfg = load_config()
     scn = build_scenario(cfg)
     settings = mpc_settings(scn)
-    if args.structure == "dense":
+    if dense:
         empty = np.zeros((0, 0))
         settings.A_structure, settings.B_structure, settings.G_structure = empty, empty, empty
-    steps = min(args.steps, scn.n_steps)
+    steps = scn.n_steps if steps is None else min(steps, scn.n_steps)
     ref = scn.reference
     reference = mpc.Reference(ref.x[: steps + 1].T.copy(), ref.u[:steps].T.copy(), 0.0)
     K, Pe = initial_tube(scn)
-    dist = AdditiveDisturbance(cfg.disturbance.S_p, cfg.disturbance.S_r, seed=args.seed)
+    dist = AdditiveDisturbance(cfg.disturbance.S_p, cfg.disturbance.S_r, seed=seed)
+    propagate_kw = propagator_options(cfg)
 
     def truth(k: int, x: Arr, u: Arr) -> Arr:
-        prop = scn.truth.propagate(
-            k * cfg.mpc.dt, scn.truth.state_to_truth(x), u, cfg.mpc.dt, method="rk4", substeps=cfg.simulation.substeps
-        )
+        prop = scn.truth.propagate(k * cfg.mpc.dt, scn.truth.state_to_truth(x), u, cfg.mpc.dt, **propagate_kw)
         w_p, w_r = dist.sample()
         return np.asarray(
             scn.truth.truth_to_state(np.asarray(prop.state), ref.x[k + 1, 6:9]) + np.concatenate([w_p, w_r]),
             dtype=np.float64,
         )
 
-    if args.position_tolerance is None:
+    if position_tolerance is None:
         model = mpc.LinearizedProximityModel(scn.model.core)
     else:
-        model = mpc.LinearizedProximityModel(scn.model.core, args.position_tolerance)
+        model = mpc.LinearizedProximityModel(scn.model.core, position_tolerance)
     return model, settings, reference, mpc.Tube(K, Pe), truth
 
 
@@ -292,10 +295,11 @@ def run(args: argparse.Namespace) -> int:
     info = machine_info()
     print(f"machine: {info['cpu']} ({info['cores']} cores), Python {info['python']}")
     if args.plant == "bennu":
-        model, settings, reference, tube, truth = _bennu_plant(args)
+        plant = {"steps": args.steps, "dense": args.structure == "dense", "position_tolerance": args.position_tolerance}
+        model, settings, reference, tube, truth = bennu_plant(args.seed, **plant)
 
         def fresh_truth() -> Callable[[int, Arr, Arr], Arr]:
-            return _bennu_plant(args)[4]
+            return bennu_plant(args.seed, **plant)[4]
 
         plant_text = (
             "plant: the default scenario's 6-DOF model (generated Bennu-like shape, polyhedral gravity, "
