@@ -140,6 +140,20 @@ def _montecarlo(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     return rows
 
 
+def _sweep(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
+    rows = []
+    for label, r in d["rows"].items():
+        rows.append(
+            (
+                f"lambda sweep {name.removeprefix('sweep_')}, seed {d['seed']}: {label}",
+                f"J_p {r['J_p']:.4g}, J_r {r['J_r']:.4g}, mean x tube half-width {r['mean_tube_half_width_x_m']:.3g} m; "
+                f"steps outside the tube {r['steps_outside_tube']}, failed LMI designs {r['tube_design_failures']}, "
+                f"steps on the last certified tube {r['tube_uncertified_steps']}",
+            )
+        )
+    return rows
+
+
 def _controller(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     rows = []
     for m, r in d["methods"].items():
@@ -189,6 +203,7 @@ EXTRACTORS: dict[str, Callable[[dict[str, Any], str], list[tuple[str, str]]]] = 
     "controller": _controller,
     "integrator": lambda d, _: _integrator(d),
     "montecarlo": _montecarlo,
+    "sweep": _sweep,
     "test_command": lambda d, _: _test_command(d),
 }
 

@@ -297,6 +297,7 @@ def sweep(
     summary = {
         "seed": seed,
         "config_hash": cfg.hash(),
+        "machine": machine_info(),
         "rows": rows,
         # of the lambda_p swept: the smallest whose TBMPC-FFA flew a designed or certified tube at every step
         "smallest_feasible_lambda_p": min(feasible) if feasible else None,

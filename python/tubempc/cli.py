@@ -293,9 +293,10 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from .analysis import sweep
+    from .claims import holding_floor
 
     s = sweep(_config(args), args.lambda_p, args.lambda_r, Path(args.out), seed=args.seed, progress=not args.quiet)
-    print(f"{'':40s} {'J_p':>8s} {'J_r':>8s} {'|dr(T)| m':>10s} {'RMS r m':>9s} {'tube feasible':>14s}")
+    print(f"{'':40s} {'J_p':>8s} {'J_r':>8s} {'|dr(T)| m':>10s} {'RMS r m':>9s} {'outside':>8s} {'tube feasible':>14s}")
     for name, row in s["rows"].items():
         feasible = (
             "every step"
@@ -304,10 +305,12 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         )
         print(
             f"{name:40s} {row['J_p']:8.4g} {row['J_r']:8.4g} {row['terminal_error']['position']:10.3g} "
-            f"{row['rms_error']['position']:9.3g} {feasible:>14s}"
+            f"{row['rms_error']['position']:9.3g} {row['steps_outside_tube']:8d} {feasible:>14s}"
         )
     smallest = s["smallest_feasible_lambda_p"]
     print(f"smallest lambda_p with a feasible tube at every step: {smallest if smallest is not None else 'none'}")
+    floor = holding_floor([r for r in s["rows"].values() if "lambda_p" in r])
+    print(f"the tube holds (feasible, never left) for every lambda_p swept >= {floor if floor is not None else 'none'}")
     print(f"{args.out}/sweep.json and figures")
     return 0
 

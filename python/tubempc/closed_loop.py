@@ -42,6 +42,7 @@ from .scenario import (
     block_tube,
     identifiers,
     mpc_settings,
+    plant_disturbance,
     propagator_options,
     tube_designers,
 )
@@ -70,7 +71,7 @@ class _Plant:
         prop = scn.truth.propagate(k * dt, self.state, u_applied, dt, **self.propagate_kw)
         if prop.status.name != "Success":
             raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
-        w_p, w_r = self.disturbance.sample()
+        w_p, w_r = self.disturbance.sample(k)
         x_next = scn.truth.truth_to_state(np.asarray(prop.state), scn.reference.x[k + 1, 6:9])
         x_next[P_STATES] += w_p
         x_next[R_STATES] += w_r
@@ -168,7 +169,7 @@ def _new_plant(scn: Scenario, seed: int) -> _Plant:
     dist = scn.config.disturbance
     return _Plant(
         scn,
-        AdditiveDisturbance(dist.S_p, dist.S_r, seed=seed),
+        plant_disturbance(scn, seed),
         ActuatorMismatch(seed + 1, dist.scale_error_p, dist.misalignment_p, dist.scale_error_r, dist.misalignment_r),
         propagator_options(scn.config),
         scn.model.state_to_truth(scn.x0),

@@ -215,7 +215,10 @@ class Identification:
     """Forgetting-factor identification (PAPER_NOTES "Disturbance identification").
 
     measured_input: "residual" (default) or "reference_deviation" (literal Eq. 26);
-    prior_weight: zeta(0) (0 = the paper's literal recursion, see identification.py);
+    prior_memory: the prior's weight zeta(0) in units of the recursion's steady-state weight
+    q / (1 - q), q = e^(lam - 1): 1 (default) counts the prior as one full memory, forgotten like
+    every measurement at the rate q per step; 0 = the paper's literal recursion (forgotten at once);
+    see identification.py and docs/decisions.md;
     pw_scale: P_W = pw_scale * S^; eig_floor: see ForgettingFactorIdentifier. Priors per
     3-axis block: w0_* the mean, S0_* the per-axis variances (Table 1).
     """
@@ -223,7 +226,7 @@ class Identification:
     lambda_p: float = field(metadata=_num(check=_UNIT_INTERVAL))
     lambda_r: float = field(metadata=_num(check=_UNIT_INTERVAL))
     measured_input: str = field(metadata=_opt("residual", "reference_deviation"))
-    prior_weight: float = field(metadata=_num(check=_NONNEG))
+    prior_memory: float = field(metadata=_num(check=_NONNEG))
     pw_scale: float = field(metadata=_num(check=_POS))
     eig_floor: float = field(metadata=_num(check=_POS))
     w0_p_position: FloatArray = field(metadata=_q("m", "length", (3,)))
@@ -256,13 +259,16 @@ class Identification:
 class Disturbance:
     """Simulated disturbance (disturbances.py): additive, uniform in the ellipsoids with the
     per-axis squared semi-axes S_*, plus actuator mismatch. Project defaults, not the
-    paper's (which does not give its realisation)."""
+    paper's (which does not give its realisation). growth_p, growth_r: the ellipsoids' semi-axes
+    grow linearly in time from 1 x at the first step to growth_* x at the last (1: stationary)."""
 
     seed: int = field(metadata=_int(check=(lambda v: v >= 0, ">= 0")))
     S_p_position: FloatArray = field(metadata=_q("m^2", "length^2", (3,), _NONNEG))
     S_p_velocity: FloatArray = field(metadata=_q("m^2/s^2", "velocity^2", (3,), _NONNEG))
     S_r_attitude: FloatArray = field(metadata=_q("rad^2", "angle^2", (3,), _NONNEG))
     S_r_rate: FloatArray = field(metadata=_q("rad^2/s^2", "angular velocity^2", (3,), _NONNEG))
+    growth_p: float = field(metadata=_num(check=_NONNEG))
+    growth_r: float = field(metadata=_num(check=_NONNEG))
     scale_error_p: float = field(metadata=_num(check=_FRACTION))
     misalignment_p: float = field(metadata=_q("rad", "angle", check=_FRACTION))
     scale_error_r: float = field(metadata=_num(check=_FRACTION))
@@ -558,11 +564,21 @@ REMOVED_FIELDS: frozenset[tuple[str, str]] = frozenset(
     {("asteroid", "G"), ("asteroid", "shape_mean_radius"), ("disturbance", "model")}
 )
 
+#: Old fields whose meaning changed (section, old) -> how to write it now; a ConfigError.
+REPLACED_FIELDS: dict[tuple[str, str], str] = {
+    ("identification", "prior_weight"): (
+        "replaced by prior_memory, the prior's weight in units of the steady-state weight q / (1 - q), "
+        "q = e^(lambda - 1) (1: one full memory, the default; 0: the literal recursion, as prior_weight = 0)"
+    ),
+}
+
 
 def _upgrade(section: str, raw: Mapping[str, Any], where: str) -> dict[str, Any]:
     """The section with old spellings replaced (each with a ConfigDeprecationWarning)."""
     out: dict[str, Any] = {}
     for key, value in raw.items():
+        if (section, key) in REPLACED_FIELDS:
+            raise ConfigError(f"{where}.{key}: {REPLACED_FIELDS[(section, key)]}")
         if (section, key) in REMOVED_FIELDS:
             warnings.warn(
                 f"{where}.{key}: the field is no longer used and is ignored; remove it",
@@ -658,6 +674,10 @@ def _check_consistency(c: Config) -> None:
 #: Packaged scenarios (``tubempc scenarios``): name -> (file under tubempc/data, one-line description).
 SCENARIOS: dict[str, tuple[str, str]] = {
     "bennu-paper": (_DEFAULT, "the paper's landing at Bennu's pole (Tables 1-2); the default"),
+    "bennu-paper-within-prior": (
+        "scenarios/bennu_paper_within_prior.toml",
+        "the paper's landing with a stationary attitude disturbance inside the prior's 3-sigma bound",
+    ),
     "bennu-equator": (
         "scenarios/bennu_equator.toml",
         "a site near Bennu's equator, approached from hovering 500 m above it; the cone turns with Bennu",
@@ -706,6 +726,7 @@ __all__ = [
     "REMOVED_FIELDS",
     "RENAMED_FIELDS",
     "RENAMED_VALUES",
+    "REPLACED_FIELDS",
     "SCENARIOS",
     "Asteroid",
     "Boundary",

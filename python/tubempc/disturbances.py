@@ -106,6 +106,10 @@ class AdditiveDisturbance:
     B)], composed with the attitude and added to omega by the simulator. Each part is uniform
     in its ellipsoid (S_p, S_r: 6x6 or 6 diagonal entries, SI units squared) around its
     center; the two parts draw from independent streams spawned from `seed`.
+
+    growth_p, growth_r (>= 0): the ellipsoid's semi-axes at step k are scaled by
+    1 + (growth - 1) k / (n_steps - 1), from 1 at the first step to `growth` at the last
+    (docs/decisions.md, "The paper's claims"); 1 keeps the disturbance stationary.
     """
 
     def __init__(
@@ -115,7 +119,17 @@ class AdditiveDisturbance:
         seed: int,
         center_p: ArrayLike | None = None,
         center_r: ArrayLike | None = None,
+        *,
+        growth_p: float = 1.0,
+        growth_r: float = 1.0,
+        n_steps: int = 1,
     ) -> None:
+        for name, v in (("growth_p", growth_p), ("growth_r", growth_r)):
+            if not (math.isfinite(v) and v >= 0.0):
+                raise ValueError(f"{name} must be finite and >= 0, got {v}")
+        if n_steps < 1:
+            raise ValueError(f"n_steps must be >= 1, got {n_steps}")
+        self.growth_p, self.growth_r, self.n_steps = float(growth_p), float(growth_r), int(n_steps)
         self.seed = int(seed)
         self.S_p = _as_cov("S_p", S_p, 6)
         self.S_r = _as_cov("S_r", S_r, 6)
@@ -125,10 +139,16 @@ class AdditiveDisturbance:
         self._rng_p = np.random.default_rng(seq_p)
         self._rng_r = np.random.default_rng(seq_r)
 
-    def sample(self) -> tuple[FloatArray, FloatArray]:
-        """One step's (w_p, w_r), each of shape (6,)."""
-        w_p = self.center_p + sample_ellipsoid(self.S_p, 1, self._rng_p)[0]
-        w_r = self.center_r + sample_ellipsoid(self.S_r, 1, self._rng_r)[0]
+    def scale(self, k: int) -> tuple[float, float]:
+        """The semi-axis scales (translation, rotation) of step k (see the class doc)."""
+        f = min(max(k, 0), self.n_steps - 1) / max(self.n_steps - 1, 1)
+        return 1.0 + (self.growth_p - 1.0) * f, 1.0 + (self.growth_r - 1.0) * f
+
+    def sample(self, k: int = 0) -> tuple[FloatArray, FloatArray]:
+        """Step k's (w_p, w_r), each of shape (6,)."""
+        s_p, s_r = self.scale(k)
+        w_p = self.center_p + s_p * sample_ellipsoid(self.S_p, 1, self._rng_p)[0]
+        w_r = self.center_r + s_r * sample_ellipsoid(self.S_r, 1, self._rng_r)[0]
         return w_p, w_r
 
     def describe(self) -> dict[str, Any]:
@@ -139,6 +159,9 @@ class AdditiveDisturbance:
             "center_p": self.center_p.tolist(),
             "S_r": self.S_r.tolist(),
             "center_r": self.center_r.tolist(),
+            "growth_p": self.growth_p,
+            "growth_r": self.growth_r,
+            "n_steps": self.n_steps,
         }
 
 

@@ -69,9 +69,10 @@ class ForgettingFactorIdentifier:
     gives w^_1 = w_0 and S^_1 = 0 whatever the prior: S^_0 is forgotten at once. PAPER_NOTES
     lists S^_0 (Table 1) as the identification's initial condition and the paper describes a
     conservative initial tube that "gradually shrinks", which the literal form cannot
-    produce. The default therefore keeps the prior as a pseudo-measurement of weight
-    prior_weight = 1 (zeta(0) = 1, so the prior decays like one past sample, by q per step);
-    prior_weight = 0 is the paper's literal recursion.
+    produce. prior_weight = zeta(0) > 0 keeps the prior as a pseudo-measurement of that weight
+    (this class's default 1: like one past sample); prior_weight = 0 is the paper's literal
+    recursion. The scenarios use zeta(0) = prior_memory * q / (1 - q) (scenario.identifiers):
+    with prior_memory = 1 zeta stays constant and the prior decays by q per step.
 
     eig_floor: the returned S^ has its eigenvalues floored so that, in the coordinates scaled
     by the prior's standard deviations sqrt(diag(S0)), every eigenvalue is >= eig_floor

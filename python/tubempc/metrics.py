@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from .results import RunRecord
 
 __all__ = [
+    "CERTIFIED_TUBE_STATUSES",
     "GROUPS",
     "ConvergenceFit",
     "control_effort",
@@ -42,6 +43,7 @@ __all__ = [
     "summarize",
     "terminal_error",
     "tube_excursion",
+    "tube_status_certified",
     "velocity_convergence",
 ]
 
@@ -201,6 +203,17 @@ def _fit_dict(rec: RunRecord) -> dict[str, float]:
     return {"C_e0_m_per_s": fit.C * fit.e0, "rho": fit.rho, "ebar_m_per_s": fit.ebar}
 
 
+#: Tube-update statuses (tube_policy.py) whose tube is designed or certified for the step's identified P_W.
+CERTIFIED_TUBE_STATUSES = frozenset(
+    {"OPTIMAL", "OPTIMAL_INACCURATE", "KEPT", "LYAPUNOV", "LYAPUNOV_NO_MARGIN", "SYNC_OPTIMAL", "SYNC_OPTIMAL_INACCURATE"}
+)
+
+
+def tube_status_certified(status: str) -> bool:
+    """A step's tube status "<translation>/<rotation>" names a designed or certified tube for both."""
+    return all(part in CERTIFIED_TUBE_STATUSES for part in status.split("/"))
+
+
 def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> dict[str, Any]:
     """Every scalar result of one closed-loop run (JSON-ready): :func:`summarize`, the tube
     excursions, the constraint violations of the actual trajectory, step-time statistics, solver
@@ -231,9 +244,8 @@ def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> dict[str, Any]:
             # Every step flew a designed or certified tube: no failed LMI design, no step on a last
             # certified tube because the step's could not be certified.
             "tube_design_failures": len(rec.design_failures),
-            "tube_uncertified_steps": sum("LAST_CERTIFIED" in s or "INFEASIBLE" in s for s in rec.tube_statuses),
-            "tube_feasible_every_step": not rec.design_failures
-            and not any("LAST_CERTIFIED" in s or "INFEASIBLE" in s for s in rec.tube_statuses),
+            "tube_uncertified_steps": sum(not tube_status_certified(s) for s in rec.tube_statuses),
+            "tube_feasible_every_step": not rec.design_failures and all(map(tube_status_certified, rec.tube_statuses)),
             "run_time_s": rec.wall_time_s,
             "seed": rec.seed,
         }

@@ -9,6 +9,7 @@ option to a C++ setting lives here, once.
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +20,7 @@ import numpy.typing as npt
 
 from . import _core
 from .config import Config
+from .disturbances import AdditiveDisturbance
 from .dynamics import ProximityModel
 from .identification import ForgettingFactorIdentifier
 from .reference import ReferenceSettings, ReferenceTrajectory, load_or_generate_reference
@@ -36,9 +38,11 @@ __all__ = [
     "initial_tube",
     "landing_geometry",
     "landing_site",
+    "memory_weight",
     "model_params",
     "model_structure",
     "mpc_settings",
+    "plant_disturbance",
     "propagator_options",
     "propagator_settings",
     "scenario_shape",
@@ -387,11 +391,29 @@ def identifiers(
     """Forgetting-factor identifiers of both subsystems at their prior (paper Eq. 26-29);
     ``lambda_p``/``lambda_r`` override the configuration's forgetting factors."""
     ident = cfg.identification
-    common = {"prior_weight": ident.prior_weight, "eig_floor": ident.eig_floor, "pw_scale": ident.pw_scale}
+    common = {"eig_floor": ident.eig_floor, "pw_scale": ident.pw_scale}
+    lam_p, lam_r = lambda_p or ident.lambda_p, lambda_r or ident.lambda_r
     return (
-        ForgettingFactorIdentifier(lambda_p or ident.lambda_p, ident.w0_p, ident.S0_p, **common),
-        ForgettingFactorIdentifier(lambda_r or ident.lambda_r, ident.w0_r, ident.S0_r, **common),
+        ForgettingFactorIdentifier(
+            lam_p, ident.w0_p, ident.S0_p, prior_weight=ident.prior_memory * memory_weight(lam_p), **common
+        ),
+        ForgettingFactorIdentifier(
+            lam_r, ident.w0_r, ident.S0_r, prior_weight=ident.prior_memory * memory_weight(lam_r), **common
+        ),
     )
+
+
+def memory_weight(lam: float) -> float:
+    """The recursion's steady-state weight zeta(inf) = q / (1 - q), q = e^(lam - 1) (paper Eq. 27): the
+    weight of a prior worth one full memory (``identification.prior_memory`` = 1)."""
+    q = math.exp(lam - 1.0)
+    return q / (1.0 - q)
+
+
+def plant_disturbance(scn: Scenario, seed: int) -> AdditiveDisturbance:
+    """The simulated additive disturbance of a run with seed ``seed`` (``[disturbance]``)."""
+    d = scn.config.disturbance
+    return AdditiveDisturbance(d.S_p, d.S_r, seed=seed, growth_p=d.growth_p, growth_r=d.growth_r, n_steps=scn.n_steps)
 
 
 def block_tube(tp: TubeResult, tr: TubeResult) -> tuple[Array, Array]:

@@ -11,7 +11,9 @@ With ``update = "lyapunov"`` (TBMPC-FFA) the LMI design runs only on the alpha-s
 every other step the tube is the certified Lyapunov update of the last design's K and alpha for the
 step's linearisation and identified P_W, inflated by (1 + ``margin``) as the designs are
 (:func:`tubempc.tube.lyapunov_tube`, status ``LYAPUNOV``),
-or, when that cannot be certified, the last certified tube (status ``LAST_CERTIFIED``). With
+or, when the margin cannot be kept (a disturbance grown since the design), the update for the identified
+P_W itself (``LYAPUNOV_NO_MARGIN``, and the next step starts a design); when even that cannot be certified,
+an LMI design in the step itself (``SYNC_<status>``; if it fails, the last certified tube). With
 ``design_delay`` = 0 the designs run synchronously at those steps. With ``design_delay`` = d >= 1 they
 run off the critical path, in the ``worker``: "process" (a separate process, so that the cvxpy work
 never holds the control loop's GIL), "thread" (a background thread) or "inline" (at the search step
@@ -154,6 +156,8 @@ class TubeUpdatePolicy:
         self.last_wait_s = 0.0  # time the last update waited for a due design (pacing, not control)
         # a background design in flight: the step it started, its futures and each subsystem's arguments
         self._pending: tuple[int, list[cf.Future[TubeResult]], list[_DesignArgs]] | None = None
+        # the last Lyapunov update could not keep the margin: the next step starts a design (lyapunov update)
+        self._margin_lost = False
         self.designers = list(designers)
         self.adaptive = adaptive
         self.margin = margin if adaptive else 0.0
@@ -212,9 +216,9 @@ class TubeUpdatePolicy:
         if self.update_kind == "lyapunov" and self.tubes is not None:
             if self.design_delay > 0:
                 self._background(k, search, A, B, P_W)
-                return self._lyapunov(A, B, P_W)
+                return self._lyapunov(k, A, B, P_W)
             if not search:
-                return self._lyapunov(A, B, P_W)
+                return self._lyapunov(k, A, B, P_W)
         jobs: list[tuple[cf.Future[TubeResult], Array] | None] = []
         for i, des in enumerate(self.designers):
             prev = None if self.tubes is None else self.tubes[i]
@@ -263,20 +267,41 @@ class TubeUpdatePolicy:
         self.tubes = tubes
         return tubes, "/".join(names)
 
-    def _lyapunov(self, A: Sequence[Array], B: Sequence[Array], P_W: Sequence[Array]) -> tuple[list[TubeResult], str]:
+    def _lyapunov(
+        self, k: int, A: Sequence[Array], B: Sequence[Array], P_W: Sequence[Array]
+    ) -> tuple[list[TubeResult], str]:
         assert self.tubes is not None
         tubes: list[TubeResult] = []
         names: list[str] = []
         for i, des in enumerate(self.designers):
             design = self._designed[i]
             tube = None if design is None else lyapunov_tube(A[i], B[i], design, (1.0 + self.margin) * P_W[i], des.u_max)[0]
-            tubes.append(self.tubes[i] if tube is None else tube)
-            names.append("LAST_CERTIFIED" if tube is None else "LYAPUNOV")
+            name = "LYAPUNOV"
+            if tube is None and design is not None and self.margin > 0.0:
+                # Certified for the identified P_W itself, without the margin (which a disturbance growing
+                # since the design has used up): still robust for the identified set.
+                tube = lyapunov_tube(A[i], B[i], design, P_W[i], des.u_max)[0]
+                name = "LYAPUNOV_NO_MARGIN"
+            if tube is None:
+                # Nothing certified for this step's P_W: an LMI design now, in this step (tens of ms, rare),
+                # so that every step flies a tube certified for the identified set while the LMI is feasible.
+                P_design = (1.0 + self.margin) * P_W[i]
+                res = des.design(A[i], B[i], P_design, None if design is None else design.alpha)
+                name = f"SYNC_{res.status.name}"
+                if res.feasible:
+                    tube = res
+                    self._designed[i], self._designed_for[i] = res, P_design
+                else:
+                    self.design_failures.append(f"{k}:{i}:{res.status.name}")
+            tubes.append(self.tubes[i] if tube is None else tube)  # SYNC_<failure>: the last certified tube
+            names.append(name)
+        self._margin_lost = any(n != "LYAPUNOV" for n in names)
         self.tubes = tubes
         return tubes, "/".join(names)
 
     def _background(self, k: int, search: bool, A: Sequence[Array], B: Sequence[Array], P_W: Sequence[Array]) -> None:
-        """Adopts a finished (or due) background design; starts one on a search step."""
+        """Adopts a finished (or due) background design; starts one on a search step, or on the step after
+        a Lyapunov update that could not keep the margin (a disturbance grown since the last design)."""
         if self._pending is not None:
             k0, futures, args = self._pending
             due = all(f.done() for f in futures) if self.adopt_when_ready else k >= k0 + self.design_delay
@@ -296,7 +321,7 @@ class TubeUpdatePolicy:
                         self.design_failures.append(f"{k0}:{i}:{res.status.name}")
                 self._pending = None
                 self.adoptions.append(k)
-        if search and self._pending is None:
+        if (search or self._margin_lost) and self._pending is None:
             jobs: list[_DesignArgs] = [
                 (des, A[i], B[i], (1.0 + self.margin) * P_W[i], None if d is None else d.alpha)
                 for i, (des, d) in enumerate(zip(self.designers, self._designed, strict=True))

@@ -62,7 +62,7 @@ def test_lost_guarantee_is_reported_and_sets_the_exit_status(tmp_path: Path, cap
 
 def test_partial_config_says_which_fields_are_defaults(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     cfg = tmp_path / "short.toml"
-    cfg.write_text("[disturbance]\nseed = 3\n", encoding="utf-8")
+    cfg.write_text("[disturbance]\nseed = 3\ngrowth_r = 1.0\n", encoding="utf-8")
     assert (
         main(["run", "--config", str(cfg), "--method", "tbmpc", "--out", str(tmp_path / "o"), "--quiet", "--no-figures"])
         == EXIT_OK

@@ -207,6 +207,13 @@ def test_old_and_new_name_together_is_an_error(tmp_path: Path) -> None:
         load_config(p)
 
 
+def test_a_field_whose_meaning_changed_is_an_error_saying_what_to_write(tmp_path: Path) -> None:
+    p = _write(tmp_path, _edit(_default_text(), r"^prior_memory = 1.0", "prior_weight = 5.0"))
+    with pytest.raises(ConfigError, match=r"identification\.prior_weight: replaced by prior_memory") as info:
+        load_config(p)
+    assert str(p) in str(info.value)
+
+
 def test_partial_file_takes_the_packaged_defaults_and_says_which(tmp_path: Path) -> None:
     p = _write(tmp_path, '[mpc]\nhorizon = 20\n\n[spacecraft]\nu_max = "0.4 m/s^2"\n')
     c = load_config(p)

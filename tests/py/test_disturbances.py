@@ -116,3 +116,25 @@ def test_actuator_mismatch() -> None:
     assert json.loads(json.dumps(a.describe()))["seed"] == 5
     with pytest.raises(ValueError, match="scale_error_p"):
         ActuatorMismatch(0, scale_error_p=1.5)
+
+
+def test_growing_disturbance_scales_the_same_draws_linearly_in_time() -> None:
+    S_p = np.diag([4e-2] * 3 + [2.5e-3] * 3)
+    S_r = np.diag([9e-6] * 3 + [9e-8] * 3)
+    n = 301
+    fixed = AdditiveDisturbance(S_p, S_r, seed=4)
+    grown = AdditiveDisturbance(S_p, S_r, seed=4, growth_p=0.5, growth_r=2.5, n_steps=n)
+    assert grown.scale(0) == (1.0, 1.0) and grown.scale(n - 1) == (0.5, 2.5)
+    assert grown.scale(150) == pytest.approx((0.75, 1.75)) and grown.scale(10_000) == (0.5, 2.5)
+    for k in range(n):
+        (a_p, a_r), (b_p, b_r) = fixed.sample(k), grown.sample(k)
+        s_p, s_r = 1.0 - 0.5 * k / (n - 1), 1.0 + 1.5 * k / (n - 1)
+        np.testing.assert_allclose(b_p, s_p * a_p, rtol=1e-15)
+        np.testing.assert_allclose(b_r, s_r * a_r, rtol=1e-15)
+    # The last steps' attitude inputs lie in the 2.5x ellipsoid, and most leave the 1x one.
+    late = np.array([grown.sample(n - 1)[1] for _ in range(200)])
+    m2 = _mahalanobis2(S_r, late)
+    assert m2.max() <= 2.5**2 + 1e-9 and np.mean(m2 > 1.0) > 0.9
+    assert json.loads(json.dumps(grown.describe()))["growth_r"] == 2.5
+    with pytest.raises(ValueError, match="growth_r"):
+        AdditiveDisturbance(S_p, S_r, seed=0, growth_r=float("nan"))

@@ -128,3 +128,25 @@ def test_measured_input_definitions() -> None:
     np.testing.assert_allclose(measured_reference_deviation(x_next, [3.0, 3.0]), [1.0, -2.0])
     with pytest.raises(ValueError, match="non-finite"):
         measured_reference_deviation([np.nan, 0.0], [0.0, 0.0])
+
+
+@pytest.mark.parametrize(("lam_p", "lam_r"), [(0.96, 0.98), (0.98, 0.995), (0.5, 0.8)])
+def test_a_prior_worth_one_memory_is_forgotten_at_the_forgetting_rate(lam_p: float, lam_r: float) -> None:
+    # prior_memory = 1: zeta(0) = q / (1 - q) stays constant, so with inputs at the prior mean the
+    # estimate is exactly the prior decayed by q^k = e^((lam - 1) k), the rate of every measurement.
+    from tubempc.config import load_config
+    from tubempc.scenario import identifiers, memory_weight
+
+    cfg = load_config()
+    assert cfg.identification.prior_memory == 1.0
+    for ident, lam, S0 in zip(
+        identifiers(cfg, lam_p, lam_r), (lam_p, lam_r), (cfg.identification.S0_p, cfg.identification.S0_r), strict=True
+    ):
+        q = math.exp(lam - 1.0)
+        assert ident.zeta == pytest.approx(memory_weight(lam), rel=1e-15) == pytest.approx(q / (1 - q))
+        for k in range(1, 40):
+            ident.update(np.zeros(6))
+            assert ident.zeta == pytest.approx(q / (1 - q), rel=1e-12)
+            np.testing.assert_allclose(ident.S_hat, max(q**k, 1e-6) * S0, rtol=1e-9)
+    literal = identifiers(cfg.with_overrides({"identification.prior_memory": 0.0}))
+    assert literal[0].zeta == 0.0 and literal[1].zeta == 0.0

@@ -215,3 +215,27 @@ def test_every_design_worker_gives_the_threads_numbers(worker: str) -> None:
 
     for a, b in zip(fly("thread"), fly(worker), strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("sync_status", [TubeStatus.OPTIMAL, TubeStatus.INFEASIBLE])
+def test_a_growing_disturbance_drops_the_margin_then_designs_in_the_step(sync_status: TubeStatus) -> None:
+    # u_max admits the Lyapunov tube of the design's K for P_W up to 1.2e-2 I: with the margin 0.5 up to 0.8e-2 I.
+    c = float(np.sqrt(K @ PE_1 @ K.T)[0, 0])
+    des = ScriptedDesigner([_tube(0.02, 0.9), _tube(0.03, 0.8), _tube(0.04, 0.7, sync_status)])
+    des.u_max = c * np.sqrt(1.2e-2)
+    kw: dict[str, Any] = {"alpha_search_period": 100, "threads": 1, "update": "lyapunov", "margin": 0.5}
+    with TubeUpdatePolicy([des], adaptive=True, design_delay=2, worker="inline", **kw) as policy:
+        steps = [_update(policy, k, P_W) for k, P_W in enumerate([1e-3, 5e-3, 1e-2, 2e-2])]
+    statuses = [s for _, s in steps]
+    assert statuses == ["OPTIMAL", "LYAPUNOV", "LYAPUNOV_NO_MARGIN", f"SYNC_{sync_status.name}"]
+    np.testing.assert_allclose(steps[1][0][0].Pe, 1.5 * 5e-3 * PE_1, rtol=1e-6)
+    np.testing.assert_allclose(steps[2][0][0].Pe, 1e-2 * PE_1, rtol=1e-6)  # certified for P_W itself
+    # step 3: the lost margin started a background design (for 1.5 P_W), and nothing certified for 2e-2 I
+    # made the step design its own tube
+    assert [call[0] for call in des.calls] == ["search", "search", "search"]
+    np.testing.assert_allclose(des.calls[2][1], 1.5 * 2e-2 * np.eye(2))
+    if sync_status is TubeStatus.OPTIMAL:
+        assert steps[3][0][0].alpha == 0.7 and not policy.design_failures
+    else:  # an infeasible design: the last certified tube, and the failure is recorded
+        np.testing.assert_allclose(steps[3][0][0].Pe, 1e-2 * PE_1, rtol=1e-6)
+        assert policy.design_failures == ["3:0:INFEASIBLE"]
