@@ -165,6 +165,7 @@ class TubeUpdatePolicy:
         self.tubes: list[TubeResult] | None = None
         self._designed_for: list[Array | None] = [None] * len(self.designers)  # the P_W of each tube
         self._designed: list[TubeResult | None] = [None] * len(self.designers)  # each one's last LMI design
+        self._sync_step = [-1] * len(self.designers)  # the step of each one's last in-step (SYNC) design
         self._pool = cf.ThreadPoolExecutor(max_workers=max(1, min(len(self.designers), int(threads))))
         self.worker = worker
         self._keys: list[bytes] = []
@@ -290,7 +291,7 @@ class TubeUpdatePolicy:
                 name = f"SYNC_{res.status.name}"
                 if res.feasible:
                     tube = res
-                    self._designed[i], self._designed_for[i] = res, P_design
+                    self._designed[i], self._designed_for[i], self._sync_step[i] = res, P_design, k
                 else:
                     self.design_failures.append(f"{k}:{i}:{res.status.name}")
             tubes.append(self.tubes[i] if tube is None else tube)  # SYNC_<failure>: the last certified tube
@@ -314,11 +315,11 @@ class TubeUpdatePolicy:
                     results = [self._submit(i, *a).result() for i, a in enumerate(args)]
                 self.last_wait_s = time.perf_counter() - t0
                 for i, res in enumerate(results):
-                    if res.feasible:
+                    if not res.feasible:
+                        self.design_failures.append(f"{k0}:{i}:{res.status.name}")
+                    elif k0 > self._sync_step[i]:  # an in-step design since k0 is newer: keep it
                         self._designed[i] = res
                         self._designed_for[i] = args[i][3]  # the P_W it was designed for
-                    else:
-                        self.design_failures.append(f"{k0}:{i}:{res.status.name}")
                 self._pending = None
                 self.adoptions.append(k)
         if (search or self._margin_lost) and self._pending is None:

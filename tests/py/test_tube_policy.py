@@ -225,17 +225,22 @@ def test_a_growing_disturbance_drops_the_margin_then_designs_in_the_step(sync_st
     des.u_max = c * np.sqrt(1.2e-2)
     kw: dict[str, Any] = {"alpha_search_period": 100, "threads": 1, "update": "lyapunov", "margin": 0.5}
     with TubeUpdatePolicy([des], adaptive=True, design_delay=2, worker="inline", **kw) as policy:
-        steps = [_update(policy, k, P_W) for k, P_W in enumerate([1e-3, 5e-3, 1e-2, 2e-2])]
+        steps = [_update(policy, k, P_W) for k, P_W in enumerate([1e-3, 5e-3, 1e-2, 2e-2, 1e-3, 1e-3])]
     statuses = [s for _, s in steps]
-    assert statuses == ["OPTIMAL", "LYAPUNOV", "LYAPUNOV_NO_MARGIN", f"SYNC_{sync_status.name}"]
+    assert statuses == ["OPTIMAL", "LYAPUNOV", "LYAPUNOV_NO_MARGIN", f"SYNC_{sync_status.name}", "LYAPUNOV", "LYAPUNOV"]
     np.testing.assert_allclose(steps[1][0][0].Pe, 1.5 * 5e-3 * PE_1, rtol=1e-6)
     np.testing.assert_allclose(steps[2][0][0].Pe, 1e-2 * PE_1, rtol=1e-6)  # certified for P_W itself
     # step 3: the lost margin started a background design (for 1.5 P_W), and nothing certified for 2e-2 I
     # made the step design its own tube
     assert [call[0] for call in des.calls] == ["search", "search", "search"]
     np.testing.assert_allclose(des.calls[2][1], 1.5 * 2e-2 * np.eye(2))
+    # step 5 adopts the background design started at step 3 (alpha 0.8) unless the step designed its own
+    # tube since (alpha 0.7): an in-step design is never replaced by an older one
+    assert policy.adoptions == [5]
     if sync_status is TubeStatus.OPTIMAL:
         assert steps[3][0][0].alpha == 0.7 and not policy.design_failures
+        assert steps[5][0][0].alpha == 0.7
     else:  # an infeasible design: the last certified tube, and the failure is recorded
         np.testing.assert_allclose(steps[3][0][0].Pe, 1e-2 * PE_1, rtol=1e-6)
         assert policy.design_failures == ["3:0:INFEASIBLE"]
+        assert steps[4][0][0].alpha == 0.9 and steps[5][0][0].alpha == 0.8
