@@ -14,7 +14,7 @@ namespace py = pybind11;
 namespace tubempc::python {
 
 void bind_io(py::module_& m) {
-  auto s = m.def_submodule("io", "Scenario files (format 'tubempc-scenario 1'; see tubempc/io/scenario.hpp)");
+  auto s = m.def_submodule("io", "Scenario files (format 'tubempc-scenario 3'; see tubempc/io/scenario.hpp)");
   s.attr("FORMAT_VERSION") = io::kScenarioFormatVersion;
 
   py::class_<io::BodyModel>(s, "BodyModel",
@@ -30,12 +30,17 @@ void bind_io(py::module_& m) {
   py::class_<io::Scenario>(s, "Scenario", "Contents of a scenario file (see tubempc/io/scenario.hpp)")
       .def(py::init<>())
       .def_readwrite("directory", &io::Scenario::directory, "folder of the file read")
-      .def_readwrite("controller", &io::Scenario::controller, "the MPC's model (records model.*)")
+      .def_readwrite("model", &io::Scenario::model, "the controller's model (records model.*)")
       .def_readwrite("truth", &io::Scenario::truth, "the simulated plant (records truth.*)")
       .def_readwrite("propagator", &io::Scenario::propagator, "dynamics.PropagatorSettings of the truth")
       .def_readwrite("settings", &io::Scenario::settings, "mpc.Settings")
       .def_readwrite("reference", &io::Scenario::reference, "mpc.Reference: z (12, T+1), u (6, T), t0 (s)")
-      .def_readwrite("tube", &io::Scenario::tube, "mpc.Tube: K (6, 12), Pe (12, 12)")
+      .def_readwrite("tube", &io::Scenario::tube, "TBMPC's mpc.Tube: K (6, 12), Pe (12, 12)")
+      .def_readwrite("has_controller", &io::Scenario::has_controller,
+                     "whether the file carries the whole controller (version 3)")
+      .def_readwrite("controller", &io::Scenario::controller, "control.ControllerSettings (version 3)")
+      .def_readwrite("tbmpc_designs", &io::Scenario::tbmpc_designs, "control.ControllerDesigns of TBMPC")
+      .def_readwrite("ffa_designs", &io::Scenario::ffa_designs, "control.ControllerDesigns of TBMPC-FFA")
       .def_readwrite("x0", &io::Scenario::x0, "initial state (12): m, m/s, rad, rad/s")
       .def_readwrite("xf", &io::Scenario::xf, "target state (12)")
       .def_property_readonly("mission_steps", &io::Scenario::mission_steps, "T (steps)")

@@ -10,6 +10,7 @@ void bind_so3(pybind11::module_& m);
 void bind_gravity(pybind11::module_& m);
 void bind_dynamics(pybind11::module_& m);
 void bind_mpc(pybind11::module_& m);
+void bind_control(pybind11::module_& m);
 void bind_io(pybind11::module_& m);
 
 }  // namespace tubempc::python

@@ -227,7 +227,7 @@ def _cmd_export_scenario(args: argparse.Namespace) -> int:
     scn = read_scenario(str(path))  # the C++ reader validates what was written
     print(
         f"wrote {path} (T = {scn.mission_steps} steps, N = {scn.settings.horizon}) with "
-        f"{', '.join(sorted({scn.controller.shape, scn.truth.shape}))} and config.toml"
+        f"{', '.join(sorted({scn.model.shape, scn.truth.shape}))} and config.toml"
     )
     return 0
 

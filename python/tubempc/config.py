@@ -88,6 +88,7 @@ _FRACTION = (lambda v: 0.0 <= v < 1.0, "in [0, 1)")
 _HALF_TURN = (lambda v: 0.0 < v < math.pi, "in (0, 180) deg")
 _SIGN = (lambda v: v in (-1, 1), "+1 or -1")
 _GE1 = (lambda v: v >= 1, ">= 1")
+_INCREASING_POS = (lambda v: bool(0.0 < v[0] < v[1]), "two increasing values > 0")
 _NONZERO = (lambda v: float(np.linalg.norm(v)) > 0.0, "non-zero")
 _SPD = (
     lambda v: bool(np.allclose(v, np.asarray(v).T) and np.linalg.eigvalsh(v).min() > 0.0),
@@ -285,32 +286,33 @@ class Disturbance:
 
 @dataclass(frozen=True, eq=False)
 class Tube:
-    """Tube design (paper Eq. 25; tube.py). weighting: "mpc" takes C = [Q^1/2; 0], B2 = [0; R^1/2]
-    from the MPC weights (the paper's choice); "normalized" weights Tr(Pe) by the inverse prior
-    disturbance variances and Tr(Z) by 1/u_max^2, so the two terms are of one scale (project
-    option). max_solves: cap on LMI solves per subsystem and step when warm-started.
-    alpha_search_period (TBMPC-FFA; project option): the warm alpha search runs every this many
-    steps; in between the tube is re-designed at the last alpha (one SDP solve per subsystem).
-    1 searches at every step. redesign_margin (TBMPC-FFA; project option) delta >= 0: the tube is
-    designed for (1 + delta) P_W and kept between alpha searches while it stays invariant for the
-    identified P_W and P_W has not shrunk below P_W_design / (1 + delta)^2 in every direction;
-    0 re-designs at every step as the paper does. update (TBMPC-FFA): "lmi" (the LMI design as
-    above) or "lyapunov" (LMI designs on the alpha-search steps only; in between the certified
-    Lyapunov update of the last design's K and alpha for the identified P_W, microseconds per step;
-    tube_policy.py). design_delay (with "lyapunov"): 0 runs the LMI designs synchronously; d >= 1
-    runs them off the critical path in design_worker ("process", "thread" or "inline"), adopted d
-    steps after they start ("deterministic", a reproducible run, the same numbers with every
-    worker) or as soon as they are done ("when_ready", never waits; needs a concurrent worker)."""
+    """Tube design (paper Eq. 25; tube.py, tube_library.py) and update (the C++ controller,
+    cpp/include/tubempc/control/tube_update.hpp). weighting: "mpc" takes C = [Q^1/2; 0],
+    B2 = [0; R^1/2] from the MPC weights (the paper's choice); "normalized" weights Tr(Pe) by the
+    inverse prior disturbance variances and Tr(Z) by 1/u_max^2, so the two terms are of one scale
+    (project option). max_solves: cap on LMI solves per subsystem and design when warm-started.
+    TBMPC-FFA: every step flies the certified Lyapunov update ("lyapunov", the only ``update``: no
+    semidefinite program runs inside a step) of the current design's K and alpha for
+    (1 + redesign_margin) P_W, else for P_W, else of a library design (the designs for
+    P_W = c P_W0, c = library_ratio^j within library_range, computed at set-up); a new design is due
+    every alpha_search_period steps and after a step that could not keep the margin. design_worker
+    "process", "thread" or "inline": the due design is an LMI design computed in the background
+    (tube_policy.py) and adopted design_delay >= 1 steps after it starts ("deterministic", a
+    reproducible run, the same numbers with every worker) or as soon as it is done ("when_ready",
+    never waits; needs a concurrent worker); "none": the due design is taken from the library at
+    once (what a C++ program without Python flies)."""
 
     weighting: str = field(metadata=_opt("mpc", "normalized"))
     input_weight: float = field(metadata=_num(check=_POS))
     max_solves: int = field(metadata=_int(check=_GE1))
     alpha_search_period: int = field(metadata=_int(check=_GE1))
     redesign_margin: float = field(metadata=_num(check=_NONNEG))
-    update: str = field(metadata=_opt("lmi", "lyapunov"))
-    design_delay: int = field(metadata=_int(check=(lambda v: v >= 0, ">= 0")))
+    update: str = field(metadata=_opt("lyapunov"))
+    design_delay: int = field(metadata=_int(check=_GE1))
     design_adoption: str = field(metadata=_opt("deterministic", "when_ready"))
-    design_worker: str = field(metadata=_opt("process", "thread", "inline"))
+    design_worker: str = field(metadata=_opt("process", "thread", "inline", "none"))
+    library_range: FloatArray = field(metadata=_num((2,), check=_INCREASING_POS))
+    library_ratio: float = field(metadata=_num(check=(lambda v: v > 1.0, "> 1")))
 
 
 @dataclass(frozen=True, eq=False)

@@ -9,13 +9,15 @@ one writer) and reads it (:func:`read_scenario`, the one reader).
 :func:`export_scenario` writes, into a folder:
 
 - ``scenario.txt``: the controller's and the truth's models (:func:`tubempc.scenario.build_scenario`),
-  the closed loop's MPC settings (:func:`tubempc.scenario.mpc_settings`), the reference, TBMPC's tube
-  (:func:`tubempc.scenario.initial_tube`), x0, x_f and the truth propagator;
+  the closed loop's MPC settings (:func:`tubempc.scenario.mpc_settings`), the reference, the whole
+  controller of both methods (identification, tube policy, initial designs and TBMPC-FFA's library:
+  :mod:`tubempc.tube_library`), x0, x_f and the truth propagator;
 - ``shape.obj`` (and ``truth_shape.obj`` if the truth's shape differs): the meshes in metres;
 - ``config.toml``: the configuration it came from.
 
 The simulated disturbance and actuator mismatch are not part of the file (the C++ example flies
-the undisturbed mission).
+the undisturbed mission). A C++ program has no background LMI designs: it flies what
+``tube.design_worker = "none"`` flies in Python (the library stands in at a due design).
 """
 
 from __future__ import annotations
@@ -28,8 +30,9 @@ import numpy as np
 from . import _core
 from .config import Config
 from .dynamics import ProximityModel
-from .scenario import build_scenario, initial_tube, mpc_settings, propagator_settings
+from .scenario import build_scenario, mpc_settings, propagator_settings
 from .shapes import Shape, save_shape
+from .tube_library import controller_designs, controller_settings
 
 __all__ = ["FORMAT_VERSION", "export_scenario", "read_scenario"]
 
@@ -71,18 +74,19 @@ def export_scenario(cfg: Config, out_dir: str | Path, *, cache_dir: str | Path |
     cfg.save(out / "config.toml")
 
     s = _core.io.Scenario()
-    s.controller, s.truth = _body(scn.model, "shape.obj"), _body(scn.truth, truth_file)
+    s.model, s.truth = _body(scn.model, "shape.obj"), _body(scn.truth, truth_file)
     s.propagator = propagator_settings(cfg)
     s.settings = mpc_settings(scn)
     s.reference = _core.mpc.Reference(scn.reference.x.T.copy(), scn.reference.u.T.copy(), 0.0)
-    K, Pe = initial_tube(scn)
-    s.tube = _core.mpc.Tube(K, Pe)
+    s.has_controller = True
+    s.controller = controller_settings(scn, "ffa")
+    s.tbmpc_designs, s.ffa_designs = controller_designs(scn, "tbmpc"), controller_designs(scn, "ffa")
     s.x0, s.xf = scn.x0, scn.xf
     path = out / "scenario.txt"
     comment = (
         f"exported by tubempc {__version__} from {cfg.source} (config sha256 {cfg.hash()})\n"
         f"shape: {scn.shape_source}; mission: T = {scn.n_steps} steps of {cfg.mpc.dt} s; "
-        "tube: TBMPC's, designed at k = 0 from the identification prior"
+        "controller: TBMPC's and TBMPC-FFA's LMI designs of k = 0 and TBMPC-FFA's library"
     )
     _core.io.write_scenario(str(path), s, comment)
     return path

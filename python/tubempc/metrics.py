@@ -25,6 +25,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy.optimize import minimize_scalar
 
+from . import _core
+
 if TYPE_CHECKING:
     from .results import RunRecord
 
@@ -203,14 +205,15 @@ def _fit_dict(rec: RunRecord) -> dict[str, float]:
     return {"C_e0_m_per_s": fit.C * fit.e0, "rho": fit.rho, "ebar_m_per_s": fit.ebar}
 
 
-#: Tube-update statuses (tube_policy.py) whose tube is designed or certified for the step's identified P_W.
+#: Tube statuses of the C++ controller (``_core.control.TubeStatus``) whose tube is certified for the
+#: step's linearisation and identified P_W (TBMPC's "fixed" tube is not: it was designed for the prior).
 CERTIFIED_TUBE_STATUSES = frozenset(
-    {"OPTIMAL", "OPTIMAL_INACCURATE", "KEPT", "LYAPUNOV", "LYAPUNOV_NO_MARGIN", "SYNC_OPTIMAL", "SYNC_OPTIMAL_INACCURATE"}
+    str(s) for s in _core.control.TubeStatus.__members__.values() if _core.control.certified(s)
 )
 
 
 def tube_status_certified(status: str) -> bool:
-    """A step's tube status "<translation>/<rotation>" names a designed or certified tube for both."""
+    """A step's tube status "<translation>/<rotation>" names a certified tube for both subsystems."""
     return all(part in CERTIFIED_TUBE_STATUSES for part in status.split("/"))
 
 

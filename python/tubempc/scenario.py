@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -26,13 +26,12 @@ from .identification import ForgettingFactorIdentifier
 from .reference import ReferenceSettings, ReferenceTrajectory, load_or_generate_reference
 from .shapes import Shape, bennu_like_shape, load_shape
 from .site import Site, inside, site_from_lat_lon, site_from_vector, terminal_state
-from .tube import TubeDesigner, TubeResult
+from .tube import TubeDesigner
 
 __all__ = [
     "METHODS",
     "Scenario",
     "ScenarioError",
-    "block_tube",
     "build_scenario",
     "identifiers",
     "initial_tube",
@@ -85,6 +84,8 @@ class Scenario:
     xf: Array
     reference: ReferenceTrajectory
     site: Site | None = None
+    #: LMI designs computed once for this scenario (tubempc.tube_library.controller_designs).
+    tube_designs: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
     def n_steps(self) -> int:
@@ -416,31 +417,17 @@ def plant_disturbance(scn: Scenario, seed: int) -> AdditiveDisturbance:
     return AdditiveDisturbance(d.S_p, d.S_r, seed=seed, growth_p=d.growth_p, growth_r=d.growth_r, n_steps=scn.n_steps)
 
 
-def block_tube(tp: TubeResult, tr: TubeResult) -> tuple[Array, Array]:
-    """The MPC's tube from the subsystems': K (6, 12) and Pe (12, 12), block diagonal."""
-    K = np.zeros((6, 12))
-    Pe = np.zeros((12, 12))
-    K[P_INPUTS, P_STATES], K[R_INPUTS, R_STATES] = tp.K, tr.K
-    Pe[P_STATES, P_STATES], Pe[R_STATES, R_STATES] = tp.Pe, tr.Pe
-    return K, Pe
-
-
 def initial_tube(scn: Scenario) -> tuple[Array, Array]:
     """TBMPC's tube (K (6, 12), Pe (12, 12)): designed at k = 0 from the identification prior
-    P_W = pw_scale S^_0 about the reference's first node, as the closed loop does."""
-    cfg = scn.config
-    Ad, Bd, _ = scn.model.discretize(0.0, scn.reference.x[0], scn.reference.u[0], cfg.mpc.dt)
-    results = []
-    for des, ident, sx, su in zip(
-        tube_designers(cfg), identifiers(cfg), (P_STATES, R_STATES), (P_INPUTS, R_INPUTS), strict=True
-    ):
-        res = des.design(Ad[sx, sx], Bd[sx, su], ident.P_W, None)
-        if not res.feasible:
-            raise RuntimeError(
-                f"initial tube design infeasible ({res.status.name}); check identification priors and input limits"
-            )
-        results.append(res)
-    return block_tube(results[0], results[1])
+    P_W = pw_scale S^_0 about the reference's first node (:func:`tubempc.tube_library.controller_designs`)."""
+    from .tube_library import controller_designs
+
+    d = controller_designs(scn, "tbmpc")
+    K = np.zeros((6, 12))
+    Pe = np.zeros((12, 12))
+    K[P_INPUTS, P_STATES], K[R_INPUTS, R_STATES] = d.initial_p.K, d.initial_r.K
+    Pe[P_STATES, P_STATES], Pe[R_STATES, R_STATES] = d.initial_p.Pe, d.initial_r.Pe
+    return K, Pe
 
 
 def landing_geometry(scn: Scenario, t: float) -> tuple[Array, Array, Array, Array]:

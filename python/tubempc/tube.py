@@ -66,7 +66,7 @@ class TubeStatus(Enum):
     OPTIMAL_INACCURATE = "optimal_inaccurate"
     INFEASIBLE = "infeasible"
     SOLVER_ERROR = "solver_error"
-    INVALID = "invalid"  # solved, but the recomputed lmi_residual exceeds residual_tol
+    INVALID = "invalid"  # solved, but not certified exactly (certify_design: residual > 0 or empty tightening)
     LYAPUNOV = "lyapunov"  # the certified per-step update (lyapunov_tube) of a design's K and alpha
 
 
@@ -150,8 +150,9 @@ class TubeDesigner:
     s_xtol or the first-order bound on the remaining improvement is below obj_rtol times the
     objective; max_solves: cap on the solves of one design (the cold-start grid is always
     evaluated in full; max_solves = 1 or 2 gives a fixed-cost warm update: alpha_prev
-    only, or alpha_prev and one probe); residual_tol: a solution whose recomputed
-    lmi_residual exceeds it gets status INVALID. solver_options are passed to cvxpy's solve.
+    only, or alpha_prev and one probe). A solution is accepted only when :func:`certify_design`
+    certifies it exactly (recomputed lmi_residual <= 0, non-empty input tightening), else it gets
+    status INVALID. solver_options are passed to cvxpy's solve.
     """
 
     def __init__(
@@ -170,7 +171,6 @@ class TubeDesigner:
         s_xtol: float = 2e-3,
         obj_rtol: float = 2e-3,
         max_solves: int = 25,
-        residual_tol: float = 1e-6,
         solver_options: dict[str, object] | None = None,
     ) -> None:
         self.n_x, self.n_u = n_x, n_u
@@ -189,7 +189,6 @@ class TubeDesigner:
             "s_xtol": s_xtol,
             "obj_rtol": obj_rtol,
             "max_solves": max_solves,
-            "residual_tol": residual_tol,
             "solver_options": dict(solver_options or {}),
         }
         self.Q = _sym(_as_matrix("Q", Q, (n_x, n_x)))
@@ -212,7 +211,6 @@ class TubeDesigner:
         self.s_xtol = s_xtol
         self.obj_rtol = obj_rtol
         self.max_solves = max_solves
-        self.residual_tol = residual_tol
         self.solver_options = dict(solver_options or {})
         self.last_feasible: TubeResult | None = None
         self._PW_s = np.eye(n_x)  # scaled P_W of the current design
@@ -415,11 +413,10 @@ class TubeDesigner:
         if best.Pe_s is None or best.Y_s is None:
             elapsed = time.perf_counter() - t0
             return TubeResult(None, None, alpha, math.inf, best.status, math.nan, elapsed, n_solves)
-        Pe = _sym(best.Pe_s * np.outer(d, d))
         K_s = np.linalg.solve(best.Pe_s, best.Y_s.T).T
         K = self.u_max * K_s / d[None, :]
-        resid = lmi_residual(A, B, K, Pe, P_W, alpha)
-        status = best.status if resid <= self.residual_tol else TubeStatus.INVALID
+        Pe, resid = certify_design(A, B, K, _sym(best.Pe_s * np.outer(d, d)), P_W, alpha, self.u_max)
+        status = best.status if resid <= 0.0 else TubeStatus.INVALID
         elapsed = time.perf_counter() - t0
         result = TubeResult(K, Pe, alpha, best.value * c, status, resid, elapsed, n_solves)
         if status is TubeStatus.OPTIMAL:
@@ -472,6 +469,34 @@ def lmi_residual(
     M = Acl @ Pe_ @ Acl.T / alpha + np.asarray(P_W, dtype=np.float64) / (1.0 - alpha) - Pe_
     s = 1.0 / np.sqrt(np.diag(Pe_))
     return float(np.linalg.eigvalsh(_sym(M * np.outer(s, s))).max())
+
+
+#: Relative enlargements of Pe tried, in order, when a solver's Pe misses (*) by its tolerance.
+CERTIFY_SCALES = (0.0, 1e-9, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3)
+
+
+def certify_design(
+    A: FloatArray, B: FloatArray, K: FloatArray, Pe: FloatArray, P_W: FloatArray, alpha: float, u_max: float
+) -> tuple[FloatArray, float]:
+    """The exact acceptance of an LMI design: (Pe', residual) with Pe' = (1 + s) Pe for the first s of
+    :data:`CERTIFY_SCALES` with ``lmi_residual <= 0`` and a non-empty input tightening
+    (sqrt(K_i Pe' K_i^T) < u_max), so that a design the solver met only to its tolerance is certified
+    exactly or refused. Enlarging Pe by (1 + s) turns a residual r > 0 into at most
+    (1 + s) r - s lambda_min(S^-1 P_W S^-1) / (1 - alpha) (S = diag(Pe)^1/2): a small s suffices when
+    r is of the solver's tolerance. Returns the last candidate and its (positive) residual, or its
+    residual + 1 when only the tightening fails, if none is accepted."""
+    resid = math.inf
+    Pe_s = Pe
+    for s in CERTIFY_SCALES:
+        Pe_s = Pe * (1.0 + s)
+        resid = lmi_residual(A, B, K, Pe_s, P_W, alpha)
+        if resid > 0.0:
+            continue
+        feedback = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", K, Pe_s, K), 0.0))
+        if np.all(feedback < u_max):
+            return Pe_s, resid
+        return Pe_s, resid + 1.0  # a larger Pe only widens the feedback: refused
+    return Pe_s, resid
 
 
 def tube_still_valid(

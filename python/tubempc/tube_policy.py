@@ -1,341 +1,269 @@
-"""Which tube each control step flies with (paper Algorithm 1, step 1; README "readings").
+"""Background LMI designs offered to the C++ controller (docs/model.md "Tube update").
 
-TBMPC designs its tube once, at k = 0, from the identification prior and keeps it. TBMPC-FFA
-re-designs it from the identified P_W: every ``alpha_search_period`` steps with a warm alpha search,
-in between at the last alpha; with ``margin`` > 0 it designs for (1 + margin) P_W and keeps the
-current tube (status ``KEPT``) while :func:`tubempc.tube.tube_still_valid` certifies it for the step's
-linearisation and P_W. A failed design falls back to the designer's last feasible tube, else to the
-current one; a failed first design is an error.
-
-With ``update = "lyapunov"`` (TBMPC-FFA) the LMI design runs only on the alpha-search steps; at
-every other step the tube is the certified Lyapunov update of the last design's K and alpha for the
-step's linearisation and identified P_W, inflated by (1 + ``margin``) as the designs are
-(:func:`tubempc.tube.lyapunov_tube`, status ``LYAPUNOV``),
-or, when the margin cannot be kept (a disturbance grown since the design), the update for the identified
-P_W itself (``LYAPUNOV_NO_MARGIN``, and the next step starts a design); when even that cannot be certified,
-an LMI design in the step itself (``SYNC_<status>``; if it fails, the last certified tube). With
-``design_delay`` = 0 the designs run synchronously at those steps. With ``design_delay`` = d >= 1 they
-run off the critical path, in the ``worker``: "process" (a separate process, so that the cvxpy work
-never holds the control loop's GIL), "thread" (a background thread) or "inline" (at the search step
-itself: no concurrency, for campaigns whose processes already fill every core). A design is
-submitted at the search step and adopted (its K and alpha, from then on in the Lyapunov update) at
-step k + d, a deterministic step, so a run is reproducible and gives the same numbers with every
-worker. In real time d dt = 2d s leaves the design ample time; a simulation running faster than real
-time may have to wait for it at the adoption step: that wait is pacing, not controller time, and is
-reported apart (``last_wait_s``). ``adopt_when_ready`` adopts at the first step after the design is
-done instead and never waits (flight-like; the adoption step then depends on the machine).
+The tube of every step is the C++ controller's (``_core.control.Controller``: certified Lyapunov
+updates of the current design, the set-up library where that fails; no semidefinite program inside a
+step). When a new design is due (``ControlStep.design_due``: every ``alpha_search_period`` steps and
+after a step that could not keep the margin), :class:`BackgroundDesigns` runs the LMI design of each
+subsystem from that step's (A, B, (1 + margin) P_W) off the critical path, in the ``worker``:
+"process" (a separate Python process, started with ``python -m tubempc.tube_policy``, so that the cvxpy
+work never holds the control loop's GIL and the caller's ``__main__`` is never imported again),
+"thread" (a background thread) or "inline" (at the step itself, for campaigns whose processes
+already fill every core). A design started at step k0 is offered to the controller
+(``Controller.adopt``) before step k0 + ``delay``, a deterministic step, so a run is reproducible and
+gives the same numbers with every worker; a simulation running faster than real time may have to wait
+for it then: that wait is pacing, not controller time, and is reported apart (``last_wait_s``).
+``adopt_when_ready`` offers it at the first step after it is done instead and never waits (flight-like;
+the adoption step then depends on the machine).
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
-import multiprocessing
-import os
+import itertools
 import pickle
 import signal
+import struct
+import subprocess
+import sys
 import threading
 import time
-import warnings
 from collections.abc import Sequence
-from concurrent.futures.process import BrokenProcessPool
+from typing import IO, Any
 
 import numpy as np
 import numpy.typing as npt
 
-from .tube import TubeDesigner, TubeResult, lyapunov_tube, tube_still_valid
+from .tube import TubeDesigner, TubeResult
 
-__all__ = ["DESIGN_WORKERS", "TubeUpdatePolicy", "shutdown_design_worker"]
+__all__ = ["DESIGN_WORKERS", "BackgroundDesigns", "shutdown_design_worker"]
 
 Array = npt.NDArray[np.float64]
 
 DESIGN_WORKERS = ("process", "thread", "inline")
 
-# One subsystem's design: its designer, A, B, the P_W designed for and the previous alpha.
-_DesignArgs = tuple[TubeDesigner, Array, Array, Array, float | None]
 
-# The process that runs background designs: one per Python process, started on first use and shared
-# by every policy (its start-up, mostly importing cvxpy, is paid once); its designers are rebuilt
-# from their spec once and kept.
-_PROCESS_POOL: cf.ProcessPoolExecutor | None = None
+def _send(stream: IO[bytes], obj: object) -> None:
+    data = pickle.dumps(obj)
+    stream.write(struct.pack("<Q", len(data)) + data)
+    stream.flush()
+
+
+def _receive(stream: IO[bytes]) -> Any:
+    head = stream.read(8)
+    if len(head) < 8:
+        raise EOFError
+    (n,) = struct.unpack("<Q", head)
+    return pickle.loads(stream.read(n))
+
+
+class _DesignProcess:
+    """The process that runs background designs: one per Python process, started on first use and shared
+    by every run (its start-up, mostly importing cvxpy, is paid once); it keeps the designers it built
+    from their spec. It ends when its standard input closes (the parent exited or was killed)."""
+
+    def __init__(self) -> None:
+        self._proc = subprocess.Popen(
+            [sys.executable, "-m", "tubempc.tube_policy"], stdin=subprocess.PIPE, stdout=subprocess.PIPE
+        )
+        self._ids = itertools.count()
+        self._futures: dict[int, cf.Future[Any]] = {}
+        self._lock = threading.Lock()
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def submit(self, *job: object) -> cf.Future[Any]:
+        future: cf.Future[Any] = cf.Future()
+        with self._lock:
+            job_id = next(self._ids)
+            self._futures[job_id] = future
+            assert self._proc.stdin is not None
+            try:
+                _send(self._proc.stdin, (job_id, *job))
+            except OSError as exc:
+                del self._futures[job_id]
+                future.set_exception(RuntimeError(f"tube design process gone: {exc}"))
+        return future
+
+    def _read(self) -> None:
+        assert self._proc.stdout is not None
+        while True:
+            try:
+                job_id, ok, value = _receive(self._proc.stdout)
+            except (EOFError, OSError, pickle.UnpicklingError):
+                break
+            with self._lock:
+                future = self._futures.pop(job_id)
+            if ok:
+                future.set_result(value)
+            else:
+                future.set_exception(RuntimeError(value))
+        with self._lock:
+            pending, self._futures = self._futures, {}
+        for future in pending.values():
+            future.set_exception(RuntimeError("the tube design process ended"))
+
+    def close(self, wait: bool) -> None:
+        if self._proc.stdin is not None:
+            self._proc.stdin.close()
+        if not wait:
+            self._proc.kill()
+        self._proc.wait()
+        if self._proc.stdout is not None:
+            self._proc.stdout.close()
+
+
+_PROCESS: _DesignProcess | None = None
 _PROCESS_LOCK = threading.Lock()
-_WORKER_DESIGNERS: dict[bytes, TubeDesigner] = {}
 
 
-def _process_pool() -> cf.ProcessPoolExecutor:
-    global _PROCESS_POOL
+def _design_process() -> _DesignProcess:
+    global _PROCESS
     with _PROCESS_LOCK:
-        if _PROCESS_POOL is None:
-            ctx = multiprocessing.get_context("spawn")  # no fork of a process with threads
-            _PROCESS_POOL = cf.ProcessPoolExecutor(
-                max_workers=1, mp_context=ctx, initializer=_worker_init, initargs=(os.getpid(),)
-            )
-        return _PROCESS_POOL
+        if _PROCESS is None:
+            _PROCESS = _DesignProcess()
+        return _PROCESS
 
 
 def shutdown_design_worker(wait: bool = True) -> None:
-    """Stops the background design process (if started); ``wait=False`` (Ctrl-C) cancels what has not
-    started, terminates this process's children and returns at once."""
-    global _PROCESS_POOL
+    """Stops the background design process (if started); ``wait=False`` (Ctrl-C) kills it at once."""
+    global _PROCESS
     with _PROCESS_LOCK:
-        pool, _PROCESS_POOL = _PROCESS_POOL, None
-    if pool is not None:
-        if not wait:  # the process may still be starting (importing cvxpy): end it now
-            for child in multiprocessing.active_children():
-                child.terminate()
-        pool.shutdown(wait=wait, cancel_futures=True)
+        proc, _PROCESS = _PROCESS, None
+    if proc is not None:
+        proc.close(wait)
 
 
-def _worker_init(parent: int) -> None:
+def _worker_main() -> None:
+    """The design process: reads (id, spec, A, B, P_W, alpha_prev) jobs from stdin, writes (id, ok, result)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
-    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
+    designers: dict[bytes, TubeDesigner] = {}
+    stdin, stdout = sys.stdin.buffer, sys.stdout.buffer
+    sys.stdout = sys.stderr  # nothing printed by a library may enter the protocol
+    while True:
+        try:
+            job_id, key, A, B, P_W, alpha_prev = _receive(stdin)
+        except EOFError:
+            return
+        try:
+            des = designers.get(key)
+            if des is None:
+                des = designers[key] = TubeDesigner(**pickle.loads(key))
+            reply: tuple[int, bool, object] = (
+                job_id,
+                True,
+                None if A is None else des.design(A, B, P_W, alpha_prev),
+            )
+        except Exception as exc:  # reported to the parent, which records the design as failed
+            reply = (job_id, False, f"{type(exc).__name__}: {exc}")
+        _send(stdout, reply)
 
 
-def _watch_parent(parent: int) -> None:
-    """Ends the design process within 0.2 s once its parent is gone (a parent that exits through
-    os._exit, or is killed, never shuts the pool down), also when it was gone before this started."""
-    while os.getppid() == parent:
-        time.sleep(0.2)
-    os._exit(0)
+# One subsystem's design: A, B, the P_W designed for and the previous alpha.
+_DesignArgs = tuple[Array, Array, Array, float | None]
 
 
-def _worker_designer(key: bytes) -> TubeDesigner:
-    des = _WORKER_DESIGNERS.get(key)
-    if des is None:
-        des = _WORKER_DESIGNERS[key] = TubeDesigner(**pickle.loads(key))
-    return des
-
-
-def _warm_worker(key: bytes) -> None:
-    _worker_designer(key)
-
-
-def _design_in_worker(key: bytes, A: Array, B: Array, P_W: Array, alpha_prev: float | None) -> TubeResult:
-    return _worker_designer(key).design(A, B, P_W, alpha_prev)
-
-
-class TubeUpdatePolicy:
-    """The tube of each subsystem, step by step.
-
-    ``designers``: one :class:`tubempc.tube.TubeDesigner` per subsystem; ``adaptive``: False for
-    TBMPC (design once), True for TBMPC-FFA; ``margin``: design for (1 + margin) P_W and keep a
-    certified tube (FFA only); ``alpha_search_period``: steps between warm alpha searches;
-    ``threads``: subsystems designed in parallel threads (1: one after the other).
-    """
+class BackgroundDesigns:
+    """LMI designs of the subsystems (one :class:`tubempc.tube.TubeDesigner` each) offered to a
+    ``_core.control.Controller`` ``delay`` >= 1 steps after they start (see the module doc)."""
 
     def __init__(
         self,
         designers: Sequence[TubeDesigner],
         *,
-        adaptive: bool,
-        margin: float = 0.0,
-        alpha_search_period: int = 1,
-        threads: int = 2,
-        update: str = "lmi",
-        design_delay: int = 0,
+        delay: int,
         adopt_when_ready: bool = False,
         worker: str = "process",
+        threads: int = 2,
     ) -> None:
-        if alpha_search_period < 1:
-            raise ValueError(f"alpha_search_period must be >= 1, got {alpha_search_period}")
-        if margin < 0.0:
-            raise ValueError(f"margin must be >= 0, got {margin}")
-        if update not in ("lmi", "lyapunov"):
-            raise ValueError(f"update must be 'lmi' or 'lyapunov', got {update!r}")
-        if design_delay < 0:
-            raise ValueError(f"design_delay must be >= 0 steps, got {design_delay}")
+        if delay < 1:
+            raise ValueError(f"delay must be >= 1 steps, got {delay}")
         if worker not in DESIGN_WORKERS:
             raise ValueError(f"worker must be one of {DESIGN_WORKERS}, got {worker!r}")
         if adopt_when_ready and worker == "inline":
             raise ValueError("adopt_when_ready needs a concurrent worker ('process' or 'thread')")
-        self.update_kind = update
-        self.design_delay = design_delay
-        self.adopt_when_ready = adopt_when_ready
-        self.adoptions: list[int] = []  # steps at which a background design was adopted
-        # LMI designs that failed, "<step started>:<subsystem>:<status>" (their tube was not used)
-        self.design_failures: list[str] = []
-        self.last_wait_s = 0.0  # time the last update waited for a due design (pacing, not control)
-        # a background design in flight: the step it started, its futures and each subsystem's arguments
-        self._pending: tuple[int, list[cf.Future[TubeResult]], list[_DesignArgs]] | None = None
-        # the last Lyapunov update could not keep the margin: the next step starts a design (lyapunov update)
-        self._margin_lost = False
         self.designers = list(designers)
-        self.adaptive = adaptive
-        self.margin = margin if adaptive else 0.0
-        self.alpha_search_period = alpha_search_period
-        self.tubes: list[TubeResult] | None = None
-        self._designed_for: list[Array | None] = [None] * len(self.designers)  # the P_W of each tube
-        self._designed: list[TubeResult | None] = [None] * len(self.designers)  # each one's last LMI design
-        self._sync_step = [-1] * len(self.designers)  # the step of each one's last in-step (SYNC) design
-        self._pool = cf.ThreadPoolExecutor(max_workers=max(1, min(len(self.designers), int(threads))))
+        self.delay = delay
+        self.adopt_when_ready = adopt_when_ready
         self.worker = worker
-        self._keys: list[bytes] = []
-        if update == "lyapunov" and design_delay > 0 and worker == "process" and adaptive:
-            self._keys = [pickle.dumps(d.spec) for d in self.designers]
-            # Start the worker and build its designers now, in the set-up, not in a control step.
-            try:
-                for key in self._keys:
-                    _process_pool().submit(_warm_worker, key).result()
-            except BrokenProcessPool as exc:
-                self._to_thread(exc)
-
-    def _to_thread(self, exc: BaseException) -> None:
-        """The documented fallback when the design process cannot run (e.g. a main script that a
-        spawned process cannot import, such as code piped to ``python -``): designs go to a thread."""
-        warnings.warn(
-            f"tube design process unavailable ({type(exc).__name__}: {exc}); designs run in a thread instead",
-            RuntimeWarning,
-            stacklevel=3,
-        )
-        shutdown_design_worker(wait=False)
-        self.worker = "thread"
+        self.adoptions: list[int] = []  # steps before which a design was offered
+        self.design_failures: list[str] = []  # "<step started>:<subsystem>:<status>"
+        self.last_wait_s = 0.0
+        self._pending: tuple[int, list[cf.Future[TubeResult]], list[_DesignArgs]] | None = None
+        self._pool = cf.ThreadPoolExecutor(max_workers=max(1, min(len(self.designers), int(threads))))
+        self._keys = [pickle.dumps(d.spec) for d in self.designers]
+        if worker == "process":
+            # Start the process and build its designers now, in the set-up, not in a control step.
+            for key in self._keys:
+                _design_process().submit(key, None, None, None, None).result()
 
     def close(self, wait: bool = True) -> None:
-        """Stops the design threads; ``wait=False`` returns at once (a running design finishes alone).
-        The shared design process stays up for the next policy; a pending design of this one is
-        cancelled if it has not started."""
+        """Stops the design threads (the shared design process stays up for the next run)."""
         if self._pending is not None:
             for future in self._pending[1]:
                 future.cancel()
         self._pool.shutdown(wait=wait, cancel_futures=not wait)
 
-    def __enter__(self) -> TubeUpdatePolicy:
+    def __enter__(self) -> BackgroundDesigns:
         return self
 
     def __exit__(self, exc_type: object, *exc: object) -> None:
         self.close(wait=exc_type is None)
 
-    def update(
-        self, k: int, A: Sequence[Array], B: Sequence[Array], P_W: Sequence[Array]
-    ) -> tuple[list[TubeResult], str | None]:
-        """The tubes for step ``k`` given each subsystem's discretised (A, B) about the reference and
-        identified P_W. Returns the tubes and the step's status ("<status>/<status>", None when the
-        policy did not look at the tubes: TBMPC after k = 0)."""
+    def adopt_due(self, k: int, ctrl: Any) -> None:
+        """Before step k: offers a finished (or due) design to ``ctrl`` (``Controller.adopt``)."""
         self.last_wait_s = 0.0
-        if self.tubes is not None and not self.adaptive:
-            return self.tubes, None
-        search = k % self.alpha_search_period == 0
-        if self.update_kind == "lyapunov" and self.tubes is not None:
-            if self.design_delay > 0:
-                self._background(k, search, A, B, P_W)
-                return self._lyapunov(k, A, B, P_W)
-            if not search:
-                return self._lyapunov(k, A, B, P_W)
-        jobs: list[tuple[cf.Future[TubeResult], Array] | None] = []
-        for i, des in enumerate(self.designers):
-            prev = None if self.tubes is None else self.tubes[i]
-            designed_for = self._designed_for[i]
-            if (
-                prev is not None
-                and designed_for is not None
-                and not search
-                and self.margin > 0.0
-                and tube_still_valid(prev, A[i], B[i], P_W[i], designed_for, self.margin)
-            ):
-                jobs.append(None)
+        if self._pending is None:
+            return
+        k0, futures, args = self._pending
+        due = all(f.done() for f in futures) if self.adopt_when_ready else k >= k0 + self.delay
+        if not due:
+            return
+        t0 = time.perf_counter()
+        results: list[TubeResult | None] = []
+        for i, future in enumerate(futures):
+            try:
+                results.append(future.result())  # waits only for a due design not yet done
+            except RuntimeError as exc:
+                self.design_failures.append(f"{k0}:{i}:ERROR ({exc})")
+                results.append(None)
+        self.last_wait_s = time.perf_counter() - t0
+        from .tube_library import subsystem_design
+
+        for i, res in enumerate(results):
+            if res is None:
                 continue
-            P_design = (1.0 + self.margin) * P_W[i]
-            alpha_prev = prev.alpha if prev is not None and prev.feasible else None
-            if alpha_prev is not None and not search:
-                future = self._pool.submit(des.design_fixed_alpha, A[i], B[i], P_design, alpha_prev)
-            else:
-                future = self._pool.submit(des.design, A[i], B[i], P_design, alpha_prev)
-            jobs.append((future, P_design))
-        tubes: list[TubeResult] = []
-        names: list[str] = []
-        for i, job in enumerate(jobs):
-            if job is None:
-                assert self.tubes is not None
-                tubes.append(self.tubes[i])
-                names.append("KEPT")
-                continue
-            res = job[0].result()
-            names.append(res.status.name)
             if not res.feasible:
-                self.design_failures.append(f"{k}:{i}:{res.status.name}")
-            last = self.designers[i].last_feasible
-            if res.feasible:
-                tubes.append(res)
-                self._designed_for[i] = job[1]
-                self._designed[i] = res
-            elif last is not None:
-                tubes.append(last)
-            elif self.tubes is not None:
-                tubes.append(self.tubes[i])
+                self.design_failures.append(f"{k0}:{i}:{res.status.name}")
             else:
-                raise RuntimeError(
-                    f"initial tube design infeasible ({res.status.name}); check identification priors and input limits"
-                )
-        self.tubes = tubes
-        return tubes, "/".join(names)
+                ctrl.adopt(i, subsystem_design(res, args[i][2]), k0)
+        self._pending = None
+        self.adoptions.append(k)
 
-    def _lyapunov(
-        self, k: int, A: Sequence[Array], B: Sequence[Array], P_W: Sequence[Array]
-    ) -> tuple[list[TubeResult], str]:
-        assert self.tubes is not None
-        tubes: list[TubeResult] = []
-        names: list[str] = []
-        for i, des in enumerate(self.designers):
-            design = self._designed[i]
-            tube = None if design is None else lyapunov_tube(A[i], B[i], design, (1.0 + self.margin) * P_W[i], des.u_max)[0]
-            name = "LYAPUNOV"
-            if tube is None and design is not None and self.margin > 0.0:
-                # Certified for the identified P_W itself, without the margin (which a disturbance growing
-                # since the design has used up): still robust for the identified set.
-                tube = lyapunov_tube(A[i], B[i], design, P_W[i], des.u_max)[0]
-                name = "LYAPUNOV_NO_MARGIN"
-            if tube is None:
-                # Nothing certified for this step's P_W: an LMI design now, in this step (tens of ms, rare),
-                # so that every step flies a tube certified for the identified set while the LMI is feasible.
-                P_design = (1.0 + self.margin) * P_W[i]
-                res = des.design(A[i], B[i], P_design, None if design is None else design.alpha)
-                name = f"SYNC_{res.status.name}"
-                if res.feasible:
-                    tube = res
-                    self._designed[i], self._designed_for[i], self._sync_step[i] = res, P_design, k
-                else:
-                    self.design_failures.append(f"{k}:{i}:{res.status.name}")
-            tubes.append(self.tubes[i] if tube is None else tube)  # SYNC_<failure>: the last certified tube
-            names.append(name)
-        self._margin_lost = any(n != "LYAPUNOV" for n in names)
-        self.tubes = tubes
-        return tubes, "/".join(names)
+    def submit(self, k: int, step: Any, ctrl: Any, margin: float) -> None:
+        """After step k: starts a design from the step's (A, B, (1 + margin) P_W) when one is due
+        (``step.design_due``) and none is running."""
+        if not step.design_due or self._pending is not None:
+            return
+        jobs: list[_DesignArgs] = [
+            (
+                np.asarray(step.A[i]),
+                np.asarray(step.B[i]),
+                (1.0 + margin) * np.asarray(step.P_W[i]),
+                float(ctrl.policy(i).design.alpha),
+            )
+            for i in range(len(self.designers))
+        ]
+        self._pending = (k, [self._submit(i, *job) for i, job in enumerate(jobs)], jobs)
 
-    def _background(self, k: int, search: bool, A: Sequence[Array], B: Sequence[Array], P_W: Sequence[Array]) -> None:
-        """Adopts a finished (or due) background design; starts one on a search step, or on the step after
-        a Lyapunov update that could not keep the margin (a disturbance grown since the last design)."""
-        if self._pending is not None:
-            k0, futures, args = self._pending
-            due = all(f.done() for f in futures) if self.adopt_when_ready else k >= k0 + self.design_delay
-            if due:
-                t0 = time.perf_counter()
-                try:
-                    results = [future.result() for future in futures]  # waits only for a due design not yet done
-                except BrokenProcessPool as exc:  # the design process died: this design is redone in a thread
-                    self._to_thread(exc)
-                    results = [self._submit(i, *a).result() for i, a in enumerate(args)]
-                self.last_wait_s = time.perf_counter() - t0
-                for i, res in enumerate(results):
-                    if not res.feasible:
-                        self.design_failures.append(f"{k0}:{i}:{res.status.name}")
-                    elif k0 > self._sync_step[i]:  # an in-step design since k0 is newer: keep it
-                        self._designed[i] = res
-                        self._designed_for[i] = args[i][3]  # the P_W it was designed for
-                self._pending = None
-                self.adoptions.append(k)
-        if (search or self._margin_lost) and self._pending is None:
-            jobs: list[_DesignArgs] = [
-                (des, A[i], B[i], (1.0 + self.margin) * P_W[i], None if d is None else d.alpha)
-                for i, (des, d) in enumerate(zip(self.designers, self._designed, strict=True))
-            ]
-            self._pending = (k, [self._submit(i, *job) for i, job in enumerate(jobs)], jobs)
-
-    def _submit(
-        self, i: int, des: TubeDesigner, A: Array, B: Array, P_W: Array, alpha_prev: float | None
-    ) -> cf.Future[TubeResult]:
+    def _submit(self, i: int, A: Array, B: Array, P_W: Array, alpha_prev: float | None) -> cf.Future[TubeResult]:
+        des = self.designers[i]
         if self.worker == "process":
-            return _process_pool().submit(_design_in_worker, self._keys[i], A, B, P_W, alpha_prev)
+            return _design_process().submit(self._keys[i], A, B, P_W, alpha_prev)
         if self.worker == "thread":
             return self._pool.submit(des.design, A, B, P_W, alpha_prev)
         future: cf.Future[TubeResult] = cf.Future()
         future.set_result(des.design(A, B, P_W, alpha_prev))
         return future
+
+
+if __name__ == "__main__":
+    _worker_main()

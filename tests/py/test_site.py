@@ -209,8 +209,8 @@ def test_every_packaged_scenario_exports_campaigns_and_flies_in_cpp(name: str, t
     s = read_scenario(str(path))
     scn = build_scenario(cfg, cache_dir=tmp_path / "cache")
     assert scn.site is not None
-    np.testing.assert_array_equal(s.controller.params.glide_slope_apex_A, scn.site.surface_A)
-    np.testing.assert_array_equal(s.controller.params.glide_slope_axis_A, scn.site.normal_A)
+    np.testing.assert_array_equal(s.model.params.glide_slope_apex_A, scn.site.surface_A)
+    np.testing.assert_array_equal(s.model.params.glide_slope_axis_A, scn.site.normal_A)
     np.testing.assert_array_equal(s.xf, scn.xf)
     try:
         example = find_example(None)

@@ -103,9 +103,8 @@ class Reader {
       fail(1, "not a tubempc scenario file (the first line must be '" + std::string(kMagic) + " " +
                   std::to_string(kScenarioFormatVersion) + "')");
     }
-    if (version != kScenarioFormatVersion && version != 1) {
-      fail(1, "format version " + std::to_string(version) +
-                  " is not supported (this reader reads versions 1 and " +
+    if (version < 1 || version > kScenarioFormatVersion) {
+      fail(1, "format version " + std::to_string(version) + " is not supported (this reader reads versions 1 to " +
                   std::to_string(kScenarioFormatVersion) + ")");
     }
     version_ = static_cast<int>(version);
@@ -309,6 +308,56 @@ void read_body(Reader& r, const std::string& prefix, BodyModel& body) {
   r.validated(prefix + "* (ModelParams)", [&] { p.validate(); });
 }
 
+const Options<control::MeasuredInput> kMeasuredInputs = {
+    {"residual", control::MeasuredInput::Residual},
+    {"reference_deviation", control::MeasuredInput::ReferenceDeviation}};
+
+void read_identifier(Reader& r, const std::string& prefix, control::IdentifierSettings& id) {
+  id.lambda = r.scalar(prefix + "lambda");
+  id.w0 = r.vector<6>(prefix + "w0");
+  id.S0 = r.matrix(prefix + "S0", 6, 6);
+  id.prior_weight = r.scalar(prefix + "prior_weight");
+  id.eig_floor = r.scalar(prefix + "eig_floor");
+  id.pw_scale = r.scalar(prefix + "pw_scale");
+}
+
+void read_design(Reader& r, const std::string& prefix, control::SubsystemDesign& d) {
+  d.K = r.matrix(prefix + "K", 3, 6);
+  d.alpha = r.scalar(prefix + "alpha");
+  d.P_W = r.matrix(prefix + "P_W", 6, 6);
+  d.Pe = r.matrix(prefix + "Pe", 6, 6);
+  r.validated(prefix + "*", [&] { d.validate(prefix.substr(0, prefix.size() - 1)); });
+}
+
+std::vector<control::SubsystemDesign> read_library(Reader& r, const std::string& prefix) {
+  const Eigen::MatrixXd alpha = r.numeric(prefix + "alpha", -1, 1, true, true)->values;
+  const Eigen::Index L = alpha.rows();
+  const Eigen::MatrixXd K = r.numeric(prefix + "K", 3 * L, 6, true, L == 0)->values;
+  const Eigen::MatrixXd P_W = r.numeric(prefix + "P_W", 6 * L, 6, true, L == 0)->values;
+  const Eigen::MatrixXd Pe = r.numeric(prefix + "Pe", 6 * L, 6, true, L == 0)->values;
+  std::vector<control::SubsystemDesign> out(static_cast<std::size_t>(L));
+  for (Eigen::Index i = 0; i < L; ++i) {
+    control::SubsystemDesign& d = out[static_cast<std::size_t>(i)];
+    d.K = K.middleRows(3 * i, 3);
+    d.alpha = alpha(i, 0);
+    d.P_W = P_W.middleRows(6 * i, 6);
+    d.Pe = Pe.middleRows(6 * i, 6);
+    r.validated(prefix + "* (design " + std::to_string(i) + ")",
+                [&] { d.validate(prefix + std::to_string(i)); });
+  }
+  return out;
+}
+
+// TBMPC's block-diagonal tube from its two subsystem designs.
+mpc::Tube block_tube(const control::ControllerDesigns& d) {
+  mpc::Tube t{Eigen::MatrixXd::Zero(dynamics::kNu, dynamics::kNx), Eigen::MatrixXd::Zero(dynamics::kNx, dynamics::kNx)};
+  t.K.block<3, 6>(0, 0) = d.initial_p.K;
+  t.K.block<3, 6>(3, 6) = d.initial_r.K;
+  t.Pe.block<6, 6>(0, 0) = d.initial_p.Pe;
+  t.Pe.block<6, 6>(6, 6) = d.initial_r.Pe;
+  return t;
+}
+
 // ---- writer ----------------------------------------------------------------------------------
 
 class Writer {
@@ -360,6 +409,39 @@ void write_body(Writer& w, const std::string& prefix, const BodyModel& body) {
   w.scalar(prefix + "shape_unit_scale", body.shape_unit_scale);
 }
 
+void write_identifier(Writer& w, const std::string& prefix, const control::IdentifierSettings& id) {
+  w.scalar(prefix + "lambda", id.lambda);
+  w.matrix(prefix + "w0", id.w0);
+  w.matrix(prefix + "S0", id.S0);
+  w.scalar(prefix + "prior_weight", id.prior_weight);
+  w.scalar(prefix + "eig_floor", id.eig_floor);
+  w.scalar(prefix + "pw_scale", id.pw_scale);
+}
+
+void write_design(Writer& w, const std::string& prefix, const control::SubsystemDesign& d) {
+  w.matrix(prefix + "K", d.K);
+  w.scalar(prefix + "alpha", d.alpha);
+  w.matrix(prefix + "P_W", d.P_W);
+  w.matrix(prefix + "Pe", d.Pe);
+}
+
+void write_library(Writer& w, const std::string& prefix, const std::vector<control::SubsystemDesign>& lib) {
+  const auto L = static_cast<Eigen::Index>(lib.size());
+  Eigen::MatrixXd K(3 * L, 6), alpha(L, 1), P_W(6 * L, 6), Pe(6 * L, 6);
+  for (Eigen::Index i = 0; i < L; ++i) {
+    const control::SubsystemDesign& d = lib[static_cast<std::size_t>(i)];
+    K.middleRows(3 * i, 3) = d.K;
+    alpha(i, 0) = d.alpha;
+    P_W.middleRows(6 * i, 6) = d.P_W;
+    Pe.middleRows(6 * i, 6) = d.Pe;
+  }
+  const Eigen::MatrixXd empty(0, 0);
+  w.matrix(prefix + "K", L == 0 ? empty : K);
+  w.matrix(prefix + "alpha", L == 0 ? empty : alpha);
+  w.matrix(prefix + "P_W", L == 0 ? empty : P_W);
+  w.matrix(prefix + "Pe", L == 0 ? empty : Pe);
+}
+
 void require_size(const char* name, const Eigen::MatrixXd& m, Eigen::Index rows, Eigen::Index cols) {
   if ((rows >= 0 && m.rows() != rows) || m.cols() != cols) {
     throw std::invalid_argument("write_scenario: " + std::string(name) + " has size " +
@@ -382,7 +464,7 @@ Scenario read_scenario(const std::string& path) {
   r.parse();
   Scenario s;
   s.directory = std::filesystem::path(path).parent_path().string();
-  read_body(r, "model.", s.controller);
+  read_body(r, "model.", s.model);
   read_body(r, "truth.", s.truth);
 
   dynamics::PropagatorSettings& ps = s.propagator;
@@ -442,8 +524,26 @@ Scenario read_scenario(const std::string& path) {
     r.fail(r.line_of("reference.z"),
            "reference.z: needs at least 2 nodes (T >= 1), got " + std::to_string(T + 1));
   s.reference.u = r.matrix("reference.u", T, dynamics::kNu).transpose();
-  s.tube.K = r.matrix("tube.K", dynamics::kNu, dynamics::kNx);
-  s.tube.Pe = r.matrix("tube.Pe", dynamics::kNx, dynamics::kNx);
+  if (r.version() < 3) {
+    s.tube.K = r.matrix("tube.K", dynamics::kNu, dynamics::kNx);
+    s.tube.Pe = r.matrix("tube.Pe", dynamics::kNx, dynamics::kNx);
+  } else {
+    s.has_controller = true;
+    control::ControllerSettings& c = s.controller;
+    r.option("controller.measured_input", kMeasuredInputs, c.measured_input);
+    read_identifier(r, "identification_p.", c.identification_p);
+    read_identifier(r, "identification_r.", c.identification_r);
+    c.tube.redesign_margin = r.scalar("tube.redesign_margin");
+    r.integer("tube.alpha_search_period", c.tube.alpha_search_period);
+    r.validated("identification_*, tube.* (ControllerSettings)", [&] { c.validate(); });
+    read_design(r, "designs.tbmpc_p.", s.tbmpc_designs.initial_p);
+    read_design(r, "designs.tbmpc_r.", s.tbmpc_designs.initial_r);
+    read_design(r, "designs.ffa_p.", s.ffa_designs.initial_p);
+    read_design(r, "designs.ffa_r.", s.ffa_designs.initial_r);
+    s.ffa_designs.library_p = read_library(r, "library_p.");
+    s.ffa_designs.library_r = read_library(r, "library_r.");
+    s.tube = block_tube(s.tbmpc_designs);
+  }
   s.x0 = r.vector<dynamics::kNx>("mission.x0");
   s.xf = r.vector<dynamics::kNx>("mission.xf");
   r.check_all_used();
@@ -457,8 +557,8 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   require_size("settings.u_max", st.u_max, dynamics::kNu, 1);
   require_size("reference.z", s.reference.z, dynamics::kNx, s.reference.z.cols());
   require_size("reference.u", s.reference.u, dynamics::kNu, s.reference.z.cols() - 1);
-  require_size("tube.K", s.tube.K, dynamics::kNu, dynamics::kNx);
-  require_size("tube.Pe", s.tube.Pe, dynamics::kNx, dynamics::kNx);
+  if (!s.has_controller)
+    throw std::invalid_argument("write_scenario: the scenario carries no controller (has_controller is false)");
 
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) throw std::runtime_error(path + ": cannot open for writing (" + std::strerror(errno) + ")");
@@ -471,7 +571,7 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
     start = end + 1;
   }
   Writer w(out);
-  write_body(w, "model.", s.controller);
+  write_body(w, "model.", s.model);
   write_body(w, "truth.", s.truth);
   const dynamics::PropagatorSettings& ps = s.propagator;
   w.text("propagator.method", option_name(kIntegrators, ps.method));
@@ -514,8 +614,18 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   w.scalar("reference.t0", s.reference.t0);
   w.matrix("reference.z", s.reference.z.transpose());
   w.matrix("reference.u", s.reference.u.transpose());
-  w.matrix("tube.K", s.tube.K);
-  w.matrix("tube.Pe", s.tube.Pe);
+  const control::ControllerSettings& c = s.controller;
+  w.text("controller.measured_input", option_name(kMeasuredInputs, c.measured_input));
+  write_identifier(w, "identification_p.", c.identification_p);
+  write_identifier(w, "identification_r.", c.identification_r);
+  w.scalar("tube.redesign_margin", c.tube.redesign_margin);
+  w.scalar("tube.alpha_search_period", c.tube.alpha_search_period);
+  write_design(w, "designs.tbmpc_p.", s.tbmpc_designs.initial_p);
+  write_design(w, "designs.tbmpc_r.", s.tbmpc_designs.initial_r);
+  write_design(w, "designs.ffa_p.", s.ffa_designs.initial_p);
+  write_design(w, "designs.ffa_r.", s.ffa_designs.initial_r);
+  write_library(w, "library_p.", s.ffa_designs.library_p);
+  write_library(w, "library_r.", s.ffa_designs.library_r);
   w.matrix("mission.x0", s.x0);
   w.matrix("mission.xf", s.xf);
   out.close();

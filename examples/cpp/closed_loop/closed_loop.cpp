@@ -1,30 +1,36 @@
-// The whole mission of a scenario file (tubempc export-scenario) in C++ only: the shape loaded by the
-// C++ loader, polyhedral gravity, the controller's 6-DOF model and its linearisation, the tube MPC
-// (setup with the reference, TBMPC's fixed tube) and the truth propagation (dynamics::propagate, the
-// scenario's integrator), without disturbance. The controller's state is the 12-state
-// [r_L, v_L, phi, omega_BL_B]; the truth's the 13-state with the quaternion q_B/L. As in the Python
-// closed loop (tubempc.closed_loop.simulate), after each propagation the measured state is
-// x_{k+1} = truth_to_state(state, phi of zbar_{k+1}) (the rotation vector on the branch nearest to the
-// reference) and the truth continues from state_to_truth(x_{k+1}).
+// The whole mission of a scenario file (tubempc export-scenario) in C++ only, for TBMPC and TBMPC-FFA:
+// the shape loaded by the C++ loader, polyhedral gravity, the controller's 6-DOF model, the whole
+// controller (control::Controller: identification, certified tube update from the scenario's designs
+// and library, tube MPC) and the truth propagation (dynamics::propagate, the scenario's integrator).
+// The controller's state is the 12-state [r_L, v_L, phi, omega_BL_B]; the truth's the 13-state with
+// the quaternion q_B/L. As in the Python closed loop (tubempc.closed_loop.simulate), after each
+// propagation the measured state is x_{k+1} = truth_to_state(state, phi of zbar_{k+1}) + w_k (the
+// rotation vector on the branch nearest to the reference; w_k the additive disturbance, zero unless
+// --disturbance gives a file of T rows of 12 values, e.g. a Python run's w_true) and the truth
+// continues from state_to_truth(x_{k+1}).
 //
-// Prints per-step wall times (median, p99, max) of the whole step and of the MPC step alone, the
-// step statuses, the final errors against x_f and the heap allocations made after setup (counted by
-// interposing malloc and operator new, glibc only, not with sanitizers). Exit status: 0 success,
-// 1 an allocation inside the MPC step, 2 bad arguments or input, 3 a failed truth propagation.
+// Prints per method the summary of `tubempc run` (J_p, J_r, terminal error, steps outside the tube,
+// tube statuses, fallbacks), per-step wall times (median, p99, max) of the controller step and its
+// parts, and the heap allocations made after setup (counted by interposing malloc and operator new,
+// glibc only, not with sanitizers). Exit status: 0 success, 1 an allocation inside a controller step,
+// 2 bad arguments or input, 3 a failed truth propagation.
 //
-//   closed_loop SCENARIO_FILE [--json OUT.json]
+//   closed_loop SCENARIO_FILE [--method tbmpc|ffa|both] [--disturbance W.txt] [--json OUT.json]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <fstream>
+#include <sstream>
 #include <map>
 #include <memory>
 #include <new>
 #include <string>
 #include <vector>
 
+#include "tubempc/control/controller.hpp"
 #include "tubempc/core/build_info.hpp"
 #include "tubempc/dynamics/linearized_proximity.hpp"
 #include "tubempc/dynamics/propagator.hpp"
@@ -65,7 +71,7 @@ Stats stats(std::vector<double> v) {
 }
 
 void write_array(std::FILE* f, const char* name, const double* data, std::size_t n, bool last = false) {
-  std::fprintf(f, "  \"%s\": [", name);
+  std::fprintf(f, "    \"%s\": [", name);
   for (std::size_t i = 0; i < n; ++i) std::fprintf(f, "%s%.17g", i ? ", " : "", data[i]);
   std::fprintf(f, "]%s\n", last ? "" : ",");
 }
@@ -89,36 +95,219 @@ std::string json_string(const std::string& s) {
 }
 
 int usage(const char* argv0) {
-  std::fprintf(stderr, "usage: %s SCENARIO_FILE [--json OUT.json]\n", argv0);
+  std::fprintf(stderr, "usage: %s SCENARIO_FILE [--method tbmpc|ffa|both] [--disturbance W.txt] [--json OUT.json]\n",
+               argv0);
   return 2;
+}
+
+// T rows of 12 whitespace-separated values (m, m/s, rad, rad/s); throws naming the line.
+Eigen::MatrixXd read_disturbance(const std::string& path, int T) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument(path + ": cannot open the file");
+  Eigen::MatrixXd w(12, T);
+  std::string line;
+  for (int k = 0; k < T; ++k) {
+    if (!std::getline(in, line)) throw std::invalid_argument(path + ": expected " + std::to_string(T) + " rows");
+    std::istringstream row(line);
+    for (int i = 0; i < 12; ++i) {
+      if (!(row >> w(i, k)) || !std::isfinite(w(i, k)))
+        throw std::invalid_argument(path + ":" + std::to_string(k + 1) + ": expected 12 finite values");
+    }
+  }
+  return w;
+}
+
+// One method's flight.
+struct Flight {
+  std::string method;
+  dynamics::StateVector x_final;
+  double J_p = 0.0, J_r = 0.0;
+  double error_position = 0.0, error_velocity = 0.0, error_attitude = 0.0, error_rate = 0.0;
+  int steps_outside = 0, fallbacks = 0, scp_iterations = 0;
+  double max_excursion[2] = {0.0, 0.0};
+  double setup_s = 0.0;
+  long allocations_controller = 0, allocations_truth = 0;
+  std::map<std::string, int> statuses, tube_statuses;
+  std::vector<double> time_controller, time_identify, time_tube, time_mpc;
+  int exit_code = 0;
+};
+
+// e^T Pe^-1 e of the subsystem s's block.
+double excursion(const Eigen::MatrixXd& Pe, const dynamics::StateVector& x, const Eigen::VectorXd& z, int s) {
+  const Eigen::Matrix<double, 6, 6> P = Pe.block<6, 6>(6 * s, 6 * s);
+  const Eigen::Matrix<double, 6, 1> e = x.segment<6>(6 * s) - z.segment<6>(6 * s);
+  return e.dot(P.ldlt().solve(e));
+}
+
+Flight fly(const io::Scenario& scn, control::Method method, const std::shared_ptr<const dynamics::ProximityModel>& model,
+           const dynamics::ProximityModel& truth, const Eigen::MatrixXd& disturbance) {
+  Flight f;
+  f.method = control::to_string(method);
+  const auto t_setup = Clock::now();
+  control::ControllerSettings settings = scn.controller;
+  settings.method = method;
+  settings.tube.background_designs = false;  // no Python here: the library stands in for a due design
+  control::Controller controller(std::make_shared<dynamics::LinearizedProximityModel>(model), scn.settings, settings);
+  controller.setup(scn.reference, method == control::Method::Tbmpc ? scn.tbmpc_designs : scn.ffa_designs);
+  const int T = scn.mission_steps();
+  const double dt = scn.settings.dt;
+  for (auto* v : {&f.time_controller, &f.time_identify, &f.time_tube, &f.time_mpc}) v->resize(static_cast<std::size_t>(T));
+  f.setup_s = std::chrono::duration<double>(Clock::now() - t_setup).count();
+  dynamics::StateVector x = scn.x0;
+  dynamics::TruthState state = dynamics::state_to_truth(x);
+  Eigen::VectorXd z1(dynamics::kNx);
+  Eigen::MatrixXd Pe(dynamics::kNx, dynamics::kNx);
+  for (int k = 0; k < T; ++k) {
+    const double t_k = scn.reference.t0 + k * dt;
+    dynamics::InputVector u;
+    {
+      AllocationWindow window;
+      const control::ControlStep& r = controller.step(k, x);
+      u = r.u;
+      z1 = r.mpc->z.col(1);
+      Pe = r.tube.Pe;
+      const auto i = static_cast<std::size_t>(k);
+      f.time_controller[i] = r.timings.total;
+      f.time_identify[i] = r.timings.identify;
+      f.time_tube[i] = r.timings.tube;
+      f.time_mpc[i] = r.timings.mpc;
+      ++f.statuses[mpc::to_string(r.mpc->status)];
+      ++f.tube_statuses[std::string(control::to_string(r.tube_status[0])) + "/" + control::to_string(r.tube_status[1])];
+      f.fallbacks += r.mpc->status == mpc::Status::FallbackShiftedPlan || r.mpc->status == mpc::Status::FallbackSafeInput;
+      f.scp_iterations += r.mpc->scp_iterations;
+      f.allocations_controller += window.count();
+    }
+    // J_p, J_r of the paper's Eq. (54)-(55) (identity weights), the node k term
+    const dynamics::StateVector e = x - scn.reference.z.col(k);
+    f.J_p += e.head<6>().squaredNorm() + u.head<3>().squaredNorm();
+    f.J_r += e.tail<6>().squaredNorm() + u.tail<3>().squaredNorm();
+    dynamics::PropagationResult p;
+    {
+      AllocationWindow window;
+      p = dynamics::propagate(truth, t_k, state, u, dt, {}, scn.propagator);
+      x = dynamics::truth_to_state(p.state, scn.reference.z.col(k + 1).segment<3>(6));
+      if (disturbance.size() > 0) x += disturbance.col(k);
+      state = dynamics::state_to_truth(x);
+      f.allocations_truth += window.count();
+    }
+    if (p.status != dynamics::PropagationStatus::Success) {
+      std::fprintf(stderr, "error: %s: truth propagation failed at step %d: %s\n", f.method.c_str(), k,
+                   dynamics::to_string(p.status));
+      f.exit_code = 3;
+      return f;
+    }
+    bool outside = false;
+    for (int s = 0; s < 2; ++s) {
+      const double ex = excursion(Pe, x, z1, s);
+      f.max_excursion[s] = std::max(f.max_excursion[s], ex);
+      outside = outside || ex > 1.0 + 1e-9;
+    }
+    f.steps_outside += outside;
+  }
+  const dynamics::StateVector& xf = scn.xf;
+  f.x_final = x;
+  f.error_position = (x.segment<3>(0) - xf.segment<3>(0)).norm();
+  f.error_velocity = (x.segment<3>(3) - xf.segment<3>(3)).norm();
+  f.error_attitude =  // angle of the rotation from the target attitude to the final one (rad)
+      math::log_map(math::quat_mul(math::quat_conj(math::exp_map(xf.segment<3>(6))), math::exp_map(x.segment<3>(6))))
+          .norm();
+  f.error_rate = (x.segment<3>(9) - xf.segment<3>(9)).norm();
+  return f;
+}
+
+void print_flight(const Flight& f) {
+  std::printf("%-6s J_p=%.10g J_r=%.10g terminal |dr|=%.3g m |dv|=%.3g m/s attitude %.3g rad rate %.3g rad/s\n",
+              f.method.c_str(), f.J_p, f.J_r, f.error_position, f.error_velocity, f.error_attitude, f.error_rate);
+  std::printf("       steps outside the tube %d, fallback steps %d, largest excursion p/r %.3g/%.3g, %.2f SCP "
+              "iterations per step, setup %.1f ms\n",
+              f.steps_outside, f.fallbacks, f.max_excursion[0], f.max_excursion[1],
+              static_cast<double>(f.scp_iterations) / static_cast<double>(f.time_mpc.size()), 1e3 * f.setup_s);
+  std::printf("       %-28s %10s %10s %10s   [ms]\n", "per-step wall time", "median", "p99", "max");
+  for (const auto& [name, v] : {std::pair{"controller step", &f.time_controller}, std::pair{"  identification", &f.time_identify},
+                                std::pair{"  tube update", &f.time_tube}, std::pair{"  MPC step", &f.time_mpc}}) {
+    const Stats st = stats(*v);
+    std::printf("       %-28s %10.3f %10.3f %10.3f\n", name, 1e3 * st.median, 1e3 * st.p99, 1e3 * st.max);
+  }
+  std::printf("       statuses:");
+  for (const auto& [name, n] : f.statuses) std::printf(" %s %d", name.c_str(), n);
+  std::printf("; tube statuses:");
+  for (const auto& [name, n] : f.tube_statuses) std::printf(" %s %d", name.c_str(), n);
+  if (tubempc::core::kAllocationCounterEnabled)
+    std::printf("\n       heap allocations after setup: controller step %ld, truth propagation %ld\n",
+                f.allocations_controller, f.allocations_truth);
+  else
+    std::printf("\n       heap allocations: not counted (needs glibc and no sanitizer)\n");
+}
+
+void write_counts(std::FILE* out, const char* name, const std::map<std::string, int>& counts) {
+  std::fprintf(out, "      \"%s\": {", name);
+  bool first = true;
+  for (const auto& [key, n] : counts) {
+    std::fprintf(out, "%s%s: %d", first ? "" : ", ", json_string(key).c_str(), n);
+    first = false;
+  }
+  std::fprintf(out, "},\n");
+}
+
+void write_flight(std::FILE* out, const Flight& f, bool last) {
+  std::fprintf(out, "    \"%s\": {\n", f.method.c_str());
+  std::fprintf(out, "      \"J_p\": %.17g,\n      \"J_r\": %.17g,\n", f.J_p, f.J_r);
+  std::fprintf(out, "      \"terminal_error\": {\"position\": %.17g, \"velocity\": %.17g, \"attitude\": %.17g, "
+               "\"rate\": %.17g},\n", f.error_position, f.error_velocity, f.error_attitude, f.error_rate);
+  std::fprintf(out, "      \"steps_outside_tube\": %d,\n      \"fallback_steps\": %d,\n      \"scp_iterations\": %d,\n",
+               f.steps_outside, f.fallbacks, f.scp_iterations);
+  std::fprintf(out, "      \"setup_s\": %.17g,\n", f.setup_s);
+  std::fprintf(out, "      \"allocations_controller\": %ld,\n      \"allocations_truth\": %ld,\n",
+               f.allocations_controller, f.allocations_truth);
+  write_counts(out, "statuses", f.statuses);
+  write_counts(out, "tube_statuses", f.tube_statuses);
+  std::fprintf(out, "  ");
+  write_array(out, "final_state", f.x_final.data(), dynamics::kNx);
+  for (const auto& [name, v] : {std::pair{"time_controller_s", &f.time_controller}, std::pair{"time_identify_s", &f.time_identify},
+                                std::pair{"time_tube_s", &f.time_tube}}) {
+    std::fprintf(out, "  ");
+    write_array(out, name, v->data(), v->size());
+  }
+  std::fprintf(out, "  ");
+  write_array(out, "time_mpc_s", f.time_mpc.data(), f.time_mpc.size(), true);
+  std::fprintf(out, "    }%s\n", last ? "" : ",");
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string scenario_path, json_path;
+  std::string scenario_path, json_path, disturbance_path, method_arg = "both";
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--json" && i + 1 < argc) {
       json_path = argv[++i];
+    } else if (arg == "--disturbance" && i + 1 < argc) {
+      disturbance_path = argv[++i];
+    } else if (arg == "--method" && i + 1 < argc) {
+      method_arg = argv[++i];
     } else if (!arg.empty() && arg[0] != '-' && scenario_path.empty()) {
       scenario_path = arg;
     } else {
       return usage(argv[0]);
     }
   }
-  if (scenario_path.empty()) return usage(argv[0]);
+  if (scenario_path.empty() || (method_arg != "both" && method_arg != "tbmpc" && method_arg != "ffa"))
+    return usage(argv[0]);
 
   io::Scenario scn;
   std::shared_ptr<const dynamics::ProximityModel> model;
   std::shared_ptr<const dynamics::ProximityModel> truth;
+  Eigen::MatrixXd disturbance;
   try {
     scn = io::read_scenario(scenario_path);
-    const std::string shape_file = scn.resolve(scn.controller.shape);
-    gravity::Shape shape = gravity::load_shape(shape_file, scn.controller.shape_unit_scale);
+    if (!scn.has_controller)
+      throw std::invalid_argument(scenario_path + ": a version-" + std::to_string(io::kScenarioFormatVersion) +
+                                  " scenario (with the controller) is needed; export it again");
+    const std::string shape_file = scn.resolve(scn.model.shape);
+    gravity::Shape shape = gravity::load_shape(shape_file, scn.model.shape_unit_scale);
     const std::string truth_file = scn.resolve(scn.truth.shape);
     gravity::Shape truth_shape =
-        truth_file == shape_file && scn.truth.shape_unit_scale == scn.controller.shape_unit_scale
+        truth_file == shape_file && scn.truth.shape_unit_scale == scn.model.shape_unit_scale
             ? shape
             : gravity::load_shape(truth_file, scn.truth.shape_unit_scale);
     std::printf("tubempc %s: %s (T = %d steps of %g s, N = %d); shape %s: %ld faces\n",
@@ -126,11 +315,12 @@ int main(int argc, char** argv) {
                 scn.settings.dt, scn.settings.horizon, shape_file.c_str(),
                 static_cast<long>(shape.n_faces()));
     model = std::make_shared<dynamics::ProximityModel>(
-        std::make_shared<gravity::PolyhedronGravity>(std::move(shape), scn.controller.density),
-        scn.controller.params);
+        std::make_shared<gravity::PolyhedronGravity>(std::move(shape), scn.model.density),
+        scn.model.params);
     truth = std::make_shared<dynamics::ProximityModel>(
         std::make_shared<gravity::PolyhedronGravity>(std::move(truth_shape), scn.truth.density),
         scn.truth.params);
+    if (!disturbance_path.empty()) disturbance = read_disturbance(disturbance_path, scn.mission_steps());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
@@ -148,96 +338,20 @@ int main(int argc, char** argv) {
     }
   }
 
-  // Setup: everything the loop needs is allocated here.
-  const auto t_setup = Clock::now();
-  auto plant = std::make_shared<dynamics::LinearizedProximityModel>(model);
-  mpc::TubeMPC controller(plant, scn.settings);
-  controller.setup(scn.reference);
-  const int T = scn.mission_steps();
-  const double dt = scn.settings.dt;
-  std::vector<double> time_step(static_cast<std::size_t>(T)), time_mpc(static_cast<std::size_t>(T)),
-      time_mpc_internal(static_cast<std::size_t>(T));
-  std::vector<mpc::Status> statuses(static_cast<std::size_t>(T)), failures(static_cast<std::size_t>(T));
-  const double setup_s = std::chrono::duration<double>(Clock::now() - t_setup).count();
-  dynamics::StateVector x = scn.x0;
-  dynamics::TruthState state = dynamics::state_to_truth(x);
-  long allocations_mpc = 0, allocations_truth = 0;
-  int scp_iterations = 0;
-
-  for (int k = 0; k < T; ++k) {
-    const double t_k = scn.reference.t0 + k * dt;
-    const auto a = Clock::now();
-    dynamics::InputVector u;
-    {
-      AllocationWindow window;
-      const mpc::StepResult& r = controller.step(k, x, scn.tube);
-      u = r.u;
-      statuses[static_cast<std::size_t>(k)] = r.status;
-      failures[static_cast<std::size_t>(k)] = r.failure;
-      time_mpc_internal[static_cast<std::size_t>(k)] = r.timings.total;
-      scp_iterations += r.scp_iterations;
-      allocations_mpc += window.count();
+  std::vector<Flight> flights;
+  for (const control::Method m : {control::Method::Tbmpc, control::Method::Ffa}) {
+    if (method_arg != "both" && method_arg != control::to_string(m)) continue;
+    try {
+      flights.push_back(fly(scn, m, model, *truth, disturbance));
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "error: %s: %s\n", control::to_string(m), e.what());
+      return 2;
     }
-    const auto b = Clock::now();
-    dynamics::PropagationResult p;
-    {
-      AllocationWindow window;
-      p = dynamics::propagate(*truth, t_k, state, u, dt, {}, scn.propagator);
-      x = dynamics::truth_to_state(p.state, scn.reference.z.col(k + 1).segment<3>(6));
-      state = dynamics::state_to_truth(x);
-      allocations_truth += window.count();
-    }
-    const auto c = Clock::now();
-    if (p.status != dynamics::PropagationStatus::Success) {
-      std::fprintf(stderr, "error: truth propagation failed at step %d: %s\n", k,
-                   dynamics::to_string(p.status));
-      return 3;
-    }
-    time_mpc[static_cast<std::size_t>(k)] = std::chrono::duration<double>(b - a).count();
-    time_step[static_cast<std::size_t>(k)] = std::chrono::duration<double>(c - a).count();
+    if (flights.back().exit_code != 0) return flights.back().exit_code;
+    print_flight(flights.back());
   }
-
-  std::map<std::string, int> status_counts, failure_counts;
-  for (int k = 0; k < T; ++k) {
-    ++status_counts[mpc::to_string(statuses[static_cast<std::size_t>(k)])];
-    if (failures[static_cast<std::size_t>(k)] != mpc::Status::Solved) {
-      ++failure_counts[mpc::to_string(failures[static_cast<std::size_t>(k)])];
-    }
-  }
-  const Stats s_step = stats(time_step), s_mpc = stats(time_mpc), s_int = stats(time_mpc_internal);
-  const dynamics::StateVector& xf = scn.xf;
-  const double err_r = (x.segment<3>(0) - xf.segment<3>(0)).norm();
-  const double err_v = (x.segment<3>(3) - xf.segment<3>(3)).norm();
-  const double err_att =  // angle of the rotation from the target attitude to the final one (rad)
-      math::log_map(
-          math::quat_mul(math::quat_conj(math::exp_map(xf.segment<3>(6))), math::exp_map(x.segment<3>(6))))
-          .norm();
-  const double err_w = (x.segment<3>(9) - xf.segment<3>(9)).norm();
-
-  std::printf("setup %.1f ms; mission of %d steps, %.2f SCP iterations per step\n", 1e3 * setup_s, T,
-              static_cast<double>(scp_iterations) / T);
-  std::printf("%-34s %10s %10s %10s   [ms]\n", "per-step wall time", "median", "p99", "max");
-  std::printf("  %-32s %10.3f %10.3f %10.3f\n", "step (MPC + truth propagation)", 1e3 * s_step.median,
-              1e3 * s_step.p99, 1e3 * s_step.max);
-  std::printf("  %-32s %10.3f %10.3f %10.3f\n", "MPC step", 1e3 * s_mpc.median, 1e3 * s_mpc.p99,
-              1e3 * s_mpc.max);
-  std::printf("  %-32s %10.3f %10.3f %10.3f\n", "MPC step (StepResult timings)", 1e3 * s_int.median,
-              1e3 * s_int.p99, 1e3 * s_int.max);
-  std::printf("statuses:");
-  for (const auto& [name, n] : status_counts) std::printf(" %s %d", name.c_str(), n);
-  if (!failure_counts.empty()) {
-    std::printf("; fallback causes:");
-    for (const auto& [name, n] : failure_counts) std::printf(" %s %d", name.c_str(), n);
-  }
-  std::printf(
-      "\nfinal error vs x_f: position %.4g m, velocity %.4g m/s, attitude %.4g rad, rate %.4g rad/s\n", err_r,
-      err_v, err_att, err_w);
-  const bool counted = tubempc::core::kAllocationCounterEnabled;
-  if (counted)
-    std::printf("heap allocations after setup: MPC step %ld, truth propagation %ld\n", allocations_mpc,
-                allocations_truth);
-  else
-    std::printf("heap allocations: not counted (needs glibc and no sanitizer)\n");
+  if (flights.size() == 2 && flights[0].J_p > 0.0)
+    std::printf("TBMPC-FFA J_p is %.1f %% below TBMPC's\n", 100.0 * (1.0 - flights[1].J_p / flights[0].J_p));
 
   if (!json_path.empty()) {
     std::FILE* f = std::fopen(json_path.c_str(), "w");
@@ -245,29 +359,19 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "error: cannot write %s\n", json_path.c_str());
       return 2;
     }
-    std::fprintf(f, "{\n  \"scenario\": %s,\n  \"steps\": %d,\n  \"setup_s\": %.17g,\n",
-                 json_string(scenario_path).c_str(), T, setup_s);
-    std::fprintf(f, "  \"scp_iterations\": %d,\n", scp_iterations);
-    std::fprintf(
-        f, "  \"allocations_counted\": %s,\n  \"allocations_mpc\": %ld,\n  \"allocations_truth\": %ld,\n",
-        counted ? "true" : "false", allocations_mpc, allocations_truth);
-    std::fprintf(f, "  \"statuses\": {");
-    bool first = true;
-    for (const auto& [name, n] : status_counts) {
-      std::fprintf(f, "%s\"%s\": %d", first ? "" : ", ", name.c_str(), n);
-      first = false;
-    }
-    std::fprintf(f, "},\n");
-    write_array(f, "final_state", x.data(), dynamics::kNx);
-    write_array(f, "time_step_s", time_step.data(), time_step.size());
-    write_array(f, "time_mpc_s", time_mpc.data(), time_mpc.size());
-    write_array(f, "time_mpc_internal_s", time_mpc_internal.data(), time_mpc_internal.size(), true);
-    std::fprintf(f, "}\n");
+    std::fprintf(f, "{\n  \"scenario\": %s,\n  \"steps\": %d,\n  \"allocations_counted\": %s,\n  \"methods\": {\n",
+                 json_string(scenario_path).c_str(), scn.mission_steps(),
+                 tubempc::core::kAllocationCounterEnabled ? "true" : "false");
+    for (std::size_t i = 0; i < flights.size(); ++i) write_flight(f, flights[i], i + 1 == flights.size());
+    std::fprintf(f, "  }\n}\n");
     std::fclose(f);
   }
-  if (allocations_mpc > 0) {
-    std::fprintf(stderr, "error: the MPC step allocated %ld times after setup\n", allocations_mpc);
-    return 1;
+  for (const Flight& fl : flights) {
+    if (fl.allocations_controller > 0) {
+      std::fprintf(stderr, "error: %s: the controller step allocated %ld times after setup\n", fl.method.c_str(),
+                   fl.allocations_controller);
+      return 1;
+    }
   }
   return 0;
 }

@@ -68,7 +68,7 @@ def python_loop(scenario_path: str | Path) -> dict[str, Any]:
         shape = _core.gravity.load_shape(s.resolve(body.shape), body.shape_unit_scale)
         return _core.dynamics.ProximityModel(_core.gravity.PolyhedronGravity(shape, body.density), body.params)
 
-    controller_model, truth = model(s.controller), model(s.truth)
+    controller_model, truth = model(s.model), model(s.truth)
     t_setup = time.perf_counter()
     ctrl = _core.mpc.TubeMPC(_core.mpc.LinearizedProximityModel(controller_model), s.settings)
     ctrl.setup(s.reference)

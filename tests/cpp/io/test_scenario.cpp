@@ -30,12 +30,12 @@ Eigen::MatrixXd filled(Eigen::Index rows, Eigen::Index cols, double seed, double
 // A scenario whose every value is distinct and not exactly representable in few digits.
 Scenario sample(int T) {
   Scenario s;
-  s.controller.params.kinematics = tubempc::dynamics::Kinematics::Exact;
-  s.controller.params.spin_angle0 = 0.1;
-  s.controller.params.inertia_B(0, 1) = s.controller.params.inertia_B(1, 0) = 1.0 / 3.0;
-  s.controller.density = 1260.0;
-  s.controller.shape = "shape.obj";
-  s.truth = s.controller;
+  s.model.params.kinematics = tubempc::dynamics::Kinematics::Exact;
+  s.model.params.spin_angle0 = 0.1;
+  s.model.params.inertia_B(0, 1) = s.model.params.inertia_B(1, 0) = 1.0 / 3.0;
+  s.model.density = 1260.0;
+  s.model.shape = "shape.obj";
+  s.truth = s.model;
   s.truth.density = 1260.0 * 1.1;
   s.truth.params.beta_srp *= 0.9;
   s.truth.params.srp_enabled = false;
@@ -59,8 +59,36 @@ Scenario sample(int T) {
   s.reference.t0 = 0.25;
   s.reference.z = filled(12, T + 1, 1.0, 1e3);
   s.reference.u = filled(6, T, 2.0, 1e-2);
-  s.tube.K = filled(6, 12, 3.0, 0.1);
-  s.tube.Pe = Eigen::MatrixXd::Identity(12, 12) * std::sqrt(2.0);
+  s.has_controller = true;
+  s.controller.measured_input = tubempc::control::MeasuredInput::ReferenceDeviation;  // not the default
+  s.controller.identification_p.lambda = 0.96;
+  s.controller.identification_p.w0 = filled(6, 1, 6.0, 1e-3);
+  s.controller.identification_p.S0 = Eigen::VectorXd::LinSpaced(6, 1e-3, 4e-2).asDiagonal();
+  s.controller.identification_p.prior_weight = 24.5;
+  s.controller.identification_r = s.controller.identification_p;
+  s.controller.identification_r.lambda = 0.98;
+  s.controller.identification_r.S0 *= 1.0 / 3.0;
+  s.controller.tube.redesign_margin = 0.2;
+  s.controller.tube.alpha_search_period = 7;
+  const auto design = [](double seed) {
+    tubempc::control::SubsystemDesign d;
+    d.K = filled(3, 6, seed, 0.1);
+    d.alpha = 0.5 + 0.1 * std::sin(seed);
+    d.P_W = Eigen::VectorXd::LinSpaced(6, 1.0 / 3.0, 2.0).asDiagonal();
+    d.Pe = d.P_W * (1.0 + seed);
+    return d;
+  };
+  s.tbmpc_designs.initial_p = design(7.0);
+  s.tbmpc_designs.initial_r = design(8.0);
+  s.ffa_designs.initial_p = design(9.0);
+  s.ffa_designs.initial_r = design(10.0);
+  s.ffa_designs.library_p = {design(11.0), design(12.0)};  // library_r stays empty
+  s.tube.K = Eigen::MatrixXd::Zero(6, 12);
+  s.tube.Pe = Eigen::MatrixXd::Zero(12, 12);
+  s.tube.K.block(0, 0, 3, 6) = s.tbmpc_designs.initial_p.K;
+  s.tube.K.block(3, 6, 3, 6) = s.tbmpc_designs.initial_r.K;
+  s.tube.Pe.block(0, 0, 6, 6) = s.tbmpc_designs.initial_p.Pe;
+  s.tube.Pe.block(6, 6, 6, 6) = s.tbmpc_designs.initial_r.Pe;
   s.x0 = filled(12, 1, 4.0, 1.0);
   s.x0(0) = -0.0;
   s.xf = filled(12, 1, 5.0, 1e-300);
@@ -146,7 +174,7 @@ TEST_F(ScenarioFile, RoundTripIsBitExact) {
   EXPECT_EQ(b.directory, dir_.string());
   EXPECT_EQ(b.mission_steps(), 3);
   for (const auto& [x, y, name] :
-       {std::tuple{&a.controller, &b.controller, "model"}, std::tuple{&a.truth, &b.truth, "truth"}}) {
+       {std::tuple{&a.model, &b.model, "model"}, std::tuple{&a.truth, &b.truth, "truth"}}) {
     SCOPED_TRACE(name);
     EXPECT_EQ(x->params.mu_sun, y->params.mu_sun);
     EXPECT_EQ(x->params.orbit_radius, y->params.orbit_radius);
@@ -163,7 +191,7 @@ TEST_F(ScenarioFile, RoundTripIsBitExact) {
     EXPECT_EQ(x->shape, y->shape);
     EXPECT_EQ(x->shape_unit_scale, y->shape_unit_scale);
   }
-  EXPECT_EQ(b.resolve(b.controller.shape), (dir_ / "shape.obj").string());
+  EXPECT_EQ(b.resolve(b.model.shape), (dir_ / "shape.obj").string());
   EXPECT_EQ(b.resolve(b.truth.shape), "/abs/truth shape.tab");
   EXPECT_EQ(b.propagator.method, a.propagator.method);
   EXPECT_EQ(b.propagator.substeps, 8);
@@ -208,6 +236,32 @@ TEST_F(ScenarioFile, RoundTripIsBitExact) {
   expect_same_bits(a.reference.u, b.reference.u, "reference.u");
   expect_same_bits(a.tube.K, b.tube.K, "K");
   expect_same_bits(a.tube.Pe, b.tube.Pe, "Pe");
+  ASSERT_TRUE(b.has_controller);
+  EXPECT_EQ(b.controller.measured_input, a.controller.measured_input);
+  for (const auto& [x, y] : {std::pair{&a.controller.identification_p, &b.controller.identification_p},
+                             std::pair{&a.controller.identification_r, &b.controller.identification_r}}) {
+    EXPECT_EQ(x->lambda, y->lambda);
+    expect_same_bits(x->w0, y->w0, "w0");
+    expect_same_bits(x->S0, y->S0, "S0");
+    EXPECT_EQ(x->prior_weight, y->prior_weight);
+    EXPECT_EQ(x->eig_floor, y->eig_floor);
+    EXPECT_EQ(x->pw_scale, y->pw_scale);
+  }
+  EXPECT_EQ(b.controller.tube.redesign_margin, a.controller.tube.redesign_margin);
+  EXPECT_EQ(b.controller.tube.alpha_search_period, 7);
+  const auto same_design = [](const tubempc::control::SubsystemDesign& x, const tubempc::control::SubsystemDesign& y) {
+    expect_same_bits(x.K, y.K, "design K");
+    EXPECT_EQ(x.alpha, y.alpha);
+    expect_same_bits(x.P_W, y.P_W, "design P_W");
+    expect_same_bits(x.Pe, y.Pe, "design Pe");
+  };
+  same_design(a.tbmpc_designs.initial_p, b.tbmpc_designs.initial_p);
+  same_design(a.tbmpc_designs.initial_r, b.tbmpc_designs.initial_r);
+  same_design(a.ffa_designs.initial_p, b.ffa_designs.initial_p);
+  same_design(a.ffa_designs.initial_r, b.ffa_designs.initial_r);
+  ASSERT_EQ(b.ffa_designs.library_p.size(), 2u);
+  EXPECT_TRUE(b.ffa_designs.library_r.empty());
+  for (std::size_t i = 0; i < 2; ++i) same_design(a.ffa_designs.library_p[i], b.ffa_designs.library_p[i]);
   expect_same_bits(a.x0, b.x0, "x0");
   expect_same_bits(a.xf, b.xf, "xf");
 
@@ -244,11 +298,18 @@ TEST_F(ScenarioFile, VersionOneFilesAreRead) {
     ASSERT_NE(at, std::string::npos) << from;
     text.replace(at, from.size(), to);
   };
-  replace("tubempc-scenario 2", "tubempc-scenario 1");
+  replace("tubempc-scenario 3", "tubempc-scenario 1");
   const Scenario fresh = read_scenario(path_);
+  // versions 1 and 2 carry TBMPC's tube instead of the controller
+  const std::size_t c0 = text.find("controller.measured_input"), c1 = text.find("mission.x0");
+  ASSERT_NE(c0, std::string::npos);
+  std::ostringstream tube;
+  tube << "tube.K 6 12\n" << fresh.tube.K.format(Eigen::IOFormat(17, Eigen::DontAlignCols, " ", "\n")) << "\n";
+  tube << "tube.Pe 12 12\n" << fresh.tube.Pe.format(Eigen::IOFormat(17, Eigen::DontAlignCols, " ", "\n")) << "\n";
+  text.replace(c0, c1 - c0, tube.str());
   const std::string kin =
-      std::string("model.kinematics text\n") + to_string(fresh.controller.params.kinematics);
-  if (fresh.controller.params.kinematics == tubempc::dynamics::Kinematics::FirstOrder)
+      std::string("model.kinematics text\n") + to_string(fresh.model.params.kinematics);
+  if (fresh.model.params.kinematics == tubempc::dynamics::Kinematics::FirstOrder)
     replace(kin, "model.kinematics text\npaper");
   if (fresh.truth.params.kinematics == tubempc::dynamics::Kinematics::FirstOrder)
     replace("truth.kinematics text\nfirst_order", "truth.kinematics text\npaper");
@@ -266,19 +327,21 @@ TEST_F(ScenarioFile, VersionOneFilesAreRead) {
   const std::string path = (dir_ / "v1.txt").string();
   std::ofstream(path, std::ios::binary) << text;
   const Scenario old = read_scenario(path);
-  EXPECT_EQ(old.controller.params.kinematics, fresh.controller.params.kinematics);
+  EXPECT_EQ(old.model.params.kinematics, fresh.model.params.kinematics);
   EXPECT_EQ(old.truth.params.kinematics, fresh.truth.params.kinematics);
   EXPECT_EQ(old.settings.input_cost, fresh.settings.input_cost);
   EXPECT_EQ(old.settings.qp_solver, fresh.settings.qp_solver);
   EXPECT_EQ(old.settings.linearization, fresh.settings.linearization);
+  EXPECT_FALSE(old.has_controller);
+  EXPECT_TRUE(old.tube.Pe.isApprox(fresh.tube.Pe, 1e-15));
   // and a version-2 name in a version-1 file is unknown there
   std::ofstream(path, std::ios::binary) << text << "mpc.qp_solver text\npiqp\n";
   EXPECT_THROW(read_scenario(path), std::invalid_argument);
 }
 
 TEST_F(ScenarioFile, ErrorsNameFileLineAndRecord) {
-  expect_error("tubempc-scenario 2", "tubempc-scenario 3", 1, "format version 3 is not supported");
-  expect_error("tubempc-scenario 2", "tubempc 2", 1, "not a tubempc scenario file");
+  expect_error("tubempc-scenario 3", "tubempc-scenario 4", 1, "format version 4 is not supported");
+  expect_error("tubempc-scenario 3", "tubempc 3", 1, "not a tubempc scenario file");
   const long mu = line_of("model.mu_sun 1 1");
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\n1.3271x", mu + 1,
                "model.mu_sun: row 0, column 0: bad number '1.3271x'");
@@ -323,8 +386,14 @@ TEST_F(ScenarioFile, ErrorsNameFileLineAndRecord) {
   const long u = line_of("reference.u 3 6");
   expect_error("reference.u 3 6\n" + line_at(u + 1) + "\n", "reference.u 2 6\n", u,
                "reference.u: expected size 3 x 6, got 2 x 6");
-  expect_error("tube.Pe 12 12", "tube.Pe 12 13", line_of("tube.Pe 12 12") + 1,
-               "tube.Pe: row 0: expected 13 values");
+  expect_error("designs.ffa_r.Pe 6 6", "designs.ffa_r.Pe 6 7", line_of("designs.ffa_r.Pe 6 6") + 1,
+               "designs.ffa_r.Pe: row 0: expected 7 values");
+  expect_error("designs.tbmpc_p.alpha 1 1\n", "designs.tbmpc_p.alpha 1 1\n1.5\n#", 0,
+               "designs.tbmpc_p.alpha: must lie in (0, 1)");
+  expect_error("identification_p.lambda 1 1\n0.95999999999999996", "identification_p.lambda 1 1\n1", 0,
+               "identification_p.lambda: must lie in (0, 1)");
+  expect_error("tube.alpha_search_period 1 1\n7", "tube.alpha_search_period 1 1\n0", 0,
+               "tube.alpha_search_period: must be >= 1");
   expect_error("mission.x0 12 1", "mission.x0 13 1", line_of("mission.xf 12 1"),
                "mission.x0: row 12: expected 1 values, got 3");
   const long xf = line_of("mission.xf 12 1");

@@ -5,9 +5,9 @@
 /// target states and the truth propagator's settings. Plain text, versioned, exact (every double
 /// written with 17 significant digits, so reading gives back the same bits).
 ///
-/// Format, version 2 (version 1 files are read too; see below)
-/// -----------------------------------------------------------
-/// - Line 1: `tubempc-scenario 2`. Lines starting with `#` (after optional blanks) and blank lines
+/// Format, version 3 (versions 1 and 2 are read too; see below)
+/// -------------------------------------------------------------
+/// - Line 1: `tubempc-scenario 3`. Lines starting with `#` (after optional blanks) and blank lines
 ///   are comments anywhere else.
 /// - Then records in any order, each name at most once:
 ///   - numeric: a header line `<name> <rows> <cols>` followed by `rows` lines of `cols` numbers each
@@ -57,20 +57,32 @@
 ///   | `reference.t0` | 1 1 | time of node 0 (s) |
 ///   | `reference.z` | T+1 12 | reference states zbar_0..zbar_T, one node per row |
 ///   | `reference.u` | T 6 | reference inputs u_ref_0..u_ref_{T-1}, one node per row |
-///   | `tube.K` | 6 12 | ancillary gain |
-///   | `tube.Pe` | 12 12 | tube shape |
+///   | `tube.K` | 6 12 | TBMPC's ancillary gain (versions 1-2 only; version 3: from `designs.tbmpc_*`) |
+///   | `tube.Pe` | 12 12 | TBMPC's tube shape (versions 1-2 only) |
+///   | `controller.measured_input` | text | `residual` or `reference_deviation` (control::MeasuredInput) |
+///   | `identification_p.lambda`, `identification_r.lambda` | 1 1 | forgetting factors |
+///   | `identification_p.w0`, `identification_r.w0` | 6 1 | prior means (subsystem state units) |
+///   | `identification_p.S0`, `identification_r.S0` | 6 6 | prior covariances |
+///   | `identification_p.prior_weight`, `.eig_floor`, `.pw_scale` (and `_r`) | 1 1 each | control::IdentifierSettings |
+///   | `tube.redesign_margin` | 1 1 | control::TubePolicySettings::redesign_margin |
+///   | `tube.alpha_search_period` | 1 1 | integer, steps |
+///   | `designs.<m>_<s>.K`, `.alpha`, `.P_W`, `.Pe` | 3 6, 1 1, 6 6, 6 6 | initial LMI design of method `<m>` (`tbmpc`, `ffa`) and subsystem `<s>` (`p`, `r`) |
+///   | `library_<s>.K`, `.alpha`, `.P_W`, `.Pe` | 3L 6, L 1, 6L 6, 6L 6 | TBMPC-FFA's library of L designs of subsystem `<s>`, stacked (`0 0` for L = 0) |
 ///   | `mission.x0` | 12 1 | initial state [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)] |
 ///   | `mission.xf` | 12 1 | target state, same units |
 ///
 ///   Optional records default to mpc::Settings' defaults (the structures to dense). Everything else
 ///   is required; unknown names are errors (a later version adds names and bumps the number).
+///   Version 3 adds the whole controller (control::Controller: identification, tube policy, designs and
+///   libraries) and drops `tube.K`/`tube.Pe` (TBMPC's tube is `designs.tbmpc_*`). Version 2 files carry
+///   TBMPC's tube only: Scenario::has_controller is false for them.
 ///   Version 1 files are read too: they name the options `paper` (kinematics `first_order`, input
 ///   cost `absolute`) and `from_reference` (`deviation`), and carry `mpc.backend` (`active_set_piqp`
 ///   or `piqp`) and the flag `mpc.reuse_linearization` instead of `mpc.qp_solver` and `mpc.linearization`.
 ///
 /// Example (abridged):
 ///
-///     tubempc-scenario 2
+///     tubempc-scenario 3
 ///     # exported by tubempc 0.1.0
 ///     model.mu_sun 1 1
 ///     1.32712440018e+20
@@ -83,6 +95,7 @@
 
 #include <string>
 
+#include "tubempc/control/controller.hpp"
 #include "tubempc/dynamics/propagator.hpp"
 #include "tubempc/dynamics/proximity_model.hpp"
 #include "tubempc/mpc/tube_mpc.hpp"
@@ -90,7 +103,7 @@
 namespace tubempc::io {
 
 /// Version of the scenario format this library reads and writes.
-inline constexpr int kScenarioFormatVersion = 2;
+inline constexpr int kScenarioFormatVersion = 3;
 
 /// One 6-DOF model of the scenario: the inputs of gravity::load_shape, gravity::PolyhedronGravity
 /// and dynamics::ProximityModel.
@@ -105,12 +118,18 @@ struct BodyModel {
 struct Scenario {
   /// Folder of the file read (relative shape paths are relative to it); empty if not read from a file.
   std::string directory;
-  BodyModel controller;                     ///< the MPC's model (records `model.*`)
+  BodyModel model;                          ///< the controller's model (records `model.*`)
   BodyModel truth;                          ///< the simulated plant (records `truth.*`)
   dynamics::PropagatorSettings propagator;  ///< truth propagation per control period
   mpc::Settings settings;                   ///< tube MPC settings
   mpc::Reference reference;                 ///< zbar (12 x (T + 1)), u_ref (6 x T) as columns, t0 (s)
   mpc::Tube tube;                           ///< TBMPC's fixed tube: K (6 x 12), Pe (12 x 12)
+  /// Whether the file carries the whole controller (version 3); the members below are valid only then.
+  bool has_controller{false};
+  /// The controller's settings (method set by the program flying it; version 3).
+  control::ControllerSettings controller;
+  control::ControllerDesigns tbmpc_designs;  ///< TBMPC's designs (no library; version 3)
+  control::ControllerDesigns ffa_designs;    ///< TBMPC-FFA's initial designs and libraries (version 3)
   dynamics::StateVector x0{dynamics::StateVector::Zero()};  ///< initial state (m, m/s, rad, rad/s)
   dynamics::StateVector xf{dynamics::StateVector::Zero()};  ///< target state (same units)
 
@@ -122,7 +141,7 @@ struct Scenario {
   std::string resolve(const std::string& path) const;
 };
 
-/// Reads and validates a scenario file (format version 2, or 1).
+/// Reads and validates a scenario file (format version 3, 2 or 1).
 /// @param path the scenario file.
 /// @return its contents; `directory` is the file's folder. The shape files are not opened.
 /// @throws std::invalid_argument `<path>:<line>: <record>: <what>` for a malformed record (bad header,
@@ -133,12 +152,13 @@ struct Scenario {
 ///         size checks of the reference, the tube and the states.
 Scenario read_scenario(const std::string& path);
 
-/// Writes a scenario file (format version 2) with every record, optional ones included.
+/// Writes a scenario file (format version 3) with every record, optional ones included.
 /// @param path     file to create or overwrite.
 /// @param scenario contents; shape paths are written as they are (relative ones stay relative).
 /// @param comment  optional text written as `#` comment lines after the version line.
 /// @throws std::invalid_argument if the contents have the wrong sizes for the format (12 states,
-///         6 inputs); std::runtime_error naming the path when the file cannot be written.
+///         6 inputs) or carry no controller (has_controller false); std::runtime_error naming the path
+///         when the file cannot be written.
 void write_scenario(const std::string& path, const Scenario& scenario, const std::string& comment = "");
 
 }  // namespace tubempc::io

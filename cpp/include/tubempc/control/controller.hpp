@@ -1,0 +1,174 @@
+/// @file controller.hpp
+/// The whole control step of TBMPC and TBMPC-FFA in one call (docs/model.md "Closed loop"; the paper's
+/// Algorithm 1): the measured exogenous input of the last period and its forgetting-factor
+/// identification per subsystem (identification.hpp), the tube update (tube_update.hpp) and the tube
+/// MPC step (mpc::TubeMPC). No heap allocation and no semidefinite program inside a step; every loop
+/// in it has a bound fixed at set-up.
+///
+/// Lifecycle: construct with the controller's model and settings; `setup(reference, designs)` once per
+/// mission (allocates, discretises the reference for the tube update); then `step(k, x_k)` every control
+/// period with the measured state. A caller that runs background LMI designs (Python) reads
+/// `ControlStep::design_due` and offers finished designs through `adopt`.
+///
+/// Subsystems: translation (p: states 0-5 [r_L (m), v_L (m/s)], inputs 0-2 (m/s^2)) and rotation
+/// (r: states 6-11 [phi (rad), omega_BL_B (rad/s)], inputs 3-5 (N m)); the tube is block diagonal.
+#pragma once
+
+#include <Eigen/Dense>
+#include <array>
+#include <memory>
+#include <vector>
+
+#include "tubempc/control/identification.hpp"
+#include "tubempc/control/tube_update.hpp"
+#include "tubempc/mpc/linearized_model.hpp"
+#include "tubempc/mpc/tube_mpc.hpp"
+
+namespace tubempc::control {
+
+/// The method flown.
+enum class Method {
+  Tbmpc,  ///< the tube designed at set-up from the prior, kept (the paper's TBMPC)
+  Ffa,    ///< the tube updated from the identified disturbance set (the paper's TBMPC-FFA)
+};
+/// @param m a method.
+/// @return "tbmpc" or "ffa".
+const char* to_string(Method m);
+
+/// What the identification takes as the measured exogenous input w_k.
+enum class MeasuredInput {
+  Residual,            ///< w_k = x_{k+1} - (A_k x_k + B_k u_k + c_k), the model's one-step prediction error (default)
+  ReferenceDeviation,  ///< w_k = x_{k+1} - zbar_{k+1}, the paper's literal Eq. (26)
+};
+/// @param m a measured-input kind.
+/// @return "residual" or "reference_deviation".
+const char* to_string(MeasuredInput m);
+
+/// Settings of the controller (the MPC's own are mpc::Settings).
+struct ControllerSettings {
+  Method method = Method::Ffa;                             ///< TBMPC or TBMPC-FFA
+  MeasuredInput measured_input = MeasuredInput::Residual;  ///< the identification's input
+  IdentifierSettings identification_p;                     ///< translational identifier
+  IdentifierSettings identification_r;                     ///< rotational identifier
+  /// The tube update; `adaptive` is set from `method` by the controller.
+  TubePolicySettings tube;
+  /// Throws std::invalid_argument naming the field.
+  void validate() const;
+};
+
+/// The LMI designs a controller flies with (computed at set-up; Python: tubempc.tube_library).
+struct ControllerDesigns {
+  SubsystemDesign initial_p;                ///< translational design of k = 0 (TBMPC: for the whole mission)
+  SubsystemDesign initial_r;                ///< rotational design of k = 0
+  std::vector<SubsystemDesign> library_p;   ///< translational library (TBMPC-FFA)
+  std::vector<SubsystemDesign> library_r;   ///< rotational library (TBMPC-FFA)
+};
+
+/// Wall-clock split of one control step (s).
+struct ControlTimings {
+  double identify = 0.0;  ///< measured input of the last period and the identifiers' update
+  double tube = 0.0;      ///< tube update of both subsystems
+  double mpc = 0.0;       ///< tube MPC step
+  double total = 0.0;     ///< the whole call
+};
+
+/// Result of one control step; storage allocated at set-up and overwritten by every step.
+struct ControlStep {
+  Eigen::VectorXd u;                           ///< the command (6: m/s^2, N m), always finite
+  mpc::Tube tube;                              ///< the tube flown: K (6 x 12), Pe (12 x 12), block diagonal
+  std::array<TubeStatus, 2> tube_status{};     ///< per subsystem (p, r)
+  std::array<double, 2> alpha{};               ///< per subsystem
+  std::array<double, 2> residual{};            ///< lmi_residual of each tube for this step (<= 0 when certified)
+  /// Whether a new LMI design is due at this step (a search step, or the margin was lost at the last
+  /// step): a caller with background designs starts one from A, B and (1 + margin) P_W of this step.
+  bool design_due = false;
+  std::array<SubMatrix, 2> A;                  ///< subsystem A about the reference's node k
+  std::array<SubInputMatrix, 2> B;             ///< subsystem B about the reference's node k
+  std::array<SubMatrix, 2> P_W;                ///< identified disturbance sets used by this step
+  bool identified = false;                     ///< whether the last period's input was folded in
+  Eigen::Matrix<double, 12, 1> w_measured = Eigen::Matrix<double, 12, 1>::Zero();  ///< that input
+  const mpc::StepResult* mpc = nullptr;        ///< the MPC step's result (plan, statuses, timings)
+  ControlTimings timings;                      ///< wall-clock split
+};
+
+/// TBMPC / TBMPC-FFA (see the file comment).
+class Controller {
+ public:
+  /// @param model        the controller's plant (12 states, 6 inputs), non-null.
+  /// @param mpc_settings the tube MPC's settings (validated).
+  /// @param settings     the controller's settings (validated).
+  Controller(std::shared_ptr<const mpc::LinearizedModel> model, mpc::Settings mpc_settings,
+             ControllerSettings settings);
+  ~Controller();
+  Controller(const Controller&) = delete;
+  Controller& operator=(const Controller&) = delete;
+
+  /// Prepares a mission: the MPC's setup, the reference discretised at every node for the tube update,
+  /// the identifiers at their prior and the tube policies with their designs.
+  /// @param reference the mission's reference (12 x (T + 1), 6 x T).
+  /// @param designs   the initial designs and libraries (validated).
+  /// @throws std::invalid_argument for inconsistent data; std::domain_error if the reference cannot be
+  ///         discretised.
+  void setup(const mpc::Reference& reference, const ControllerDesigns& designs);
+  /// Back to k = 0 (identifiers at their prior, initial designs, MPC without a previous plan).
+  void reset();
+
+  /// One control step from the measured state x_k (12). Identifies the last period's input when
+  /// step(k - 1) was the previous call, updates the tube, runs the MPC. Numerical outcomes are statuses
+  /// (in ControlStep and its mpc result); the command is always finite.
+  /// @param k   step index, 0 <= k < T.
+  /// @param x_k the measured state [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)].
+  /// @return internal storage, valid until the next call.
+  /// @throws std::invalid_argument for a wrong size or k out of range.
+  const ControlStep& step(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k);
+
+  /// Folds in the measured exogenous input of the period from step k - 1 to k, given x_k, when
+  /// step(k - 1) was the last step and this period was not folded in yet (`step(k, x_k)` does this
+  /// itself; call it alone after the last step). Allocation-free.
+  /// @param k   the step reached, 1 <= k <= T.
+  /// @param x_k the measured state at k (12).
+  /// @return whether an input was folded in (false: nothing to identify, or a non-finite input).
+  bool identify(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k);
+  /// @return the last measured input folded in (12: the p then r subsystem's state units).
+  const Eigen::Matrix<double, 12, 1>& last_measured_input() const { return out_.w_measured; }
+
+  /// Offers a background LMI design of subsystem `subsystem` (0: p, 1: r), started from the data of
+  /// step `k_started` (TubePolicy::adopt). Allocation-free.
+  /// @param subsystem 0 or 1.
+  /// @param design    the design.
+  /// @param k_started its step.
+  /// @return whether it was adopted.
+  bool adopt(int subsystem, const SubsystemDesign& design, int k_started);
+
+  /// @param subsystem 0 (p) or 1 (r).
+  /// @return that subsystem's identifier.
+  const ForgettingFactorIdentifier& identifier(int subsystem) const;
+  /// @param subsystem 0 (p) or 1 (r).
+  /// @return that subsystem's tube policy (after setup).
+  const TubePolicy& policy(int subsystem) const;
+  /// @return the tube MPC.
+  const mpc::TubeMPC& mpc() const { return *mpc_; }
+  /// @return the settings.
+  const ControllerSettings& settings() const { return settings_; }
+
+ private:
+  std::shared_ptr<const mpc::LinearizedModel> model_;
+  ControllerSettings settings_;
+  std::unique_ptr<mpc::TubeMPC> mpc_;
+  std::array<ForgettingFactorIdentifier, 2> identifiers_;
+  std::vector<TubePolicy> policies_;
+  mpc::Reference reference_;
+  std::vector<std::array<SubMatrix, 2>> A_ref_;
+  std::vector<std::array<SubInputMatrix, 2>> B_ref_;
+  std::array<double, 2> u_max_{};
+  ControlStep out_;
+  // the last call's step, state and command, for the measured input of the next
+  int last_k_ = -1;
+  int identified_k_ = -1;  // the step whose period was last folded in
+  Eigen::VectorXd x_last_, u_last_;
+  Eigen::MatrixXd A_buf_, B_buf_;
+  Eigen::VectorXd c_buf_;
+  bool margin_lost_ = false;
+};
+
+}  // namespace tubempc::control

@@ -1,0 +1,176 @@
+#include "tubempc/control/controller.hpp"
+
+#include <chrono>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace tubempc::control {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
+
+constexpr int kNx = 12;
+constexpr int kNu = 6;
+
+}  // namespace
+
+const char* to_string(Method m) { return m == Method::Tbmpc ? "tbmpc" : "ffa"; }
+
+const char* to_string(MeasuredInput m) {
+  return m == MeasuredInput::Residual ? "residual" : "reference_deviation";
+}
+
+void ControllerSettings::validate() const {
+  identification_p.validate("identification_p");
+  identification_r.validate("identification_r");
+  tube.validate();
+}
+
+Controller::Controller(std::shared_ptr<const mpc::LinearizedModel> model, mpc::Settings mpc_settings,
+                       ControllerSettings settings)
+    : model_(std::move(model)), settings_(std::move(settings)) {
+  if (!model_) throw std::invalid_argument("Controller: model must not be null");
+  if (model_->nx() != kNx || model_->nu() != kNu)
+    throw std::invalid_argument("Controller: the model must have 12 states and 6 inputs (translation + rotation)");
+  settings_.tube.adaptive = settings_.method == Method::Ffa;
+  settings_.validate();
+  mpc_ = std::make_unique<mpc::TubeMPC>(model_, std::move(mpc_settings));
+  const Eigen::VectorXd& u_max = mpc_->settings().u_max;
+  u_max_ = {u_max.head(3).minCoeff(), u_max.tail(3).minCoeff()};
+  identifiers_ = {ForgettingFactorIdentifier(settings_.identification_p),
+                  ForgettingFactorIdentifier(settings_.identification_r)};
+  out_.u = Eigen::VectorXd::Zero(kNu);
+  out_.tube.K = Eigen::MatrixXd::Zero(kNu, kNx);
+  out_.tube.Pe = Eigen::MatrixXd::Zero(kNx, kNx);
+  x_last_ = Eigen::VectorXd::Zero(kNx);
+  u_last_ = Eigen::VectorXd::Zero(kNu);
+  A_buf_ = Eigen::MatrixXd::Zero(kNx, kNx);
+  B_buf_ = Eigen::MatrixXd::Zero(kNx, kNu);
+  c_buf_ = Eigen::VectorXd::Zero(kNx);
+}
+
+Controller::~Controller() = default;
+
+void Controller::setup(const mpc::Reference& reference, const ControllerDesigns& designs) {
+  mpc_->setup(reference);
+  reference_ = reference;
+  const int T = mpc_->mission_steps();
+  const double dt = mpc_->settings().dt;
+  A_ref_.assign(T, {SubMatrix::Zero(), SubMatrix::Zero()});
+  B_ref_.assign(T, {SubInputMatrix::Zero(), SubInputMatrix::Zero()});
+  for (int k = 0; k < T; ++k) {
+    model_->discretize(reference.t0 + k * dt, dt, reference.z.col(k), reference.u.col(k), A_buf_, B_buf_, c_buf_);
+    for (int s = 0; s < 2; ++s) {
+      A_ref_[k][s] = A_buf_.block<6, 6>(6 * s, 6 * s);
+      B_ref_[k][s] = B_buf_.block<6, 3>(6 * s, 3 * s);
+    }
+  }
+  policies_.clear();
+  policies_.reserve(2);
+  policies_.emplace_back(settings_.tube, u_max_[0], designs.initial_p, designs.library_p, "designs.p");
+  policies_.emplace_back(settings_.tube, u_max_[1], designs.initial_r, designs.library_r, "designs.r");
+  reset();
+}
+
+void Controller::reset() {
+  mpc_->reset();
+  for (auto& ident : identifiers_) ident.reset();
+  for (auto& policy : policies_) policy.reset();
+  last_k_ = -1;
+  identified_k_ = -1;
+  margin_lost_ = false;
+}
+
+bool Controller::identify(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k) {
+  out_.identified = false;
+  if (last_k_ < 0 || k != last_k_ + 1 || identified_k_ == k || x_k.size() != kNx) return false;
+  identified_k_ = k;
+  const double dt = mpc_->settings().dt;
+  if (settings_.measured_input == MeasuredInput::Residual) {
+    try {
+      model_->discretize(reference_.t0 + last_k_ * dt, dt, x_last_, u_last_, A_buf_, B_buf_, c_buf_);
+    } catch (const std::exception&) {
+      return false;  // a non-finite state or model output: nothing to identify from
+    }
+    out_.w_measured.noalias() = x_k - c_buf_;
+    out_.w_measured.noalias() -= A_buf_ * x_last_;
+    out_.w_measured.noalias() -= B_buf_ * u_last_;
+  } else {
+    out_.w_measured = x_k - reference_.z.col(k);
+  }
+  if (!out_.w_measured.allFinite()) return false;
+  identifiers_[0].update(out_.w_measured.head<6>());
+  identifiers_[1].update(out_.w_measured.tail<6>());
+  out_.identified = true;
+  return true;
+}
+
+const ControlStep& Controller::step(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k) {
+  if (policies_.empty()) throw std::invalid_argument("Controller::step: call setup first");
+  const int T = mpc_->mission_steps();
+  if (k < 0 || k >= T)
+    throw std::invalid_argument("Controller::step: k = " + std::to_string(k) + " outside [0, " +
+                                std::to_string(T) + ")");
+  if (x_k.size() != kNx)
+    throw std::invalid_argument("Controller::step: x_k must have 12 entries, got " + std::to_string(x_k.size()));
+  const auto t0 = Clock::now();
+  if (identified_k_ != k) identify(k, x_k);
+  const auto t1 = Clock::now();
+
+  const bool adaptive = settings_.tube.adaptive;
+  const bool due = adaptive && k > 0 && (k % settings_.tube.alpha_search_period == 0 || margin_lost_);
+  bool lost = false;
+  for (int s = 0; s < 2; ++s) {
+    out_.A[s] = A_ref_[k][s];
+    out_.B[s] = B_ref_[k][s];
+    out_.P_W[s] = identifiers_[s].P_W();
+    const TubeStatus status = policies_[s].update(k, out_.A[s], out_.B[s], out_.P_W[s], due);
+    const SubsystemTube& tube = policies_[s].tube();
+    out_.tube_status[s] = status;
+    out_.alpha[s] = tube.alpha;
+    out_.residual[s] = tube.residual;
+    out_.tube.K.block<3, 6>(3 * s, 6 * s) = tube.K;
+    out_.tube.Pe.block<6, 6>(6 * s, 6 * s) = tube.Pe;
+    const bool due_design = due && !settings_.tube.background_designs && status == TubeStatus::Library;
+    if (adaptive && k > 0 && status != TubeStatus::Lyapunov && !due_design) lost = true;
+  }
+  out_.design_due = due;
+  margin_lost_ = lost;
+  const auto t2 = Clock::now();
+
+  const mpc::StepResult& r = mpc_->step(k, x_k, out_.tube);
+  out_.mpc = &r;
+  out_.u = r.u;
+  const auto t3 = Clock::now();
+
+  x_last_ = x_k;
+  u_last_ = out_.u;
+  last_k_ = k;
+  out_.timings.identify = seconds(t0, t1);
+  out_.timings.tube = seconds(t1, t2);
+  out_.timings.mpc = seconds(t2, t3);
+  out_.timings.total = seconds(t0, t3);
+  return out_;
+}
+
+bool Controller::adopt(int subsystem, const SubsystemDesign& design, int k_started) {
+  if (subsystem < 0 || subsystem > 1 || policies_.empty()) return false;
+  return policies_[subsystem].adopt(design, k_started);
+}
+
+const ForgettingFactorIdentifier& Controller::identifier(int subsystem) const {
+  if (subsystem < 0 || subsystem > 1) throw std::invalid_argument("Controller::identifier: subsystem must be 0 or 1");
+  return identifiers_[subsystem];
+}
+
+const TubePolicy& Controller::policy(int subsystem) const {
+  if (subsystem < 0 || subsystem > 1 || policies_.empty())
+    throw std::invalid_argument("Controller::policy: subsystem must be 0 or 1, after setup");
+  return policies_[subsystem];
+}
+
+}  // namespace tubempc::control

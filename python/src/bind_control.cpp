@@ -1,0 +1,214 @@
+#include <pybind11/eigen.h>
+#include <pybind11/stl.h>
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "bindings.hpp"
+#include "tubempc/control/controller.hpp"
+
+namespace py = pybind11;
+
+namespace tubempc::python {
+
+namespace {
+
+using namespace tubempc::control;
+
+// A step's result with its own copy of the MPC's (the controller's storage changes at the next step).
+struct StepCopy : ControlStep {
+  mpc::StepResult mpc_result;
+};
+
+template <typename E>
+py::enum_<E> bind_named_enum(py::module_& s, const char* name, const char* doc) {
+  py::enum_<E> e(s, name, doc);
+  e.def("__str__", [](E v) { return std::string(to_string(v)); });
+  return e;
+}
+
+}  // namespace
+
+void bind_control(py::module_& m) {
+  auto s = m.def_submodule("control",
+                           "The whole TBMPC / TBMPC-FFA control step: identification, certified tube update, "
+                           "tube MPC (docs/model.md 'Closed loop'); SI units");
+
+  bind_named_enum<Method>(s, "Method", "TBMPC (fixed tube) or TBMPC-FFA (identified tube)")
+      .value("Tbmpc", Method::Tbmpc)
+      .value("Ffa", Method::Ffa);
+  bind_named_enum<MeasuredInput>(s, "MeasuredInput", "The identification's measured exogenous input")
+      .value("Residual", MeasuredInput::Residual)
+      .value("ReferenceDeviation", MeasuredInput::ReferenceDeviation);
+  bind_named_enum<TubeStatus>(s, "TubeStatus", "How a step's tube came about")
+      .value("Fixed", TubeStatus::Fixed)
+      .value("Initial", TubeStatus::Initial)
+      .value("Lyapunov", TubeStatus::Lyapunov)
+      .value("LyapunovNoMargin", TubeStatus::LyapunovNoMargin)
+      .value("Library", TubeStatus::Library)
+      .value("LibraryNoMargin", TubeStatus::LibraryNoMargin)
+      .value("Uncertified", TubeStatus::Uncertified);
+  bind_named_enum<Certification>(s, "Certification", "Outcome of a Lyapunov certification")
+      .value("Certified", Certification::Certified)
+      .value("NotContractive", Certification::NotContractive)
+      .value("NotPositive", Certification::NotPositive)
+      .value("InvarianceViolated", Certification::InvarianceViolated)
+      .value("EmptyTightening", Certification::EmptyTightening);
+  s.def(
+      "certified", [](TubeStatus st) { return certified(st); }, py::arg("status"),
+      "Whether a tube status means certified for the step's linearisation and identified P_W");
+  s.attr("LYAPUNOV_MARGIN") = kLyapunovMargin;
+
+  py::class_<IdentifierSettings>(s, "IdentifierSettings", "One subsystem's forgetting-factor identifier")
+      .def(py::init<>())
+      .def_readwrite("lambda_", &IdentifierSettings::lambda)
+      .def_readwrite("w0", &IdentifierSettings::w0)
+      .def_readwrite("S0", &IdentifierSettings::S0)
+      .def_readwrite("prior_weight", &IdentifierSettings::prior_weight)
+      .def_readwrite("eig_floor", &IdentifierSettings::eig_floor)
+      .def_readwrite("pw_scale", &IdentifierSettings::pw_scale)
+      .def("validate", &IdentifierSettings::validate, py::arg("what") = "identifier");
+
+  py::class_<ForgettingFactorIdentifier>(s, "ForgettingFactorIdentifier",
+                                         "Recursive mean and covariance of a subsystem's exogenous input")
+      .def(py::init<const IdentifierSettings&>(), py::arg("settings"))
+      .def("reset", &ForgettingFactorIdentifier::reset)
+      .def(
+          "update",
+          [](ForgettingFactorIdentifier& self, const SubVector& w) { return self.update(w); }, py::arg("w"),
+          "Folds w in; False (and ignored) if w is not finite")
+      .def_property_readonly("w_hat", &ForgettingFactorIdentifier::w_hat)
+      .def_property_readonly("S_hat", &ForgettingFactorIdentifier::S_hat)
+      .def_property_readonly("P_W", &ForgettingFactorIdentifier::P_W)
+      .def_property_readonly("zeta", &ForgettingFactorIdentifier::zeta)
+      .def_property_readonly("updates", &ForgettingFactorIdentifier::updates)
+      .def_property_readonly("q", &ForgettingFactorIdentifier::q);
+
+  py::class_<SubsystemDesign>(s, "SubsystemDesign", "An LMI design: K (3 x 6), alpha, P_W and Pe (6 x 6)")
+      .def(py::init([](const SubGain& K, double alpha, const SubMatrix& P_W, const SubMatrix& Pe) {
+             return SubsystemDesign{K, alpha, P_W, Pe};
+           }),
+           py::arg("K"), py::arg("alpha"), py::arg("P_W"), py::arg("Pe"))
+      .def_readwrite("K", &SubsystemDesign::K)
+      .def_readwrite("alpha", &SubsystemDesign::alpha)
+      .def_readwrite("P_W", &SubsystemDesign::P_W)
+      .def_readwrite("Pe", &SubsystemDesign::Pe)
+      .def("validate", &SubsystemDesign::validate, py::arg("what") = "design");
+
+  py::class_<SubsystemTube>(s, "SubsystemTube", "A certified tube: K, Pe, alpha, residual")
+      .def_readonly("K", &SubsystemTube::K)
+      .def_readonly("Pe", &SubsystemTube::Pe)
+      .def_readonly("alpha", &SubsystemTube::alpha)
+      .def_readonly("residual", &SubsystemTube::residual);
+
+  s.def("lmi_residual", &lmi_residual, py::arg("A"), py::arg("B"), py::arg("K"), py::arg("Pe"), py::arg("P_W"),
+        py::arg("alpha"), "Violation of the invariance condition relative to Pe (<= 0 iff it holds)");
+  s.def(
+      "lyapunov_tube",
+      [](const SubMatrix& A, const SubInputMatrix& B, const SubGain& K, double alpha, const SubMatrix& P_W,
+         double u_max) {
+        SubsystemTube out;
+        const Certification c = lyapunov_tube(A, B, K, alpha, P_W, u_max, out);
+        return py::make_tuple(c, c == Certification::Certified ? py::cast(out) : py::none());
+      },
+      py::arg("A"), py::arg("B"), py::arg("K"), py::arg("alpha"), py::arg("P_W"), py::arg("u_max"),
+      "(Certification, SubsystemTube or None): the certified Lyapunov update of a design's (K, alpha)");
+  s.def("cover_ratio", &cover_ratio, py::arg("P"), py::arg("P_cover"),
+        "lambda_max(P_cover^-1 P): <= 1 iff the ellipsoid of P lies in that of P_cover");
+
+  py::class_<TubePolicySettings>(s, "TubePolicySettings", "The tube update policy's settings")
+      .def(py::init<>())
+      .def_readwrite("adaptive", &TubePolicySettings::adaptive)
+      .def_readwrite("redesign_margin", &TubePolicySettings::redesign_margin)
+      .def_readwrite("alpha_search_period", &TubePolicySettings::alpha_search_period)
+      .def_readwrite("background_designs", &TubePolicySettings::background_designs)
+      .def("validate", &TubePolicySettings::validate);
+
+  py::class_<TubePolicy>(s, "TubePolicy", "One subsystem's tube, step by step (no SDP inside)")
+      .def(py::init<const TubePolicySettings&, double, const SubsystemDesign&, std::vector<SubsystemDesign>,
+                    const std::string&>(),
+           py::arg("settings"), py::arg("u_max"), py::arg("initial"), py::arg("library"),
+           py::arg("what") = "tube")
+      .def("reset", &TubePolicy::reset)
+      .def("update", &TubePolicy::update, py::arg("k"), py::arg("A"), py::arg("B"), py::arg("P_W"),
+           py::arg("design_due"))
+      .def("adopt", &TubePolicy::adopt, py::arg("design"), py::arg("k_started"))
+      .def_property_readonly("tube", &TubePolicy::tube)
+      .def_property_readonly("design", &TubePolicy::design)
+      .def_property_readonly("library", &TubePolicy::library);
+
+  py::class_<ControllerSettings>(s, "ControllerSettings", "The controller's settings (the MPC's: mpc.Settings)")
+      .def(py::init<>())
+      .def_readwrite("method", &ControllerSettings::method)
+      .def_readwrite("measured_input", &ControllerSettings::measured_input)
+      .def_readwrite("identification_p", &ControllerSettings::identification_p)
+      .def_readwrite("identification_r", &ControllerSettings::identification_r)
+      .def_readwrite("tube", &ControllerSettings::tube)
+      .def("validate", &ControllerSettings::validate);
+
+  py::class_<ControllerDesigns>(s, "ControllerDesigns", "Initial designs and libraries of both subsystems")
+      .def(py::init<>())
+      .def_readwrite("initial_p", &ControllerDesigns::initial_p)
+      .def_readwrite("initial_r", &ControllerDesigns::initial_r)
+      .def_readwrite("library_p", &ControllerDesigns::library_p)
+      .def_readwrite("library_r", &ControllerDesigns::library_r);
+
+  py::class_<ControlTimings>(s, "ControlTimings", "Wall-clock split of a control step (s)")
+      .def_readonly("identify", &ControlTimings::identify)
+      .def_readonly("tube", &ControlTimings::tube)
+      .def_readonly("mpc", &ControlTimings::mpc)
+      .def_readonly("total", &ControlTimings::total);
+
+  py::class_<StepCopy>(s, "ControlStep", "Result of one control step (a copy; `mpc` the MPC's StepResult)")
+      .def_readonly("u", &ControlStep::u)
+      .def_readonly("tube", &ControlStep::tube)
+      .def_readonly("tube_status", &ControlStep::tube_status)
+      .def_readonly("alpha", &ControlStep::alpha)
+      .def_readonly("residual", &ControlStep::residual)
+      .def_readonly("design_due", &ControlStep::design_due)
+      .def_readonly("A", &ControlStep::A)
+      .def_readonly("B", &ControlStep::B)
+      .def_readonly("P_W", &ControlStep::P_W)
+      .def_readonly("identified", &ControlStep::identified)
+      .def_readonly("w_measured", &ControlStep::w_measured)
+      .def_readonly("mpc", &StepCopy::mpc_result)
+      .def_readonly("timings", &ControlStep::timings);
+
+  py::class_<Controller>(s, "Controller",
+                         "TBMPC / TBMPC-FFA: setup(reference, designs) once, then step(k, x_k) per period")
+      .def(py::init([](std::shared_ptr<mpc::LinearizedModel> model, const mpc::Settings& mpc_settings,
+                       const ControllerSettings& settings) {
+             return std::make_unique<Controller>(std::move(model), mpc_settings, settings);
+           }),
+           py::arg("model"), py::arg("mpc_settings"), py::arg("settings"), py::keep_alive<1, 2>())
+      .def("setup", &Controller::setup, py::arg("reference"), py::arg("designs"))
+      .def("reset", &Controller::reset)
+      .def(
+          "step",
+          [](Controller& self, int k, const Eigen::VectorXd& x) {
+            const ControlStep* out = nullptr;
+            {
+              py::gil_scoped_release release;
+              out = &self.step(k, x);
+            }
+            StepCopy copy;
+            static_cast<ControlStep&>(copy) = *out;
+            copy.mpc = nullptr;
+            copy.mpc_result = *out->mpc;
+            return copy;
+          },
+          py::arg("k"), py::arg("x"), "One control step; returns a ControlStep copy")
+      .def("adopt", &Controller::adopt, py::arg("subsystem"), py::arg("design"), py::arg("k_started"))
+      .def(
+          "identify", [](Controller& self, int k, const Eigen::VectorXd& x) { return self.identify(k, x); },
+          py::arg("k"), py::arg("x"), "Folds in the input of the period ending at step k (after the last step)")
+      .def_property_readonly("last_measured_input", &Controller::last_measured_input)
+      .def("identifier", &Controller::identifier, py::arg("subsystem"), py::return_value_policy::reference_internal)
+      .def("policy", &Controller::policy, py::arg("subsystem"), py::return_value_policy::reference_internal)
+      .def_property_readonly("mpc", &Controller::mpc, py::return_value_policy::reference_internal)
+      .def_property_readonly("settings", &Controller::settings);
+}
+
+}  // namespace tubempc::python

@@ -1,0 +1,172 @@
+"""The LMI designs a controller flies with, computed at set-up (docs/model.md "Tube update"): no
+semidefinite program runs inside a control step.
+
+- the initial designs of k = 0 about the reference's first node: TBMPC's for the prior's disturbance
+  set P_W0 = pw_scale S^_0 (the tube it keeps for the whole mission), TBMPC-FFA's for
+  (1 + redesign_margin) P_W0;
+- the library of TBMPC-FFA: designs for the ladder P_W = c P_W0, c = library_ratio^j inside
+  ``tube.library_range``, about the same node. At a step the C++ controller
+  (``_core.control.Controller``) takes the smallest design whose set covers the identified P_W (a
+  generalised-eigenvalue test) and certifies it for the step's linearisation by the Lyapunov update
+  (``_core.control.lyapunov_tube``): a fixed cost, known in advance. Designs the LMI cannot give
+  (a set too large for the input bound) are left out of the ladder.
+
+Every design kept is certified exactly at its own linearisation (:func:`tubempc.tube.certify_design`).
+The designs depend on the configuration and the reference only, so a scenario computes them once
+(:func:`controller_designs` keeps them in ``Scenario.tube_designs``).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _core
+from .scenario import P_INPUTS, P_STATES, R_INPUTS, R_STATES, Scenario, memory_weight, tube_designers
+from .tube import TubeDesigner, TubeResult
+
+__all__ = [
+    "controller_designs",
+    "controller_settings",
+    "library_scales",
+    "new_controller",
+    "subsystem_design",
+]
+
+Array = npt.NDArray[np.float64]
+
+_MEASURED_INPUTS = {
+    "residual": _core.control.MeasuredInput.Residual,
+    "reference_deviation": _core.control.MeasuredInput.ReferenceDeviation,
+}
+
+
+def library_scales(lo: float, hi: float, ratio: float) -> list[float]:
+    """The ladder c = ratio^j, j integer, with lo <= c <= hi (ascending)."""
+    j0, j1 = math.ceil(math.log(lo) / math.log(ratio) - 1e-9), math.floor(math.log(hi) / math.log(ratio) + 1e-9)
+    return [float(ratio**j) for j in range(j0, j1 + 1)]
+
+
+def subsystem_design(res: TubeResult, P_W: Array) -> Any:
+    """A feasible :class:`tubempc.tube.TubeResult` designed for ``P_W`` as a ``_core.control.SubsystemDesign``."""
+    if not res.feasible or res.K is None or res.Pe is None:
+        raise ValueError(f"an infeasible design ({res.status.name}) cannot be flown")
+    return _core.control.SubsystemDesign(res.K, res.alpha, P_W, res.Pe)
+
+
+def _prior_P_W(scn: Scenario) -> tuple[Array, Array]:
+    ident = scn.config.identification
+    return ident.pw_scale * np.asarray(ident.S0_p), ident.pw_scale * np.asarray(ident.S0_r)
+
+
+def _node0(scn: Scenario) -> list[tuple[Array, Array]]:
+    Ad, Bd, _ = scn.model.discretize(0.0, scn.reference.x[0], scn.reference.u[0], scn.config.mpc.dt)
+    return [(Ad[P_STATES, P_STATES], Bd[P_STATES, P_INPUTS]), (Ad[R_STATES, R_STATES], Bd[R_STATES, R_INPUTS])]
+
+
+def _initial(des: TubeDesigner, A: Array, B: Array, P_W: Array, what: str) -> Any:
+    res = des.design(A, B, P_W, None)
+    if not res.feasible:
+        raise RuntimeError(
+            f"initial tube design ({what}) infeasible ({res.status.name}); check identification priors and input limits"
+        )
+    return subsystem_design(res, P_W)
+
+
+def _library(des: TubeDesigner, A: Array, B: Array, P_W0: Array, scales: list[float]) -> list[Any]:
+    out = []
+    alpha = None
+    for c in scales:
+        P_W = c * P_W0
+        res = des.design(A, B, P_W, alpha)
+        if res.feasible:
+            out.append(subsystem_design(res, P_W))
+            alpha = res.alpha
+    return out
+
+
+def controller_designs(scn: Scenario, method: str) -> Any:
+    """The ``_core.control.ControllerDesigns`` of ``method`` ("tbmpc": the prior's design, no library;
+    "ffa": the design for (1 + margin) P_W0 and the library), computed once per scenario."""
+    key = f"designs:{method}"
+    if key not in scn.tube_designs:
+        t = scn.config.tube
+        designers = tube_designers(scn.config)
+        nodes = _node0(scn)
+        priors = _prior_P_W(scn)
+        d = _core.control.ControllerDesigns()
+        if method == "tbmpc":
+            d.initial_p, d.initial_r = (
+                _initial(des, A, B, P, what)
+                for des, (A, B), P, what in zip(designers, nodes, priors, ("p", "r"), strict=True)
+            )
+        else:
+            scale = 1.0 + t.redesign_margin
+            d.initial_p, d.initial_r = (
+                _initial(des, A, B, scale * P, what)
+                for des, (A, B), P, what in zip(designers, nodes, priors, ("p", "r"), strict=True)
+            )
+            scales = library_scales(t.library_range[0], t.library_range[1], t.library_ratio)
+            d.library_p, d.library_r = (
+                _library(des, A, B, P, scales) for des, (A, B), P in zip(designers, nodes, priors, strict=True)
+            )
+        scn.tube_designs[key] = d
+    return scn.tube_designs[key]
+
+
+def _identifier_settings(lam: float, w0: Array, S0: Array, prior_memory: float, eig_floor: float, pw_scale: float) -> Any:
+    s = _core.control.IdentifierSettings()
+    s.lambda_, s.w0, s.S0 = lam, np.asarray(w0, dtype=float), np.asarray(S0, dtype=float)
+    s.prior_weight = prior_memory * memory_weight(lam)
+    s.eig_floor, s.pw_scale = eig_floor, pw_scale
+    return s
+
+
+def controller_settings(
+    scn: Scenario,
+    method: str,
+    *,
+    lambda_p: float | None = None,
+    lambda_r: float | None = None,
+    background_designs: bool = False,
+) -> Any:
+    """The ``_core.control.ControllerSettings`` of ``method`` from the configuration; ``lambda_p`` and
+    ``lambda_r`` override the forgetting factors; ``background_designs``: the caller offers LMI designs
+    (``Controller.adopt``) when a design is due, instead of the library."""
+    cfg = scn.config
+    ident, t = cfg.identification, cfg.tube
+    s = _core.control.ControllerSettings()
+    s.method = _core.control.Method.Tbmpc if method == "tbmpc" else _core.control.Method.Ffa
+    s.measured_input = _MEASURED_INPUTS[ident.measured_input]
+    common = (ident.prior_memory, ident.eig_floor, ident.pw_scale)
+    s.identification_p = _identifier_settings(lambda_p or ident.lambda_p, ident.w0_p, ident.S0_p, *common)
+    s.identification_r = _identifier_settings(lambda_r or ident.lambda_r, ident.w0_r, ident.S0_r, *common)
+    tube = _core.control.TubePolicySettings()
+    tube.redesign_margin = t.redesign_margin
+    tube.alpha_search_period = t.alpha_search_period
+    tube.background_designs = background_designs
+    s.tube = tube
+    return s
+
+
+def new_controller(
+    scn: Scenario,
+    method: str,
+    mpc_settings: Any,
+    *,
+    lambda_p: float | None = None,
+    lambda_r: float | None = None,
+    background_designs: bool = False,
+) -> Any:
+    """A ``_core.control.Controller`` of ``method`` set up for the scenario's mission."""
+    ctrl = _core.control.Controller(
+        _core.mpc.LinearizedProximityModel(scn.model.core),
+        mpc_settings,
+        controller_settings(scn, method, lambda_p=lambda_p, lambda_r=lambda_r, background_designs=background_designs),
+    )
+    ref = scn.reference
+    ctrl.setup(_core.mpc.Reference(ref.x.T.copy(), ref.u.T.copy(), 0.0), controller_designs(scn, method))
+    return ctrl

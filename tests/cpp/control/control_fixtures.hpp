@@ -1,0 +1,69 @@
+// Shared set-ups of the control tests: the paper-sized 12-state, 6-input plant as two decoupled double
+// integrators, and LQR-based subsystem designs (an independent source of stabilising gains).
+#pragma once
+
+#include <Eigen/Dense>
+#include <memory>
+
+#include "tubempc/control/tube_update.hpp"
+#include "tubempc/mpc/lti_model.hpp"
+#include "tubempc/mpc/tube_mpc.hpp"
+
+namespace control_test {
+
+using tubempc::control::SubGain;
+using tubempc::control::SubInputMatrix;
+using tubempc::control::SubMatrix;
+using tubempc::control::SubsystemDesign;
+
+// Continuous double integrator of one subsystem: position/angle and rate, input gain b per axis.
+inline void double_integrator(double dt, double b, SubMatrix& A, SubInputMatrix& B) {
+  A.setIdentity();
+  A.topRightCorner<3, 3>() = dt * Eigen::Matrix3d::Identity();
+  B.setZero();
+  B.topRows<3>() = 0.5 * dt * dt * b * Eigen::Matrix3d::Identity();
+  B.bottomRows<3>() = dt * b * Eigen::Matrix3d::Identity();
+}
+
+// The LQR gain (u = K x) of (A, B) with weights I and r I.
+inline SubGain lqr_gain(const SubMatrix& A, const SubInputMatrix& B, double r) {
+  const Eigen::MatrixXd X =
+      tubempc::mpc::solve_dare(A, B, Eigen::MatrixXd::Identity(6, 6), r * Eigen::MatrixXd::Identity(3, 3));
+  const Eigen::Matrix3d S = r * Eigen::Matrix3d::Identity() + B.transpose() * X * B;
+  return -S.ldlt().solve(B.transpose() * X * A);
+}
+
+// A design of (A, B) for P_W: the LQR gain, alpha halfway between rho(A + B K)^2 and 1, and the
+// certified Lyapunov tube (u_max generous).
+inline SubsystemDesign lqr_design(const SubMatrix& A, const SubInputMatrix& B, const SubMatrix& P_W, double r) {
+  SubsystemDesign d;
+  d.K = lqr_gain(A, B, r);
+  const SubMatrix Acl = A + B * d.K;
+  const double rho = Eigen::EigenSolver<SubMatrix>(Acl).eigenvalues().cwiseAbs().maxCoeff();
+  d.alpha = 0.5 * (rho * rho + 1.0);
+  d.P_W = P_W;
+  tubempc::control::SubsystemTube t;
+  if (tubempc::control::lyapunov_tube(A, B, d.K, d.alpha, P_W, 1e9, t) != tubempc::control::Certification::Certified)
+    throw std::runtime_error("lqr_design: not certified");
+  d.Pe = t.Pe;
+  return d;
+}
+
+// The 12/6 plant: translation (unit input gain) and rotation (1/2750 per N m), four planar constraints.
+inline std::shared_ptr<tubempc::mpc::LtiModel> plant_12_6(double dt) {
+  Eigen::MatrixXd A_c = Eigen::MatrixXd::Zero(12, 12), B_c = Eigen::MatrixXd::Zero(12, 6);
+  A_c.block(0, 3, 3, 3).setIdentity();
+  A_c.block(6, 9, 3, 3).setIdentity();
+  B_c.block(3, 0, 3, 3).setIdentity();
+  B_c.block(9, 3, 3, 3) = Eigen::Vector3d(1.0 / 2750, 1.0 / 2750, 1.0 / 2750).asDiagonal();
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(4, 12);
+  G(0, 0) = 1.0;
+  G(1, 1) = -1.0;
+  G(2, 3) = 1.0;
+  G(3, 6) = 1.0;
+  Eigen::VectorXd h(4);
+  h << 100.0, 100.0, 5.0, 3.0;
+  return std::make_shared<tubempc::mpc::LtiModel>(A_c, B_c, Eigen::VectorXd::Zero(12), dt, G, h);
+}
+
+}  // namespace control_test

@@ -1,0 +1,147 @@
+#include "tubempc/control/controller.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+
+#include "control_fixtures.hpp"
+
+using namespace tubempc::control;
+using control_test::double_integrator;
+using control_test::lqr_design;
+using tubempc::mpc::Reference;
+using tubempc::mpc::Settings;
+
+namespace {
+
+constexpr double kDt = 2.0;
+constexpr int kT = 30;
+
+struct Mission {
+  std::shared_ptr<tubempc::mpc::LtiModel> model = control_test::plant_12_6(kDt);
+  Settings mpc;
+  ControllerSettings settings;
+  ControllerDesigns designs;
+  Reference ref;
+
+  explicit Mission(Method method, MeasuredInput input = MeasuredInput::Residual) {
+    mpc.horizon = 10;
+    mpc.dt = kDt;
+    mpc.R = Eigen::VectorXd((Eigen::VectorXd(6) << 1e3, 1e3, 1e3, 1e4, 1e4, 1e4).finished()).asDiagonal();
+    mpc.u_max = (Eigen::VectorXd(6) << 0.55, 0.55, 0.55, 3.0, 3.0, 3.0).finished();
+    mpc.time_limit = 10.0;
+    settings.method = method;
+    settings.measured_input = input;
+    settings.identification_p.S0 = SubMatrix::Identity() * 1e-4;
+    settings.identification_r.S0 = SubMatrix::Identity() * 1e-8;
+    settings.identification_p.prior_weight = settings.identification_r.prior_weight = 10.0;
+    SubMatrix A;
+    SubInputMatrix B;
+    for (int s = 0; s < 2; ++s) {
+      double_integrator(kDt, s == 0 ? 1.0 : 1.0 / 2750, A, B);
+      const SubMatrix P0 = 9.0 * (s == 0 ? settings.identification_p.S0 : settings.identification_r.S0);
+      const double r = s == 0 ? 1e2 : 1e-4;
+      (s == 0 ? designs.initial_p : designs.initial_r) = lqr_design(A, B, 1.2 * P0, r);
+      auto& lib = s == 0 ? designs.library_p : designs.library_r;
+      for (double c : {0.5, 2.0, 8.0, 32.0}) lib.push_back(lqr_design(A, B, c * P0, r * c));
+    }
+    ref.z = Eigen::MatrixXd::Zero(12, kT + 1);
+    ref.u = Eigen::MatrixXd::Zero(6, kT);
+    for (int j = 0; j <= kT; ++j) ref.z(0, j) = 20.0 * (1.0 - static_cast<double>(j) / kT);
+    ref.z.block(3, 0, 1, kT).setConstant(-20.0 / (kT * kDt));
+  }
+};
+
+// The disturbance of step k: deterministic, growing in the attitude subsystem.
+Eigen::Matrix<double, 12, 1> disturbance(int k, std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  Eigen::Matrix<double, 12, 1> w;
+  for (int i = 0; i < 12; ++i) w(i) = n(rng) * (i < 6 ? 3e-3 : 3e-5 * (1.0 + 0.1 * k));
+  return w;
+}
+
+}  // namespace
+
+// On a linear plant the residual input is the injected disturbance; the identifiers equal stand-alone
+// ones fed the same inputs; every tube is certified for its step; every command is finite.
+TEST(Controller, ClosedLoopOnALinearPlant) {
+  Mission m(Method::Ffa);
+  Controller ctrl(m.model, m.mpc, m.settings);
+  ctrl.setup(m.ref, m.designs);
+  ForgettingFactorIdentifier oracle_p(m.settings.identification_p), oracle_r(m.settings.identification_r);
+  std::mt19937 rng(11);
+  Eigen::VectorXd x = m.ref.z.col(0);
+  Eigen::MatrixXd A(12, 12), B(12, 6);
+  Eigen::VectorXd c(12);
+  Eigen::Matrix<double, 12, 1> w_last = Eigen::Matrix<double, 12, 1>::Zero();
+  for (int k = 0; k < kT; ++k) {
+    const ControlStep& r = ctrl.step(k, x);
+    ASSERT_TRUE(r.u.allFinite());
+    EXPECT_EQ(r.identified, k > 0);
+    if (k > 0) {
+      EXPECT_LE((r.w_measured - w_last).cwiseAbs().maxCoeff(), 1e-12) << k;
+      oracle_p.update(r.w_measured.head<6>());
+      oracle_r.update(r.w_measured.tail<6>());
+    }
+    EXPECT_EQ(ctrl.identifier(0).S_hat(), oracle_p.S_hat());
+    EXPECT_EQ(ctrl.identifier(1).w_hat(), oracle_r.w_hat());
+    for (int s = 0; s < 2; ++s) {
+      EXPECT_TRUE(certified(r.tube_status[s])) << k << " " << to_string(r.tube_status[s]);
+      const SubMatrix Pe = r.tube.Pe.block<6, 6>(6 * s, 6 * s);
+      const SubGain K = r.tube.K.block<3, 6>(3 * s, 6 * s);
+      EXPECT_LE(lmi_residual(r.A[s], r.B[s], K, Pe, r.P_W[s], r.alpha[s]), 0.0) << k;
+      EXPECT_EQ(r.P_W[s], ctrl.identifier(s).P_W());
+    }
+    if (k == 0) EXPECT_FALSE(r.design_due);
+    if (k > 0 && k % m.settings.tube.alpha_search_period == 0) EXPECT_TRUE(r.design_due) << k;
+    EXPECT_GE(r.timings.total, r.timings.mpc);
+    m.model->discretize(0.0, kDt, x, r.u, A, B, c);
+    w_last = disturbance(k, rng);
+    x = A * x + B * r.u + c + w_last;
+  }
+  EXPECT_TRUE(ctrl.identify(kT, x));
+  EXPECT_LE((ctrl.last_measured_input() - w_last).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_FALSE(ctrl.identify(kT, x));  // once per period
+}
+
+// TBMPC flies its initial design's tube at every step; the identification still runs (the paper's
+// literal reference-deviation input here).
+TEST(Controller, TbmpcKeepsItsTube) {
+  Mission m(Method::Tbmpc, MeasuredInput::ReferenceDeviation);
+  Controller ctrl(m.model, m.mpc, m.settings);
+  ctrl.setup(m.ref, m.designs);
+  Eigen::VectorXd x = m.ref.z.col(0);
+  for (int k = 0; k < 5; ++k) {
+    const ControlStep& r = ctrl.step(k, x);
+    EXPECT_EQ(r.tube_status[0], TubeStatus::Fixed);
+    EXPECT_TRUE((r.tube.Pe.block<6, 6>(0, 0) - m.designs.initial_p.Pe).isZero(0.0));
+    EXPECT_FALSE(r.design_due);
+    x = m.ref.z.col(k + 1) + Eigen::VectorXd::Constant(12, 1e-4);
+    if (k > 0) EXPECT_LE((r.w_measured - Eigen::VectorXd::Constant(12, 1e-4)).cwiseAbs().maxCoeff(), 1e-15);
+  }
+}
+
+TEST(Controller, BadInputIsAStatusOrAClearError) {
+  Mission m(Method::Ffa);
+  Controller ctrl(m.model, m.mpc, m.settings);
+  EXPECT_THROW(ctrl.step(0, m.ref.z.col(0)), std::invalid_argument);  // before setup
+  ctrl.setup(m.ref, m.designs);
+  EXPECT_THROW(ctrl.step(kT, m.ref.z.col(0)), std::invalid_argument);
+  EXPECT_THROW(ctrl.step(0, Eigen::VectorXd::Zero(11)), std::invalid_argument);
+  ctrl.step(0, m.ref.z.col(0));
+  Eigen::VectorXd nan_x = m.ref.z.col(1);
+  nan_x(2) = std::numeric_limits<double>::quiet_NaN();
+  const ControlStep& r = ctrl.step(1, nan_x);
+  EXPECT_TRUE(r.u.allFinite());
+  EXPECT_FALSE(r.identified);
+  ControllerSettings bad = m.settings;
+  bad.identification_r.lambda = 0.0;
+  EXPECT_THROW(Controller(m.model, m.mpc, bad), std::invalid_argument);
+  ControllerDesigns no_design = m.designs;
+  no_design.initial_r.Pe = -no_design.initial_r.Pe;
+  Controller other(m.model, m.mpc, m.settings);
+  EXPECT_THROW(other.setup(m.ref, no_design), std::invalid_argument);
+}

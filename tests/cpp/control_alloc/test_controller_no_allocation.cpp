@@ -1,0 +1,83 @@
+// Controller::step (identification, tube update and MPC) and Controller::identify must not allocate
+// after setup: every malloc-family call and operator new is counted around them
+// (tubempc/core/allocation_counter.hpp, glibc only).
+#include "tubempc/core/allocation_counter.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "../control/control_fixtures.hpp"
+#include "tubempc/control/controller.hpp"
+
+using namespace tubempc::control;
+using tubempc::core::AllocationWindow;
+
+TEST(ControllerAllocation, CounterSeesAllocations) {
+  if (!tubempc::core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  void* (*volatile allocate)(std::size_t) = std::malloc;
+  void (*volatile release)(void*) = std::free;
+  AllocationWindow window;
+  release(allocate(64));
+  Eigen::VectorXd v(100);
+  v.setZero();
+  EXPECT_GE(window.count(), 4);
+}
+
+TEST(ControllerAllocation, StepDoesNotAllocateAfterSetup) {
+  if (!tubempc::core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  const double dt = 2.0;
+  const int T = 40;
+  auto model = control_test::plant_12_6(dt);
+  tubempc::mpc::Settings mpc;
+  mpc.horizon = 15;
+  mpc.dt = dt;
+  mpc.u_max = (Eigen::VectorXd(6) << 0.55, 0.55, 0.55, 3.0, 3.0, 3.0).finished();
+  mpc.time_limit = 10.0;
+  ControllerSettings settings;
+  settings.identification_p.S0 = SubMatrix::Identity() * 1e-4;
+  settings.identification_r.S0 = SubMatrix::Identity() * 1e-8;
+  settings.tube.alpha_search_period = 3;  // many due designs: the library path runs often
+  ControllerDesigns designs;
+  SubMatrix A;
+  SubInputMatrix B;
+  for (int s = 0; s < 2; ++s) {
+    control_test::double_integrator(dt, s == 0 ? 1.0 : 1.0 / 2750, A, B);
+    const SubMatrix P0 = 9.0 * (s == 0 ? settings.identification_p.S0 : settings.identification_r.S0);
+    (s == 0 ? designs.initial_p : designs.initial_r) = control_test::lqr_design(A, B, P0, s == 0 ? 1.0 : 1e-6);
+    for (double c : {0.25, 1.0, 4.0, 16.0})
+      (s == 0 ? designs.library_p : designs.library_r).push_back(control_test::lqr_design(A, B, c * P0, 1.0));
+  }
+  Controller ctrl(model, mpc, settings);
+  tubempc::mpc::Reference ref;
+  ref.z = Eigen::MatrixXd::Zero(12, T + 1);
+  ref.u = Eigen::MatrixXd::Zero(6, T);
+  for (int j = 0; j <= T; ++j) ref.z(0, j) = 30.0 * (1.0 - static_cast<double>(j) / T);
+  ctrl.setup(ref, designs);
+  Eigen::VectorXd x = ref.z.col(0), x_next(12), c(12);
+  Eigen::MatrixXd Ad(12, 12), Bd(12, 6);
+  std::mt19937 rng(2);
+  std::normal_distribution<double> n(0.0, 1.0);
+  long allocations = 0;
+  int library_steps = 0;
+  for (int k = 0; k < T; ++k) {
+    {
+      AllocationWindow window;
+      const ControlStep& r = ctrl.step(k, x);
+      model->discretize(0.0, dt, x, r.u, Ad, Bd, c);
+      x_next.noalias() = Ad * x;
+      x_next.noalias() += Bd * r.u;
+      library_steps += r.tube_status[0] == TubeStatus::Library || r.tube_status[1] == TubeStatus::Library;
+      allocations += window.count();
+    }
+    for (int i = 0; i < 12; ++i) x_next(i) += c(i) + n(rng) * (i < 6 ? 1e-2 : 1e-4 * (1 + k));
+    x = x_next;
+  }
+  {
+    AllocationWindow window;
+    ctrl.identify(T, x);
+    allocations += window.count();
+  }
+  EXPECT_EQ(allocations, 0);
+  EXPECT_GT(library_steps, 0);  // the library path was exercised too
+}
