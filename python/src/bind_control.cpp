@@ -53,7 +53,6 @@ void bind_control(py::module_& m) {
   bind_named_enum<Certification>(s, "Certification", "Outcome of a Lyapunov certification")
       .value("Certified", Certification::Certified)
       .value("NotContractive", Certification::NotContractive)
-      .value("NotPositive", Certification::NotPositive)
       .value("InvarianceViolated", Certification::InvarianceViolated)
       .value("EmptyTightening", Certification::EmptyTightening);
   s.def(
@@ -159,6 +158,7 @@ void bind_control(py::module_& m) {
       .def_readonly("identify", &ControlTimings::identify)
       .def_readonly("tube", &ControlTimings::tube)
       .def_readonly("mpc", &ControlTimings::mpc)
+      .def_readonly("predict", &ControlTimings::predict)
       .def_readonly("total", &ControlTimings::total);
 
   py::class_<StepCopy>(s, "ControlStep", "Result of one control step (a copy; `mpc` the MPC's StepResult)")

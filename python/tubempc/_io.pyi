@@ -3,6 +3,7 @@
 import numpy as np
 import numpy.typing as npt
 
+from ._control import ControllerDesigns, ControllerSettings
 from ._dynamics import ModelParams, PropagatorSettings
 from ._mpc import Reference, Settings, Tube
 
@@ -21,12 +22,16 @@ class BodyModel:
 
 class Scenario:
     directory: str
-    controller: BodyModel
+    model: BodyModel
     truth: BodyModel
     propagator: PropagatorSettings
     settings: Settings
     reference: Reference
     tube: Tube
+    has_controller: bool
+    controller: ControllerSettings
+    tbmpc_designs: ControllerDesigns
+    ffa_designs: ControllerDesigns
     x0: _Arr
     xf: _Arr
     def __init__(self) -> None: ...

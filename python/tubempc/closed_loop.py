@@ -93,7 +93,7 @@ def _record_step(rec: RunRecord, k: int, step: Any, ctrl: Any, times: tuple[floa
     rec.model_evaluations[k], rec.active_set_solves[k] = mpc.model_evaluations, mpc.active_set_solves
     tm, ct = mpc.timings, step.timings
     rec.time_linearize[k], rec.time_build[k], rec.time_solve[k] = tm.linearize, tm.build, tm.solve
-    rec.time_tube[k], rec.time_mpc[k], rec.time_identify[k] = ct.tube, ct.mpc, ct.identify
+    rec.time_tube[k], rec.time_mpc[k], rec.time_identify[k], rec.time_predict[k] = ct.tube, ct.mpc, ct.identify, ct.predict
     rec.time_step[k], rec.time_propagate[k], rec.time_design_wait[k] = ct.total, times[1] - times[0], wait
     rec.statuses.append(str(mpc.status))
     rec.failures.append(str(mpc.failure))

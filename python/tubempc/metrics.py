@@ -52,7 +52,7 @@ __all__ = [
 #: Tube excursions above 1 + this count as outside the tube (round-off of the e^T Pe^-1 e evaluation).
 EXCURSION_TOLERANCE = 1e-9
 #: Step phases whose wall times a run records (``RunRecord.time_<phase>``).
-STEP_PHASES = ("step", "tube", "mpc", "linearize", "build", "solve", "propagate", "identify")
+STEP_PHASES = ("step", "tube", "mpc", "linearize", "build", "solve", "propagate", "identify", "predict")
 
 Array = npt.NDArray[np.float64]
 

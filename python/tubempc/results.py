@@ -75,7 +75,10 @@ class RunRecord:
     time_solve: Array = _array(("T",), "s", "wall time of the MPC's QP solves")
     time_mpc: Array = _array(("T",), "s", "wall time of the MPC step")
     time_propagate: Array = _array(("T",), "s", "wall time of the truth propagation")
-    time_identify: Array = _array(("T",), "s", "wall time of the identification")
+    time_identify: Array = _array(("T",), "s", "wall time of the identification (the last period's input folded in)")
+    time_predict: Array = _array(
+        ("T",), "s", "wall time of the one-step prediction after the command (the next identification's input)"
+    )
     time_step: Array = _array(("T",), "s", "wall time of the whole control step")
     statuses: list[str] = field(default_factory=list)  # MPC step status per step
     failures: list[str] = field(default_factory=list)  # cause of each fallback ("solved": none)
@@ -201,6 +204,8 @@ def load_record(path: str | Path) -> tuple[RunRecord, dict[str, Any]]:
     raw = load_result(path)
     if "time_design_wait" not in raw and "time_tube" in raw:  # a record from before this field: no wait recorded
         raw["time_design_wait"] = np.zeros_like(raw["time_tube"])
+    if "time_predict" not in raw and "time_identify" in raw:  # before the C++ controller: inside time_identify
+        raw["time_predict"] = np.zeros_like(raw["time_identify"])
     missing = [f.name for f in RunRecord.array_fields() if f.name not in raw]
     if missing:
         raise ValueError(f"{path}: not a run record (missing arrays {missing})")

@@ -27,6 +27,7 @@ import subprocess
 import sys
 import threading
 import time
+import warnings
 from collections.abc import Sequence
 from typing import IO, Any
 
@@ -67,12 +68,17 @@ class _DesignProcess:
         )
         self._ids = itertools.count()
         self._futures: dict[int, cf.Future[Any]] = {}
+        self._ended = False
         self._lock = threading.Lock()
         threading.Thread(target=self._read, daemon=True).start()
 
     def submit(self, *job: object) -> cf.Future[Any]:
         future: cf.Future[Any] = cf.Future()
+        future.set_running_or_notify_cancel()  # a job sent cannot be called back
         with self._lock:
+            if self._ended:
+                future.set_exception(RuntimeError("the tube design process ended"))
+                return future
             job_id = next(self._ids)
             self._futures[job_id] = future
             assert self._proc.stdin is not None
@@ -80,7 +86,7 @@ class _DesignProcess:
                 _send(self._proc.stdin, (job_id, *job))
             except OSError as exc:
                 del self._futures[job_id]
-                future.set_exception(RuntimeError(f"tube design process gone: {exc}"))
+                future.set_exception(RuntimeError(f"the tube design process is gone: {exc}"))
         return future
 
     def _read(self) -> None:
@@ -88,15 +94,18 @@ class _DesignProcess:
         while True:
             try:
                 job_id, ok, value = _receive(self._proc.stdout)
-            except (EOFError, OSError, pickle.UnpicklingError):
+            except (EOFError, OSError, pickle.UnpicklingError, ValueError):
                 break
             with self._lock:
-                future = self._futures.pop(job_id)
+                future = self._futures.pop(job_id, None)
+            if future is None:
+                continue
             if ok:
                 future.set_result(value)
             else:
                 future.set_exception(RuntimeError(value))
         with self._lock:
+            self._ended = True
             pending, self._futures = self._futures, {}
         for future in pending.values():
             future.set_exception(RuntimeError("the tube design process ended"))
@@ -157,6 +166,10 @@ def _worker_main() -> None:
         _send(stdout, reply)
 
 
+#: Seconds the design process may take to start (import cvxpy, build the designers) before the designs
+#: fall back to a thread.
+_START_TIMEOUT_S = 300.0
+
 # One subsystem's design: A, B, the P_W designed for and the previous alpha.
 _DesignArgs = tuple[Array, Array, Array, float | None]
 
@@ -191,9 +204,19 @@ class BackgroundDesigns:
         self._pool = cf.ThreadPoolExecutor(max_workers=max(1, min(len(self.designers), int(threads))))
         self._keys = [pickle.dumps(d.spec) for d in self.designers]
         if worker == "process":
-            # Start the process and build its designers now, in the set-up, not in a control step.
-            for key in self._keys:
-                _design_process().submit(key, None, None, None, None).result()
+            # Start the process and build its designers now, in the set-up, not in a control step; if it
+            # cannot run (no working interpreter, killed), the documented fallback: designs in a thread.
+            try:
+                for key in self._keys:
+                    _design_process().submit(key, None, None, None, None).result(timeout=_START_TIMEOUT_S)
+            except (RuntimeError, cf.TimeoutError) as exc:
+                warnings.warn(
+                    f"tube design process unavailable ({exc}); designs run in a thread instead",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
+                shutdown_design_worker(wait=False)
+                self.worker = "thread"
 
     def close(self, wait: bool = True) -> None:
         """Stops the design threads (the shared design process stays up for the next run)."""

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import re
+import subprocess
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +17,7 @@ from tubempc.closed_loop import simulate
 from tubempc.config import load_config
 from tubempc.export import read_scenario
 from tubempc.scenario import Scenario, build_scenario, initial_tube, mpc_settings
+from tubempc.tube_library import controller_designs, controller_settings
 
 
 def _same_bits(a: Any, b: Any) -> bool:
@@ -35,7 +38,7 @@ def test_scenario_file_holds_the_closed_loops_inputs_bit_for_bit(exported: tuple
     s = read_scenario(str(path))
     assert s.directory == str(path.parent)
     assert s.mission_steps == scn.n_steps == 300
-    for body, model, shape_file in ((s.controller, scn.model, "shape.obj"), (s.truth, scn.truth, "shape.obj")):
+    for body, model, shape_file in ((s.model, scn.model, "shape.obj"), (s.truth, scn.truth, "shape.obj")):
         expected = model.config()
         params = body.params
         for name in (
@@ -55,7 +58,7 @@ def test_scenario_file_holds_the_closed_loops_inputs_bit_for_bit(exported: tuple
         assert body.density == model.gravity.density
         assert body.shape == shape_file and body.shape_unit_scale == 1.0
     # The shape file holds the controller's mesh exactly (metres, 17 digits), read by the C++ loader.
-    mesh = _core.gravity.load_shape(s.resolve(s.controller.shape), s.controller.shape_unit_scale)
+    mesh = _core.gravity.load_shape(s.resolve(s.model.shape), s.model.shape_unit_scale)
     assert _same_bits(mesh.vertices, scn.shape.vertices) and np.array_equal(mesh.faces, scn.shape.faces)
 
     expected_settings = mpc_settings(scn)
@@ -108,6 +111,25 @@ def test_scenario_file_holds_the_closed_loops_inputs_bit_for_bit(exported: tuple
     assert _same_bits(s.x0, scn.x0) and _same_bits(s.xf, scn.xf)
     K, Pe = initial_tube(scn)
     assert _same_bits(s.tube.K, K) and _same_bits(s.tube.Pe, Pe)
+    # the whole controller: identification, tube policy, both methods' designs and the library
+    assert s.has_controller
+    c, expected_c = s.controller, controller_settings(scn, "ffa")
+    assert str(c.measured_input) == scn.config.identification.measured_input
+    for a, b in ((c.identification_p, expected_c.identification_p), (c.identification_r, expected_c.identification_r)):
+        assert (a.lambda_, a.prior_weight, a.eig_floor, a.pw_scale) == (b.lambda_, b.prior_weight, b.eig_floor, b.pw_scale)
+        assert _same_bits(a.w0, b.w0) and _same_bits(a.S0, b.S0)
+    assert c.tube.redesign_margin == scn.config.tube.redesign_margin
+    assert c.tube.alpha_search_period == scn.config.tube.alpha_search_period
+    for method, designs in (("tbmpc", s.tbmpc_designs), ("ffa", s.ffa_designs)):
+        expected = controller_designs(scn, method)
+        for a, b in (
+            (designs.initial_p, expected.initial_p),
+            (designs.initial_r, expected.initial_r),
+            *zip(designs.library_p, expected.library_p, strict=True),
+            *zip(designs.library_r, expected.library_r, strict=True),
+        ):
+            assert a.alpha == b.alpha and all(_same_bits(getattr(a, n), getattr(b, n)) for n in ("K", "P_W", "Pe"))
+    assert len(s.ffa_designs.library_p) > 5 and not s.tbmpc_designs.library_p
 
 
 def test_tube_is_the_closed_loops_first_tube(exported: tuple[Path, Scenario]) -> None:
@@ -116,6 +138,40 @@ def test_tube_is_the_closed_loops_first_tube(exported: tuple[Path, Scenario]) ->
     rec = simulate(scn, "tbmpc", seed=0, max_steps=1, tube_threads=1)
     assert _same_bits(s.tube.K, rec.K[0])
     assert _same_bits(s.tube.Pe[:6, :6], rec.Pe_p[0]) and _same_bits(s.tube.Pe[6:, 6:], rec.Pe_r[0])
+    ffa = simulate(scn, "ffa", seed=0, max_steps=1, tube_threads=1)
+    assert _same_bits(s.ffa_designs.initial_p.Pe, ffa.Pe_p[0]) and _same_bits(s.ffa_designs.initial_r.K, ffa.K[0][3:, 6:])
+
+
+@pytest.mark.parametrize("method", ["tbmpc", "ffa"])
+def test_cpp_example_flies_the_python_run(exported: tuple[Path, Scenario], tmp_path: Path, method: str) -> None:
+    """The C++ program (examples/cpp/closed_loop, the controller embedded without Python) flies the exported
+    mission under the Python run's disturbance to the same final state (<= 1e-9) and J_p (<= 1e-9
+    relative), with no background designs (``tube.design_worker = "none"``) and no allocation per step."""
+    from tubempc.benchmarks.embed import find_example
+    from tubempc.metrics import run_metrics
+
+    try:
+        example = find_example(None)
+    except FileNotFoundError as exc:
+        pytest.skip(f"no built C++ example: {exc}")
+    path, scn = exported
+    rec = simulate(scn, method, seed=0, design_worker="none")
+    w = tmp_path / "w.txt"
+    np.savetxt(w, rec.w_true, fmt="%.17g")
+    out = tmp_path / "cpp.json"
+    proc = subprocess.run(
+        [str(example), str(path), "--method", method, "--disturbance", str(w), "--json", str(out)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    cpp = json.loads(out.read_text())["methods"][method]
+    m = run_metrics(rec, scn.config.mpc.dt, scn.xf)
+    np.testing.assert_allclose(cpp["final_state"], rec.x[-1], rtol=0, atol=1e-9)
+    assert cpp["J_p"] == pytest.approx(m["J_p"], rel=1e-9) and cpp["J_r"] == pytest.approx(m["J_r"], rel=1e-9)
+    assert cpp["steps_outside_tube"] == m["steps_outside_tube"] and cpp["allocations_controller"] == 0
+    assert sum(cpp["tube_statuses"].values()) == scn.n_steps
 
 
 def test_written_file_reads_back_to_the_same_text(exported: tuple[Path, Scenario], tmp_path: Path) -> None:
@@ -166,5 +222,6 @@ def test_bindings_loop_flies_the_exported_mission(exported: tuple[Path, Scenario
     final = np.asarray(r["final_state"])
     assert np.linalg.norm(final[:3] - scn.xf[:3]) < 0.05  # m, undisturbed
     assert np.all(np.asarray(r["time_mpc_s"]) > 0.0)
+    assert np.all(np.asarray(r["time_call_s"]) >= np.asarray(r["time_controller_s"]))
     with pytest.raises(FileNotFoundError, match="no such file"):
         find_example(path.parent / "no_such_binary")

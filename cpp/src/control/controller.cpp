@@ -46,8 +46,6 @@ Controller::Controller(std::shared_ptr<const mpc::LinearizedModel> model, mpc::S
   out_.u = Eigen::VectorXd::Zero(kNu);
   out_.tube.K = Eigen::MatrixXd::Zero(kNu, kNx);
   out_.tube.Pe = Eigen::MatrixXd::Zero(kNx, kNx);
-  x_last_ = Eigen::VectorXd::Zero(kNx);
-  u_last_ = Eigen::VectorXd::Zero(kNu);
   A_buf_ = Eigen::MatrixXd::Zero(kNx, kNx);
   B_buf_ = Eigen::MatrixXd::Zero(kNx, kNu);
   c_buf_ = Eigen::VectorXd::Zero(kNx);
@@ -82,6 +80,7 @@ void Controller::reset() {
   for (auto& policy : policies_) policy.reset();
   last_k_ = -1;
   identified_k_ = -1;
+  predicted_ = false;
   margin_lost_ = false;
 }
 
@@ -89,24 +88,32 @@ bool Controller::identify(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k) {
   out_.identified = false;
   if (last_k_ < 0 || k != last_k_ + 1 || identified_k_ == k || x_k.size() != kNx) return false;
   identified_k_ = k;
-  const double dt = mpc_->settings().dt;
-  if (settings_.measured_input == MeasuredInput::Residual) {
-    try {
-      model_->discretize(reference_.t0 + last_k_ * dt, dt, x_last_, u_last_, A_buf_, B_buf_, c_buf_);
-    } catch (const std::exception&) {
-      return false;  // a non-finite state or model output: nothing to identify from
-    }
-    out_.w_measured.noalias() = x_k - c_buf_;
-    out_.w_measured.noalias() -= A_buf_ * x_last_;
-    out_.w_measured.noalias() -= B_buf_ * u_last_;
-  } else {
-    out_.w_measured = x_k - reference_.z.col(k);
-  }
+  if (!predicted_) return false;
+  out_.w_measured = x_k - x_pred_;
   if (!out_.w_measured.allFinite()) return false;
   identifiers_[0].update(out_.w_measured.head<6>());
   identifiers_[1].update(out_.w_measured.tail<6>());
   out_.identified = true;
   return true;
+}
+
+void Controller::predict(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k) {
+  predicted_ = false;
+  if (settings_.measured_input == MeasuredInput::ReferenceDeviation) {
+    x_pred_ = reference_.z.col(k + 1);
+    predicted_ = true;
+    return;
+  }
+  const double dt = mpc_->settings().dt;
+  try {
+    model_->discretize(reference_.t0 + k * dt, dt, x_k, out_.u, A_buf_, B_buf_, c_buf_);
+  } catch (const std::exception&) {
+    return;  // a non-finite state or model output: the next step identifies nothing
+  }
+  x_pred_.noalias() = A_buf_ * x_k;
+  x_pred_.noalias() += B_buf_ * out_.u;
+  x_pred_ += c_buf_;
+  predicted_ = x_pred_.allFinite();
 }
 
 const ControlStep& Controller::step(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k) {
@@ -147,13 +154,14 @@ const ControlStep& Controller::step(int k, const Eigen::Ref<const Eigen::VectorX
   out_.u = r.u;
   const auto t3 = Clock::now();
 
-  x_last_ = x_k;
-  u_last_ = out_.u;
+  predict(k, x_k);
   last_k_ = k;
+  const auto t4 = Clock::now();
   out_.timings.identify = seconds(t0, t1);
   out_.timings.tube = seconds(t1, t2);
   out_.timings.mpc = seconds(t2, t3);
-  out_.timings.total = seconds(t0, t3);
+  out_.timings.predict = seconds(t3, t4);
+  out_.timings.total = seconds(t0, t4);
   return out_;
 }
 

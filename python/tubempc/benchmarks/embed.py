@@ -1,10 +1,10 @@
 """The same closed loop from C++ and from Python: a scenario exported by ``tubempc export-scenario``
-flown by the C++ example (``examples/cpp/closed_loop``, the core embedded through CMake) and by the
-same loop written in Python over the bindings (``_core.mpc.TubeMPC.step`` and the truth propagation
-``_core.dynamics.ProximityModel.propagate``, same settings, no disturbance). Both read the one
-scenario file, so they fly the same mission with the same code; the per-step MPC times show what the
-bindings add (argument conversion, the StepResult copy, the GIL) and should otherwise match within
-the machine's noise. The two loops run alternately ``--repeats`` times.
+flown with TBMPC-FFA by the C++ example (``examples/cpp/closed_loop``, the core embedded through CMake)
+and by the same loop written in Python over the bindings (``_core.control.Controller.step`` and the
+truth propagation ``_core.dynamics.ProximityModel.propagate``, same settings, no disturbance, no
+background designs). Both read the one scenario file, so they fly the same mission with the same code;
+the per-step times show what the bindings add (argument conversion, the result copy, the GIL) and
+should otherwise match within the machine's noise. The two loops run alternately ``--repeats`` times.
 """
 
 from __future__ import annotations
@@ -61,7 +61,8 @@ def find_example(explicit: Path | None) -> Path:
 
 
 def python_loop(scenario_path: str | Path) -> dict[str, Any]:
-    """The loop of ``examples/cpp/closed_loop`` written over the bindings; times in s per step."""
+    """The loop of ``examples/cpp/closed_loop`` (TBMPC-FFA) written over the bindings; times in s per step:
+    the controller's own split and the wall time of the call through the bindings."""
     s = _core.io.read_scenario(str(scenario_path))
 
     def model(body: Any) -> Any:
@@ -70,26 +71,27 @@ def python_loop(scenario_path: str | Path) -> dict[str, Any]:
 
     controller_model, truth = model(s.model), model(s.truth)
     t_setup = time.perf_counter()
-    ctrl = _core.mpc.TubeMPC(_core.mpc.LinearizedProximityModel(controller_model), s.settings)
-    ctrl.setup(s.reference)
+    settings = s.controller
+    settings.method = _core.control.Method.Ffa
+    ctrl = _core.control.Controller(_core.mpc.LinearizedProximityModel(controller_model), s.settings, settings)
+    ctrl.setup(s.reference, s.ffa_designs)
     setup_s = time.perf_counter() - t_setup
     T, dt, t0 = s.mission_steps, s.settings.dt, s.reference.t0
-    p, tube, zbar = s.propagator, s.tube, np.asarray(s.reference.z)
+    p, zbar = s.propagator, np.asarray(s.reference.z)
     no_disturbance = np.zeros(6)
     x = np.asarray(s.x0, dtype=np.float64)
     state = _core.dynamics.state_to_truth(x)
-    time_step, time_mpc, time_internal = np.zeros(T), np.zeros(T), np.zeros(T)
+    time_call, time_controller, time_mpc = np.zeros(T), np.zeros(T), np.zeros(T)
     statuses: dict[str, int] = {}
     scp = 0
     for k in range(T):
         a = time.perf_counter()
-        r = ctrl.step(k, x, tube)
-        u = r.u
-        b = time.perf_counter()
+        r = ctrl.step(k, x)
+        time_call[k] = time.perf_counter() - a
         prop = truth.propagate(
             t0 + k * dt,
             state,
-            u,
+            r.u,
             dt,
             p.method,
             p.substeps,
@@ -102,32 +104,36 @@ def python_loop(scenario_path: str | Path) -> dict[str, Any]:
         )
         x = _core.dynamics.truth_to_state(prop.state, zbar[6:9, k + 1])
         state = _core.dynamics.state_to_truth(x)
-        c = time.perf_counter()
         if prop.status != _core.dynamics.PropagationStatus.Success:
             raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
-        time_step[k], time_mpc[k], time_internal[k] = c - a, b - a, r.timings.total
-        statuses[str(r.status)] = statuses.get(str(r.status), 0) + 1
-        scp += r.scp_iterations
+        time_controller[k], time_mpc[k] = r.timings.total, r.timings.mpc
+        statuses[str(r.mpc.status)] = statuses.get(str(r.mpc.status), 0) + 1
+        scp += r.mpc.scp_iterations
     return {
         "steps": T,
         "setup_s": setup_s,
         "scp_iterations": scp,
         "statuses": statuses,
         "final_state": x.tolist(),
-        "time_step_s": time_step.tolist(),
+        "time_call_s": time_call.tolist(),
+        "time_controller_s": time_controller.tolist(),
         "time_mpc_s": time_mpc.tolist(),
-        "time_mpc_internal_s": time_internal.tolist(),
     }
 
 
 def cpp_loop(example: Path, scenario_path: Path, json_path: Path) -> dict[str, Any]:
-    """Runs the example binary on the scenario; its JSON output (same fields as python_loop's)."""
+    """Runs the example binary on the scenario (TBMPC-FFA); its JSON output (python_loop's fields but the
+    call's wall time, which the controller's own time stands for, and the heap allocations)."""
     proc = subprocess.run(
-        [str(example), str(scenario_path), "--json", str(json_path)], capture_output=True, text=True, check=False
+        [str(example), str(scenario_path), "--method", "ffa", "--json", str(json_path)],
+        capture_output=True,
+        text=True,
+        check=False,
     )
     if proc.returncode != 0:
         raise RuntimeError(f"{example} exited with {proc.returncode}:\n{proc.stdout}{proc.stderr}")
-    result: dict[str, Any] = json.loads(json_path.read_text(encoding="utf-8"))
+    result: dict[str, Any] = json.loads(json_path.read_text(encoding="utf-8"))["methods"]["ffa"]
+    result["time_call_s"] = result["time_controller_s"]
     return result
 
 
@@ -160,44 +166,45 @@ def run(args: argparse.Namespace) -> int:
                     "statuses": r["statuses"],
                     "scp_iterations": r["scp_iterations"],
                     "final_state": r["final_state"],
-                    "step": _stats(r["time_step_s"]),
+                    "call": _stats(r["time_call_s"]),
+                    "controller": _stats(r["time_controller_s"]),
                     "mpc": _stats(r["time_mpc_s"]),
-                    "mpc_internal": _stats(r["time_mpc_internal_s"]),
                     **(
-                        {"allocations_mpc": r["allocations_mpc"], "allocations_truth": r["allocations_truth"]}
+                        {"allocations_controller": r["allocations_controller"], "allocations_truth": r["allocations_truth"]}
                         if loop == "cpp"
                         else {}
                     ),
                 }
             )
     print(
-        f"{'loop':8s} {'run':>3s}  {'MPC step median':>15s} {'p99':>8s} {'max':>8s}   {'whole step median':>17s} "
+        f"{'loop':8s} {'run':>3s}  {'controller median':>17s} {'p99':>8s} {'max':>8s}   {'call median':>11s} "
         f"{'p99':>8s}   [ms]   statuses"
     )
     for r in runs:
         print(
-            f"{r['loop']:8s} {r['run']:3d}  {1e3 * r['mpc']['median']:15.3f} {1e3 * r['mpc']['p99']:8.3f} "
-            f"{1e3 * r['mpc']['max']:8.3f}   {1e3 * r['step']['median']:17.3f} {1e3 * r['step']['p99']:8.3f}   "
-            f"{r['statuses']}"
+            f"{r['loop']:8s} {r['run']:3d}  {1e3 * r['controller']['median']:17.3f} "
+            f"{1e3 * r['controller']['p99']:8.3f} {1e3 * r['controller']['max']:8.3f}   "
+            f"{1e3 * r['call']['median']:11.3f} {1e3 * r['call']['p99']:8.3f}   {r['statuses']}"
         )
     summary: dict[str, Any] = {}
     for loop in ("cpp", "python"):
         mine = [r for r in runs if r["loop"] == loop]
         summary[loop] = {
             key: {stat: float(np.median([r[key][stat] for r in mine])) for stat in ("median", "p99", "max")}
-            for key in ("mpc", "mpc_internal", "step")
+            for key in ("call", "controller", "mpc")
         }
     finals = np.array([r["final_state"] for r in runs])
     spread = float(np.max(np.abs(finals - finals[0])))
-    ratio = summary["python"]["mpc"]["median"] / summary["cpp"]["mpc"]["median"]
+    ratio = summary["python"]["call"]["median"] / summary["cpp"]["controller"]["median"]
     print(
-        f"median over runs, MPC step: C++ {1e3 * summary['cpp']['mpc']['median']:.3f} ms (p99 "
-        f"{1e3 * summary['cpp']['mpc']['p99']:.3f}), Python bindings {1e3 * summary['python']['mpc']['median']:.3f} ms "
-        f"(p99 {1e3 * summary['python']['mpc']['p99']:.3f}); Python / C++ = {ratio:.3f}"
+        f"median over runs, controller step: C++ {1e3 * summary['cpp']['controller']['median']:.3f} ms (p99 "
+        f"{1e3 * summary['cpp']['controller']['p99']:.3f}), through the Python bindings "
+        f"{1e3 * summary['python']['call']['median']:.3f} ms (p99 {1e3 * summary['python']['call']['p99']:.3f}); "
+        f"Python / C++ = {ratio:.3f}"
     )
     print(f"largest difference between the runs' final states: {spread:.3g} (0: every run flew the same trajectory)")
-    allocations = [r["allocations_mpc"] for r in runs if r["loop"] == "cpp"]
-    print(f"C++ example: heap allocations in the MPC step after setup: {max(allocations)}")
+    allocations = [r["allocations_controller"] for r in runs if r["loop"] == "cpp"]
+    print(f"C++ example: heap allocations in the controller step after setup: {max(allocations)}")
     result = {
         "machine": info,
         "config": str(out / "scenario" / "config.toml"),
@@ -206,7 +213,7 @@ def run(args: argparse.Namespace) -> int:
         "repeats": args.repeats,
         "runs": runs,
         "summary": summary,
-        "python_over_cpp_mpc_median": ratio,
+        "python_over_cpp_controller_median": ratio,
         "final_state_spread": spread,
     }
     text = json.dumps(result, indent=2) + "\n"

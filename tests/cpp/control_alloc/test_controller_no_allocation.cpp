@@ -21,7 +21,7 @@ TEST(ControllerAllocation, CounterSeesAllocations) {
   release(allocate(64));
   Eigen::VectorXd v(100);
   v.setZero();
-  EXPECT_GE(window.count(), 4);
+  EXPECT_GE(window.count(), 3);  // malloc and free, the vector's allocation (freed after the check)
 }
 
 TEST(ControllerAllocation, StepDoesNotAllocateAfterSetup) {

@@ -7,7 +7,9 @@
 ///
 /// Lifecycle: construct with the controller's model and settings; `setup(reference, designs)` once per
 /// mission (allocates, discretises the reference for the tube update); then `step(k, x_k)` every control
-/// period with the measured state. A caller that runs background LMI designs (Python) reads
+/// period with the measured state. After the command, the step predicts x_{k+1} from (x_k, u_k) (the
+/// residual input: one discretisation of the model at the measured state), so that the next step's
+/// identification is a subtraction. A caller that runs background LMI designs (Python) reads
 /// `ControlStep::design_due` and offers finished designs through `adopt`.
 ///
 /// Subsystems: translation (p: states 0-5 [r_L (m), v_L (m/s)], inputs 0-2 (m/s^2)) and rotation
@@ -64,11 +66,13 @@ struct ControllerDesigns {
   std::vector<SubsystemDesign> library_r;   ///< rotational library (TBMPC-FFA)
 };
 
-/// Wall-clock split of one control step (s).
+/// Wall-clock split of one control step (s). The command is ready after identify + tube + mpc; the
+/// prediction follows it (a flight loop runs it while it waits for the next measurement).
 struct ControlTimings {
-  double identify = 0.0;  ///< measured input of the last period and the identifiers' update
+  double identify = 0.0;  ///< the last period's measured input and the identifiers' update
   double tube = 0.0;      ///< tube update of both subsystems
   double mpc = 0.0;       ///< tube MPC step
+  double predict = 0.0;   ///< the one-step prediction from (x_k, u_k) that the next identification compares with
   double total = 0.0;     ///< the whole call
 };
 
@@ -86,7 +90,8 @@ struct ControlStep {
   std::array<SubInputMatrix, 2> B;             ///< subsystem B about the reference's node k
   std::array<SubMatrix, 2> P_W;                ///< identified disturbance sets used by this step
   bool identified = false;                     ///< whether the last period's input was folded in
-  Eigen::Matrix<double, 12, 1> w_measured = Eigen::Matrix<double, 12, 1>::Zero();  ///< that input
+  /// That input: x_k minus its prediction from step k - 1 (MeasuredInput).
+  Eigen::Matrix<double, 12, 1> w_measured = Eigen::Matrix<double, 12, 1>::Zero();
   const mpc::StepResult* mpc = nullptr;        ///< the MPC step's result (plan, statuses, timings)
   ControlTimings timings;                      ///< wall-clock split
 };
@@ -163,9 +168,11 @@ class Controller {
   std::array<double, 2> u_max_{};
   ControlStep out_;
   // the last call's step, state and command, for the measured input of the next
+  void predict(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k);
   int last_k_ = -1;
   int identified_k_ = -1;  // the step whose period was last folded in
-  Eigen::VectorXd x_last_, u_last_;
+  bool predicted_ = false;  // x_pred_ holds the prediction of step last_k_ + 1
+  Eigen::Matrix<double, 12, 1> x_pred_ = Eigen::Matrix<double, 12, 1>::Zero();
   Eigen::MatrixXd A_buf_, B_buf_;
   Eigen::VectorXd c_buf_;
   bool margin_lost_ = false;
