@@ -1,4 +1,4 @@
-"""Closed-loop TBMPC and TBMPC-FFA on the 6-DOF model (paper Algorithm 1; PAPER_NOTES.md).
+"""Closed-loop TBMPC and TBMPC-FFA on the 6-DOF model (paper Algorithm 1; docs/model.md).
 
 Each control step k (dt = 2 s, T = t_f / dt steps):
 
@@ -80,7 +80,7 @@ class _Plant:
 
 
 def _measured_input(scn: Scenario, k: int, x: Array, u: Array, x_next: Array) -> Array:
-    """The measured exogenous input w_k (``identification.measured_input``; PAPER_NOTES)."""
+    """The measured exogenous input w_k (``identification.measured_input``; docs/model.md)."""
     if scn.config.identification.measured_input == "residual":
         Ak, Bk, ck = scn.model.discretize(k * scn.config.mpc.dt, x, u, scn.config.mpc.dt)
         return measured_residual(x_next, Ak, Bk, ck, x, u)
