@@ -10,7 +10,7 @@ code blocks, is classified by its form; a span of a known form must name somethi
 - a Python name (`tubempc.scenario.build_scenario`, `tubempc._core.io.read_scenario`): it imports and
   resolves attribute by attribute;
 - a C++ name (`mpc::Settings::horizon`, `tubempc::gravity::Shape`, `dynamics::kDefaultPositionTolerance`):
-  each component is an identifier of the code (comments removed) under cpp/include or cpp/src;
+  each component is an identifier of the code (comments and strings removed) under cpp/ or python/src;
 - a setting (`tube.update`, `mpc.kinematics = "exact"`, `identification.prior_memory = 1`, a bare
   `design_delay = 5`): a field of the configuration (python/tubempc/config.py's dataclasses and the
   packaged python/tubempc/data/bennu_paper.toml), or an old spelling config.py still names
@@ -23,7 +23,7 @@ code blocks, is classified by its form; a span of a known form must name somethi
 - a CMake option or environment variable (`TUBEMPC_INSTALL_PIQP`, `TUBEMPC_BUILD_DIR`): named in the
   build files, tools/ or the package;
 - an identifier (`TubeMPC`, `RunRecord.applied`, `lyapunov_tube`, `LYAPUNOV_NO_MARGIN`): defined in the
-  package (python/tubempc, its stubs) or in the C++ code (comments removed).
+  package (python/tubempc, its stubs), in the C++ code (comments and strings removed) or in the CMake files.
 
 Spans of no such form (formulas, values, units, prose in code font) are not checked. ALLOWED lists
 the few words in code font that are not names of this project's code (other projects' names).
@@ -83,7 +83,10 @@ def _read(path: Path) -> str:
     return path.read_text(encoding="utf-8", errors="replace")
 
 
-def _strip_cpp_comments(text: str) -> str:
+def _cpp_code(text: str) -> str:
+    """C++ text without its comments and string literals (which may name what the code no longer has)."""
+    text = re.sub(r'R"\((.*?)\)"', " ", text, flags=re.S)
+    text = re.sub(r'"(?:\\.|[^"\\\n])*"', " ", text)
     text = re.sub(r"/\*.*?\*/", " ", text, flags=re.S)
     return re.sub(r"//[^\n]*", " ", text)
 
@@ -94,7 +97,7 @@ def cpp_identifiers() -> frozenset[str]:
     for folder in ("cpp/include", "cpp/src", "python/src"):
         for path in (ROOT / folder).rglob("*"):
             if path.suffix in (".hpp", ".cpp", ".h"):
-                words.update(re.findall(_PY_ID, _strip_cpp_comments(_read(path))))
+                words.update(re.findall(_PY_ID, _cpp_code(_read(path))))
     return frozenset(words)
 
 
@@ -219,7 +222,8 @@ def check_setting(section: str, key: str, value: str | None) -> str | None:
     if section not in fields:
         return None  # not a configuration section: another form decides
     if key != "*" and key not in fields[section]:
-        return f"{section}.{key}"
+        # `tube.lyapunov_tube`: a function of the module tubempc.<section>, not a setting
+        return None if check_python(f"tubempc.{section}.{key}") is None else f"{section}.{key}"
     if value is not None and value not in config_values():
         return f'{section}.{key} = "{value}"'
     return None
@@ -227,21 +231,22 @@ def check_setting(section: str, key: str, value: str | None) -> str | None:
 
 def check_bare_setting(key: str, value: str | None) -> str | None:
     if not any(key in keys for keys in config_fields().values()):
-        return key
+        # a keyword argument (`position_tolerance=0`) rather than a setting
+        return None if key in python_identifiers() or key in cpp_identifiers() else key
     if value is not None and value not in config_values():
         return f'{key} = "{value}"'
     return None
 
 
 def check_command(line: str) -> str | None:
-    words = line.split()
+    words = line.replace("\\|", "|").split()
     if len(words) < 2:
         return None
     parsers = cli_parsers()
     sub = words[1]
     if sub.startswith("-"):
         key, options = "", words[1:]
-    elif sub == "bench" and len(words) > 2:
+    elif sub == "bench" and len(words) > 2 and not words[2].isupper():  # not `tubempc bench NAME`
         names = words[2].split("|")
         for n in names:
             if f"bench {n}" not in parsers:
@@ -259,10 +264,18 @@ def check_command(line: str) -> str | None:
     return None
 
 
+@functools.cache
+def cmake_identifiers() -> frozenset[str]:
+    parts = [ROOT / "CMakeLists.txt", *sorted((ROOT / "cmake").glob("*")), *(ROOT / "examples").rglob("CMakeLists.txt")]
+    return frozenset(w for p in parts if p.is_file() for w in re.findall(_PY_ID, _read(p)))
+
+
 def check_identifier(span: str) -> str | None:
+    if span in config_values():
+        return None  # an option's value (`whitened_box`), a name the code reads as text
     parts = re.sub(r"\(.*$", "", span).split(".")
     for p in parts:
-        if p not in python_identifiers() and p not in cpp_identifiers() and p not in ALLOWED:
+        if not (p in python_identifiers() or p in cpp_identifiers() or p in cmake_identifiers() or p in ALLOWED):
             return span
     return None
 
@@ -289,8 +302,8 @@ def check_span(span: str) -> str | None:
             return None
         if first.startswith(("tubempc/", *_TOP_DIRS)) or "/" in first:
             return check_path(first)
-    if re.fullmatch(rf"{_PY_ID}\.{_FILE_EXT}", s) and not s.startswith(("summary", "config", "scenario", "shape")):
-        return None if list(ROOT.glob(f"**/{s}")) else s
+    if re.fullmatch(rf"{_PY_ID}\.(py|pyi|hpp|cpp|h|sh|cmake|md)", s):  # a source file by its name
+        return None if any(p for p in ROOT.glob(f"**/{s}") if "build" not in p.relative_to(ROOT).parts[:1]) else s
     if re.fullmatch(rf"tubempc(\.{_PY_ID})+(\(.*\))?", s):
         return check_python(s)
     if re.fullmatch(rf"({_PY_ID}::)+{_PY_ID}(\(.*\))?", s):
@@ -299,10 +312,12 @@ def check_span(span: str) -> str | None:
     if m:
         section, key, value = m.group(1), m.group(2), m.group(3)
         quoted = value[1:-1] if value and value.startswith('"') else None
+        if f"{section}.{key}" in scenario_records():
+            return None  # a scenario-file record (mpc.* and tube.* are also configuration sections)
         if section in config_fields():
             return check_setting(section, key, quoted)
         if re.fullmatch(r"(model|truth|propagator|mpc|reference|tube|mission)", section):
-            return None if f"{section}.{key}" in scenario_records() or key == "*" else f"{section}.{key}"
+            return None if key == "*" else f"{section}.{key}"
         if value is None and section[0].isupper():
             return check_identifier(s)
         return None
