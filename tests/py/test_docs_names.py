@@ -149,7 +149,7 @@ def scenario_records() -> frozenset[str]:
 def build_words() -> str:
     parts = [ROOT / "CMakeLists.txt", *sorted((ROOT / "cmake").glob("*")), *sorted((ROOT / "tools").glob("*"))]
     parts += [p for p in (ROOT / "python" / "tubempc").rglob("*.py")]
-    parts += [p for p in (ROOT / "tests").rglob("*") if p.suffix in (".py", ".txt", ".cmake")]
+    parts += [p for p in (ROOT / "tests").rglob("*") if p.suffix in (".py", ".txt", ".cmake") and p.name != Path(__file__).name]
     parts += [p for p in (ROOT / "docs").glob("*.py")]
     return "\n".join(_read(p) for p in parts if p.is_file())
 
@@ -161,8 +161,8 @@ def cli_parsers() -> dict[str, argparse.ArgumentParser]:
 
     parser = cli.build_parser()
     out: dict[str, argparse.ArgumentParser] = {"": parser}
-    for action in parser._actions:  # noqa: SLF001 - argparse keeps its subparsers here
-        if isinstance(action, argparse._SubParsersAction):  # noqa: SLF001
+    for action in parser._actions:  # argparse keeps its subparsers here
+        if isinstance(action, argparse._SubParsersAction):
             out.update(action.choices)
     for name in benchmarks.available():
         p = argparse.ArgumentParser(prog=f"tubempc bench {name}")
@@ -256,7 +256,7 @@ def check_command(line: str) -> str | None:
         key, options = sub, words[2:]
     else:
         return f"tubempc {sub}"
-    known = set(parsers[key]._option_string_actions) | set(parsers[""]._option_string_actions)  # noqa: SLF001
+    known = set(parsers[key]._option_string_actions) | set(parsers[""]._option_string_actions)
     for w in options:
         opt = w.split("=")[0].strip("[]|")
         if opt.startswith("--") and re.fullmatch(r"--[a-z][a-z0-9-]*", opt) and opt not in known:
