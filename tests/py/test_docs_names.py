@@ -149,7 +149,8 @@ def scenario_records() -> frozenset[str]:
 def build_words() -> str:
     parts = [ROOT / "CMakeLists.txt", *sorted((ROOT / "cmake").glob("*")), *sorted((ROOT / "tools").glob("*"))]
     parts += [p for p in (ROOT / "python" / "tubempc").rglob("*.py")]
-    parts += [p for p in (ROOT / "tests").rglob("*") if p.suffix in (".py", ".txt", ".cmake") and p.name != Path(__file__).name]
+    this = Path(__file__).name
+    parts += [p for p in (ROOT / "tests").rglob("*") if p.suffix in (".py", ".txt", ".cmake") and p.name != this]
     parts += [p for p in (ROOT / "docs").glob("*.py")]
     return "\n".join(_read(p) for p in parts if p.is_file())
 
@@ -295,9 +296,7 @@ def check_span(span: str) -> str | None:
         name = s.split("=")[0]
         return None if name in build_words() else name
     first = s.split()[0]
-    if "/" in first and " " not in s and (
-        first.startswith(_TOP_DIRS) or re.search(rf"\.{_FILE_EXT}(::{_PY_ID})?$", first)
-    ):
+    if "/" in first and " " not in s and (first.startswith(_TOP_DIRS) or re.search(rf"\.{_FILE_EXT}(::{_PY_ID})?$", first)):
         if first.startswith(("http", "/")) or first.startswith("build/") or first.startswith("results/"):
             return None
         if first.startswith(("tubempc/", *_TOP_DIRS)) or "/" in first:
@@ -411,8 +410,9 @@ REMOVED = [
 def test_the_check_passes_existing_names_and_catches_removed_ones(tmp_path: Path) -> None:
     page = tmp_path / "page.md"
     page.write_text(
-        "Some text with " + ", ".join(f"`{s}`" for s in EXISTING + REMOVED) + ".\n\n```bash\ntubempc sweep --lambda-p 0.9 --out d\n"
-        "tubempc sweep --no-such-flag\n```\n",
+        "Some text with "
+        + ", ".join(f"`{s}`" for s in EXISTING + REMOVED)
+        + ".\n\n```bash\ntubempc sweep --lambda-p 0.9 --out d\ntubempc sweep --no-such-flag\n```\n",
         encoding="utf-8",
     )
     flagged = [m.split(": `", 1)[1].split("`: no ", 1)[0] for m in missing_names(page)]
