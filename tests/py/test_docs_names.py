@@ -25,7 +25,8 @@ code blocks, is classified by its form; a span of a known form must name somethi
 - an identifier (`TubeMPC`, `RunRecord.applied`, `lyapunov_tube`, `LYAPUNOV_NO_MARGIN`): defined in the
   package (python/tubempc, its stubs), in the C++ code (comments and strings removed) or in the CMake files.
 
-Spans of no such form (formulas, values, units, prose in code font) are not checked. ALLOWED lists
+Spans of no such form (formulas, values, units, prose in code font) are not checked. The relative
+targets of the pages' Markdown links must exist too. ALLOWED lists
 the few words in code font that are not names of this project's code (other projects' names).
 """
 
@@ -356,14 +357,26 @@ def cited_spans(text: str) -> list[tuple[int, str]]:
     return out
 
 
+def linked_files(text: str) -> list[tuple[int, str]]:
+    """(line, target): the relative link targets of the page's Markdown links (anchors dropped)."""
+    out = []
+    for no, line in enumerate(text.splitlines(), 1):
+        for m in re.finditer(r"\]\(([^)\s]+)\)", line):
+            target = m.group(1).split("#")[0]
+            if target and not re.match(r"[a-z]+:", target):
+                out.append((no, target))
+    return out
+
+
 def missing_names(path: Path) -> list[str]:
-    """'<file>:<line>: `<span>`: no <what>' for every cited name that does not exist."""
+    """'<file>:<line>: `<span>`: no <what>' for every cited name and linked file that does not exist."""
     shown = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
-    return [
-        f"{shown}:{no}: `{span}`: no {what}"
-        for no, span in cited_spans(_read(path))
-        if (what := check_span(span)) is not None
+    text = _read(path)
+    missing = [
+        f"{shown}:{no}: `{span}`: no {what}" for no, span in cited_spans(text) if (what := check_span(span)) is not None
     ]
+    missing += [f"{shown}:{no}: link: no {t}" for no, t in linked_files(text) if not (path.parent / t).exists()]
+    return missing
 
 
 @pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
@@ -412,8 +425,10 @@ def test_the_check_passes_existing_names_and_catches_removed_ones(tmp_path: Path
     page.write_text(
         "Some text with "
         + ", ".join(f"`{s}`" for s in EXISTING + REMOVED)
-        + ".\n\n```bash\ntubempc sweep --lambda-p 0.9 --out d\ntubempc sweep --no-such-flag\n```\n",
+        + ".\n\n```bash\ntubempc sweep --lambda-p 0.9 --out d\ntubempc sweep --no-such-flag\n```\n"
+        + f"[a link]({ROOT / 'docs' / 'model.md'}#frames), [another](no_such_page.md), [web](https://example.org)\n",
         encoding="utf-8",
     )
-    flagged = [m.split(": `", 1)[1].split("`: no ", 1)[0] for m in missing_names(page)]
-    assert flagged == [*REMOVED, "tubempc sweep --no-such-flag"]
+    flagged = [m.split(": ", 1)[1] for m in missing_names(page)]
+    flagged = [f.split(": no ", 1)[0].strip("`") if f.startswith("`") else f for f in flagged]
+    assert flagged == [*REMOVED, "tubempc sweep --no-such-flag", "link: no no_such_page.md"]
