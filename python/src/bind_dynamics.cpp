@@ -161,7 +161,7 @@ py::dict time_kernels(const std::shared_ptr<ProximityModel>& self, double t0, do
 }  // namespace
 
 void bind_dynamics(py::module_& m) {
-  auto d = m.def_submodule("dynamics", "6-DOF proximity dynamics in the orbital frame L (PAPER_NOTES.md)");
+  auto d = m.def_submodule("dynamics", "6-DOF proximity dynamics in the orbital frame L (docs/model.md)");
 
   py::enum_<dynamics::Kinematics>(d, "Kinematics", "Rotation-vector kinematics of the model state")
       .value("FirstOrder", dynamics::Kinematics::FirstOrder, "phi' = omega_BL_B")

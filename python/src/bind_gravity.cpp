@@ -162,7 +162,7 @@ repaired with repair=ShapeRepair.ORIENT).)doc")
 
   py::class_<PolyhedronGravity, gravity::GravityModel, std::shared_ptr<PolyhedronGravity>>(
       g, "PolyhedronGravity", R"doc(
-Gravity of a constant-density polyhedron (Werner and Scheeres 1997; PAPER_NOTES.md "Gravity").
+Gravity of a constant-density polyhedron (Werner and Scheeres 1997; docs/model.md "Gravity").
 
 PolyhedronGravity(vertices (n, 3) m, faces (m, 3) 0-based, density kg/m^3, repair=ShapeRepair.NONE)
 or PolyhedronGravity(shape, density). G = 6.67430e-11.

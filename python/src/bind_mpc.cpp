@@ -79,7 +79,7 @@ py::tuple constraints_tuple(const LinearizedModel& m, double t, const Eigen::Vec
 }  // namespace
 
 void bind_mpc(py::module_& m) {
-  auto s = m.def_submodule("mpc", "Tube MPC nominal problem (PAPER_NOTES.md 'Tube MPC'); SI units");
+  auto s = m.def_submodule("mpc", "Tube MPC nominal problem (docs/model.md 'Tube MPC'); SI units");
 
   py::enum_<mpc::Status>(s, "Status", "Outcome of a step and cause of a fallback")
       .value("Solved", mpc::Status::Solved)

@@ -1,6 +1,6 @@
 """tubempc: tube-based MPC with online disturbance identification for asteroid proximity operations.
 
-SI units throughout; frames are named in argument names and docstrings (see PAPER_NOTES.md).
+SI units throughout; frames are named in argument names and docstrings (see docs/model.md).
 Data flow: configuration (:mod:`tubempc.config`) -> scenario (:mod:`tubempc.scenario`) -> closed loop
 (:mod:`tubempc.closed_loop`) -> run record (:mod:`tubempc.results`) -> metrics (:mod:`tubempc.metrics`)
 -> report (:mod:`tubempc.report`).

@@ -1,5 +1,5 @@
-"""Scenario configuration: one TOML file with units, parsed into SI (PAPER_NOTES "Scenario
-(Tables 1 and 2)" and the sections it cites for each option).
+"""Scenario configuration: one TOML file with units, parsed into SI (docs/model.md
+"Scenario", which names each value's setting and source).
 
 Quantities are written with units: a scalar as a string ("0.55 m/s^2", "70 deg"), a vector
 or matrix as a table {value = [...], unit = "m"}; dimensionless numbers (N, forgetting
@@ -98,7 +98,7 @@ _SPD = (
 
 @dataclass(frozen=True, eq=False)
 class Environment:
-    """Sun and solar radiation pressure (PAPER_NOTES "Translational dynamics")."""
+    """Sun and solar radiation pressure (docs/model.md "Translational dynamics")."""
 
     mu_sun: float = field(metadata=_q("m^3/s^2", "gravitational parameter", check=_POS))
     R: float = field(metadata=_q("m", "length", check=_POS))  # heliocentric distance of the asteroid
@@ -107,7 +107,7 @@ class Environment:
 
 @dataclass(frozen=True, eq=False)
 class Asteroid:
-    """Bennu gravity, spin and shape (PAPER_NOTES "Gravity").
+    """Bennu gravity, spin and shape (docs/model.md "Gravity").
 
     shape: "generated" (the project's Bennu-like body) or a path to a shape file (relative paths
     are relative to the TOML file) whose coordinates are in ``shape_unit`` ("km" or "m"). spin_sign:
@@ -124,7 +124,7 @@ class Asteroid:
 
 @dataclass(frozen=True, eq=False)
 class Spacecraft:
-    """Inertia (B principal axes), input bounds and boresight (PAPER_NOTES "Attitude",
+    """Inertia (B principal axes), input bounds and boresight (docs/model.md "Attitude",
     "Constraints")."""
 
     J: FloatArray = field(metadata=_q("kg*m^2", "moment of inertia", (3, 3), _SPD))
@@ -135,7 +135,7 @@ class Spacecraft:
 
 @dataclass(frozen=True, eq=False)
 class Constraints:
-    """Glide-slope and line-of-sight half-angles (PAPER_NOTES "Constraints"). The glide-slope cone
+    """Glide-slope and line-of-sight half-angles (docs/model.md "Constraints"). The glide-slope cone
     is fixed in the body frame A: glide_slope_apex "centre" (the paper's) or "site" (the landing
     site's surface point; needs boundary.terminal = "site"); glide_slope_axis "z" (z_A = z_L, the
     paper's), "normal" (the site's outward surface normal) or "radial" (centre to site)."""
@@ -148,7 +148,7 @@ class Constraints:
 
 @dataclass(frozen=True, eq=False)
 class Mpc:
-    """Discretisation, horizon, SCP threshold and weights (PAPER_NOTES "Linearisation",
+    """Discretisation, horizon, SCP threshold and weights (docs/model.md "Linearisation",
     "Tube MPC"). Weights are diagonals, dimensionless as in Table 1. horizon: N (nodes). scp_eps:
     the SCP stop on ||z* - z_ref|| (inf-norm). kinematics: "first_order" (the paper's phi' = w) or
     "exact" (phi' = Jr^-1(phi) w). input_cost: "absolute" (||v||^2_R, the paper's Problem 2) or
@@ -179,7 +179,7 @@ class Mpc:
 
 @dataclass(frozen=True, eq=False)
 class Boundary:
-    """Initial and terminal states (Table 2; PAPER_NOTES "Scenario"): r, v in L (m, m/s),
+    """Initial and terminal states (Table 2; docs/model.md "Scenario"): r, v in L (m, m/s),
     phi the rotation vector of q_B/L (rad), w = omega_B/L in B (rad/s). terminal: "paper"
     (rf, vf, phi_f, wf as given, in L), "altitude" (rf moved along its direction to
     terminal_altitude above the surface) or "site" (a landing site fixed in the body frame A,
@@ -213,7 +213,7 @@ class Boundary:
 
 @dataclass(frozen=True, eq=False)
 class Identification:
-    """Forgetting-factor identification (PAPER_NOTES "Disturbance identification").
+    """Forgetting-factor identification (docs/model.md "Disturbance identification").
 
     measured_input: "residual" (default) or "reference_deviation" (literal Eq. 26);
     prior_memory: the prior's weight zeta(0) in units of the recursion's steady-state weight
@@ -317,7 +317,7 @@ class Tube:
 
 @dataclass(frozen=True, eq=False)
 class Simulation:
-    """Truth simulation (project options; PAPER_NOTES "Attitude": the truth integrates the
+    """Truth simulation (project options; docs/model.md "Attitude": the truth integrates the
     quaternion). integrator "rk4" with ``substeps`` per control step or "dopri5" (adaptive, rtol).
     Model mismatch between the controller and the truth: truth density = density_scale *
     asteroid.density, truth SRP = srp_scale * beta_srp, truth shape resolution

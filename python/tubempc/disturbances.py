@@ -1,5 +1,5 @@
-"""Seeded disturbance models for the closed-loop simulation (PAPER_NOTES "Disturbance
-identification"; paper Eq. 18 for the ellipsoidal set, Section 3 for the lumped disturbance).
+"""Seeded disturbance models for the closed-loop simulation (docs/model.md "Simulated
+disturbance and truth"; paper Eq. 18 for the ellipsoidal set, Section 3 for the lumped disturbance).
 
 Every model owns a numpy Generator built from an integer seed, so a run is reproducible from
 its `describe()` dictionary, which is JSON-serialisable and meant to be saved with results.

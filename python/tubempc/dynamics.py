@@ -1,4 +1,4 @@
-"""6-DOF proximity dynamics around an asteroid (PAPER_NOTES.md, "Frames" to "Linearisation and
+"""6-DOF proximity dynamics around an asteroid (docs/model.md, "Frames" to "Linearisation and
 discretisation"), on numpy arrays, over the C++ core (``tubempc._core.dynamics``).
 
 State ``x = [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)]`` (12), input

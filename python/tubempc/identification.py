@@ -1,5 +1,5 @@
-"""Forgetting-factor identification of the exogenous input (paper Eq. 26-29; PAPER_NOTES
-"Disturbance identification (forgetting factor)").
+"""Forgetting-factor identification of the exogenous input (paper Eq. 26-29; docs/model.md
+"Disturbance identification").
 
 With q = e^(lam - 1), lam in (0, 1) the forgetting factor:
 
@@ -8,7 +8,7 @@ With q = e^(lam - 1), lam in (0, 1) the forgetting factor:
     S^_{k+1}  = q / zeta(k+1) (zeta(k) S^_k + (w_k - w^_{k+1}) (w_k - w^_{k+1})^T)
     W^(k+1)   = {w : (w - w^_{k+1})^T S^_{k+1}^-1 (w - w^_{k+1}) <= 1}
 
-and the tube uses P_W = pw_scale * S^ (PAPER_NOTES: default 9, the 3-sigma reading).
+and the tube uses P_W = pw_scale * S^ (docs/model.md: default 9, the 3-sigma reading).
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ def measured_residual(
     u_k: ArrayLike,
 ) -> FloatArray:
     """w_k = x_{k+1} - (A_k x_k + B_k u_k + c_k), the default ``identification.measured_input = "residual"`` (SI units
-    of the subsystem state; A_k, B_k, c_k the discretised model of PAPER_NOTES Eq. 31-35)."""
+    of the subsystem state; A_k, B_k, c_k the discretised model of docs/model.md Eq. M12)."""
     pred = (
         np.asarray(A_k, dtype=np.float64) @ _vector("x_k", x_k)
         + np.asarray(B_k, dtype=np.float64) @ _vector("u_k", u_k)
@@ -66,7 +66,7 @@ class ForgettingFactorIdentifier:
     S^_0 (paper Table 1), in the subsystem's SI units.
 
     Prior at k = 0: the literal recursion has zeta(0) = 0 (empty sum), so the first update
-    gives w^_1 = w_0 and S^_1 = 0 whatever the prior: S^_0 is forgotten at once. PAPER_NOTES
+    gives w^_1 = w_0 and S^_1 = 0 whatever the prior: S^_0 is forgotten at once. The paper
     lists S^_0 (Table 1) as the identification's initial condition and the paper describes a
     conservative initial tube that "gradually shrinks", which the literal form cannot
     produce. prior_weight = zeta(0) > 0 keeps the prior as a pseudo-measurement of that weight
@@ -78,7 +78,7 @@ class ForgettingFactorIdentifier:
     by the prior's standard deviations sqrt(diag(S0)), every eigenvalue is >= eig_floor
     (default 1e-6: every direction keeps at least 1e-3 of the prior's standard deviation).
     The floor is applied to the returned matrix only; the recursion itself stays exact.
-    pw_scale: P_W = pw_scale * S^ (default 9, the 3-sigma reading of PAPER_NOTES).
+    pw_scale: P_W = pw_scale * S^ (default 9, the 3-sigma reading of docs/model.md).
     """
 
     def __init__(

@@ -1,4 +1,4 @@
-"""Closed-loop performance metrics (paper Eq. 54-55, Tables 3-4; PAPER_NOTES.md "Metrics").
+"""Closed-loop performance metrics (paper Eq. 54-55, Tables 3-4; docs/model.md "Metrics").
 
 Arrays follow the state layout x = [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)] and the input
 layout u = [u_p (m/s^2, frame L), T (N m, frame B)]. ``x`` has T + 1 rows (k = 0..T), ``u`` has T rows.

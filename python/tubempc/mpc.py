@@ -1,7 +1,7 @@
 """Tube MPC (C++ core) and Python solvers of its exported QP.
 
 The controller (:class:`TubeMPC`: its QPs by a warm-started active set, PIQP where that does not
-verify; see ``cpp/include/tubempc/mpc/tube_mpc.hpp`` and PAPER_NOTES.md "Tube MPC") runs in
+verify; see ``cpp/include/tubempc/mpc/tube_mpc.hpp`` and docs/model.md "Tube MPC") runs in
 C++. :func:`solve_qp` solves the QP returned by
 ``TubeMPC.qp_data()`` with an independent backend through cvxpy: Clarabel or PIQP (OSQP was removed:
 docs/decisions.md, "Dependencies"). It serves cross-checks and the ``tubempc bench mpc`` baseline;

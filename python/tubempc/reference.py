@@ -1,4 +1,4 @@
-"""Reference trajectory by sequential convex programming (paper Section 3.1; PAPER_NOTES.md
+"""Reference trajectory by sequential convex programming (paper Section 3.1; docs/model.md
 "Reference trajectory").
 
 Fixed final time, minimum sum_k (||u_p,k|| + ||T_k||) dt subject to the discretised dynamics (exact

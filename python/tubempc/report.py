@@ -4,7 +4,7 @@ DIR may hold a run (``summary.json`` from ``tubempc run``, here or in ``DIR/run`
 (``sweep.json``, here or in ``DIR/sweep``) and a Monte Carlo campaign (``DIR/montecarlo/summary.json``).
 Each part states its scenario (from the ``config.toml`` saved beside it), the reference's status, the
 steps outside the tube, the fallbacks and the tube statuses. Only the paper's own scenario is set
-beside the paper's values (PAPER_NOTES.md "Metrics"; paper Tables 3-4). Every figure has a caption.
+beside the paper's values (docs/model.md "Metrics"; paper Tables 3-4). Every figure has a caption.
 """
 
 from __future__ import annotations

@@ -219,7 +219,7 @@ def boundary_states(
 def check_boundary(cfg: Config, shape: Shape, model: ProximityModel, x0: Array, xf: Array) -> None:
     """Refuses boundary states the mission cannot fly: a start or target inside the body, or a start
     outside a cone. The paper's own target (boundary.terminal = "paper") lies 6.7 m below the radar
-    model's pole (PAPER_NOTES "Scenario"): inside the body it is flown with a warning, as the paper does."""
+    model's pole (docs/model.md "Scenario"): inside the body it is flown with a warning, as the paper does."""
     src = cfg.source
     checks = (("boundary.r0", "initial position", x0, 0.0), ("boundary.rf", "terminal position", xf, cfg.mpc.t_f))
     for field_name, what, x, t in checks:

@@ -1,7 +1,7 @@
 """Shape models: file loaders and writers, and the project's default Bennu-like body.
 
 Every loader returns a validated :class:`tubempc.Shape` in metres (closed, outward-oriented
-triangle mesh; see PAPER_NOTES.md, "Gravity"). Malformed input raises :class:`ShapeError`, a
+triangle mesh; see docs/model.md, "Gravity"). Malformed input raises :class:`ShapeError`, a
 ``ValueError`` whose message starts with ``"<path>:<line>: "`` (the line of the offending vertex
 or face; for binary PLY/STL files, which have no lines, the face index is named instead).
 
@@ -364,7 +364,7 @@ def bennu_like_shape(
     (p = ``diamond_exponent``: the double-cone "diamond" profile; c = ``polar_ratio``; h, w =
     ``ridge_height``, ``ridge_width`` (rad): the equatorial ridge; b = ``longitude_bulge``), then
     translated so that its centre of mass is the origin and scaled so that its volume is exactly
-    ``volume`` (m^3; default the radar model's 6.2266e7, PAPER_NOTES.md "Gravity"). The body is
+    ``volume`` (m^3; default the radar model's 6.2266e7, docs/model.md "Gravity"). The body is
     symmetric under x -> -x, y -> -y, z -> -z up to the mesh, so its principal axes are close to
     the frame's, z the axis of maximum inertia (the spin axis).
     """

@@ -1,5 +1,5 @@
 """Landing sites on a rotating body: surface points by ray casting, local normals, inside tests and
-the terminal state of a site fixed in the body frame A (PAPER_NOTES "Frames"; README "your own mission").
+the terminal state of a site fixed in the body frame A (docs/model.md "Frames"; README "your own mission").
 
 A site is a surface point s_A of the shape (frame A, m) with its outward normal n_A. The target is
 p_A = s_A + h n_A, ``h`` (m) above the surface. The body turns about z_L = z_A at the rate

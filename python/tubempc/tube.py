@@ -1,4 +1,4 @@
-"""Ellipsoidal tube design per subsystem (paper Eq. 25; PAPER_NOTES "Tube MPC").
+"""Ellipsoidal tube design per subsystem (paper Eq. 25; docs/model.md "Tube design").
 
 The tube of the ancillary law u = v + K (x - z) is the ellipsoid Z = {e : e^T Pe^-1 e <= 1}.
 It is robust positively invariant for e+ = (A + B K) e + w, w in W = {w : w^T P_W^-1 w <= 1}
@@ -137,7 +137,7 @@ _ALPHA_GRID = (0.1, 0.3, 0.5, 0.7, 0.85, 0.93, 0.97, 0.99, 0.997)
 
 
 class TubeDesigner:
-    """Tube design (K, Pe, alpha) for one subsystem (paper Eq. 25; PAPER_NOTES "Tube MPC").
+    """Tube design (K, Pe, alpha) for one subsystem (paper Eq. 25; docs/model.md "Tube design").
 
     Q (n_x x n_x, PSD) and R (n_u x n_u, PD) weight Tr(Q Pe) + Tr(R Z); u_max is the input
     bound (subsystem input units, e.g. m/s^2 or N m) of [[Pe, Y^T], [Y, u_max^2 I]] >= 0.

@@ -1,4 +1,4 @@
-"""Scenario configuration (PAPER_NOTES "Scenario (Tables 1 and 2)")."""
+"""Scenario configuration (docs/model.md "Scenario")."""
 
 import math
 import re

@@ -1,4 +1,4 @@
-"""Seeded disturbance models (paper Eq. 18; PAPER_NOTES "Disturbance identification")."""
+"""Seeded disturbance models (paper Eq. 18; docs/model.md "Simulated disturbance and truth")."""
 
 import json
 import math

@@ -1,4 +1,4 @@
-"""Forgetting-factor identification (paper Eq. 26-29; PAPER_NOTES "Disturbance identification")."""
+"""Forgetting-factor identification (paper Eq. 26-29; docs/model.md "Disturbance identification")."""
 
 import itertools
 import math

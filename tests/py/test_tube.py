@@ -1,4 +1,4 @@
-"""Tube design (paper Eq. 25; PAPER_NOTES "Tube MPC")."""
+"""Tube design (paper Eq. 25; docs/model.md "Tube design")."""
 
 import time
 

@@ -30,8 +30,8 @@ DESCRIPTION = "tube MPC per-step time over a mission (C++: active set / PIQP) an
 
 Arr = npt.NDArray[np.float64]
 
-N_ORBIT = np.sqrt(1.32712440018e20 / 1.685e11**3)  # rad/s, PAPER_NOTES.md "Translational dynamics"
-J_DIAG = np.array([2750.0, 2750.0, 2030.0])  # kg m^2, PAPER_NOTES.md "Attitude"
+N_ORBIT = np.sqrt(1.32712440018e20 / 1.685e11**3)  # rad/s, docs/model.md "Translational dynamics"
+J_DIAG = np.array([2750.0, 2750.0, 2030.0])  # kg m^2, docs/model.md "Scenario"
 X0 = np.array([959.2404, 162.4966, 752.7547, 7.7649e-4, 0.0844, -0.0192, 0.3142, 2.925, 0.3142, 1e-3, 0.0, 3e-3])
 XF = np.array([0.0, 0.0, 246.5, 0.0, 0.0, 0.0, 0.0, 3.1416, 0.0, 0.0, 0.0, 0.0])
 
@@ -98,7 +98,7 @@ def declare_block_structure(settings: mpc.Settings, G: Arr) -> None:
 
 
 def lqr_tube(Ad: Arr, Bd: Arr, settings: mpc.Settings) -> mpc.Tube:
-    """K from the DARE with the stage weights; Pe = 9 S_0 (PAPER_NOTES.md "Disturbance identification")."""
+    """K from the DARE with the stage weights; Pe = 9 S_0 (docs/model.md "Disturbance identification")."""
     X = mpc.solve_dare(Ad, Bd, settings.Q, settings.R)
     K = -np.linalg.solve(settings.R + Bd.T @ X @ Bd, Bd.T @ X @ Ad)
     Pe = 9.0 * np.diag([4e-2] * 3 + [2.5e-3] * 3 + [1e-6] * 3 + [1e-8] * 3)

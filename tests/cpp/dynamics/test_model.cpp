@@ -218,7 +218,7 @@ TEST(ProximityModel, TranslationalDynamicsMatchHandComputation) {
                                  Eigen::Vector3d(1.7744e15 / (1.685e11 * 1.685e11), 0, 0) -
                                  5.0 / std::pow(r.norm(), 3) * r + u.head<3>();
   EXPECT_LE((fx.segment<3>(3) - expect).cwiseAbs().maxCoeff(), 1e-18);
-  EXPECT_NEAR(1.7744e15 / (1.685e11 * 1.685e11), 6.2496e-8, 1e-12);  // PAPER_NOTES: ~6.25e-8 m/s^2
+  EXPECT_NEAR(1.7744e15 / (1.685e11 * 1.685e11), 6.2496e-8, 1e-12);  // docs/model.md: ~6.25e-8 m/s^2
   p.srp_enabled = false;
   const ProximityModel no_srp(g, p);
   EXPECT_NEAR(model.f(42.0, x, u)(3) - no_srp.f(42.0, x, u)(3), 1.7744e15 / (1.685e11 * 1.685e11), 1e-20);

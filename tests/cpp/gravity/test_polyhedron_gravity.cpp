@@ -290,7 +290,7 @@ TEST(PolyhedronGravity, BennuRadarModelMassAndSurfaceGravity) {
   const auto bennu = gravity_test::bennu_radar();
   if (!bennu) GTEST_SKIP() << "../shared/data/101955bennu.tab not present";
   const PolyhedronGravity g = model(*bennu);
-  EXPECT_NEAR(g.shape().volume(), 6.2266e7, 1e-4 * 6.2266e7);  // PAPER_NOTES.md, "Gravity"
+  EXPECT_NEAR(g.shape().volume(), 6.2266e7, 1e-4 * 6.2266e7);  // docs/model.md, "Gravity"
   EXPECT_NEAR(g.mass(), 7.845e10, 1e-3 * 7.845e10);
   EXPECT_NEAR(g.shape().mean_radius(), 245.9, 0.1);
   GravitySample s;

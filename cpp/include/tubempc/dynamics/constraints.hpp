@@ -1,5 +1,5 @@
 /// @file constraints.hpp
-/// State constraints of the approach (PAPER_NOTES.md, "Constraints"), each written g(x) <= 0 with
+/// State constraints of the approach (docs/model.md, "Constraints"), each written g(x) <= 0 with
 /// its gradient and its tangent (first-order) linearisation used by the QP.
 ///
 /// - Glide slope (a cone with apex p and unit axis a in L; the paper's: p = 0, a = z_L):

@@ -1,7 +1,7 @@
 /// @file expm.hpp
 /// Matrix exponential of fixed-size matrices (Pade scaling and squaring, Higham 2005) and the exact
 /// zero-order-hold discretisation of an affine system through one exponential of the augmented
-/// matrix (PAPER_NOTES.md, "Linearisation and discretisation"). With fixed sizes neither allocates,
+/// matrix (docs/model.md, "Linearisation and discretisation"). With fixed sizes neither allocates,
 /// so both run inside the MPC's allocation-free step; Eigen::Dynamic sizes (which allocate) serve
 /// models of any size set up once (mpc::LtiModel).
 #pragma once

@@ -1,7 +1,7 @@
 /// @file linearized_proximity.hpp
 /// The 6-DOF proximity model seen by the tube MPC (mpc::LinearizedModel): exact zero-order-hold
 /// discretisation node by node or over a whole horizon, and the two linearised cone constraints
-/// (PAPER_NOTES.md, "Linearisation and discretisation", "Constraints").
+/// (docs/model.md, "Linearisation and discretisation", "Constraints").
 #pragma once
 
 #include <Eigen/Dense>

@@ -1,6 +1,6 @@
 /// @file proximity_model.hpp
 /// 6-DOF relative dynamics of a spacecraft near an asteroid in the orbital (Hill) frame L
-/// (PAPER_NOTES.md, "Frames", "State, input", "Translational dynamics", "Gravity", "Attitude"),
+/// (docs/model.md, "Frames", "State and input", "Translational dynamics", "Gravity", "Attitude"),
 /// with analytic Jacobians and the exact zero-order-hold discretisation used by the MPC
 /// ("Linearisation and discretisation").
 ///
@@ -48,7 +48,7 @@ using StateMatrix = Eigen::Matrix<double, kNx, kNx>;
 /// 12 x 6 matrix from the input to the model state (e.g. B = df/du).
 using InputMatrix = Eigen::Matrix<double, kNx, kNu>;
 
-/// Attitude kinematics of the rotation vector (PAPER_NOTES.md, "Attitude").
+/// Attitude kinematics of the rotation vector (docs/model.md, "Attitude").
 enum class Kinematics {
   FirstOrder,  ///< phi' = omega_BL_B (the paper's first-order law)
   Exact,       ///< phi' = Jr(phi)^-1 omega_BL_B
@@ -58,7 +58,7 @@ enum class Kinematics {
 /// @return "first_order" or "exact".
 const char* to_string(Kinematics k);
 
-/// Model constants; in-class defaults are the paper's scenario (Table 1, PAPER_NOTES.md).
+/// Model constants; in-class defaults are the paper's scenario (Table 1, docs/model.md "Scenario").
 struct ModelParams {
   double mu_sun{1.32712440018e20};  ///< Sun's gravitational parameter (m^3/s^2), >= 0 (0: L inertial)
   double orbit_radius{1.685e11};    ///< heliocentric distance R (m), > 0

@@ -2,7 +2,7 @@
 /// Interface of a gravity field evaluated in the asteroid body-fixed frame A, and the point-mass
 /// field (used for far-field checks and as a rotation-invariant test body).
 ///
-/// Sign convention (PAPER_NOTES.md, "Gravity"): the potential U is positive outside the body and
+/// Sign convention (docs/model.md, "Gravity"): the potential U is positive outside the body and
 /// the acceleration is its gradient, a = grad U; the gradient tensor is G = d a / d r = Hess U.
 #pragma once
 

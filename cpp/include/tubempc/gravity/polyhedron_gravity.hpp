@@ -1,5 +1,5 @@
 /// @file polyhedron_gravity.hpp
-/// Gravity field of a constant-density polyhedron (Werner and Scheeres 1997; PAPER_NOTES.md,
+/// Gravity field of a constant-density polyhedron (Werner and Scheeres 1997; docs/model.md,
 /// "Gravity", paper Eq. (2)-(7)), exact for the mesh, evaluated in the body-fixed frame A:
 ///
 ///     U      =  G rho/2 (sum_e r_e^T E_e r_e L_e - sum_f r_f^T F_f r_f w_f)      (m^2/s^2, > 0)

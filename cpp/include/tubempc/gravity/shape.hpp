@@ -1,6 +1,6 @@
 /// @file shape.hpp
 /// A validated closed triangle mesh of constant density (the asteroid's shape model) and its mass
-/// properties. Coordinates are in metres in the body-fixed frame A (PAPER_NOTES.md, "Gravity").
+/// properties. Coordinates are in metres in the body-fixed frame A (docs/model.md, "Gravity").
 #pragma once
 
 #include <Eigen/Dense>

@@ -1,6 +1,6 @@
 /// @file shape_io.hpp
 /// Reading and writing shape models as text: Wavefront OBJ and the PDS "v/f" table of the Bennu
-/// radar model (`101955bennu.tab`, PAPER_NOTES.md "Gravity"), so that C++ programs can load the
+/// radar model (`101955bennu.tab`, docs/model.md "Gravity"), so that C++ programs can load the
 /// asteroid without Python.
 ///
 /// Formats (chosen by the file's extension, case-insensitive):

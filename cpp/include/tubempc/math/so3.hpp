@@ -1,5 +1,5 @@
 /// @file so3.hpp
-/// Quaternion and rotation utilities (PAPER_NOTES.md, "Frames" and "Attitude").
+/// Quaternion and rotation utilities (docs/model.md, "Frames" and "Attitude").
 ///
 /// Conventions
 /// - A quaternion is stored as [x, y, z, w] = [vector; scalar] (the paper's convention).

@@ -1,5 +1,5 @@
 /// @file tube_mpc.hpp
-/// Nominal problem of the tube MPC (PAPER_NOTES.md "Tube MPC", "Linearisation and discretisation",
+/// Nominal problem of the tube MPC (docs/model.md "Tube MPC", "Linearisation and discretisation",
 /// "Constraints"; the paper's Problems 2 and 3 and the inner iteration of Algorithm 1), solved by
 /// sequential convex programming with one sparse QP per iteration (a warm-started active set,
 /// ActiveSetQp; PIQP where that does not verify). Settings and outcomes: settings.hpp, results.hpp.
@@ -20,7 +20,7 @@
 ///  - s (n_x, only with InitialCondition::WhitenedBox) holds z_0 = x_k + L s, Pe = L L^T, with
 ///    |s_j| <= 1/sqrt(n_x). That box in whitened coordinates is the largest axis-aligned cube inside
 ///    the unit ball, so z_0 - x_k lies in the tube ellipsoid Z = -Z (conservative: a polytope inside
-///    the ellipsoid, as PAPER_NOTES.md asks; the paper's set {x_k} (+) (-Z) is the whole ellipsoid);
+///    the ellipsoid, docs/model.md "Tube MPC"; the paper's set {x_k} (+) (-Z) is the whole ellipsoid);
 ///  - sigma ((N + 1) n_c, only with soft state constraints) are the L1 slacks of the state
 ///    constraints, t (n_x, only with a soft terminal constraint) those of the terminal equality
 ///    (|z_N - x_f| <= t, cost soft_penalty 1^T t + ||t||^2 in the shrinking phase; ||t||^2 before).
