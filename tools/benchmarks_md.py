@@ -110,14 +110,18 @@ def _mpc(d: dict[str, Any]) -> list[tuple[str, str]]:
 
 
 def _embed(d: dict[str, Any]) -> list[tuple[str, str]]:
-    c, p = d["summary"]["cpp"]["mpc"], d["summary"]["python"]["mpc"]
-    what = f"MPC step of the exported mission: C++ example against the same loop over the bindings, {d['repeats']} runs"
+    c, p = d["summary"]["cpp"]["controller"], d["summary"]["python"]["call"]
+    allocations = max(r["allocations_controller"] for r in d["runs"] if r["loop"] == "cpp")
+    what = (
+        "TBMPC-FFA controller step of the exported mission: C++ example against the same loop over the bindings, "
+        f"{d['repeats']} runs"
+    )
     return [
         (
             what,
             f"C++ median {_ms(c['median'])} (p99 {_ms(c['p99'])}), bindings median {_ms(p['median'])} (p99 "
-            f"{_ms(p['p99'])}), ratio {d['python_over_cpp_mpc_median']:.3f}; spread of the final states "
-            f"{d['final_state_spread']:.1g}",
+            f"{_ms(p['p99'])}), ratio {d['python_over_cpp_controller_median']:.3f}; spread of the final states "
+            f"{d['final_state_spread']:.1g}; heap allocations in the C++ step {allocations}",
         )
     ]
 
@@ -182,13 +186,15 @@ def _sweep(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
 def _controller(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     rows = []
     for m, r in d["methods"].items():
-        c, t = r["controller"], r["tube"]
+        c, cmd, t, i, p = r["controller"], r["command"], r["tube"], r["identify"], r["predict"]
         rows.append(
             (
-                f"controller step (identify + tube + MPC) {m}, {name.removeprefix('controller_')}",
-                f"median {c['median_ms']:.3g} ms, p99 {c['p99_ms']:.3g} ms, max {c['max_ms']:.3g} ms; tube update "
-                f"median {t['median_ms']:.3g} ms ({r['tube_over_mpc_median']:.2f}x the MPC step's), max "
-                f"{t['max_ms']:.3g} ms; steps outside the tube {r['steps_outside_tube']}",
+                f"controller step {m}, {name.removeprefix('controller_')} (design worker {d['design_worker']})",
+                f"median {c['median_ms']:.3g} ms, p99 {c['p99_ms']:.3g} ms, max {c['max_ms']:.3g} ms (to the command: "
+                f"p99 {cmd['p99_ms']:.3g} ms, max {cmd['max_ms']:.3g} ms); identification median {i['median_ms']:.3g} "
+                f"ms + tube update median {t['median_ms']:.3g} ms = {r['identify_tube_over_mpc_median']:.3f}x the MPC "
+                f"step's median (tube max {t['max_ms']:.3g} ms); prediction median {p['median_ms']:.3g} ms; steps "
+                f"outside the tube {r['steps_outside_tube']}, uncertified {r['uncertified_steps']}",
             )
         )
     return rows

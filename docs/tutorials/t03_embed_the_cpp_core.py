@@ -49,8 +49,11 @@ sh("cmake", "--build", work / "app", "-j2")
 # %%
 # A scenario file, flown in C++ only
 # ----------------------------------
-# ``tubempc export-scenario`` writes the default mission's scenario (add ``--config`` for yours); the
-# program reads it with ``tubempc::io::read_scenario``, flies the 300 steps with ``TubeMPC`` and the
-# truth propagation, and reports the step time and the heap allocations in the MPC step (none).
+# ``tubempc export-scenario`` writes the default mission's scenario (add ``--config`` for yours): the
+# models, the reference and the whole controller of both methods. The program reads it with
+# ``tubempc::io::read_scenario``, flies the 300 steps of TBMPC and of TBMPC-FFA with
+# ``tubempc::control::Controller`` (identification, certified tube update, tube MPC) and the truth
+# propagation, and prints the summary of ``tubempc run``, the step times and the heap allocations in the
+# controller step (none).
 sh(sys.executable, "-m", "tubempc", "export-scenario", "--out", work / "scenario")
 print(sh(work / "app" / "closed_loop", work / "scenario" / "scenario.txt"))

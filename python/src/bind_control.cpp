@@ -75,9 +75,8 @@ void bind_control(py::module_& m) {
       .def(py::init<const IdentifierSettings&>(), py::arg("settings"))
       .def("reset", &ForgettingFactorIdentifier::reset)
       .def(
-          "update",
-          [](ForgettingFactorIdentifier& self, const SubVector& w) { return self.update(w); }, py::arg("w"),
-          "Folds w in; False (and ignored) if w is not finite")
+          "update", [](ForgettingFactorIdentifier& self, const SubVector& w) { return self.update(w); },
+          py::arg("w"), "Folds w in; False (and ignored) if w is not finite")
       .def_property_readonly("w_hat", &ForgettingFactorIdentifier::w_hat)
       .def_property_readonly("S_hat", &ForgettingFactorIdentifier::S_hat)
       .def_property_readonly("P_W", &ForgettingFactorIdentifier::P_W)
@@ -102,8 +101,9 @@ void bind_control(py::module_& m) {
       .def_readonly("alpha", &SubsystemTube::alpha)
       .def_readonly("residual", &SubsystemTube::residual);
 
-  s.def("lmi_residual", &lmi_residual, py::arg("A"), py::arg("B"), py::arg("K"), py::arg("Pe"), py::arg("P_W"),
-        py::arg("alpha"), "Violation of the invariance condition relative to Pe (<= 0 iff it holds)");
+  s.def("lmi_residual", &lmi_residual, py::arg("A"), py::arg("B"), py::arg("K"), py::arg("Pe"),
+        py::arg("P_W"), py::arg("alpha"),
+        "Violation of the invariance condition relative to Pe (<= 0 iff it holds)");
   s.def(
       "lyapunov_tube",
       [](const SubMatrix& A, const SubInputMatrix& B, const SubGain& K, double alpha, const SubMatrix& P_W,
@@ -138,7 +138,8 @@ void bind_control(py::module_& m) {
       .def_property_readonly("design", &TubePolicy::design)
       .def_property_readonly("library", &TubePolicy::library);
 
-  py::class_<ControllerSettings>(s, "ControllerSettings", "The controller's settings (the MPC's: mpc.Settings)")
+  py::class_<ControllerSettings>(s, "ControllerSettings",
+                                 "The controller's settings (the MPC's: mpc.Settings)")
       .def(py::init<>())
       .def_readwrite("method", &ControllerSettings::method)
       .def_readwrite("measured_input", &ControllerSettings::measured_input)
@@ -203,9 +204,11 @@ void bind_control(py::module_& m) {
       .def("adopt", &Controller::adopt, py::arg("subsystem"), py::arg("design"), py::arg("k_started"))
       .def(
           "identify", [](Controller& self, int k, const Eigen::VectorXd& x) { return self.identify(k, x); },
-          py::arg("k"), py::arg("x"), "Folds in the input of the period ending at step k (after the last step)")
+          py::arg("k"), py::arg("x"),
+          "Folds in the input of the period ending at step k (after the last step)")
       .def_property_readonly("last_measured_input", &Controller::last_measured_input)
-      .def("identifier", &Controller::identifier, py::arg("subsystem"), py::return_value_policy::reference_internal)
+      .def("identifier", &Controller::identifier, py::arg("subsystem"),
+           py::return_value_policy::reference_internal)
       .def("policy", &Controller::policy, py::arg("subsystem"), py::return_value_policy::reference_internal)
       .def_property_readonly("mpc", &Controller::mpc, py::return_value_policy::reference_internal)
       .def_property_readonly("settings", &Controller::settings);

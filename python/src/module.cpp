@@ -8,6 +8,6 @@ PYBIND11_MODULE(_core, m) {
   tubempc::python::bind_gravity(m);
   tubempc::python::bind_dynamics(m);  // after bind_gravity (it uses GravityModel)
   tubempc::python::bind_mpc(m);       // after bind_dynamics (it accepts its models)
-  tubempc::python::bind_control(m);  // after bind_mpc (it holds its types)
+  tubempc::python::bind_control(m);   // after bind_mpc (it holds its types)
   tubempc::python::bind_io(m);        // after bind_dynamics and bind_mpc (it holds their types)
 }

@@ -11,7 +11,9 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
+double seconds(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double>(b - a).count();
+}
 
 constexpr int kNx = 12;
 constexpr int kNu = 6;
@@ -35,7 +37,8 @@ Controller::Controller(std::shared_ptr<const mpc::LinearizedModel> model, mpc::S
     : model_(std::move(model)), settings_(std::move(settings)) {
   if (!model_) throw std::invalid_argument("Controller: model must not be null");
   if (model_->nx() != kNx || model_->nu() != kNu)
-    throw std::invalid_argument("Controller: the model must have 12 states and 6 inputs (translation + rotation)");
+    throw std::invalid_argument(
+        "Controller: the model must have 12 states and 6 inputs (translation + rotation)");
   settings_.tube.adaptive = settings_.method == Method::Ffa;
   settings_.validate();
   mpc_ = std::make_unique<mpc::TubeMPC>(model_, std::move(mpc_settings));
@@ -61,7 +64,8 @@ void Controller::setup(const mpc::Reference& reference, const ControllerDesigns&
   A_ref_.assign(T, {SubMatrix::Zero(), SubMatrix::Zero()});
   B_ref_.assign(T, {SubInputMatrix::Zero(), SubInputMatrix::Zero()});
   for (int k = 0; k < T; ++k) {
-    model_->discretize(reference.t0 + k * dt, dt, reference.z.col(k), reference.u.col(k), A_buf_, B_buf_, c_buf_);
+    model_->discretize(reference.t0 + k * dt, dt, reference.z.col(k), reference.u.col(k), A_buf_, B_buf_,
+                       c_buf_);
     for (int s = 0; s < 2; ++s) {
       A_ref_[k][s] = A_buf_.block<6, 6>(6 * s, 6 * s);
       B_ref_[k][s] = B_buf_.block<6, 3>(6 * s, 3 * s);
@@ -123,7 +127,8 @@ const ControlStep& Controller::step(int k, const Eigen::Ref<const Eigen::VectorX
     throw std::invalid_argument("Controller::step: k = " + std::to_string(k) + " outside [0, " +
                                 std::to_string(T) + ")");
   if (x_k.size() != kNx)
-    throw std::invalid_argument("Controller::step: x_k must have 12 entries, got " + std::to_string(x_k.size()));
+    throw std::invalid_argument("Controller::step: x_k must have 12 entries, got " +
+                                std::to_string(x_k.size()));
   const auto t0 = Clock::now();
   if (identified_k_ != k) identify(k, x_k);
   const auto t1 = Clock::now();
@@ -171,7 +176,8 @@ bool Controller::adopt(int subsystem, const SubsystemDesign& design, int k_start
 }
 
 const ForgettingFactorIdentifier& Controller::identifier(int subsystem) const {
-  if (subsystem < 0 || subsystem > 1) throw std::invalid_argument("Controller::identifier: subsystem must be 0 or 1");
+  if (subsystem < 0 || subsystem > 1)
+    throw std::invalid_argument("Controller::identifier: subsystem must be 0 or 1");
   return identifiers_[subsystem];
 }
 

@@ -34,7 +34,8 @@ void IdentifierSettings::validate(const char* what) const {
     fail(what, "pw_scale", "must be finite and > 0, got " + std::to_string(pw_scale));
 }
 
-ForgettingFactorIdentifier::ForgettingFactorIdentifier(const IdentifierSettings& settings) : settings_(settings) {
+ForgettingFactorIdentifier::ForgettingFactorIdentifier(const IdentifierSettings& settings)
+    : settings_(settings) {
   settings_.validate();
   q_ = std::exp(settings_.lambda - 1.0);
   d_ = settings_.S0.diagonal().cwiseSqrt();

@@ -20,23 +20,34 @@ bool positive_definite(const SubMatrix& M) {
 
 const char* to_string(Certification c) {
   switch (c) {
-    case Certification::Certified: return "certified";
-    case Certification::NotContractive: return "not_contractive";
-    case Certification::InvarianceViolated: return "invariance_violated";
-    case Certification::EmptyTightening: return "empty_tightening";
+    case Certification::Certified:
+      return "certified";
+    case Certification::NotContractive:
+      return "not_contractive";
+    case Certification::InvarianceViolated:
+      return "invariance_violated";
+    case Certification::EmptyTightening:
+      return "empty_tightening";
   }
   return "unknown";
 }
 
 const char* to_string(TubeStatus s) {
   switch (s) {
-    case TubeStatus::Fixed: return "fixed";
-    case TubeStatus::Initial: return "initial";
-    case TubeStatus::Lyapunov: return "lyapunov";
-    case TubeStatus::LyapunovNoMargin: return "lyapunov_no_margin";
-    case TubeStatus::Library: return "library";
-    case TubeStatus::LibraryNoMargin: return "library_no_margin";
-    case TubeStatus::Uncertified: return "uncertified";
+    case TubeStatus::Fixed:
+      return "fixed";
+    case TubeStatus::Initial:
+      return "initial";
+    case TubeStatus::Lyapunov:
+      return "lyapunov";
+    case TubeStatus::LyapunovNoMargin:
+      return "lyapunov_no_margin";
+    case TubeStatus::Library:
+      return "library";
+    case TubeStatus::LibraryNoMargin:
+      return "library_no_margin";
+    case TubeStatus::Uncertified:
+      return "uncertified";
   }
   return "unknown";
 }
@@ -50,7 +61,8 @@ void SubsystemDesign::validate(const std::string& what) const {
   if (!K.allFinite()) throw std::invalid_argument(what + ".K: must be finite");
   if (!(std::isfinite(alpha) && alpha > 0.0 && alpha < 1.0))
     throw std::invalid_argument(what + ".alpha: must lie in (0, 1), got " + std::to_string(alpha));
-  if (!positive_definite(P_W)) throw std::invalid_argument(what + ".P_W: must be symmetric positive definite");
+  if (!positive_definite(P_W))
+    throw std::invalid_argument(what + ".P_W: must be symmetric positive definite");
   if (!positive_definite(Pe)) throw std::invalid_argument(what + ".Pe: must be symmetric positive definite");
 }
 
@@ -122,7 +134,8 @@ TubePolicy::TubePolicy(const TubePolicySettings& settings, double u_max, const S
   if (!(std::isfinite(u_max) && u_max > 0.0))
     throw std::invalid_argument(what + ".u_max: must be finite and > 0, got " + std::to_string(u_max));
   initial_.validate(what + ".initial");
-  for (std::size_t i = 0; i < library_.size(); ++i) library_[i].validate(what + ".library[" + std::to_string(i) + "]");
+  for (std::size_t i = 0; i < library_.size(); ++i)
+    library_[i].validate(what + ".library[" + std::to_string(i) + "]");
   std::stable_sort(library_.begin(), library_.end(), [](const SubsystemDesign& a, const SubsystemDesign& b) {
     return a.P_W.trace() < b.P_W.trace();
   });
@@ -147,7 +160,8 @@ TubeStatus TubePolicy::update(int k, const SubMatrix& A, const SubInputMatrix& B
   }
   const double m = settings_.redesign_margin;
   const SubMatrix P_margin = (1.0 + m) * P_W;
-  if (design_due && !settings_.background_designs && from_library(A, B, P_margin, k)) return TubeStatus::Library;
+  if (design_due && !settings_.background_designs && from_library(A, B, P_margin, k))
+    return TubeStatus::Library;
   if (lyapunov_tube(A, B, design_.K, design_.alpha, P_margin, u_max_, trial_) == Certification::Certified) {
     tube_ = trial_;
     return TubeStatus::Lyapunov;

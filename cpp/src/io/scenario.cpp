@@ -104,7 +104,8 @@ class Reader {
                   std::to_string(kScenarioFormatVersion) + "')");
     }
     if (version < 1 || version > kScenarioFormatVersion) {
-      fail(1, "format version " + std::to_string(version) + " is not supported (this reader reads versions 1 to " +
+      fail(1, "format version " + std::to_string(version) +
+                  " is not supported (this reader reads versions 1 to " +
                   std::to_string(kScenarioFormatVersion) + ")");
     }
     version_ = static_cast<int>(version);
@@ -350,7 +351,8 @@ std::vector<control::SubsystemDesign> read_library(Reader& r, const std::string&
 
 // TBMPC's block-diagonal tube from its two subsystem designs.
 mpc::Tube block_tube(const control::ControllerDesigns& d) {
-  mpc::Tube t{Eigen::MatrixXd::Zero(dynamics::kNu, dynamics::kNx), Eigen::MatrixXd::Zero(dynamics::kNx, dynamics::kNx)};
+  mpc::Tube t{Eigen::MatrixXd::Zero(dynamics::kNu, dynamics::kNx),
+              Eigen::MatrixXd::Zero(dynamics::kNx, dynamics::kNx)};
   t.K.block<3, 6>(0, 0) = d.initial_p.K;
   t.K.block<3, 6>(3, 6) = d.initial_r.K;
   t.Pe.block<6, 6>(0, 0) = d.initial_p.Pe;
@@ -558,7 +560,8 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   require_size("reference.z", s.reference.z, dynamics::kNx, s.reference.z.cols());
   require_size("reference.u", s.reference.u, dynamics::kNu, s.reference.z.cols() - 1);
   if (!s.has_controller)
-    throw std::invalid_argument("write_scenario: the scenario carries no controller (has_controller is false)");
+    throw std::invalid_argument(
+        "write_scenario: the scenario carries no controller (has_controller is false)");
 
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) throw std::runtime_error(path + ": cannot open for writing (" + std::strerror(errno) + ")");

@@ -23,10 +23,10 @@
 #include <cstdlib>
 #include <exception>
 #include <fstream>
-#include <sstream>
 #include <map>
 #include <memory>
 #include <new>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -95,7 +95,8 @@ std::string json_string(const std::string& s) {
 }
 
 int usage(const char* argv0) {
-  std::fprintf(stderr, "usage: %s SCENARIO_FILE [--method tbmpc|ffa|both] [--disturbance W.txt] [--json OUT.json]\n",
+  std::fprintf(stderr,
+               "usage: %s SCENARIO_FILE [--method tbmpc|ffa|both] [--disturbance W.txt] [--json OUT.json]\n",
                argv0);
   return 2;
 }
@@ -107,7 +108,8 @@ Eigen::MatrixXd read_disturbance(const std::string& path, int T) {
   Eigen::MatrixXd w(12, T);
   std::string line;
   for (int k = 0; k < T; ++k) {
-    if (!std::getline(in, line)) throw std::invalid_argument(path + ": expected " + std::to_string(T) + " rows");
+    if (!std::getline(in, line))
+      throw std::invalid_argument(path + ": expected " + std::to_string(T) + " rows");
     std::istringstream row(line);
     for (int i = 0; i < 12; ++i) {
       if (!(row >> w(i, k)) || !std::isfinite(w(i, k)))
@@ -139,7 +141,8 @@ double excursion(const Eigen::MatrixXd& Pe, const dynamics::StateVector& x, cons
   return e.dot(P.ldlt().solve(e));
 }
 
-Flight fly(const io::Scenario& scn, control::Method method, const std::shared_ptr<const dynamics::ProximityModel>& model,
+Flight fly(const io::Scenario& scn, control::Method method,
+           const std::shared_ptr<const dynamics::ProximityModel>& model,
            const dynamics::ProximityModel& truth, const Eigen::MatrixXd& disturbance) {
   Flight f;
   f.method = control::to_string(method);
@@ -147,11 +150,13 @@ Flight fly(const io::Scenario& scn, control::Method method, const std::shared_pt
   control::ControllerSettings settings = scn.controller;
   settings.method = method;
   settings.tube.background_designs = false;  // no Python here: the library stands in for a due design
-  control::Controller controller(std::make_shared<dynamics::LinearizedProximityModel>(model), scn.settings, settings);
+  control::Controller controller(std::make_shared<dynamics::LinearizedProximityModel>(model), scn.settings,
+                                 settings);
   controller.setup(scn.reference, method == control::Method::Tbmpc ? scn.tbmpc_designs : scn.ffa_designs);
   const int T = scn.mission_steps();
   const double dt = scn.settings.dt;
-  for (auto* v : {&f.time_controller, &f.time_identify, &f.time_tube, &f.time_mpc}) v->resize(static_cast<std::size_t>(T));
+  for (auto* v : {&f.time_controller, &f.time_identify, &f.time_tube, &f.time_mpc})
+    v->resize(static_cast<std::size_t>(T));
   f.setup_s = std::chrono::duration<double>(Clock::now() - t_setup).count();
   dynamics::StateVector x = scn.x0;
   dynamics::TruthState state = dynamics::state_to_truth(x);
@@ -177,8 +182,10 @@ Flight fly(const io::Scenario& scn, control::Method method, const std::shared_pt
     f.time_tube[i] = r.timings.tube;
     f.time_mpc[i] = r.timings.mpc;
     ++f.statuses[mpc::to_string(r.mpc->status)];
-    ++f.tube_statuses[std::string(control::to_string(r.tube_status[0])) + "/" + control::to_string(r.tube_status[1])];
-    f.fallbacks += r.mpc->status == mpc::Status::FallbackShiftedPlan || r.mpc->status == mpc::Status::FallbackSafeInput;
+    ++f.tube_statuses[std::string(control::to_string(r.tube_status[0])) + "/" +
+                      control::to_string(r.tube_status[1])];
+    f.fallbacks +=
+        r.mpc->status == mpc::Status::FallbackShiftedPlan || r.mpc->status == mpc::Status::FallbackSafeInput;
     f.scp_iterations += r.mpc->scp_iterations;
     // J_p, J_r of the paper's Eq. (54)-(55) (identity weights), the node k term
     const dynamics::StateVector e = x - scn.reference.z.col(k);
@@ -212,22 +219,26 @@ Flight fly(const io::Scenario& scn, control::Method method, const std::shared_pt
   f.error_position = (x.segment<3>(0) - xf.segment<3>(0)).norm();
   f.error_velocity = (x.segment<3>(3) - xf.segment<3>(3)).norm();
   f.error_attitude =  // angle of the rotation from the target attitude to the final one (rad)
-      math::log_map(math::quat_mul(math::quat_conj(math::exp_map(xf.segment<3>(6))), math::exp_map(x.segment<3>(6))))
+      math::log_map(
+          math::quat_mul(math::quat_conj(math::exp_map(xf.segment<3>(6))), math::exp_map(x.segment<3>(6))))
           .norm();
   f.error_rate = (x.segment<3>(9) - xf.segment<3>(9)).norm();
   return f;
 }
 
 void print_flight(const Flight& f) {
-  std::printf("%-6s J_p=%.10g J_r=%.10g terminal |dr|=%.3g m |dv|=%.3g m/s attitude %.3g rad rate %.3g rad/s\n",
-              f.method.c_str(), f.J_p, f.J_r, f.error_position, f.error_velocity, f.error_attitude, f.error_rate);
-  std::printf("       steps outside the tube %d, fallback steps %d, largest excursion p/r %.3g/%.3g, %.2f SCP "
-              "iterations per step, setup %.1f ms\n",
-              f.steps_outside, f.fallbacks, f.max_excursion[0], f.max_excursion[1],
-              static_cast<double>(f.scp_iterations) / static_cast<double>(f.time_mpc.size()), 1e3 * f.setup_s);
+  std::printf(
+      "%-6s J_p=%.10g J_r=%.10g terminal |dr|=%.3g m |dv|=%.3g m/s attitude %.3g rad rate %.3g rad/s\n",
+      f.method.c_str(), f.J_p, f.J_r, f.error_position, f.error_velocity, f.error_attitude, f.error_rate);
+  std::printf(
+      "       steps outside the tube %d, fallback steps %d, largest excursion p/r %.3g/%.3g, %.2f SCP "
+      "iterations per step, setup %.1f ms\n",
+      f.steps_outside, f.fallbacks, f.max_excursion[0], f.max_excursion[1],
+      static_cast<double>(f.scp_iterations) / static_cast<double>(f.time_mpc.size()), 1e3 * f.setup_s);
   std::printf("       %-28s %10s %10s %10s   [ms]\n", "per-step wall time", "median", "p99", "max");
-  for (const auto& [name, v] : {std::pair{"controller step", &f.time_controller}, std::pair{"  identification", &f.time_identify},
-                                std::pair{"  tube update", &f.time_tube}, std::pair{"  MPC step", &f.time_mpc}}) {
+  for (const auto& [name, v] :
+       {std::pair{"controller step", &f.time_controller}, std::pair{"  identification", &f.time_identify},
+        std::pair{"  tube update", &f.time_tube}, std::pair{"  MPC step", &f.time_mpc}}) {
     const Stats st = stats(*v);
     std::printf("       %-28s %10.3f %10.3f %10.3f\n", name, 1e3 * st.median, 1e3 * st.p99, 1e3 * st.max);
   }
@@ -255,10 +266,14 @@ void write_counts(std::FILE* out, const char* name, const std::map<std::string, 
 void write_flight(std::FILE* out, const Flight& f, bool last) {
   std::fprintf(out, "    \"%s\": {\n", f.method.c_str());
   std::fprintf(out, "      \"J_p\": %.17g,\n      \"J_r\": %.17g,\n", f.J_p, f.J_r);
-  std::fprintf(out, "      \"terminal_error\": {\"position\": %.17g, \"velocity\": %.17g, \"attitude\": %.17g, "
-               "\"rate\": %.17g},\n", f.error_position, f.error_velocity, f.error_attitude, f.error_rate);
-  std::fprintf(out, "      \"steps_outside_tube\": %d,\n      \"fallback_steps\": %d,\n      \"scp_iterations\": %d,\n",
-               f.steps_outside, f.fallbacks, f.scp_iterations);
+  std::fprintf(out,
+               "      \"terminal_error\": {\"position\": %.17g, \"velocity\": %.17g, \"attitude\": %.17g, "
+               "\"rate\": %.17g},\n",
+               f.error_position, f.error_velocity, f.error_attitude, f.error_rate);
+  std::fprintf(
+      out,
+      "      \"steps_outside_tube\": %d,\n      \"fallback_steps\": %d,\n      \"scp_iterations\": %d,\n",
+      f.steps_outside, f.fallbacks, f.scp_iterations);
   std::fprintf(out, "      \"setup_s\": %.17g,\n", f.setup_s);
   std::fprintf(out, "      \"allocations_controller\": %ld,\n      \"allocations_truth\": %ld,\n",
                f.allocations_controller, f.allocations_truth);
@@ -266,8 +281,9 @@ void write_flight(std::FILE* out, const Flight& f, bool last) {
   write_counts(out, "tube_statuses", f.tube_statuses);
   std::fprintf(out, "  ");
   write_array(out, "final_state", f.x_final.data(), dynamics::kNx);
-  for (const auto& [name, v] : {std::pair{"time_controller_s", &f.time_controller}, std::pair{"time_identify_s", &f.time_identify},
-                                std::pair{"time_tube_s", &f.time_tube}}) {
+  for (const auto& [name, v] :
+       {std::pair{"time_controller_s", &f.time_controller}, std::pair{"time_identify_s", &f.time_identify},
+        std::pair{"time_tube_s", &f.time_tube}}) {
     std::fprintf(out, "  ");
     write_array(out, name, v->data(), v->size());
   }
@@ -304,7 +320,8 @@ int main(int argc, char** argv) {
   try {
     scn = io::read_scenario(scenario_path);
     if (!scn.has_controller)
-      throw std::invalid_argument(scenario_path + ": a version-" + std::to_string(io::kScenarioFormatVersion) +
+      throw std::invalid_argument(scenario_path + ": a version-" +
+                                  std::to_string(io::kScenarioFormatVersion) +
                                   " scenario (with the controller) is needed; export it again");
     const std::string shape_file = scn.resolve(scn.model.shape);
     gravity::Shape shape = gravity::load_shape(shape_file, scn.model.shape_unit_scale);
@@ -318,8 +335,7 @@ int main(int argc, char** argv) {
                 scn.settings.dt, scn.settings.horizon, shape_file.c_str(),
                 static_cast<long>(shape.n_faces()));
     model = std::make_shared<dynamics::ProximityModel>(
-        std::make_shared<gravity::PolyhedronGravity>(std::move(shape), scn.model.density),
-        scn.model.params);
+        std::make_shared<gravity::PolyhedronGravity>(std::move(shape), scn.model.density), scn.model.params);
     truth = std::make_shared<dynamics::ProximityModel>(
         std::make_shared<gravity::PolyhedronGravity>(std::move(truth_shape), scn.truth.density),
         scn.truth.params);
@@ -362,17 +378,18 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "error: cannot write %s\n", json_path.c_str());
       return 2;
     }
-    std::fprintf(f, "{\n  \"scenario\": %s,\n  \"steps\": %d,\n  \"allocations_counted\": %s,\n  \"methods\": {\n",
-                 json_string(scenario_path).c_str(), scn.mission_steps(),
-                 tubempc::core::kAllocationCounterEnabled ? "true" : "false");
+    std::fprintf(
+        f, "{\n  \"scenario\": %s,\n  \"steps\": %d,\n  \"allocations_counted\": %s,\n  \"methods\": {\n",
+        json_string(scenario_path).c_str(), scn.mission_steps(),
+        tubempc::core::kAllocationCounterEnabled ? "true" : "false");
     for (std::size_t i = 0; i < flights.size(); ++i) write_flight(f, flights[i], i + 1 == flights.size());
     std::fprintf(f, "  }\n}\n");
     std::fclose(f);
   }
   for (const Flight& fl : flights) {
     if (fl.allocations_controller > 0) {
-      std::fprintf(stderr, "error: %s: the controller step allocated %ld times after setup\n", fl.method.c_str(),
-                   fl.allocations_controller);
+      std::fprintf(stderr, "error: %s: the controller step allocated %ld times after setup\n",
+                   fl.method.c_str(), fl.allocations_controller);
       return 1;
     }
   }

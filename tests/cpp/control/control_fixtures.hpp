@@ -35,7 +35,8 @@ inline SubGain lqr_gain(const SubMatrix& A, const SubInputMatrix& B, double r) {
 
 // A design of (A, B) for P_W: the LQR gain, alpha halfway between rho(A + B K)^2 and 1, and the
 // certified Lyapunov tube (u_max generous).
-inline SubsystemDesign lqr_design(const SubMatrix& A, const SubInputMatrix& B, const SubMatrix& P_W, double r) {
+inline SubsystemDesign lqr_design(const SubMatrix& A, const SubInputMatrix& B, const SubMatrix& P_W,
+                                  double r) {
   SubsystemDesign d;
   d.K = lqr_gain(A, B, r);
   const SubMatrix Acl = A + B * d.K;
@@ -43,7 +44,8 @@ inline SubsystemDesign lqr_design(const SubMatrix& A, const SubInputMatrix& B, c
   d.alpha = 0.5 * (rho * rho + 1.0);
   d.P_W = P_W;
   tubempc::control::SubsystemTube t;
-  if (tubempc::control::lyapunov_tube(A, B, d.K, d.alpha, P_W, 1e9, t) != tubempc::control::Certification::Certified)
+  if (tubempc::control::lyapunov_tube(A, B, d.K, d.alpha, P_W, 1e9, t) !=
+      tubempc::control::Certification::Certified)
     throw std::runtime_error("lqr_design: not certified");
   d.Pe = t.Pe;
   return d;

@@ -1,5 +1,3 @@
-#include "tubempc/control/controller.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,6 +6,7 @@
 #include <stdexcept>
 
 #include "control_fixtures.hpp"
+#include "tubempc/control/controller.hpp"
 
 using namespace tubempc::control;
 using control_test::double_integrator;

@@ -1,5 +1,3 @@
-#include "tubempc/control/identification.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -7,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "tubempc/control/identification.hpp"
 
 using tubempc::control::ForgettingFactorIdentifier;
 using tubempc::control::IdentifierSettings;

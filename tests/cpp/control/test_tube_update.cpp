@@ -1,5 +1,3 @@
-#include "tubempc/control/tube_update.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -7,6 +5,7 @@
 #include <vector>
 
 #include "control_fixtures.hpp"
+#include "tubempc/control/tube_update.hpp"
 
 using namespace tubempc::control;
 using control_test::double_integrator;
@@ -24,7 +23,8 @@ SubMatrix random_spd(std::mt19937& rng, double scale) {
 
 // Largest e+^T Pe^-1 e+ over sampled e on the tube's boundary and w in W (boundary and inside):
 // an independent check of the invariance the certificate claims.
-double sampled_invariance(const SubMatrix& Acl, const SubMatrix& Pe, const SubMatrix& P_W, std::mt19937& rng, int n) {
+double sampled_invariance(const SubMatrix& Acl, const SubMatrix& Pe, const SubMatrix& P_W, std::mt19937& rng,
+                          int n) {
   std::normal_distribution<double> g(0.0, 1.0);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   const Eigen::LLT<SubMatrix> Le(Pe), Lw(P_W);
@@ -61,7 +61,8 @@ TEST(LyapunovTube, CertifiedTubesAreInvariant) {
     ++certified;
     EXPECT_LE(t.residual, 0.0);
     EXPECT_LE(lmi_residual(A, B, K, t.Pe, P_W, alpha), 0.0);
-    const SubMatrix lyap = Acl * t.Pe * Acl.transpose() / alpha + (1.0 + kLyapunovMargin) * P_W / (1.0 - alpha) - t.Pe;
+    const SubMatrix lyap =
+        Acl * t.Pe * Acl.transpose() / alpha + (1.0 + kLyapunovMargin) * P_W / (1.0 - alpha) - t.Pe;
     EXPECT_LE(lyap.cwiseAbs().maxCoeff(), 1e-10 * t.Pe.cwiseAbs().maxCoeff());
     EXPECT_LE(sampled_invariance(Acl, t.Pe, P_W, rng, 2000), 1.0 + 1e-12);
     // the smallest of the family: a slightly smaller tube violates (*)
@@ -143,8 +144,10 @@ TEST(TubePolicy, FallsBackThroughTheNamedLevels) {
   for (int i = 0; i < 60; ++i) {
     const double mid = std::sqrt(lo * hi);
     SubsystemTube t;
-    (lyapunov_tube(f.A, f.B, aggressive.K, aggressive.alpha, mid * f.P_W0, f.u_max, t) == Certification::Certified ? lo
-                                                                                                                  : hi) = mid;
+    (lyapunov_tube(f.A, f.B, aggressive.K, aggressive.alpha, mid * f.P_W0, f.u_max, t) ==
+             Certification::Certified
+         ? lo
+         : hi) = mid;
   }
   ASSERT_GT(lo, 1.0);
   TubePolicy policy(s, f.u_max, aggressive, library, "p");
@@ -154,7 +157,8 @@ TEST(TubePolicy, FallsBackThroughTheNamedLevels) {
   const TubeStatus st = policy.update(2, f.A, f.B, 1.5 * lo * f.P_W0, false);
   EXPECT_TRUE(st == TubeStatus::Library || st == TubeStatus::LibraryNoMargin) << to_string(st);
   EXPECT_NE(policy.design().K, aggressive.K);
-  EXPECT_LE(lmi_residual(f.A, f.B, policy.tube().K, policy.tube().Pe, 1.5 * lo * f.P_W0, policy.tube().alpha), 0.0);
+  EXPECT_LE(lmi_residual(f.A, f.B, policy.tube().K, policy.tube().Pe, 1.5 * lo * f.P_W0, policy.tube().alpha),
+            0.0);
   // an older background design does not replace the library's newer one; a newer one does
   EXPECT_FALSE(policy.adopt(aggressive, 1));
   EXPECT_TRUE(policy.adopt(library[2], 3));

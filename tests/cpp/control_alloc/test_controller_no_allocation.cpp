@@ -1,14 +1,13 @@
 // Controller::step (identification, tube update and MPC) and Controller::identify must not allocate
 // after setup: every malloc-family call and operator new is counted around them
 // (tubempc/core/allocation_counter.hpp, glibc only).
-#include "tubempc/core/allocation_counter.hpp"
-
 #include <gtest/gtest.h>
 
 #include <random>
 
 #include "../control/control_fixtures.hpp"
 #include "tubempc/control/controller.hpp"
+#include "tubempc/core/allocation_counter.hpp"
 
 using namespace tubempc::control;
 using tubempc::core::AllocationWindow;
@@ -44,7 +43,8 @@ TEST(ControllerAllocation, StepDoesNotAllocateAfterSetup) {
   for (int s = 0; s < 2; ++s) {
     control_test::double_integrator(dt, s == 0 ? 1.0 : 1.0 / 2750, A, B);
     const SubMatrix P0 = 9.0 * (s == 0 ? settings.identification_p.S0 : settings.identification_r.S0);
-    (s == 0 ? designs.initial_p : designs.initial_r) = control_test::lqr_design(A, B, P0, s == 0 ? 1.0 : 1e-6);
+    (s == 0 ? designs.initial_p : designs.initial_r) =
+        control_test::lqr_design(A, B, P0, s == 0 ? 1.0 : 1e-6);
     for (double c : {0.25, 1.0, 4.0, 16.0})
       (s == 0 ? designs.library_p : designs.library_r).push_back(control_test::lqr_design(A, B, c * P0, 1.0));
   }

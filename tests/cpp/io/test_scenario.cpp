@@ -249,7 +249,8 @@ TEST_F(ScenarioFile, RoundTripIsBitExact) {
   }
   EXPECT_EQ(b.controller.tube.redesign_margin, a.controller.tube.redesign_margin);
   EXPECT_EQ(b.controller.tube.alpha_search_period, 7);
-  const auto same_design = [](const tubempc::control::SubsystemDesign& x, const tubempc::control::SubsystemDesign& y) {
+  const auto same_design = [](const tubempc::control::SubsystemDesign& x,
+                              const tubempc::control::SubsystemDesign& y) {
     expect_same_bits(x.K, y.K, "design K");
     EXPECT_EQ(x.alpha, y.alpha);
     expect_same_bits(x.P_W, y.P_W, "design P_W");
@@ -304,11 +305,12 @@ TEST_F(ScenarioFile, VersionOneFilesAreRead) {
   const std::size_t c0 = text.find("controller.measured_input"), c1 = text.find("mission.x0");
   ASSERT_NE(c0, std::string::npos);
   std::ostringstream tube;
-  tube << "tube.K 6 12\n" << fresh.tube.K.format(Eigen::IOFormat(17, Eigen::DontAlignCols, " ", "\n")) << "\n";
-  tube << "tube.Pe 12 12\n" << fresh.tube.Pe.format(Eigen::IOFormat(17, Eigen::DontAlignCols, " ", "\n")) << "\n";
+  tube << "tube.K 6 12\n"
+       << fresh.tube.K.format(Eigen::IOFormat(17, Eigen::DontAlignCols, " ", "\n")) << "\n";
+  tube << "tube.Pe 12 12\n"
+       << fresh.tube.Pe.format(Eigen::IOFormat(17, Eigen::DontAlignCols, " ", "\n")) << "\n";
   text.replace(c0, c1 - c0, tube.str());
-  const std::string kin =
-      std::string("model.kinematics text\n") + to_string(fresh.model.params.kinematics);
+  const std::string kin = std::string("model.kinematics text\n") + to_string(fresh.model.params.kinematics);
   if (fresh.model.params.kinematics == tubempc::dynamics::Kinematics::FirstOrder)
     replace(kin, "model.kinematics text\npaper");
   if (fresh.truth.params.kinematics == tubempc::dynamics::Kinematics::FirstOrder)

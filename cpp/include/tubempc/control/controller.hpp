@@ -39,7 +39,7 @@ const char* to_string(Method m);
 
 /// What the identification takes as the measured exogenous input w_k.
 enum class MeasuredInput {
-  Residual,            ///< w_k = x_{k+1} - (A_k x_k + B_k u_k + c_k), the model's one-step prediction error (default)
+  Residual,  ///< w_k = x_{k+1} - (A_k x_k + B_k u_k + c_k), the model's one-step prediction error (default)
   ReferenceDeviation,  ///< w_k = x_{k+1} - zbar_{k+1}, the paper's literal Eq. (26)
 };
 /// @param m a measured-input kind.
@@ -60,10 +60,10 @@ struct ControllerSettings {
 
 /// The LMI designs a controller flies with (computed at set-up; Python: tubempc.tube_library).
 struct ControllerDesigns {
-  SubsystemDesign initial_p;                ///< translational design of k = 0 (TBMPC: for the whole mission)
-  SubsystemDesign initial_r;                ///< rotational design of k = 0
-  std::vector<SubsystemDesign> library_p;   ///< translational library (TBMPC-FFA)
-  std::vector<SubsystemDesign> library_r;   ///< rotational library (TBMPC-FFA)
+  SubsystemDesign initial_p;               ///< translational design of k = 0 (TBMPC: for the whole mission)
+  SubsystemDesign initial_r;               ///< rotational design of k = 0
+  std::vector<SubsystemDesign> library_p;  ///< translational library (TBMPC-FFA)
+  std::vector<SubsystemDesign> library_r;  ///< rotational library (TBMPC-FFA)
 };
 
 /// Wall-clock split of one control step (s). The command is ready after identify + tube + mpc; the
@@ -72,28 +72,29 @@ struct ControlTimings {
   double identify = 0.0;  ///< the last period's measured input and the identifiers' update
   double tube = 0.0;      ///< tube update of both subsystems
   double mpc = 0.0;       ///< tube MPC step
-  double predict = 0.0;   ///< the one-step prediction from (x_k, u_k) that the next identification compares with
-  double total = 0.0;     ///< the whole call
+  double predict =
+      0.0;             ///< the one-step prediction from (x_k, u_k) that the next identification compares with
+  double total = 0.0;  ///< the whole call
 };
 
 /// Result of one control step; storage allocated at set-up and overwritten by every step.
 struct ControlStep {
-  Eigen::VectorXd u;                           ///< the command (6: m/s^2, N m), always finite
-  mpc::Tube tube;                              ///< the tube flown: K (6 x 12), Pe (12 x 12), block diagonal
-  std::array<TubeStatus, 2> tube_status{};     ///< per subsystem (p, r)
-  std::array<double, 2> alpha{};               ///< per subsystem
-  std::array<double, 2> residual{};            ///< lmi_residual of each tube for this step (<= 0 when certified)
+  Eigen::VectorXd u;                        ///< the command (6: m/s^2, N m), always finite
+  mpc::Tube tube;                           ///< the tube flown: K (6 x 12), Pe (12 x 12), block diagonal
+  std::array<TubeStatus, 2> tube_status{};  ///< per subsystem (p, r)
+  std::array<double, 2> alpha{};            ///< per subsystem
+  std::array<double, 2> residual{};         ///< lmi_residual of each tube for this step (<= 0 when certified)
   /// Whether a new LMI design is due at this step (a search step, or the margin was lost at the last
   /// step): a caller with background designs starts one from A, B and (1 + margin) P_W of this step.
   bool design_due = false;
-  std::array<SubMatrix, 2> A;                  ///< subsystem A about the reference's node k
-  std::array<SubInputMatrix, 2> B;             ///< subsystem B about the reference's node k
-  std::array<SubMatrix, 2> P_W;                ///< identified disturbance sets used by this step
-  bool identified = false;                     ///< whether the last period's input was folded in
+  std::array<SubMatrix, 2> A;       ///< subsystem A about the reference's node k
+  std::array<SubInputMatrix, 2> B;  ///< subsystem B about the reference's node k
+  std::array<SubMatrix, 2> P_W;     ///< identified disturbance sets used by this step
+  bool identified = false;          ///< whether the last period's input was folded in
   /// That input: x_k minus its prediction from step k - 1 (MeasuredInput).
   Eigen::Matrix<double, 12, 1> w_measured = Eigen::Matrix<double, 12, 1>::Zero();
-  const mpc::StepResult* mpc = nullptr;        ///< the MPC step's result (plan, statuses, timings)
-  ControlTimings timings;                      ///< wall-clock split
+  const mpc::StepResult* mpc = nullptr;  ///< the MPC step's result (plan, statuses, timings)
+  ControlTimings timings;                ///< wall-clock split
 };
 
 /// TBMPC / TBMPC-FFA (see the file comment).
@@ -170,7 +171,7 @@ class Controller {
   // the last call's step, state and command, for the measured input of the next
   void predict(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k);
   int last_k_ = -1;
-  int identified_k_ = -1;  // the step whose period was last folded in
+  int identified_k_ = -1;   // the step whose period was last folded in
   bool predicted_ = false;  // x_pred_ holds the prediction of step last_k_ + 1
   Eigen::Matrix<double, 12, 1> x_pred_ = Eigen::Matrix<double, 12, 1>::Zero();
   Eigen::MatrixXd A_buf_, B_buf_;

@@ -52,10 +52,10 @@ struct SubsystemTube {
 
 /// Outcome of a certification (lyapunov_tube).
 enum class Certification {
-  Certified,          ///< (*) holds with residual <= 0 and the tightening is non-empty
-  NotContractive,     ///< rho(A + B K)^2 >= alpha (no positive definite Lyapunov solution): no tube of the family
-  InvarianceViolated, ///< the solution misses (*) (residual > 0, rounding)
-  EmptyTightening,    ///< sqrt(K_i Pe K_i^T) >= u_max for some input row i
+  Certified,       ///< (*) holds with residual <= 0 and the tightening is non-empty
+  NotContractive,  ///< rho(A + B K)^2 >= alpha (no positive definite Lyapunov solution): no tube of the family
+  InvarianceViolated,  ///< the solution misses (*) (residual > 0, rounding)
+  EmptyTightening,     ///< sqrt(K_i Pe K_i^T) >= u_max for some input row i
 };
 /// @param c a certification outcome.
 /// @return its name ("certified", "not_contractive", ...).
@@ -101,9 +101,9 @@ double cover_ratio(const SubMatrix& P, const SubMatrix& P_cover);
 
 /// Settings of the tube update policy (TBMPC-FFA; TBMPC flies its initial tube).
 struct TubePolicySettings {
-  bool adaptive = true;         ///< false: TBMPC (the initial tube at every step)
-  double redesign_margin = 0.2; ///< certify for (1 + margin) P_W when possible (>= 0)
-  int alpha_search_period = 10; ///< a new design is due every this many steps (>= 1)
+  bool adaptive = true;          ///< false: TBMPC (the initial tube at every step)
+  double redesign_margin = 0.2;  ///< certify for (1 + margin) P_W when possible (>= 0)
+  int alpha_search_period = 10;  ///< a new design is due every this many steps (>= 1)
   /// true: the designs due are LMI designs that the caller (Python) computes in the background and
   /// offers through TubePolicy::adopt; false: the due design is taken from the library at once.
   bool background_designs = false;
@@ -156,7 +156,8 @@ class TubePolicy {
   /// @param design_due whether a new design is due at this step (a search step, or the margin was lost
   ///                   at the previous step); used without background designs.
   /// @return the status; the tube is `tube()`.
-  TubeStatus update(int k, const SubMatrix& A, const SubInputMatrix& B, const SubMatrix& P_W, bool design_due);
+  TubeStatus update(int k, const SubMatrix& A, const SubInputMatrix& B, const SubMatrix& P_W,
+                    bool design_due);
   /// Adopts a background LMI design (TubePolicySettings::background_designs), unless a library
   /// design taken at or after `k_started` is newer. Allocation-free.
   /// @param design    the design (validated only for finiteness: a non-finite one is refused).
