@@ -26,7 +26,6 @@ from collections.abc import Sequence
 from typing import Any
 
 from . import __version__, benchmarks
-from .metrics import below_or_above
 
 _PYTHON_PACKAGES = ("numpy", "scipy", "cvxpy", "clarabel", "piqp", "plotly")
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INPUT = 0, 1, 2, 3
@@ -184,6 +183,7 @@ def _guarantee_status(lost: dict[str, list[str]]) -> int:
 def _cmd_run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
+    from .metrics import below_or_above
     from .runner import guarantee_lost, run_methods
 
     if args.from_campaign is not None:
@@ -304,6 +304,7 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from .analysis import montecarlo
+    from .metrics import below_or_above
 
     methods = ("tbmpc", "ffa") if args.method == "both" else (args.method,)
     s = montecarlo(
