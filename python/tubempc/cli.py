@@ -202,9 +202,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if cfg.defaulted:
         print(
             f"{cfg.source}: {len(cfg.defaulted)} fields not given, taken from the packaged paper scenario: "
-            f"{', '.join(cfg.defaulted[:8])}{', ...' if len(cfg.defaulted) > 8 else ''} (the disturbance: "
-            f'stationary, growth_r = {cfg.disturbance.growth_r:g}, unless given; README "Your own mission")'
+            f"{', '.join(cfg.defaulted[:8])}{', ...' if len(cfg.defaulted) > 8 else ''}"
         )
+        if "disturbance.growth_r" in cfg.defaulted:
+            print(
+                f"{cfg.source}: disturbance.growth_r not given: {cfg.disturbance.growth_r:g}, a stationary attitude "
+                "disturbance inside the prior's 3-sigma ellipsoid (the paper scenario's own is 2.5; README "
+                '"Your own mission")'
+            )
     methods = ["tbmpc", "ffa"] if args.method == "both" else [args.method]
     seed = cfg.disturbance.seed if args.seed is None else args.seed
     if cfg.mpc.n_steps > LARGE_RUN_STEPS:

@@ -61,6 +61,7 @@ def test_report_compares_with_the_paper_only_for_the_paper_scenario(tmp_path: Pa
         assert ("paper J_p" in text) == paper and ("16.26" in text) == paper
         assert ("not the paper scenario" in text) == (not paper)
         assert "reference converged" in text and "steps outside the tube" in text and "fallback steps" in text
+        assert "states inside the body" in text
         assert "Theorem 2 envelope" in text  # the figure's caption
 
 

@@ -320,7 +320,9 @@ def test_percentages_say_below_or_above() -> None:
 # --- 7. own missions start from a neutral disturbance --------------------------------------------------
 
 
-def test_own_missions_get_a_neutral_disturbance_and_the_paper_scenario_keeps_its_growth(tmp_path: Path) -> None:
+def test_own_missions_get_a_neutral_disturbance_and_the_paper_scenario_keeps_its_growth(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     paper = load_config()
     assert paper.disturbance.growth_r == 2.5  # the paper scenario's own (Figs. 10-11)
     own = load_config(_write(tmp_path, "[mpc]\nhorizon = 20\n"))
@@ -328,6 +330,15 @@ def test_own_missions_get_a_neutral_disturbance_and_the_paper_scenario_keeps_its
     assert "disturbance.growth_r" in own.defaulted
     given = load_config(_write(tmp_path, "[disturbance]\ngrowth_r = 2.0\n"))
     assert given.disturbance.growth_r == 2.0
+    # `tubempc run` says which disturbance an own mission got
+    from tubempc.cli import EXIT_OK, main
+
+    mission = _write(tmp_path, "[disturbance]\nseed = 3\n", "short.toml")
+    out = ["run", "--config", str(mission), "--method", "ffa", "--out", str(tmp_path / "o"), "--quiet", "--no-figures"]
+    assert main(out) == EXIT_OK
+    assert "disturbance.growth_r not given: 1, a stationary attitude disturbance" in capsys.readouterr().out
+    saved = load_config(tmp_path / "o" / "config.toml")
+    assert saved.disturbance.growth_r == 1.0 and saved.defaulted == ()  # the saved file is complete
     # a complete copy of the paper's file is the paper scenario, growth and all
     assert load_config(_write(tmp_path, _paper_text(), "copy.toml")) == paper
 
