@@ -355,3 +355,29 @@ def test_the_packaged_scenarios_keep_their_disturbance() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert load_config(scenario="itokawa-like").disturbance.growth_r == 1.0
+
+
+def test_a_reduced_accuracy_reference_is_checked_and_named(monkeypatch: pytest.MonkeyPatch) -> None:
+    """cvxpy's "Solution may be inaccurate" does not reach the user raw: the outcome is named
+    (last_subproblem) and the solution checked against the input bounds before it counts as converged."""
+    import cvxpy as cp
+
+    from tubempc import reference
+
+    class Inaccurate(cp.Problem):  # type: ignore[misc]
+        def solve(self, *args: Any, **kwargs: Any) -> Any:
+            value = super().solve(*args, **kwargs)
+            warnings.warn("Solution may be inaccurate. Try another solver.", UserWarning, stacklevel=2)
+            return value
+
+        @property
+        def status(self) -> str:
+            status = str(super().status)
+            return "optimal_inaccurate" if status == "optimal" else status
+
+    monkeypatch.setattr(reference.cp, "Problem", Inaccurate)
+    scn = build_scenario(load_config())  # warnings are errors here: none escapes
+    ref = scn.reference
+    assert ref.last_subproblem == "optimal_inaccurate" and ref.converged
+    assert reference._within_bounds(ref.u, 0.8 * 0.55, 0.8 * 3.0)
+    assert not reference._within_bounds(ref.u, 0.5 * float(np.abs(ref.u[:, :3]).max()), 3.0)
