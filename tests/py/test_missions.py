@@ -311,6 +311,26 @@ def test_no_convergence_envelope_is_reported_as_fitted_when_none_exists() -> Non
     assert fit.exists and fit.rho == pytest.approx(0.9, rel=1e-2)
 
 
+def test_fig14_draws_no_envelope_where_none_exists() -> None:
+    from tubempc import figures, metrics
+
+    err = np.r_[1.0, np.full(40, 0.5), np.full(20, 2.0)]
+    t = np.arange(err.size) * 2.0
+    fig = figures.convergence(t, err, metrics.fit_exponential_convergence(err), "v - vbar")
+    ax = fig.axes[0]
+    labels = [line.get_label() for line in ax.get_lines()]
+    assert not any("C rho^k" in label for label in labels) and any("no Theorem 2 envelope" in lb for lb in labels)
+    assert any(text.get_text().startswith("no fit: ") for text in ax.texts)
+    fitted = figures.convergence(
+        t, 0.9 ** np.arange(60) + 0.01, metrics.fit_exponential_convergence(0.9 ** np.arange(60) + 0.01), "e"
+    )
+    assert any("C rho^k" in line.get_label() for line in fitted.axes[0].get_lines())
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    plt.close(fitted)
+
+
 def test_percentages_say_below_or_above() -> None:
     from tubempc.metrics import below_or_above
 
