@@ -95,4 +95,19 @@ ax.set_ylabel("y_L (m)")
 ax.axis("equal")
 ax.legend(fontsize=8)
 fig.tight_layout()
-print(f"final distance to the site: {np.linalg.norm(rec.x[-1, :3] - rec.zbar[-1, :3]) * 1e3:.2f} mm")
+# %%
+# Did it land on the site?
+# ------------------------
+# Measured against the site itself, not against the reference's end (which a wrong site would share):
+# the surface point at 20 deg N, 40 deg E of the body, found again here by ray casting on the mesh, and
+# the final position turned into the body frame A at t_f.
+from tubempc.scenario import build_scenario  # noqa: E402
+from tubempc.site import site_from_lat_lon  # noqa: E402
+
+scn = build_scenario(load_config(work / "run" / "config.toml"), cache_dir=work / "cache")
+site = site_from_lat_lon(scn.shape, np.radians(20.0), np.radians(40.0), 0.0)
+r_A = np.asarray(scn.model.C_AL(cfg.mpc.t_f)) @ rec.x[-1, :3]
+offset = r_A - site.surface_A
+height = float(offset @ site.normal_A)
+print(f"final position: {height:.3f} m above the site's surface point along its normal (target 5 m), ")
+print(f"{np.linalg.norm(offset - height * site.normal_A) * 1e3:.2f} mm beside it")

@@ -18,8 +18,9 @@ from .campaign import CampaignResult, run_campaign
 from .closed_loop import simulate
 from .config import Config, load_config
 from .machine import machine_info
-from .metrics import run_metrics
+from .pinning import pin_config, shape_record
 from .results import RunRecord, save_record
+from .runner import guarantee_lost, run_summary
 from .scenario import METHODS, Scenario, build_scenario
 
 __all__ = ["MONTECARLO_METRICS", "montecarlo", "montecarlo_summary", "refly_montecarlo_run", "sweep"]
@@ -46,6 +47,7 @@ MONTECARLO_METRICS = (
     "steps_outside_tube",
     "constraint_violations",
     "statuses",
+    "states_inside_body",
     "run_time_s",
 )
 
@@ -62,11 +64,23 @@ def _fly_montecarlo_run(
     records: dict[str, RunRecord] = {}
     for m in methods:
         rec = simulate(scn, m, seed, max_steps=max_steps, tube_threads=tube_threads, design_worker=worker)
-        s = run_metrics(rec, cfg.mpc.dt, scn.xf)
+        s = run_summary(scn, rec)
         out[m] = {k: s[k] for k in MONTECARLO_METRICS}
         out["applied"] = rec.applied  # the same for every method: one seed, one sequence of draws
         records[m] = rec
     return out, records
+
+
+def _run_arrays(records: dict[str, RunRecord]) -> dict[str, np.ndarray]:
+    """A campaign run's arrays (runs/run_<i>.npz): per method the error x - z (T, 12) and the tube
+    half-widths sqrt(diag Pe) (T, 12), float32."""
+    arrays: dict[str, np.ndarray] = {}
+    for m, rec in records.items():
+        arrays[f"{m}_error"] = (rec.x[:-1] - rec.z).astype(np.float32)
+        arrays[f"{m}_half_width"] = np.sqrt(
+            np.concatenate([np.diagonal(rec.Pe_p, axis1=1, axis2=2), np.diagonal(rec.Pe_r, axis1=1, axis2=2)], axis=1)
+        ).astype(np.float32)
+    return arrays
 
 
 def _montecarlo_run(
@@ -83,12 +97,7 @@ def _montecarlo_run(
     applied go in the result; the error trajectories x - z and tube half-widths in runs/run_<i>.npz
     (for the envelopes)."""
     out, records = _fly_montecarlo_run(cfg, _scenario(cfg, cache_dir), methods, max_steps, tube_threads, seed)
-    arrays: dict[str, np.ndarray] = {}
-    for m, rec in records.items():
-        arrays[f"{m}_error"] = (rec.x[:-1] - rec.z).astype(np.float32)
-        arrays[f"{m}_half_width"] = np.sqrt(
-            np.concatenate([np.diagonal(rec.Pe_p, axis1=1, axis2=2), np.diagonal(rec.Pe_r, axis1=1, axis2=2)], axis=1)
-        ).astype(np.float32)
+    arrays = _run_arrays(records)
     path = Path(runs_dir) / f"run_{index:05d}.npz"
     tmp = path.with_name(f".{path.name}.tmp.npz")
     np.savez_compressed(tmp, allow_pickle=False, **arrays)
@@ -111,6 +120,18 @@ def refly_montecarlo_run(campaign_dir: Path, index: int, out: Path) -> dict[str,
     if "applied" not in result:
         raise ValueError(f"{path}: written before runs recorded their dispersions; rerun the campaign")
     cfg = load_config(campaign_dir / "config.toml")
+    manifest_path = campaign_dir / "campaign.json"
+    manifest = json.loads(manifest_path.read_text(encoding="utf-8")) if manifest_path.exists() else {}
+    differences: list[str] = []
+    if manifest.get("config_hash") != cfg.hash():
+        differences.append(
+            f"config.toml (its hash {cfg.hash()[:12]} is not the campaign's {str(manifest.get('config_hash'))[:12]})"
+        )
+    pinned = manifest.get("shape_file")
+    if pinned is not None:
+        now = shape_record(cfg)
+        if now is None or now["sha256"] != pinned["sha256"]:
+            differences.append(f"shape file {cfg.asteroid.shape} (its sha256 is not the campaign's)")
     methods = tuple(m for m in METHODS if m in result)
     scn = build_scenario(cfg, cache_dir=campaign_dir / "cache")
     again, records = _fly_montecarlo_run(cfg, scn, methods, result["applied"]["max_steps"], 1, int(record["seed"]))
@@ -119,20 +140,46 @@ def refly_montecarlo_run(campaign_dir: Path, index: int, out: Path) -> dict[str,
         save_record(out / f"{m}.h5", rec, config=cfg.to_dict(), metadata=again[m])
     # JSON round trip: the record's numbers were read from JSON (floats survive it exactly).
     again = json.loads(json.dumps(again))
-    differences = [
-        f"{m}.{k}" for m in methods for k in MONTECARLO_METRICS if k != "run_time_s" and again[m][k] != result[m][k]
+    differences += [
+        f"{m}.{k}"
+        for m in methods
+        for k in MONTECARLO_METRICS
+        if k != "run_time_s" and k in result[m] and again[m][k] != result[m][k]
     ] + (["applied"] if again["applied"] != result["applied"] else [])
+    differences += _array_differences(campaign_dir / "runs" / f"run_{index:05d}.npz", _run_arrays(records))
     comparison = {
         "campaign": str(campaign_dir),
         "index": index,
         "seed": int(record["seed"]),
         "methods": {m: {"J_p": again[m]["J_p"], "J_r": again[m]["J_r"]} for m in methods},
+        "guarantee_lost": {m: guarantee_lost(again[m]) for m in methods},
         "differences": differences,
         "equal": not differences,
         "machine": machine_info(),
     }
     (out / "refly.json").write_text(json.dumps(comparison, indent=1, sort_keys=True))
     return comparison
+
+
+def _array_differences(path: Path, arrays: dict[str, np.ndarray]) -> list[str]:
+    """The arrays of a campaign run's file that are not those of its re-flight, to the bit (their
+    names; the file itself when it is missing or unreadable)."""
+    if not path.exists():
+        return [f"{path.name} (missing)"]
+    try:
+        with np.load(path, allow_pickle=False) as stored:
+            names = set(stored.files)
+            out = [f"{path.name}:{k}" for k in sorted(names - set(arrays))]
+            for k, a in sorted(arrays.items()):
+                if k not in names:
+                    out.append(f"{path.name}:{k} (missing)")
+                    continue
+                b = stored[k]
+                if b.dtype != a.dtype or b.shape != a.shape or b.tobytes() != a.tobytes():
+                    out.append(f"{path.name}:{k}")
+    except (OSError, ValueError) as exc:
+        return [f"{path.name} (unreadable: {exc})"]
+    return out
 
 
 def montecarlo_summary(campaign: CampaignResult, methods: tuple[str, ...]) -> dict[str, Any]:
@@ -157,6 +204,9 @@ def montecarlo_summary(campaign: CampaignResult, methods: tuple[str, ...]) -> di
                 )
             ),
             "terminal_position_error_max_m": float(max(r["terminal_error"]["position"] for r in rows)),
+            "runs_inside_body": int(sum(r.get("states_inside_body", 0) > 0 for r in rows)),
+            # runs that lost a guarantee (tube left, fallback steps, a state inside the body): exit status 4
+            "runs_guarantee_lost": int(sum(bool(guarantee_lost(r)) for r in rows)),
         }
     if {"tbmpc", "ffa"} <= set(summary["methods"]):
         t, f = summary["methods"]["tbmpc"]["J_p"], summary["methods"]["ffa"]["J_p"]
@@ -182,9 +232,10 @@ def montecarlo(
 
     ``max_steps`` cuts every run short (quick checks); None runs the whole mission."""
     out.mkdir(parents=True, exist_ok=True)
-    cfg.save(out / "config.toml")
+    cfg = pin_config(cfg, out)  # the folder keeps its shape file: it re-flies wherever it is copied
     cache = out / "cache"
     build_scenario(cfg, cache_dir=cache)  # the reference once, before the workers read it from the cache
+    cfg.save(out / "config.toml")
     runs_dir = out / "runs"
     runs_dir.mkdir(exist_ok=True)
     # Several runs at once already occupy the cores: then each run designs its two tubes sequentially.
@@ -199,6 +250,7 @@ def montecarlo(
         out,
         master_seed,
         config_hash=cfg.hash(),
+        shape_file=shape_record(cfg),
         workers=workers,
         scheduler=scheduler,
         retry_failed=retry_failed,
@@ -270,12 +322,13 @@ def sweep(
             if not 0.0 < v < 1.0:
                 raise ValueError(f"{name} must lie in (0, 1), got {v}")
     out.mkdir(parents=True, exist_ok=True)
-    cfg.save(out / "config.toml")
+    cfg = pin_config(cfg, out)
     scn = build_scenario(cfg, cache_dir=out / "cache")
+    cfg.save(out / "config.toml")
     rows: dict[str, Any] = {}
     rec = simulate(scn, "tbmpc", seed, progress=progress)
     tube_half_x = float(np.mean(np.sqrt(rec.Pe_p[:, 0, 0])))
-    rows["TBMPC"] = {**run_metrics(rec, cfg.mpc.dt, scn.xf), "mean_tube_half_width_x_m": tube_half_x}
+    rows["TBMPC"] = {**run_summary(scn, rec), "mean_tube_half_width_x_m": tube_half_x}
     err_x: dict[str, np.ndarray] = {"TBMPC": rec.x[:, 0] - rec.zbar[:, 0]}
     err_phi: dict[str, np.ndarray] = {"TBMPC": rec.x[:, 6] - rec.zbar[:, 6]}
     tube_x = {"TBMPC": np.sqrt(rec.Pe_p[:, 0, 0])}
@@ -284,7 +337,7 @@ def sweep(
         label = f"FFA lambda_p={lp:g}, lambda_r={lr:g}"
         r = simulate(scn, "ffa", seed, progress=progress, lambda_p=lp, lambda_r=lr)
         rows[label] = {
-            **run_metrics(r, cfg.mpc.dt, scn.xf),
+            **run_summary(scn, r),
             "lambda_p": lp,
             "lambda_r": lr,
             "mean_tube_half_width_x_m": float(np.mean(np.sqrt(r.Pe_p[:, 0, 0]))),
@@ -297,6 +350,7 @@ def sweep(
     summary = {
         "seed": seed,
         "config_hash": cfg.hash(),
+        "shape_file": shape_record(cfg),
         "machine": machine_info(),
         "rows": rows,
         # of the lambda_p swept: the smallest whose TBMPC-FFA flew a designed or certified tube at every step

@@ -86,6 +86,7 @@ def run_campaign(
     master_seed: int,
     *,
     config_hash: str = "",
+    shape_file: dict[str, Any] | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
     retry_failed: bool = False,
@@ -97,14 +98,19 @@ def run_campaign(
     ``run_fn`` must be picklable (a module-level function or a ``functools.partial`` of one) and its
     result JSON-serialisable. ``workers`` local processes (default: CPU count; 1 runs in this process);
     with ``scheduler`` (a Dask scheduler address such as ``tcp://127.0.0.1:8786``) the runs go to that
-    Dask cluster instead. ``config_hash`` guards the folder against mixing campaigns.
+    Dask cluster instead. ``config_hash`` guards the folder against mixing campaigns; ``shape_file``
+    (the pinned shape's file and sha256, :func:`tubempc.pinning.shape_record`) is kept in its
+    ``campaign.json`` for re-flights to check.
     """
     if n_runs < 1:
         raise ValueError(f"n_runs must be >= 1, got {n_runs}")
     out = Path(out_dir)
     runs_dir = out / "runs"
     runs_dir.mkdir(parents=True, exist_ok=True)
-    _manifest_check(out, {"master_seed": int(master_seed), "config_hash": config_hash, "n_runs": int(n_runs)})
+    manifest: dict[str, Any] = {"master_seed": int(master_seed), "config_hash": config_hash, "n_runs": int(n_runs)}
+    if shape_file is not None:
+        manifest["shape_file"] = shape_file
+    _manifest_check(out, manifest)
 
     wanted = sorted(set(range(n_runs)) if only is None else {int(i) for i in only})
     bad = [i for i in wanted if not 0 <= i < n_runs]

@@ -8,8 +8,10 @@ Exit status (also in the README):
   2  usage error (a bad option or value)
   3  input error: a configuration, shape or scenario that cannot be flown (the message names the file
      and field), or an output folder that cannot be written
-  4  done, but a run lost its guarantee: steps outside the tube or fallback steps (see the summary)
-  5  a campaign finished with failed runs
+  4  done, but a run lost a guarantee: steps outside the tube, fallback steps or states inside the body
+     (see the summary); for every command that flies: run, montecarlo, sweep, run --from-campaign
+  5  a campaign finished with failed runs (before 4)
+  6  a re-flight (run --from-campaign) differs from its campaign's record (before 4)
   130  interrupted (Ctrl-C)
 """
 
@@ -27,7 +29,7 @@ from . import __version__, benchmarks
 
 _PYTHON_PACKAGES = ("numpy", "scipy", "cvxpy", "clarabel", "piqp", "plotly")
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INPUT = 0, 1, 2, 3
-EXIT_GUARANTEE_LOST, EXIT_FAILED_RUNS, EXIT_INTERRUPTED = 4, 5, 130
+EXIT_GUARANTEE_LOST, EXIT_FAILED_RUNS, EXIT_REFLIGHT_DIFFERS, EXIT_INTERRUPTED = 4, 5, 6, 130
 #: Control steps of one run above which ``run`` warns before starting (the default mission has 300).
 LARGE_RUN_STEPS = 3000
 
@@ -79,7 +81,7 @@ def _config(args: argparse.Namespace) -> Any:
     from .config import load_config
 
     cfg = load_config(getattr(args, "config", None), scenario=getattr(args, "scenario", None))
-    if getattr(args, "shape_unit", None):
+    if getattr(args, "shape_unit", None) and getattr(args, "shape", None) is None:
         cfg = cfg.with_overrides({"asteroid.shape_unit": args.shape_unit})
     return cfg
 
@@ -122,6 +124,21 @@ def _cmd_make_body(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_repair_shape(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .shapes import load_shape, save_shape
+
+    before = load_shape(Path(args.file), unit=args.unit, repair=True)
+    out = Path(args.out)
+    save_shape(out, before, unit="m")
+    print(
+        f"wrote {out}: {len(before.faces)} faces, {before.n_flipped_faces} flipped to a consistent outward orientation, "
+        f'volume {before.volume:.4g} m^3 (OBJ in metres: asteroid.shape_unit = "m")'
+    )
+    return EXIT_OK
+
+
 def _cmd_refly(args: argparse.Namespace) -> int:
     from pathlib import Path
 
@@ -140,22 +157,46 @@ def _cmd_refly(args: argparse.Namespace) -> int:
         print(f"{m:6s} J_p={r['J_p']:.10g} J_r={r['J_r']:.10g}")
     if not cmp["equal"]:
         differences = ", ".join(cmp["differences"])
-        print(f"run {args.index} re-flown differs from the campaign record: {differences}", file=sys.stderr)
-        return EXIT_INTERNAL
-    print(f"run {args.index} (seed {cmp['seed']}) re-flown: every metric and dispersion equals the campaign record")
+        print(
+            f"run {args.index} re-flown differs from the campaign record: {differences}: exit status "
+            f"{EXIT_REFLIGHT_DIFFERS}",
+            file=sys.stderr,
+        )
+        return EXIT_REFLIGHT_DIFFERS
+    print(
+        f"run {args.index} (seed {cmp['seed']}) re-flown: every metric, dispersion and array (runs/run_*.npz) "
+        "equals the campaign record, under the campaign's configuration hash"
+    )
     print(f"results in {args.out}/ (refly.json, <method>.h5)")
-    return EXIT_OK
+    return _guarantee_status({m: reasons for m, reasons in cmp["guarantee_lost"].items() if reasons})
+
+
+def _guarantee_status(lost: dict[str, list[str]]) -> int:
+    """EXIT_GUARANTEE_LOST (said on stderr) if any run lost a guarantee, else EXIT_OK."""
+    if not lost:
+        return EXIT_OK
+    what = "; ".join(f"{name}: {', '.join(reasons)}" for name, reasons in lost.items())
+    print(f"robustness guarantee lost by {what}: exit status {EXIT_GUARANTEE_LOST}", file=sys.stderr)
+    return EXIT_GUARANTEE_LOST
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from .runner import run_methods
+    from .metrics import below_or_above
+    from .runner import guarantee_lost, run_methods
 
     if args.from_campaign is not None:
         return _cmd_refly(args)
     if args.index is not None:
         print("tubempc run: --index goes with --from-campaign", file=sys.stderr)
+        return EXIT_USAGE
+    if args.shape is not None and args.shape_unit is None:
+        print(
+            "tubempc run: --shape needs --shape-unit km|m (the unit of its coordinates; the configuration's "
+            "asteroid.shape_unit belongs to the configuration's shape)",
+            file=sys.stderr,
+        )
         return EXIT_USAGE
     cfg = _config(args)
     if cfg.defaulted:
@@ -163,6 +204,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
             f"{cfg.source}: {len(cfg.defaulted)} fields not given, taken from the packaged paper scenario: "
             f"{', '.join(cfg.defaulted[:8])}{', ...' if len(cfg.defaulted) > 8 else ''}"
         )
+        if "disturbance.growth_r" in cfg.defaulted:
+            print(
+                f"{cfg.source}: disturbance.growth_r not given: {cfg.disturbance.growth_r:g}, a stationary attitude "
+                "disturbance inside the prior's 3-sigma ellipsoid (the paper scenario's own is 2.5; README "
+                '"Your own mission")'
+            )
     methods = ["tbmpc", "ffa"] if args.method == "both" else [args.method]
     seed = cfg.disturbance.seed if args.seed is None else args.seed
     if cfg.mpc.n_steps > LARGE_RUN_STEPS:
@@ -179,16 +226,23 @@ def _cmd_run(args: argparse.Namespace) -> int:
         seed,
         out,
         shape=args.shape,
+        shape_unit=args.shape_unit if args.shape is not None else None,
         progress=not args.quiet,
         cache_dir=Path(args.cache_dir) if args.cache_dir else out / "cache",
         make_figures=not args.no_figures,
     )
     ref = summary["reference"]
+    accuracy = (
+        ""
+        if ref["last_subproblem"] == "optimal"
+        else f"; its last convex subproblem solved to reduced accuracy ({ref['last_subproblem']}), its solution "
+        "checked against the input bounds and the dynamics"
+    )
     print(
         f"reference: {'converged' if ref['converged'] else 'NOT converged'} in {ref['iterations']} SCP iterations "
-        f"(dynamics defect {ref['max_defect']:.2g})"
+        f"(dynamics defect {ref['max_defect']:.2g}{accuracy})"
     )
-    lost = []
+    lost: dict[str, list[str]] = {}
     for m, s in summary["methods"].items():
         st = s["step_time"]
         outside, fallbacks = s["steps_outside_tube"], s["fallback_steps"]
@@ -198,24 +252,19 @@ def _cmd_run(args: argparse.Namespace) -> int:
             f"{s['max_tube_excursion']['translation']:.3g}/{s['max_tube_excursion']['rotation']:.3g} "
             f"cone violations gs/los={s['constraint_violations']['glide_slope_steps']}/"
             f"{s['constraint_violations']['los_steps']} step median {st['step']['median_ms']:.2f} ms "
-            f"(tube {st['tube']['median_ms']:.2f}, mpc {st['mpc']['median_ms']:.2f}) run {s['run_time_s']:.1f} s"
+            f"(tube {st['tube']['median_ms']:.2f}, mpc {st['mpc']['median_ms']:.2f}) run {s['run_time_s']:.1f} s "
+            f"states inside the body {s['states_inside_body']}"
         )
-        if outside or fallbacks:
-            lost.append(m)
+        reasons = guarantee_lost(s)
+        if reasons:
+            lost[m] = reasons
     print("(tube excursion: e^T Pe^-1 e of the error one step after the plan; <= 1 inside the tube, > 1 outside)")
     if "comparison" in summary:
-        print(f"TBMPC-FFA J_p is {summary['comparison']['J_p_reduction_percent']:.1f} % below TBMPC's")
+        print(f"TBMPC-FFA J_p is {below_or_above(summary['comparison']['J_p_reduction_percent'])} TBMPC's")
     for name, error in summary.get("figure_errors", {}).items():
         print(f"figure {name} not drawn: {error}", file=sys.stderr)
     print(f"results in {out}/ (summary.json, <method>.h5, figures)")
-    if lost:
-        print(
-            f"robustness guarantee lost by {', '.join(lost)} (steps outside the tube or fallbacks): exit status "
-            f"{EXIT_GUARANTEE_LOST}",
-            file=sys.stderr,
-        )
-        return EXIT_GUARANTEE_LOST
-    return EXIT_OK
+    return _guarantee_status(lost)
 
 
 def _cmd_export_scenario(args: argparse.Namespace) -> int:
@@ -260,6 +309,7 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from .analysis import montecarlo
+    from .metrics import below_or_above
 
     methods = ("tbmpc", "ffa") if args.method == "both" else (args.method,)
     s = montecarlo(
@@ -281,12 +331,20 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
             f"runs outside the tube {row['runs_outside_tube']}/{s['runs']}"
         )
     if "J_p_mean_reduction_percent" in s:
-        print(f"TBMPC-FFA mean J_p is {s['J_p_mean_reduction_percent']:.1f} % below TBMPC's")
+        print(f"TBMPC-FFA mean J_p is {below_or_above(s['J_p_mean_reduction_percent'])} TBMPC's")
     print(
         f"{s['runs']} runs done ({s['executed_now']} now, {len(s['failed_runs'])} failed) in {s['wall_time_s']:.1f} s; "
         f"{args.out}/summary.json"
     )
-    return EXIT_FAILED_RUNS if s["failed_runs"] else EXIT_OK
+    if s["failed_runs"]:
+        print(f"{len(s['failed_runs'])} runs failed: exit status {EXIT_FAILED_RUNS}", file=sys.stderr)
+        return EXIT_FAILED_RUNS
+    lost = {
+        m: [f"{row['runs_guarantee_lost']}/{s['runs']} runs (outside the tube, fallback steps or inside the body)"]
+        for m, row in s["methods"].items()
+        if row["runs_guarantee_lost"]
+    }
+    return _guarantee_status(lost)
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
@@ -294,6 +352,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
     from .analysis import sweep
     from .claims import holding_floor
+    from .runner import guarantee_lost
 
     s = sweep(_config(args), args.lambda_p, args.lambda_r, Path(args.out), seed=args.seed, progress=not args.quiet)
     print(f"{'':40s} {'J_p':>8s} {'J_r':>8s} {'|dr(T)| m':>10s} {'RMS r m':>9s} {'outside':>8s} {'tube feasible':>14s}")
@@ -312,7 +371,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     floor = holding_floor([r for r in s["rows"].values() if "lambda_p" in r])
     print(f"the tube holds (feasible, never left) for every lambda_p swept >= {floor if floor is not None else 'none'}")
     print(f"{args.out}/sweep.json and figures")
-    return 0
+    return _guarantee_status({name: reasons for name, row in s["rows"].items() if (reasons := guarantee_lost(row))})
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
@@ -329,7 +388,11 @@ def _scenario_arguments(p: argparse.ArgumentParser) -> None:
     group = p.add_mutually_exclusive_group()
     group.add_argument("--config", help="scenario TOML (fields left out are the paper scenario's)")
     group.add_argument("--scenario", help="a packaged scenario by name (see 'tubempc scenarios'; default: bennu-paper)")
-    p.add_argument("--shape-unit", choices=["km", "m"], help="unit of the shape file's coordinates (default: the config's)")
+    p.add_argument(
+        "--shape-unit",
+        choices=["km", "m"],
+        help="unit of the coordinates of --shape (required with it), else of the config's shape file",
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -352,12 +415,19 @@ def build_parser() -> argparse.ArgumentParser:
     p_body.add_argument("--seed", type=int, default=0, help="roughness seed")
     p_body.add_argument("--out", required=True, help="OBJ file to write")
     p_body.set_defaults(func=_cmd_make_body)
+    p_fix = sub.add_parser(
+        "repair-shape", help="orient a shape's faces consistently outward and write it as an OBJ in metres"
+    )
+    p_fix.add_argument("file", help="shape file (OBJ, PDS v/f table, ICQ, PLY, STL)")
+    p_fix.add_argument("--unit", choices=["km", "m"], required=True, help="unit of the file's coordinates")
+    p_fix.add_argument("--out", required=True, help="OBJ file to write (metres)")
+    p_fix.set_defaults(func=_cmd_repair_shape)
     p_run = sub.add_parser("run", help="closed-loop TBMPC and/or TBMPC-FFA on a scenario (default: the paper's)")
     _scenario_arguments(p_run)
     p_run.add_argument("--method", choices=["tbmpc", "ffa", "both"], default="both")
     p_run.add_argument(
         "--shape",
-        help="shape file (OBJ, PDS v/f table, ICQ, PLY, STL) instead of the config's; "
+        help="shape file (OBJ, PDS v/f table, ICQ, PLY, STL) instead of the config's, with --shape-unit; "
         "a relative path is taken against the working directory",
     )
     p_run.add_argument("--seed", type=_seed, help="disturbance seed >= 0 (default: the config's)")
@@ -440,6 +510,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERNAL
 
 
+def _release_semaphores() -> None:
+    """Unlinks the named semaphores of this process's multiprocessing locks and queues, whose finalisers
+    os._exit skips: the resource tracker then has none to report as leaked on Ctrl-C. Only the
+    semaphores' finalisers run (no join of a process or thread)."""
+    try:
+        from multiprocessing import synchronize, util
+
+        registry: dict[Any, Any] = getattr(util, "_finalizer_registry", {})
+        for finalizer in list(registry.values()):
+            if getattr(finalizer, "_callback", None) is synchronize.SemLock._cleanup:  # type: ignore[attr-defined]
+                finalizer()
+    except Exception:  # best effort on the way out: never turn Ctrl-C into an error
+        return
+
+
 def entry_point() -> None:
     """Console script: exits with main()'s status, at once on Ctrl-C (a running LMI or QP solve in a
     worker thread or the design process is not waited for; results already written stay)."""
@@ -450,6 +535,8 @@ def entry_point() -> None:
     policy = sys.modules.get("tubempc.tube_policy")  # imported only if a run used it
     if policy is not None:
         policy.shutdown_design_worker(wait=status != EXIT_INTERRUPTED)
+    if status == EXIT_INTERRUPTED:
+        _release_semaphores()
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(status)

@@ -628,10 +628,38 @@ def _parse_section(
     return cls(**values)
 
 
+#: Fields whose value in the paper scenario (bennu_paper.toml) belongs to that scenario alone: a file
+#: that leaves them out (an own mission) gets these instead. The paper scenario's attitude disturbance
+#: grows to 2.5x the prior's 3-sigma support (chosen to reproduce the paper's Figs. 10-11); an own
+#: mission starts from a stationary disturbance inside the prior's 3-sigma ellipsoid.
+OWN_MISSION_DEFAULTS: dict[tuple[str, str], Any] = {
+    ("disturbance", "growth_p"): 1.0,
+    ("disturbance", "growth_r"): 1.0,
+}
+
+
 def _packaged_defaults() -> dict[str, Any]:
-    """The packaged default scenario's raw TOML content (the defaults of partial files)."""
+    """The defaults of partial files: the packaged paper scenario's raw TOML content with
+    :data:`OWN_MISSION_DEFAULTS` in place of the paper's engineered disturbance growth."""
     resource = importlib.resources.files("tubempc").joinpath("data", _DEFAULT)
-    return tomllib.loads(resource.read_text(encoding="utf-8"))
+    data = tomllib.loads(resource.read_text(encoding="utf-8"))
+    for (section, name), value in OWN_MISSION_DEFAULTS.items():
+        data[section][name] = value
+    return data
+
+
+def _check_shape_unit(data: Mapping[str, Any], source: str) -> None:
+    """A partial file that names a shape file must say its unit: the packaged default ("km", for
+    the PDS radar models) read a file in metres as a body 1000 times too large."""
+    asteroid = data.get("asteroid", {})
+    if not isinstance(asteroid, Mapping):
+        return
+    shape = asteroid.get("shape")
+    if isinstance(shape, str) and shape != "generated" and "shape_unit" not in asteroid:
+        raise ConfigError(
+            f'{source}: asteroid.shape_unit: missing; give the unit of {shape!r}\'s coordinates, "m" or "km" '
+            "(PDS radar models are in km, `tubempc make-body` writes metres); it is not inferred"
+        )
 
 
 def _parse(data: Mapping[str, Any], source: str, defaults: Mapping[str, Any] | None = None) -> Config:
@@ -701,7 +729,9 @@ def scenario_file(name: str) -> str:
 def load_config(path: str | Path | None = None, *, scenario: str | None = None) -> Config:
     """Load and validate a scenario TOML: a file, or the packaged scenario ``scenario`` (None and None:
     the packaged bennu_paper.toml). A file may leave out sections and fields: they are taken from
-    the packaged bennu_paper.toml and listed in ``Config.defaulted``."""
+    the packaged bennu_paper.toml (but :data:`OWN_MISSION_DEFAULTS`, the paper scenario's own
+    disturbance growth) and listed in ``Config.defaulted``. A file that names a shape file must give
+    its ``asteroid.shape_unit``."""
     if path is not None and scenario is not None:
         raise ConfigError("give a configuration file or a packaged scenario, not both")
     packaged = scenario_file(scenario or "bennu-paper") if path is None else None
@@ -721,10 +751,13 @@ def load_config(path: str | Path | None = None, *, scenario: str | None = None) 
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{source}: invalid TOML: {exc}") from exc
+    if packaged != _DEFAULT:
+        _check_shape_unit(data, source)
     return _parse(data, source, None if packaged == _DEFAULT else _packaged_defaults())
 
 
 __all__ = [
+    "OWN_MISSION_DEFAULTS",
     "REMOVED_FIELDS",
     "RENAMED_FIELDS",
     "RENAMED_VALUES",

@@ -318,17 +318,22 @@ def constraints(results: Mapping[str, RunRecord]) -> Figure:
 def convergence(
     t: np.ndarray, err: np.ndarray, fit: ConvergenceFit, label: str, unit: str = "m/s", title: str = ""
 ) -> Figure:
-    """Fig. 14: error norm with the fitted envelope C rho^k ||e_0|| + ebar (Theorem 2)."""
+    """Fig. 14: error norm with the fitted envelope C rho^k ||e_0|| + ebar (Theorem 2); when no envelope
+    exists (``fit.no_fit``), the error alone with ebar and the reason, no curve drawn as if fitted."""
     fig, ax = plt.subplots(figsize=(7, 4))
     k = np.arange(err.size)
     ax.semilogy(t[: err.size], err, label=f"||{label}||")
-    ax.semilogy(
-        t[: err.size],
-        fit.bound(k),
-        "r--",
-        label=f"C rho^k ||e0|| + ebar (C||e0||={fit.C * fit.e0:.3g} {unit}, rho={fit.rho:.4f} per step, "
-        f"ebar={fit.ebar:.3g} {unit})",
-    )
+    if fit.exists:
+        ax.semilogy(
+            t[: err.size],
+            fit.bound(k),
+            "r--",
+            label=f"C rho^k ||e0|| + ebar (C||e0||={fit.C * fit.e0:.3g} {unit}, rho={fit.rho:.4f} per step, "
+            f"ebar={fit.ebar:.3g} {unit})",
+        )
+    else:
+        ax.axhline(fit.ebar, color="r", ls=":", label=f"ebar = {fit.ebar:.3g} {unit}; no Theorem 2 envelope fitted")
+        ax.text(0.02, 0.02, f"no fit: {fit.no_fit}", transform=ax.transAxes, fontsize=7, wrap=True, va="bottom")
     ax.set_title(title or f"Convergence of ||{label}|| (Theorem 2 envelope fitted from t = {t[0]:g} s)")
     ax.set_xlabel("t (s)")
     ax.set_ylabel(f"||{label}|| ({unit})")

@@ -34,6 +34,7 @@ __all__ = [
     "CERTIFIED_TUBE_STATUSES",
     "GROUPS",
     "ConvergenceFit",
+    "below_or_above",
     "control_effort",
     "fit_exponential_convergence",
     "performance_index",
@@ -114,14 +115,26 @@ def tube_excursion(x: Array, z: Array, Pe: Array) -> Array:
     return np.asarray(np.einsum("ki,ki->k", e, np.linalg.solve(P, e[..., None])[..., 0]), dtype=float)
 
 
+#: A fitted rho this close to 1 sits at the search's upper bound: no exponential decay was found.
+RHO_AT_BOUND = 1.0 - 1e-6
+
+
 @dataclass(frozen=True)
 class ConvergenceFit:
-    """Envelope ||e_k|| <= C rho^k ||e_0|| + ebar (paper Theorem 2, Eq. 46) fitted to error data."""
+    """Envelope ||e_k|| <= C rho^k ||e_0|| + ebar (paper Theorem 2, Eq. 46) fitted to error data.
+
+    ``no_fit``: empty when an envelope was fitted; else why none exists (the error never exceeds ebar
+    after its transient, or the best rho is the search bound 1, no decay), and C, rho are not results."""
 
     C: float
     rho: float
     ebar: float
     e0: float
+    no_fit: str = ""
+
+    @property
+    def exists(self) -> bool:
+        return not self.no_fit
 
     def bound(self, k: npt.ArrayLike) -> Array:
         return self.C * self.rho ** np.asarray(k, dtype=float) * self.e0 + self.ebar
@@ -145,7 +158,11 @@ def fit_exponential_convergence(errors: npt.ArrayLike, ebar: float | None = None
     excess = e - eb
     active = excess > 0.0
     if not np.any(active):
-        return ConvergenceFit(C=0.0, rho=0.0, ebar=eb, e0=e0)
+        why = (
+            f"the error never exceeds ebar = {eb:.3g} (its largest value over the run's last quarter) after the "
+            "transient: there is no decay to fit"
+        )
+        return ConvergenceFit(C=0.0, rho=0.0, ebar=eb, e0=e0, no_fit=why)
     log_excess, k_active = np.log(excess[active] / e0), k[active]
 
     def log_c(log_rho: float) -> float:  # log of the smallest C for this rho (log space: rho^k underflows)
@@ -156,7 +173,13 @@ def fit_exponential_convergence(errors: npt.ArrayLike, ebar: float | None = None
         return log_c(log_rho) + float(np.log((1.0 - rho**e.size) / (1.0 - rho)))
 
     res = minimize_scalar(log_area, bounds=(np.log(1e-6), np.log(1.0 - 1e-9)), method="bounded", options={"xatol": 1e-12})
-    return ConvergenceFit(C=float(np.exp(log_c(res.x))), rho=float(np.exp(res.x)), ebar=eb, e0=e0)
+    rho = float(np.exp(res.x))
+    why = (
+        f"the best rho is the search bound 1 ({rho:.10f}): the error does not decay exponentially towards ebar = {eb:.3g}"
+        if rho >= RHO_AT_BOUND
+        else ""
+    )
+    return ConvergenceFit(C=float(np.exp(log_c(res.x))), rho=rho, ebar=eb, e0=e0, no_fit=why)
 
 
 def summarize(
@@ -197,12 +220,16 @@ def velocity_convergence(t: Array, x: Array, zbar: Array) -> tuple[Array, Array,
     return t[k0:], err[k0:], fit_exponential_convergence(err[k0:])
 
 
-def _fit_dict(rec: RunRecord) -> dict[str, float]:
+def _fit_dict(rec: RunRecord) -> dict[str, Any]:
+    """The Theorem 2 envelope of the run: {"exists": True, C ||e0||, rho, ebar} or {"exists": False,
+    "reason": why no envelope exists} (never a search bound reported as a fit)."""
     try:
         _, _, fit = velocity_convergence(rec.t, rec.x, rec.zbar)
-    except ValueError:  # too short, or no error at all
-        return {}
-    return {"C_e0_m_per_s": fit.C * fit.e0, "rho": fit.rho, "ebar_m_per_s": fit.ebar}
+    except ValueError as exc:  # too short, or no error at all
+        return {"exists": False, "reason": str(exc)}
+    if not fit.exists:
+        return {"exists": False, "reason": fit.no_fit}
+    return {"exists": True, "C_e0_m_per_s": fit.C * fit.e0, "rho": fit.rho, "ebar_m_per_s": fit.ebar}
 
 
 #: Tube statuses of the C++ controller (``_core.control.TubeStatus``) whose tube is certified for the
@@ -254,6 +281,12 @@ def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> dict[str, Any]:
         }
     )
     return s
+
+
+def below_or_above(reduction_percent: float) -> str:
+    """A reduction in percent as words: "12.3 % below", "0.5 % above" (never "-0.5 % below")."""
+    word = "below" if reduction_percent >= 0.0 else "above"
+    return f"{abs(reduction_percent):.1f} % {word}"
 
 
 def prior_bound_exceedances(w: Array, prior_variances: Array, pw_scale: float) -> npt.NDArray[np.bool_]:

@@ -74,6 +74,9 @@ class ReferenceTrajectory:
     max_step: float
     max_defect: float
     solve_time_s: float
+    #: cvxpy's status of the last convex subproblem: "optimal", or "optimal_inaccurate" (reduced accuracy:
+    #: then converged only if its solution keeps the input bounds and the defect, checked here).
+    last_subproblem: str = "optimal"
 
     def save(self, path: Path) -> None:
         """Writes an ``.npz`` at exactly ``path``, atomically: a reader sees the old file or the new one."""
@@ -149,7 +152,7 @@ def generate_reference(
     cos_gs = np.cos(glide_slope_angle)
     radius = st.trust_radius
     t_start = time.perf_counter()
-    converged, it, step, cost = False, 0, np.inf, np.inf
+    converged, it, step, cost, status = False, 0, np.inf, np.inf, "optimal"
 
     for it in range(1, st.max_iterations + 1):
         Ad, Bd, cd = model.discretize(0.0, X[:-1], U, dt)
@@ -187,7 +190,10 @@ def generate_reference(
             cons.append(cp.abs(cp.multiply(1.0 / scale, x - X.reshape(-1))) <= radius)
         effort = cp.sum(cp.norm(Um[:, 0:3], 2, axis=1) + cp.norm(Um[:, 3:6], 2, axis=1)) * dt
         prob = cp.Problem(cp.Minimize(effort), cons)
-        prob.solve(solver=st.solver)
+        with warnings.catch_warnings():  # a reduced accuracy is checked below and named in the result
+            warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
+            prob.solve(solver=st.solver)
+        status = str(prob.status)
         if prob.status not in ("optimal", "optimal_inaccurate") or x.value is None:
             raise RuntimeError(f"reference SCP iteration {it}: convex subproblem {prob.status}")
         X_new = np.asarray(x.value).reshape(T + 1, 12)
@@ -196,7 +202,8 @@ def generate_reference(
         X, U, cost = X_new, U_new, float(prob.value)
         defect = _defect(model, X, U, dt)
         if step < st.tol and defect < st.defect_tol:
-            converged = True
+            # a reduced-accuracy subproblem counts only if its solution keeps the bounds it was given
+            converged = status == "optimal" or _within_bounds(U, u_max, T_max)
             break
         # Trust region: follow the step size down so that the linearisation stays valid.
         radius = max(min(radius, 2.0 * step), 10.0 * st.tol)
@@ -210,6 +217,15 @@ def generate_reference(
         max_step=step,
         max_defect=_defect(model, X, U, dt),
         solve_time_s=time.perf_counter() - t_start,
+        last_subproblem=status,
+    )
+
+
+def _within_bounds(U: Array, u_max: float, T_max: float, rtol: float = 1e-6) -> bool:
+    """Every input of the plan within its norm bound (relative tolerance ``rtol``)."""
+    return bool(
+        np.all(np.linalg.norm(U[:, 0:3], axis=1) <= u_max * (1.0 + rtol))
+        and np.all(np.linalg.norm(U[:, 3:6], axis=1) <= T_max * (1.0 + rtol))
     )
 
 

@@ -20,15 +20,43 @@ from . import __version__, figures, metrics
 from .closed_loop import simulate
 from .config import Config
 from .machine import machine_info
+from .pinning import pin_config, shape_record
 from .results import RunRecord, save_record
 from .scenario import Scenario, build_scenario, landing_geometry
+from .site import inside
 
-__all__ = ["run_methods", "run_summary", "save_figures"]
+__all__ = ["guarantee_lost", "run_methods", "run_summary", "save_figures", "states_inside_body"]
+
+
+def states_inside_body(scn: Scenario, rec: RunRecord) -> int:
+    """How many of the run's actual states x_k (k = 0..T) lie inside the body (the controller's shape,
+    turned to its attitude at t_k = k dt): a state inside the body is never a flown mission."""
+    dt = scn.config.mpc.dt
+    r_A = np.array([np.asarray(scn.model.C_AL(k * dt)) @ x[:3] for k, x in enumerate(np.asarray(rec.x))])
+    return int(np.sum(inside(scn.shape, r_A)))
 
 
 def run_summary(scn: Scenario, rec: RunRecord) -> dict[str, Any]:
-    """Scalar results of one run (JSON-ready; :func:`tubempc.metrics.run_metrics`)."""
-    return metrics.run_metrics(rec, scn.config.mpc.dt, scn.xf)
+    """Scalar results of one run (JSON-ready; :func:`tubempc.metrics.run_metrics`) with the number of
+    states inside the body (``states_inside_body``)."""
+    return {**metrics.run_metrics(rec, scn.config.mpc.dt, scn.xf), "states_inside_body": states_inside_body(scn, rec)}
+
+
+def guarantee_lost(result: dict[str, Any]) -> list[str]:
+    """What a run's result (its summary or a campaign's per-method record) says was lost: steps outside
+    the tube, fallback steps, states inside the body (empty: every guarantee kept). The exit status 4
+    of every command means a non-empty list for some run."""
+    reasons = []
+    if result.get("steps_outside_tube", 0):
+        reasons.append(f"{result['steps_outside_tube']} steps outside the tube")
+    fallbacks = result.get("fallback_steps")
+    if fallbacks is None:  # a campaign's record keeps the statuses
+        fallbacks = sum(n for s, n in result.get("statuses", {}).items() if s.startswith("fallback"))
+    if fallbacks:
+        reasons.append(f"{fallbacks} fallback steps")
+    if result.get("states_inside_body", 0):
+        reasons.append(f"{result['states_inside_body']} states inside the body")
+    return reasons
 
 
 def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dict[str, str]:
@@ -90,25 +118,37 @@ def run_methods(
     out: Path,
     *,
     shape: str | None = None,
+    shape_unit: str | None = None,
     progress: bool = True,
     cache_dir: Path | None = None,
     make_figures: bool = True,
 ) -> dict[str, Any]:
-    """Runs the methods, writes the results and returns the summary."""
+    """Runs the methods, writes the results and returns the summary.
+
+    ``shape`` (a path) replaces the configuration's shape and needs ``shape_unit`` ("m" or "km"). The
+    folder keeps a copy of a shape file, named by its saved ``config.toml`` (:mod:`tubempc.pinning`),
+    so that it re-flies and re-reports wherever it is copied."""
+    if shape is not None:
+        if shape_unit is None:
+            raise ValueError(f"{shape}: a shape given apart from the configuration needs its unit (--shape-unit m|km)")
+        cfg = cfg.with_overrides({"asteroid.shape": str(Path(shape).resolve()), "asteroid.shape_unit": shape_unit})
     out.mkdir(parents=True, exist_ok=True)
-    scn = build_scenario(cfg, shape_path=shape, cache_dir=cache_dir)
+    cfg = pin_config(cfg, out)
+    scn = build_scenario(cfg, cache_dir=cache_dir)
     scn.config.save(out / "config.toml")
     summary: dict[str, Any] = {
         "tubempc_version": __version__,
         "config_hash": scn.config.hash(),
         "seed": seed,
         "shape": scn.shape_source,
+        "shape_file": shape_record(scn.config),
         "n_faces": len(scn.shape.faces),
         "machine": machine_info(),
         "reference": {
             "cost": scn.reference.cost,
             "iterations": scn.reference.iterations,
             "converged": scn.reference.converged,
+            "last_subproblem": scn.reference.last_subproblem,
             "max_defect": scn.reference.max_defect,
             "solve_time_s": scn.reference.solve_time_s,
         },

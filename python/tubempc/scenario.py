@@ -25,7 +25,7 @@ from .dynamics import ProximityModel
 from .identification import ForgettingFactorIdentifier
 from .reference import ReferenceSettings, ReferenceTrajectory, load_or_generate_reference
 from .shapes import Shape, bennu_like_shape, load_shape
-from .site import Site, inside, site_from_lat_lon, site_from_vector, terminal_state
+from .site import Site, inside, ray_cast, site_from_lat_lon, site_from_vector, terminal_state
 from .tube import TubeDesigner
 
 __all__ = [
@@ -64,6 +64,16 @@ class ScenarioError(ValueError):
 
 #: Centre-of-mass offset (m) above which a shape is refused: the model puts the origin of A at it.
 COM_TOLERANCE_FRACTION = 0.01
+#: The range of a body's mean radius (m) the proximity model is meant for: a shape outside it was
+#: read in the wrong unit (asteroid.shape_unit) far more often than it is meant.
+BODY_MEAN_RADIUS_RANGE = (5.0, 100e3)
+#: A start farther than this many mean radii from the centre: the body is too small for the mission
+#: (a km file read in metres) and is refused.
+MAX_START_DISTANCE_IN_RADII = 100.0
+#: How deep (m) below the surface along its radius the target of boundary.terminal = "paper" may lie:
+#: the paper's own rf = [0, 0, 246.5] m is 6.7 m below the radar model's pole (docs/model.md "Scenario")
+#: and is flown with a warning; anything deeper is refused.
+PAPER_TARGET_MAX_DEPTH = 6.75
 
 
 @dataclass
@@ -140,7 +150,13 @@ def scenario_shape(cfg: Config, subdivisions: int | None = None) -> tuple[Shape,
     path = Path(src)
     if not path.is_absolute():
         path = config_folder(cfg) / path
+    if not path.exists():
+        raise ScenarioError(
+            f"{cfg.source}: asteroid.shape: {path}: no such file (a relative path is taken against "
+            "the configuration file's folder)"
+        )
     shape = load_shape(path, unit=cfg.asteroid.shape_unit)
+    check_body_size(cfg, shape, path)
     v = np.asarray(shape.vertices)
     extent = float(np.max(np.linalg.norm(v, axis=1)))
     offset = float(np.linalg.norm(shape.center_of_mass))
@@ -151,6 +167,47 @@ def scenario_shape(cfg: Config, subdivisions: int | None = None) -> tuple[Shape,
             "the body frame at the centre of mass: translate the mesh (tubempc make-body writes centred meshes)"
         )
     return shape, str(path)
+
+
+def check_body_size(cfg: Config, shape: Shape, path: Path) -> None:
+    """Refuses a body whose mean radius lies outside :data:`BODY_MEAN_RADIUS_RANGE` (the file's unit is
+    most likely wrong: the message gives the size in the other unit) or whose start lies farther than
+    :data:`MAX_START_DISTANCE_IN_RADII` mean radii from its centre."""
+    unit = cfg.asteroid.shape_unit
+    radius = float(shape.mean_radius)
+    lo, hi = BODY_MEAN_RADIUS_RANGE
+    other, factor = ("m", 1e-3) if unit == "km" else ("km", 1e3)
+    if not lo <= radius <= hi:
+        raise ScenarioError(
+            f"{cfg.source}: asteroid.shape_unit: {path} read in {unit} is a body of {radius:.4g} m mean radius, "
+            f"outside the {lo:g} m to {hi / 1e3:g} km of the small bodies this model is for; in {other} it would be "
+            f"{radius * factor:.4g} m: check the file's unit (asteroid.shape_unit, or --shape-unit with --shape)"
+        )
+    b = cfg.boundary
+    if b.initial == "hover":
+        start, what = b.hover_altitude + radius, "boundary.hover_altitude"
+    else:
+        start, what = float(np.linalg.norm(b.r0)), "boundary.r0"
+    if start > MAX_START_DISTANCE_IN_RADII * radius:
+        raise ScenarioError(
+            f"{cfg.source}: asteroid.shape_unit: {path} read in {unit} is a body of {radius:.4g} m mean radius, "
+            f"{start / radius:.4g} radii from the start ({what}); the body is too small for the mission: check the "
+            f"file's unit (in {other} it would be {radius * factor:.4g} m) or the start"
+        )
+
+
+def check_gravity(cfg: Config, model: ProximityModel, xf: Array) -> None:
+    """Refuses a body whose gravity at the terminal target exceeds the reference's input bound
+    (simulation.reference_input_fraction x spacecraft.u_max): the spacecraft could not hover there."""
+    r_A = np.asarray(model.C_AL(cfg.mpc.t_f)) @ xf[:3]
+    g = float(np.linalg.norm(model.gravity.evaluate_point(r_A)[1]))
+    bound = cfg.simulation.reference_input_fraction * cfg.spacecraft.u_max
+    if not g < bound:
+        raise ScenarioError(
+            f"{cfg.source}: spacecraft.u_max: the body's gravity at the terminal target is {g:.4g} m/s^2, more than "
+            f"the reference's input bound {bound:.4g} m/s^2 (simulation.reference_input_fraction x u_max): the "
+            "spacecraft cannot hover there; check asteroid.shape_unit and asteroid.density"
+        )
 
 
 def config_folder(cfg: Config) -> Path:
@@ -183,7 +240,8 @@ def boundary_states(
     cfg: Config, shape: Shape, model: ProximityModel | None = None, site: Site | None = None
 ) -> tuple[Array, Array]:
     """x0 and x_f (12,) of the configuration. ``boundary.terminal = "altitude"`` moves r_f along its
-    direction to ``terminal_altitude`` above the shape's surface; ``"site"`` puts x_f at the site's
+    direction to ``terminal_altitude`` above the surface point on that ray (the outermost one, with the
+    body as it is at t_f; ``model`` gives its rotation); ``"site"`` puts x_f at the site's
     target at t_f, at rest relative to the surface (``model`` gives the body's rotation)."""
     b = cfg.boundary
     x0 = np.concatenate([b.r0, b.v0, b.phi0, b.w0])
@@ -201,9 +259,16 @@ def boundary_states(
         )
     rf = np.asarray(b.rf, dtype=float)
     if b.terminal == "altitude":
-        d = rf / np.linalg.norm(rf)
-        surface = float(np.max(np.asarray(shape.vertices) @ d))
-        rf = d * (surface + b.terminal_altitude)
+        if model is None:
+            raise ScenarioError(f'{cfg.source}: boundary.terminal: "altitude" needs the model')
+        if not np.linalg.norm(rf) > 0.0:
+            raise ScenarioError(f'{cfg.source}: boundary.rf: "altitude" needs a non-zero direction')
+        C_AL = np.asarray(model.C_AL(cfg.mpc.t_f))  # the body at t_f: the surface point along rf then
+        try:
+            surface_A = ray_cast(shape, C_AL @ rf)
+        except ValueError as exc:
+            raise ScenarioError(f"{cfg.source}: boundary.rf: {exc}") from exc
+        rf = rf / np.linalg.norm(rf) * (float(np.linalg.norm(surface_A)) + b.terminal_altitude)
     if b.terminal != "site":
         return x0, np.concatenate([rf, b.vf, b.phi_f, b.wf])
     if site is None or model is None:
@@ -219,7 +284,9 @@ def boundary_states(
 def check_boundary(cfg: Config, shape: Shape, model: ProximityModel, x0: Array, xf: Array) -> None:
     """Refuses boundary states the mission cannot fly: a start or target inside the body, or a start
     outside a cone. The paper's own target (boundary.terminal = "paper") lies 6.7 m below the radar
-    model's pole (docs/model.md "Scenario"): inside the body it is flown with a warning, as the paper does."""
+    model's pole (docs/model.md "Scenario"): a "paper" target at most :data:`PAPER_TARGET_MAX_DEPTH`
+    below the surface (along its radius) is flown with a warning, as the paper does; a deeper one is
+    refused."""
     src = cfg.source
     checks = (("boundary.r0", "initial position", x0, 0.0), ("boundary.rf", "terminal position", xf, cfg.mpc.t_f))
     for field_name, what, x, t in checks:
@@ -227,14 +294,22 @@ def check_boundary(cfg: Config, shape: Shape, model: ProximityModel, x0: Array, 
         if not inside(shape, r_A)[0]:
             continue
         message = f"{src}: {field_name}: the {what} {np.round(x[:3], 3).tolist()} m lies inside the body"
-        if cfg.boundary.terminal == "paper" and field_name == "boundary.rf":
+        depth = target_depth(shape, r_A)
+        if cfg.boundary.terminal == "paper" and field_name == "boundary.rf" and depth <= PAPER_TARGET_MAX_DEPTH:
             warnings.warn(
-                message + ' (the paper\'s target; boundary.terminal = "altitude" or "site" puts it above the surface)',
+                message + f", {depth:.3g} m below the surface (the paper's target lies 6.7 m below the radar model's "
+                'pole; boundary.terminal = "altitude" or "site" puts it above the surface)',
                 RuntimeWarning,
                 stacklevel=3,
             )
         else:
-            raise ScenarioError(message)
+            deeper = (
+                f', {depth:.4g} m below the surface (a "paper" target may lie at most {PAPER_TARGET_MAX_DEPTH:g} m '
+                'below it, as the paper\'s own does; boundary.terminal = "altitude" or "site" puts it above the surface)'
+                if field_name == "boundary.rf"
+                else ""
+            )
+            raise ScenarioError(message + deeper)
     g0 = model.glide_slope(x0, 0.0)[0]
     if g0 > 0.0:
         raise ScenarioError(
@@ -255,13 +330,41 @@ def check_boundary(cfg: Config, shape: Shape, model: ProximityModel, x0: Array, 
         )
 
 
-def build_scenario(cfg: Config, shape_path: str | Path | None = None, cache_dir: str | Path | None = None) -> Scenario:
+def _file_sha256(path: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def target_depth(shape: Shape, r_A: Array) -> float:
+    """How far (m) the point r_A (A) lies below the outermost surface point on its ray from the centre
+    (0 at or above it)."""
+    r = float(np.linalg.norm(r_A))
+    if r == 0.0:
+        return float(np.linalg.norm(ray_cast(shape, np.array([0.0, 0.0, 1.0]))))
+    return max(0.0, float(np.linalg.norm(ray_cast(shape, r_A))) - r)
+
+
+def build_scenario(
+    cfg: Config,
+    shape_path: str | Path | None = None,
+    cache_dir: str | Path | None = None,
+    *,
+    shape_unit: str | None = None,
+) -> Scenario:
     """The controller's and the truth's models and the reference trajectory for a configuration.
 
-    ``shape_path`` overrides ``asteroid.shape``; ``cache_dir`` keeps generated references on disk.
+    ``shape_path`` overrides ``asteroid.shape`` and needs ``shape_unit`` ("m" or "km": the unit of
+    its coordinates; the configuration's unit belongs to the configuration's shape); ``cache_dir``
+    keeps generated references on disk.
     """
     if shape_path is not None:
-        cfg = cfg.with_overrides({"asteroid.shape": str(Path(shape_path).resolve())})
+        if shape_unit is None:
+            raise ScenarioError(
+                f"{shape_path}: a shape given apart from the configuration needs its own unit (--shape-unit m|km; "
+                "shape_unit= in Python)"
+            )
+        cfg = cfg.with_overrides({"asteroid.shape": str(Path(shape_path).resolve()), "asteroid.shape_unit": shape_unit})
     shape, shape_src = scenario_shape(cfg)
     site = landing_site(cfg, shape)
     gravity = _core.gravity.PolyhedronGravity(shape.vertices, shape.faces, cfg.asteroid.density)
@@ -274,10 +377,12 @@ def build_scenario(cfg: Config, shape_path: str | Path | None = None, cache_dir:
     truth = ProximityModel(truth_gravity, model_params(cfg, sim.srp_scale, site=site))
     x0, xf = boundary_states(cfg, shape, model, site)
     check_boundary(cfg, shape, model, x0, xf)
+    check_gravity(cfg, model, xf)
     frac = sim.reference_input_fraction
     key = {
         "model": model_params(cfg, site=site),
-        "shape": shape_src,
+        # the file's content, not its path: a results folder moved elsewhere keeps its cached reference
+        "shape": shape_src if cfg.asteroid.shape == "generated" else f"sha256:{_file_sha256(Path(shape_src))}",
         "n_faces": len(shape.faces),
         "volume": float(shape.volume),
         "density": cfg.asteroid.density,

@@ -73,6 +73,12 @@ class ShapeError(ValueError):
         return cls(path, None, rest.removeprefix(" "))
 
 
+def _repair_hint(message: str) -> str:
+    """The core's orientation advice ("use ShapeRepair::Orient") in terms a user can act on."""
+    hint = "repair it with `tubempc repair-shape FILE --unit km|m --out FIXED.obj` (load_shape(..., repair=True))"
+    return message.replace("use ShapeRepair::Orient to repair", hint).replace("use ShapeRepair::Orient", hint)
+
+
 def _unit_scale(path: str | Path, unit: str) -> float:
     if unit not in _UNITS:
         raise ShapeError(path, None, f"unit must be 'km' or 'm', got {unit!r}")
@@ -146,7 +152,7 @@ def _validated(
     try:
         return Shape(vertices, faces, repair)
     except ValueError as exc:
-        message = str(exc).replace("use ShapeRepair::Orient", "load with repair=True")
+        message = _repair_hint(str(exc))
         message += " [vertex and face numbers 0-based, in file order]"
         line: int | None = None
         where = ""
@@ -252,7 +258,7 @@ def load_shape(path: str | Path, unit: str = "km", fmt: str | None = None, repai
         try:
             return _core_load_shape(str(p), scale, mode)
         except ValueError as exc:
-            raise ShapeError.from_message(p, str(exc)) from exc
+            raise ShapeError.from_message(p, _repair_hint(str(exc))) from exc
     if kind == "icq":
         return _load_icq(p, scale, mode)
     return _load_trimesh(p, scale, kind, mode)

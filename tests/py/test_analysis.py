@@ -61,11 +61,12 @@ def test_report_compares_with_the_paper_only_for_the_paper_scenario(tmp_path: Pa
         assert ("paper J_p" in text) == paper and ("16.26" in text) == paper
         assert ("not the paper scenario" in text) == (not paper)
         assert "reference converged" in text and "steps outside the tube" in text and "fallback steps" in text
+        assert "states inside the body" in text
         assert "Theorem 2 envelope" in text  # the figure's caption
 
 
 def test_a_campaign_run_reflies_to_the_bit_and_a_changed_record_is_caught(tmp_path: Path) -> None:
-    from tubempc.cli import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, main
+    from tubempc.cli import EXIT_OK, EXIT_REFLIGHT_DIFFERS, EXIT_USAGE, main
 
     cfg = load_config().with_overrides({"disturbance.scale_error_p": 0.05, "disturbance.misalignment_p": "1 deg"})
     out = tmp_path / "mc"
@@ -82,6 +83,6 @@ def test_a_campaign_run_reflies_to_the_bit_and_a_changed_record_is_caught(tmp_pa
     rec = json.loads(record_path.read_text())
     rec["result"]["ffa"]["J_p"] *= 1.0 + 1e-15
     record_path.write_text(json.dumps(rec))
-    assert main(["run", "--from-campaign", str(out), "--index", "1", "--out", str(tmp_path / "b")]) == EXIT_INTERNAL
+    assert main(["run", "--from-campaign", str(out), "--index", "1", "--out", str(tmp_path / "b")]) == EXIT_REFLIGHT_DIFFERS
     assert json.loads((tmp_path / "b" / "refly.json").read_text())["differences"] == ["ffa.J_p"]
     assert main(["run", "--from-campaign", str(out), "--out", str(tmp_path / "c")]) == EXIT_USAGE

@@ -4,11 +4,16 @@ a claim made false (a step outside TBMPC-FFA's tube) reads "no" in both reports.
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
+
+import numpy as np
+import pytest
 
 from tubempc.claims import paper_claims
 from tubempc.cli import EXIT_GUARANTEE_LOST, main
 from tubempc.report import write_report
+from tubempc.results import load_record
 
 
 def _verdicts(run_dir: Path, sweep_dir: Path | None = None) -> dict[str, str]:
@@ -27,6 +32,19 @@ def test_claims_are_computed_from_the_results_and_a_failing_claim_reads_no(tmp_p
     assert v["TBMPC-FFA uses more attitude torque (J_r higher)"] == ("yes" if f["J_r"] > t["J_r"] else "no")
     assert v["TBMPC's trajectory partly leaves its fixed tube"] == ("yes" if t["steps_outside_tube"] else "no")
     assert v["J_p grows with lambda"] == "not measured"  # no sweep in the folder
+    # the J_p claim says where its difference comes from; checked against the records themselves
+    jp_claim = next(c for c in paper_claims(run) if c.claim.startswith("TBMPC-FFA lowers J_p"))
+    found = re.search(r"90 % of the difference lies in the last (\d+) of (\d+) steps", jp_claim.measured)
+    assert found is not None, jp_claim.measured
+    n = int(found.group(1))
+    per_step = {}
+    for m in ("tbmpc", "ffa"):
+        rec, _ = load_record(run / f"{m}.h5")
+        per_step[m] = np.sum((rec.x[:-1, :6] - rec.zbar[:-1, :6]) ** 2, axis=1) + np.sum(rec.u[:, :3] ** 2, axis=1)
+        assert per_step[m].sum() == pytest.approx(summary["methods"][m]["J_p"], rel=1e-12)
+    d = per_step["tbmpc"] - per_step["ffa"]
+    assert d[-n:].sum() >= 0.9 * d.sum() and (n == 1 or d[-(n - 1) :].sum() < 0.9 * d.sum())
+    assert f"over steps 0-{d.size - n - 1} J_p is {per_step['tbmpc'][: d.size - n].sum():.4g} (TBMPC)" in jp_claim.measured
 
     f["steps_outside_tube"] = 2  # the folder now says TBMPC-FFA left its tube
     (run / "summary.json").write_text(json.dumps(summary))
@@ -35,6 +53,8 @@ def test_claims_are_computed_from_the_results_and_a_failing_claim_reads_no(tmp_p
     line = next(ln for ln in md.read_text().splitlines() if ln.startswith("| TBMPC-FFA stays inside its tube"))
     assert line.rstrip(" |").endswith("no") and "2 steps outside" in line
     assert "<td>TBMPC-FFA stays inside its tube</td>" in html.read_text()
+    # the paper scenario's report explains the differences where the decisions now are
+    assert 'docs/decisions.md ("Readings of the paper"' in md.read_text() and "README.md (" not in md.read_text()
 
 
 def test_sweep_claims_follow_the_sweep_rows(tmp_path: Path) -> None:

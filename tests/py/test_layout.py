@@ -7,9 +7,13 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+from packaging.specifiers import SpecifierSet
+from packaging.version import Version
+
 import tubempc
 
 PACKAGE = Path(tubempc.__file__).parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _private(name: str) -> bool:
@@ -67,3 +71,43 @@ def test_import_and_version_load_no_heavy_dependency() -> None:
     missing = [n for n in tubempc.__all__ if not hasattr(tubempc, n)]
     assert missing == []
     assert tubempc.figures.__name__ == "tubempc.figures"
+
+
+def _upper(specifiers: SpecifierSet) -> tuple[Version, bool] | None:
+    """The highest version a specifier set admits (version, inclusive), None if unbounded above."""
+    best: tuple[Version, bool] | None = None
+    for spec in specifiers:
+        if spec.operator in ("<=", "==", "<", "~="):
+            bound = (Version(spec.version.removesuffix(".*")), spec.operator != "<")
+            if best is None or bound < best:
+                best = bound
+    return best
+
+
+def test_pip_install_and_the_test_extra_agree_on_the_shared_dependencies() -> None:
+    """Every package that `pip install .` installs and the test extra's bsk caps is capped by tubempc at
+    or below bsk's cap: installing the test extra downgrades nothing (issue #28)."""
+    import importlib.metadata
+    import tomllib
+
+    import pytest
+    from packaging.requirements import Requirement
+
+    try:
+        bsk = [Requirement(r) for r in importlib.metadata.requires("bsk") or []]
+    except importlib.metadata.PackageNotFoundError:
+        pytest.skip("bsk (the test extra) is not installed")
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    ours = {Requirement(r).name.lower(): Requirement(r) for r in project["dependencies"]}
+    checked = []
+    for req in bsk:
+        if req.marker is not None and not req.marker.evaluate({"extra": ""}):
+            continue
+        name = req.name.lower()
+        theirs = _upper(req.specifier)
+        if name not in ours or theirs is None:
+            continue
+        mine = _upper(ours[name].specifier)
+        assert mine is not None and mine <= theirs, (name, str(ours[name]), str(req))
+        checked.append(name)
+    assert {"numpy", "matplotlib", "pillow", "tqdm"} <= set(checked)

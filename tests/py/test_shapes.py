@@ -216,3 +216,19 @@ def test_bennu_like_shape_is_watertight_outward_spinning_top() -> None:
     assert small.n_faces == 500 and small.volume == pytest.approx(1e6, rel=1e-9)
     with pytest.raises(ValueError, match="n_subdivisions"):
         bennu_like_shape(n_subdivisions=0)
+
+
+def test_a_badly_oriented_mesh_points_to_a_command_a_user_can_run(tmp_path: Path) -> None:
+    """The core's advice (ShapeRepair::Orient) is offered as `tubempc repair-shape`, which writes a mesh
+    that loads without repair (issue #28)."""
+    from tubempc.cli import EXIT_OK, main
+
+    path = tmp_path / "flipped.obj"
+    path.write_text(_with(CUBE, 14, "f 3 4 7"))
+    with pytest.raises(ShapeError, match=r"tubempc repair-shape") as info:
+        load_shape(path, unit="m")
+    assert "ShapeRepair::" not in str(info.value)
+    fixed = tmp_path / "fixed.obj"
+    assert main(["repair-shape", str(path), "--unit", "m", "--out", str(fixed)]) == EXIT_OK
+    s = load_shape(fixed, unit="m")
+    assert s.n_flipped_faces == 0 and s.volume == pytest.approx(1.0)
