@@ -212,7 +212,6 @@ class TubeDesigner:
         self.obj_rtol = obj_rtol
         self.max_solves = max_solves
         self.solver_options = dict(solver_options or {})
-        self.last_feasible: TubeResult | None = None
         self._PW_s = np.eye(n_x)  # scaled P_W of the current design
         self._build(lmi_margin)
 
@@ -302,7 +301,7 @@ class TubeDesigner:
         `warm_halfwidth` in the descent direction and widens it only while the optimum lies
         beyond its edge; without it (or if alpha_prev is infeasible), it evaluates
         `alpha_grid` and refines around the best point. Infeasibility is reported in the
-        status, never raised; `last_feasible` keeps the last OPTIMAL result.
+        status, never raised.
         """
         t0 = time.perf_counter()
         A_, B_, PW = self._check_data(A, B, P_W)
@@ -418,10 +417,7 @@ class TubeDesigner:
         Pe, resid = certify_design(A, B, K, _sym(best.Pe_s * np.outer(d, d)), P_W, alpha, self.u_max)
         status = best.status if resid <= 0.0 else TubeStatus.INVALID
         elapsed = time.perf_counter() - t0
-        result = TubeResult(K, Pe, alpha, best.value * c, status, resid, elapsed, n_solves)
-        if status is TubeStatus.OPTIMAL:
-            self.last_feasible = result
-        return result
+        return TubeResult(K, Pe, alpha, best.value * c, status, resid, elapsed, n_solves)
 
 
 class _Search:
@@ -497,32 +493,6 @@ def certify_design(
             return Pe_s, resid
         return Pe_s, resid + 1.0  # a larger Pe only widens the feedback: refused
     return Pe_s, resid
-
-
-def tube_still_valid(
-    tube: TubeResult,
-    A: ArrayLike,
-    B: ArrayLike,
-    P_W: ArrayLike,
-    P_W_design: ArrayLike,
-    margin: float,
-) -> bool:
-    """Whether a tube designed for ``P_W_design`` may stand for the identified ``P_W``.
-
-    It must still be robustly invariant for x+ = A x + B u + w, w^T P_W^-1 w <= 1 (the LMI (*)
-    recomputed: ``lmi_residual <= 0``), and not too large: the largest generalised eigenvalue of
-    (P_W, P_W_design) at least 1 / (1 + margin)^2, else a fresh design would be smaller.
-    """
-    if tube.K is None or tube.Pe is None or not tube.feasible:
-        return False
-    if lmi_residual(A, B, tube.K, tube.Pe, P_W, tube.alpha) > 0.0:
-        return False
-    ratios = scipy.linalg.eigh(
-        _sym(np.asarray(P_W, dtype=np.float64)),
-        _sym(np.asarray(P_W_design, dtype=np.float64)),
-        eigvals_only=True,
-    )
-    return bool(ratios.max() >= 1.0 / (1.0 + margin) ** 2)
 
 
 #: Relative inflation of P_W in the Lyapunov update: keeps the certified tube strictly inside the
