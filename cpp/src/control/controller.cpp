@@ -75,11 +75,15 @@ void Controller::setup(const mpc::Reference& reference, const ControllerDesigns&
   policies_.reserve(2);
   policies_.emplace_back(settings_.tube, u_max_[0], designs.initial_p, designs.library_p, "designs.p");
   policies_.emplace_back(settings_.tube, u_max_[1], designs.initial_r, designs.library_r, "designs.r");
-  reset();
+  restart();  // the MPC is fresh from its setup
 }
 
 void Controller::reset() {
   mpc_->reset();
+  restart();
+}
+
+void Controller::restart() {
   for (auto& ident : identifiers_) ident.reset();
   for (auto& policy : policies_) policy.reset();
   last_k_ = -1;

@@ -170,6 +170,7 @@ class Controller {
   ControlStep out_;
   // the last call's step, state and command, for the measured input of the next
   void predict(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k);
+  void restart();  // identifiers, policies and the step bookkeeping back to k = 0
   int last_k_ = -1;
   int identified_k_ = -1;   // the step whose period was last folded in
   bool predicted_ = false;  // x_pred_ holds the prediction of step last_k_ + 1
