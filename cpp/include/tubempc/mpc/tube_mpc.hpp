@@ -127,10 +127,7 @@ class TubeMPC {
   void seed_linearization(StepContext& c);
   Status tighten(const StepContext& c);
   void write_cost(const StepContext& c);
-  Status linearize(const StepContext& c, int it);
-  bool same_model_data(const StepContext& c, int it, double last_delta);
   void write_constraints(const StepContext& c);
-  Status solve_with_retry(const StepContext& c);
   double update_plan(const StepContext& c, const Eigen::VectorXd& x_qp);
   const StepResult& finish(const StepContext& c, bool converged, bool inaccurate);
   const StepResult& fallback(const StepContext& c, Status cause);
