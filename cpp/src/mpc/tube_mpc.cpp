@@ -480,6 +480,7 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   res.qp_iterations = 0;
   res.active_set_solves = 0;
   res.active_set_iterations = 0;
+  res.active_set_failures = 0;
   res.model_evaluations = 0;
   res.scp_residual = kInf;
   res.failure = Status::Solved;
