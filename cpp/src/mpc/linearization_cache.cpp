@@ -30,7 +30,7 @@ void LinearizationCache::allocate(int nx, int nu, int nc, int N) {
 void LinearizationCache::begin_step(int k, int n, bool reuse, int& n_reuse_d, int& n_reuse_z) {
   n_reuse_d = 0;
   n_reuse_z = 0;
-  if (reuse && lin_k >= 0 && k == lin_k + 1) {
+  if (reuse && ((lin_k >= 0 && k == lin_k + 1) || (primed_ && k == 0))) {
     n_reuse_z = std::min(n + 1, lin_n);
     n_reuse_d = std::min(n, lin_n - 1);
     std::rotate(Ad.begin(), Ad.begin() + 1, Ad.end());  // swaps: no allocation
@@ -40,8 +40,32 @@ void LinearizationCache::begin_step(int k, int n, bool reuse, int& n_reuse_d, in
     std::rotate(hc.begin(), hc.begin() + 1, hc.end());
   }
   lin_k = -1;  // valid again only if this step converges
+  primed_ = false;
   for (Eigen::Index i = 0; i < eval_d.size(); ++i) eval_d(i) = i >= n_reuse_d;
   for (Eigen::Index i = 0; i < eval_c.size(); ++i) eval_c(i) = i >= n_reuse_z;
+}
+
+void LinearizationCache::prime(const LinearizedModel& model, const Eigen::MatrixXd& z_ref,
+                               const Eigen::MatrixXd& u_ref, double t0, double dt) {
+  const int N = static_cast<int>(Ad.size()), T = static_cast<int>(u_ref.cols());
+  const int n0 = std::min(N, T);  // horizon of the step at k = 0
+  // Slot j holds node j - 1 of the step at k = 0 (begin_step shifts it by one node).
+  bool finite = true;
+  for (int j = 1; j <= n0; ++j) {
+    const double t = t0 + static_cast<double>(j - 1) * dt;
+    z_lin_at.col(j) = z_ref.col(j - 1);
+    if (nc_ > 0) {
+      model.constraints(t, z_lin_at.col(j), Gc[j], hc[j]);
+      finite = finite && Gc[j].allFinite() && !hc[j].array().isNaN().any() && !(hc[j].array() == -kInf).any();
+    }
+    if (j == n0) break;
+    v_lin_at.col(j) = u_ref.col(j - 1);
+    model.discretize(t, dt, z_lin_at.col(j), v_lin_at.col(j), Ad[j], Bd[j], cd[j]);
+    finite = finite && Ad[j].allFinite() && Bd[j].allFinite() && cd[j].allFinite();
+  }
+  lin_k = -1;
+  lin_n = n0;
+  primed_ = finite;  // otherwise the first step evaluates (and reports) them itself
 }
 
 Status LinearizationCache::evaluate(const LinearizedModel& model, double t0, int k, double dt, int n, int it,

@@ -23,6 +23,11 @@ struct LinearizationCache {
   Eigen::Array<bool, Eigen::Dynamic, 1> eval_d, eval_c;
 
   void allocate(int nx, int nu, int nc, int N);
+  // Model data about the reference for a first step at k = 0 (node i at t0 + i dt), in the form a
+  // converged step at k = -1 would leave them, so that the step evaluates only its last node (setup's
+  // work instead of the first step's). z_ref, u_ref: the mission reference (T + 1 and T columns).
+  void prime(const LinearizedModel& model, const Eigen::MatrixXd& z_ref, const Eigen::MatrixXd& u_ref,
+             double t0, double dt);
   // Start of step k with horizon n: with `reuse` after a converged step at k - 1, that step's model
   // data shifted by one node. Sets the nodes to evaluate; returns the re-used nodes' counts
   // (discretisations n_reuse_d, states and constraints n_reuse_z).
@@ -44,10 +49,14 @@ struct LinearizationCache {
     lin_k = k;
     lin_n = n;
   }
-  void reset() { lin_k = -1; }
+  void reset() {
+    lin_k = -1;
+    primed_ = false;
+  }
 
  private:
-  int nc_ = 0;  // state constraints per node
+  int nc_ = 0;           // state constraints per node
+  bool primed_ = false;  // the data are prime()'s (for k = 0)
   std::vector<Eigen::MatrixXd> Ad_prev_, Bd_prev_, Gc_prev_;
   std::vector<Eigen::VectorXd> cd_prev_, hc_prev_;
 };

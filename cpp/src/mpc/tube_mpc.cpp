@@ -160,6 +160,8 @@ void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_termina
   m.lay = detail::QpLayout(nx, nu, nc, settings_);
   m.pat.build(m.lay, m.Q, m.R, m.P_term, settings_);
   m.solver = detail::make_qp_backend(m.qp, m.lay, settings_);
+  if (settings_.linearization == Linearization::Reuse)
+    m.lin.prime(*model_, reference.z, reference.u, reference.t0, settings_.dt);
 }
 
 void TubeMPC::reset() {

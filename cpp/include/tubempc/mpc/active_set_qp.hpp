@@ -55,9 +55,10 @@ class ActiveSetQp {
     int max_refinement = 10;   ///< Iterative-refinement steps per factorisation (>= 0).
     /// A try stops with Status::Singular when a multiplier of G or of a bound exceeds this times
     /// max(1, |q|_inf) (> 0; inf: never): dependent active rows, whose multipliers the regularised
-    /// KKT matrix makes of the order of 1/dual_reg (the Bennu mission's shrinking-phase QPs reach
-    /// 1e14 against |q|_inf = 1e6 when the box of the whitened initial condition fixes z_0 and a
-    /// node-0 state constraint joins the set). A verified solution is never rejected by it.
+    /// KKT matrix makes of the order of 1/dual_reg (with three full primal-dual steps per solve, the
+    /// Bennu mission's shrinking-phase QPs reached 1e14 against |q|_inf = 1e6 when the box of the
+    /// whitened initial condition fixed z_0 and a node-0 state constraint joined the set). A verified
+    /// solution is never rejected by it.
     double max_multiplier_ratio = 1e6;
     /// Throws std::invalid_argument naming the offending field.
     void validate() const;
