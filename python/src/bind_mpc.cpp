@@ -180,6 +180,7 @@ void bind_mpc(py::module_& m) {
       .def_readonly("qp_iterations", &mpc::StepResult::qp_iterations)
       .def_readonly("active_set_solves", &mpc::StepResult::active_set_solves)
       .def_readonly("active_set_iterations", &mpc::StepResult::active_set_iterations)
+      .def_readonly("active_set_failures", &mpc::StepResult::active_set_failures)
       .def_readonly("model_evaluations", &mpc::StepResult::model_evaluations)
       .def_readonly("scp_residual", &mpc::StepResult::scp_residual)
       .def_readonly("objective", &mpc::StepResult::objective)

@@ -137,6 +137,7 @@ def run_mission(
                 "qp_iter": r.qp_iterations,
                 "as_solves": r.active_set_solves,
                 "as_iter": r.active_set_iterations,
+                "as_fail": getattr(r, "active_set_failures", 0),
                 "model_evaluations": r.model_evaluations,
                 "linearize": tm.linearize,
                 "build": tm.build,
@@ -395,6 +396,26 @@ def run(args: argparse.Namespace) -> int:
     per_qp = _stats([r["solve"] / max(1, r["scp"]) for r in records])
     out["step"]["solve_per_qp"] = per_qp
     print(f"  {'solve per QP':22s} {1e3 * per_qp['median']:10.3f} {1e3 * per_qp['p99']:10.3f} {1e3 * per_qp['max']:10.3f}")
+    # The tail: the slowest 1 % of the steps (at least 3) with where their time went, and the QPs that
+    # left the active set (failed tries, PIQP solves).
+    slow = sorted(records, key=lambda r: -float(r["total"]))[: max(3, len(records) // 100)]
+    tail_keys = ("k", "total", "linearize", "solve", "scp", "as_iter", "as_fail", "qp_iter", "model_evaluations", "horizon")
+    out["tail"] = {
+        "steps_over_1ms": sum(1 for r in records if r["total"] > 1e-3),
+        "active_set_failed_tries": sum(r["as_fail"] for r in records),
+        "piqp_steps": [r["k"] for r in records if r["as_solves"] < r["scp"]],
+        "slowest": [{key: r[key] for key in tail_keys} for r in slow],
+    }
+    print(
+        f"tail: {out['tail']['steps_over_1ms']} steps over 1 ms; {out['tail']['active_set_failed_tries']} active-set "
+        f"tries failed; steps with a PIQP QP: {out['tail']['piqp_steps']}; slowest steps:"
+    )
+    for r in slow:
+        print(
+            f"  k {r['k']:4d} (n {r['horizon']:2d}): {1e3 * r['total']:7.3f} ms (linearize {1e3 * r['linearize']:.3f}, "
+            f"solve {1e3 * r['solve']:.3f}); {r['scp']} QPs, {r['as_iter']} factorisations, {r['as_fail']} failed "
+            f"tries, {r['qp_iter']} PIQP iterations, {r['model_evaluations']} model evaluations"
+        )
     if repeat_records:
         runs = []
         for recs in [records, *repeat_records]:

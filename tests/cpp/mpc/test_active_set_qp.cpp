@@ -151,6 +151,42 @@ TEST(ActiveSetQp, WarmStartFromTheOptimalSetTakesOneFactorisation) {
   EXPECT_LT((as.w() - w).lpNorm<Eigen::Infinity>(), 1e-10);
 }
 
+// min 1/2 |w|^2 - 0.8 w_0 with the row w_0 <= 0.5 and the bound w_0 <= 1: a guess with both active holds
+// w_0 at two values (dependent rows), which the regularised KKT matrix answers with multipliers of
+// ~0.5 / dual_reg; the try stops there instead of iterating on them.
+TEST(ActiveSetQp, DependentActiveRowsStopTheTryAtOnce) {
+  SpMat P(2, 2), A(0, 2), G(1, 2);
+  P.insert(0, 0) = 1.0;
+  P.insert(1, 1) = 1.0;
+  G.insert(0, 0) = 1.0;
+  P.makeCompressed();
+  A.makeCompressed();
+  G.makeCompressed();
+  const Eigen::VectorXd q = Eigen::Vector2d(-0.8, 0.0), b(0), h_l = Eigen::VectorXd::Constant(1, -kInf),
+                        h_u = Eigen::VectorXd::Constant(1, 0.5), x_l = Eigen::Vector2d(-1.0, -kInf),
+                        x_u = Eigen::Vector2d(1.0, kInf);
+  const Eigen::Array<bool, Eigen::Dynamic, 1> boundable = Eigen::Array<bool, 2, 1>(true, false);
+  for (const double ratio : {1e6, kInf}) {
+    ActiveSetQp as;
+    ActiveSetQp::Settings s;
+    s.max_multiplier_ratio = ratio;
+    as.setup(P, A, G, boundable, s);
+    Eigen::VectorXi dependent(3);
+    dependent << 1, 1, 0;  // the row's upper side and w_0's upper bound
+    const ActiveSetQp::Status st = as.solve(P, q, A, b, G, h_l, h_u, x_l, x_u, dependent);
+    if (std::isfinite(ratio)) {
+      EXPECT_EQ(st, ActiveSetQp::Status::Singular);
+      EXPECT_EQ(as.info().iterations, 1);
+    } else {
+      EXPECT_GT(as.info().iterations, 1);
+    }
+    Eigen::VectorXi empty = Eigen::VectorXi::Zero(3);
+    ASSERT_EQ(as.solve(P, q, A, b, G, h_l, h_u, x_l, x_u, empty), ActiveSetQp::Status::Solved);
+    EXPECT_NEAR(as.w()(0), 0.5, 1e-12);
+    EXPECT_NEAR(as.z_u()(0), 0.3, 1e-9);
+  }
+}
+
 TEST(ActiveSetQp, ReportsBadDataAndUnsolvedProblemsAsStatuses) {
   RandomQp qp(3);
   ActiveSetQp as;

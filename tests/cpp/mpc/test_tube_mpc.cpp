@@ -581,8 +581,8 @@ TEST(TubeMPC, ReusedLinearizationHoldsEachNodesModelData) {
     ASSERT_EQ(rf.status, Status::Solved) << k;
     EXPECT_EQ(r.model_evaluations, model->discretize_calls - calls_before);
     EXPECT_EQ(rf.model_evaluations, rf.horizon * rf.scp_iterations);
-    if (k >
-        0) {  // the previous step converged: its first iteration calls the model at the appended node only
+    {  // the previous step converged (k = 0: setup primed the reference's data), so the first
+       // iteration calls the model at the appended node only
       const int appended = r.horizon == s.horizon ? 1 : 0;
       if (r.scp_iterations == 1) EXPECT_EQ(r.model_evaluations, appended) << k;
       EXPECT_LE(r.model_evaluations, appended + (r.scp_iterations - 1) * r.horizon) << k;
@@ -606,7 +606,7 @@ TEST(TubeMPC, ReusedLinearizationHoldsEachNodesModelData) {
     EXPECT_LT((r.u - rf.u).cwiseAbs().maxCoeff(), 1e-2 * s.u_max(0)) << k;
     x = r.z.col(1) + Eigen::Vector2d(1e-5 * ((k % 3) - 1.0), 2e-5 * ((k % 2) - 0.5));
   }
-  EXPECT_EQ(reused_steps, T - 1);
+  EXPECT_EQ(reused_steps, T);
   // Later SCP iterations hand the model the node's current data and the point they were taken about.
   EXPECT_GT(model->rediscretize_calls, 0);
   EXPECT_EQ(model->rediscretize_mismatches, 0);

@@ -24,7 +24,10 @@ long eigen_failures = 0;
 #include <gtest/gtest.h>
 
 #include "../../../cpp/src/mpc/active_set_qp.cpp"
+#include "../../../cpp/src/mpc/linearization_cache.cpp"
 #include "../../../cpp/src/mpc/lti_model.cpp"
+#include "../../../cpp/src/mpc/qp_backend.cpp"
+#include "../../../cpp/src/mpc/qp_layout.cpp"
 #include "../../../cpp/src/mpc/tube_mpc.cpp"
 
 using namespace tubempc::mpc;

@@ -41,8 +41,8 @@ class ActiveSetQp {
     Solved,         ///< Active set repeated and the KKT conditions verified to tolerance.
     MaxIterations,  ///< The set still changed after Settings::max_iterations factorisations.
     Inaccurate,     ///< The set repeated but the verified KKT residuals exceed the tolerance.
-    Singular,       ///< The LDL^T met a zero pivot (linearly dependent active rows and no regularisation).
-    InvalidData,    ///< Non-finite data, a finite bound outside the set-up pattern, or h_l > h_u.
+    Singular,  ///< A zero pivot in the LDL^T, or multipliers beyond Settings::max_multiplier_ratio (dependent rows).
+    InvalidData,  ///< Non-finite data, a finite bound outside the set-up pattern, or h_l > h_u.
   };
 
   /// Settings; `validate()` throws std::invalid_argument naming the field.
@@ -53,6 +53,13 @@ class ActiveSetQp {
     double primal_reg = 1e-9;  ///< rho: regularisation of the Hessian block (> 0).
     double dual_reg = 1e-12;   ///< delta: regularisation of the constraint blocks (> 0).
     int max_refinement = 10;   ///< Iterative-refinement steps per factorisation (>= 0).
+    /// A try stops with Status::Singular when a multiplier of G or of a bound exceeds this times
+    /// max(1, |q|_inf) (> 0; inf: never): dependent active rows, whose multipliers the regularised
+    /// KKT matrix makes of the order of 1/dual_reg (with three full primal-dual steps per solve, the
+    /// Bennu mission's shrinking-phase QPs reached 1e14 against |q|_inf = 1e6 when the box of the
+    /// whitened initial condition fixed z_0 and a node-0 state constraint joined the set). A verified
+    /// solution is never rejected by it.
+    double max_multiplier_ratio = 1e6;
     /// Throws std::invalid_argument naming the offending field.
     void validate() const;
   };

@@ -49,7 +49,9 @@ struct StepResult {
   int qp_iterations = 0;              ///< PIQP interior-point iterations summed over the step's QPs.
   int active_set_solves = 0;  ///< QPs of this step solved by the active-set method (the others: PIQP).
   int active_set_iterations =
-      0;                      ///< Active-set factorisations summed over the step's QPs (incl. failed tries).
+      0;  ///< Active-set factorisations summed over the step's QPs (incl. failed tries).
+  int active_set_failures =
+      0;  ///< Active-set tries of this step that did not verify (a cold try or PIQP followed).
   int model_evaluations = 0;  ///< Nodes discretised by the model in this step (calls of
                               ///< LinearizedModel::discretize; see Settings::reuse_linearization).
   double scp_residual = 0.0;  ///< Final max_i ||z*_i - z_lin_i||_inf (state units).

@@ -5,7 +5,8 @@
 /// ActiveSetQp; PIQP where that does not verify). Settings and outcomes: settings.hpp, results.hpp.
 ///
 /// Lifecycle: construct with a plant and Settings, `setup(reference)` once per mission (allocates
-/// everything, computes the terminal weight, builds the QP's sparsity pattern and sets PIQP up),
+/// everything, computes the terminal weight, builds the QP's sparsity pattern, sets PIQP up and, with
+/// Linearization::Reuse, computes the model data about the reference that a first step at k = 0 uses),
 /// then `step(k, x_k, tube)` every control period. `step` does not allocate heap memory.
 ///
 /// Stored (structural) entries: the upper triangles of Q, R and the terminal weight's nonzeros plus
@@ -42,7 +43,8 @@
 /// from the previous plan shifted to k as its linearisation trajectory. With Settings::linearization
 /// (default), model data whose linearisation point lies within scp_eps of the plan are kept: a step that
 /// follows a converged step by one period starts from that step's last model data shifted by one node (only
-/// the appended last node calls the model), and a later SCP iteration re-linearises only the nodes
+/// the appended last node calls the model; setup leaves the same for a first step at k = 0, about the
+/// reference), and a later SCP iteration re-linearises only the nodes
 /// whose plan moved by scp_eps or more. The convergence test is unchanged. The model must then be a
 /// function of its arguments (t, dt, x, u) only; call reset() after changing it.
 #pragma once
@@ -127,10 +129,7 @@ class TubeMPC {
   void seed_linearization(StepContext& c);
   Status tighten(const StepContext& c);
   void write_cost(const StepContext& c);
-  Status linearize(const StepContext& c, int it);
-  bool same_model_data(const StepContext& c, int it, double last_delta);
   void write_constraints(const StepContext& c);
-  Status solve_with_retry(const StepContext& c);
   double update_plan(const StepContext& c, const Eigen::VectorXd& x_qp);
   const StepResult& finish(const StepContext& c, bool converged, bool inaccurate);
   const StepResult& fallback(const StepContext& c, Status cause);

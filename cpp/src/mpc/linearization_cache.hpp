@@ -1,0 +1,64 @@
+// The tube MPC's linearisation trajectory and per-node model data (not installed), with their re-use
+// across steps and SCP iterations (Settings::linearization, tube_mpc.hpp).
+#pragma once
+
+#include <Eigen/Dense>
+#include <vector>
+
+#include "sparse_blocks.hpp"
+#include "tubempc/mpc/linearized_model.hpp"
+#include "tubempc/mpc/results.hpp"
+
+namespace tubempc::mpc::detail {
+
+struct LinearizationCache {
+  Eigen::MatrixXd z_lin, v_lin;  // linearisation trajectory: nx x (N + 1), nu x N
+  std::vector<Eigen::MatrixXd> Ad, Bd, Gc;
+  std::vector<Eigen::VectorXd> cd, hc;
+  // Trajectory of the model data in Ad..hc, and (after a converged step) the step whose data they are
+  // (lin_k, -1: none) with its horizon lin_n: Ad..cd hold nodes 0..lin_n-1, Gc, hc nodes 0..lin_n.
+  Eigen::MatrixXd z_lin_at, v_lin_at;
+  int lin_k = -1, lin_n = 0;
+  // Nodes whose discretisation (N) and constraints (N + 1) the next evaluate() computes.
+  Eigen::Array<bool, Eigen::Dynamic, 1> eval_d, eval_c;
+
+  void allocate(int nx, int nu, int nc, int N);
+  // Model data about the reference for a first step at k = 0 (node i at t0 + i dt), in the form a
+  // converged step at k = -1 would leave them, so that the step evaluates only its last node (setup's
+  // work instead of the first step's). z_ref, u_ref: the mission reference (T + 1 and T columns).
+  void prime(const LinearizedModel& model, const Eigen::MatrixXd& z_ref, const Eigen::MatrixXd& u_ref,
+             double t0, double dt);
+  // Start of step k with horizon n: with `reuse` after a converged step at k - 1, that step's model
+  // data shifted by one node. Sets the nodes to evaluate; returns the re-used nodes' counts
+  // (discretisations n_reuse_d, states and constraints n_reuse_z).
+  void begin_step(int k, int n, bool reuse, int& n_reuse_d, int& n_reuse_z);
+  // Evaluates the marked nodes of the horizon n about (z_lin, v_lin) (node i at time t0 + (k + i) dt;
+  // `rediscretize` after the first SCP iteration); NumericalError on non-finite data, ModelStructure
+  // on a nonzero outside the masks.
+  Status evaluate(const LinearizedModel& model, double t0, int k, double dt, int n, int it, const Mask& mA,
+                  const Mask& mB, const Mask& mG, int& model_evaluations);
+  // Whether the model data equal the previous QP's (only for it > 0 with an inactive trust region);
+  // otherwise keeps them for the next comparison.
+  bool same_as_last(int it, int n, bool trust_region_inactive);
+  // The QP's plan (z_star, v_star): with `reuse`, a node that moved less than scp_eps keeps its data
+  // and point, the others take the plan as their next linearisation point.
+  void update(const Eigen::MatrixXd& z_star, const Eigen::MatrixXd& v_star, int n, bool reuse,
+              double scp_eps);
+  // Step k with horizon n converged: its data may be re-used by step k + 1.
+  void converged(int k, int n) {
+    lin_k = k;
+    lin_n = n;
+  }
+  void reset() {
+    lin_k = -1;
+    primed_ = false;
+  }
+
+ private:
+  int nc_ = 0;           // state constraints per node
+  bool primed_ = false;  // the data are prime()'s (for k = 0)
+  std::vector<Eigen::MatrixXd> Ad_prev_, Bd_prev_, Gc_prev_;
+  std::vector<Eigen::VectorXd> cd_prev_, hc_prev_;
+};
+
+}  // namespace tubempc::mpc::detail
