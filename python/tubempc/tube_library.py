@@ -76,15 +76,34 @@ def _initial(des: TubeDesigner, A: Array, B: Array, P_W: Array, what: str) -> An
     return subsystem_design(res, P_W)
 
 
+#: Bisections of the largest feasible scale between the ladder's last feasible and first infeasible rung.
+_TOP_BISECTIONS = 4
+
+
 def _library(des: TubeDesigner, A: Array, B: Array, P_W0: Array, scales: list[float]) -> list[Any]:
+    """The ladder's designs, ascending; it ends at the first rung the LMI cannot design (feasibility is
+    monotone in the scale) with the largest feasible scale below that rung, found by bisection: the
+    gentlest gain the input bound allows, which the largest identified sets need."""
     out = []
     alpha = None
+    last = None
     for c in scales:
-        P_W = c * P_W0
-        res = des.design(A, B, P_W, alpha)
-        if res.feasible:
-            out.append(subsystem_design(res, P_W))
-            alpha = res.alpha
+        res = des.design(A, B, c * P_W0, alpha)
+        if not res.feasible:
+            if last is not None:
+                lo, hi = last, c
+                for _ in range(_TOP_BISECTIONS):
+                    mid = math.sqrt(lo * hi)
+                    top = des.design(A, B, mid * P_W0, alpha)
+                    if top.feasible:
+                        lo = mid
+                        out.append(subsystem_design(top, mid * P_W0))
+                    else:
+                        hi = mid
+                out.sort(key=lambda d: float(np.trace(d.P_W)))
+            break
+        out.append(subsystem_design(res, c * P_W0))
+        alpha, last = res.alpha, c
     return out
 
 
