@@ -82,8 +82,8 @@ Certification lyapunov_tube(const SubMatrix& A, const SubInputMatrix& B, const S
                             const SubMatrix& P_W, double u_max, SubsystemTube& out) {
   // Pe = sum_j M^j Q (M^T)^j, M = A_K / sqrt(alpha), Q = P_W' / (1 - alpha), by doubling: after j
   // iterations X holds the first 2^j terms. The series converges iff rho(M) < 1, i.e. rho(A_K)^2 < alpha;
-  // with Q > 0 a positive definite limit certifies that (Lyapunov). kLyapunovIterations bounds the cost:
-  // it covers rho(M) up to 1 - 1e-12.
+  // with Q > 0 a positive definite limit certifies that (Lyapunov). kLyapunovIterations bounds the cost
+  // (tube_update.hpp).
   SubMatrix M = (A + B * K) / std::sqrt(alpha);
   SubMatrix X = sym(P_W) * (1.0 + kLyapunovMargin) / (1.0 - alpha);
   bool converged = false;

@@ -64,8 +64,8 @@ const char* to_string(Certification c);
 /// Relative inflation of P_W in the Lyapunov update: keeps the tube strictly inside (*), which the
 /// exact solution meets with equality.
 inline constexpr double kLyapunovMargin = 1e-9;
-/// Doubling iterations of the Lyapunov update at most: 2^40 terms of its series (rho(A_K)^2 / alpha
-/// up to 1 - 1e-12 converges within them).
+/// Doubling iterations of the Lyapunov update at most: 2^40 terms of its series, enough (to 1e-17
+/// relative) while rho(A_K)^2 / alpha <= 1 - 7e-11; beyond, the update reports NotContractive.
 inline constexpr int kLyapunovIterations = 40;
 
 /// The violation of (*) relative to Pe (dimensionless; <= 0 iff (*) holds). Allocation-free.
