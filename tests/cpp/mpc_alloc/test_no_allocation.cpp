@@ -29,6 +29,7 @@ long eigen_failures = 0;
 #include "../../../cpp/src/mpc/qp_backend.cpp"
 #include "../../../cpp/src/mpc/qp_layout.cpp"
 #include "../../../cpp/src/mpc/tube_mpc.cpp"
+#include "../control/control_fixtures.hpp"
 
 using namespace tubempc::mpc;
 
@@ -47,23 +48,9 @@ struct Guard {
   }
 };
 
-// Two decoupled 6-state, 3-input double integrators (the paper's 12/6 sizes) with four planar
-// constraints per node.
-std::shared_ptr<LtiModel> plant_12_6(double dt) {
-  Eigen::MatrixXd A_c = Eigen::MatrixXd::Zero(12, 12), B_c = Eigen::MatrixXd::Zero(12, 6);
-  A_c.block(0, 3, 3, 3).setIdentity();
-  A_c.block(6, 9, 3, 3).setIdentity();
-  B_c.block(3, 0, 3, 3).setIdentity();
-  B_c.block(9, 3, 3, 3) = Eigen::Vector3d(1.0 / 2750, 1.0 / 2750, 1.0 / 2030).asDiagonal();
-  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(4, 12);
-  G(0, 0) = 1.0;
-  G(1, 1) = -1.0;
-  G(2, 3) = 1.0;
-  G(3, 6) = 1.0;
-  Eigen::VectorXd h(4);
-  h << 100.0, 100.0, 5.0, 3.0;
-  return std::make_shared<LtiModel>(A_c, B_c, Eigen::VectorXd::Zero(12), dt, G, h);
-}
+// The paper-sized 12-state, 6-input plant with four planar constraints per node (shared with the
+// control tests).
+using control_test::plant_12_6;
 
 }  // namespace
 
