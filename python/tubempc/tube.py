@@ -414,8 +414,8 @@ class TubeDesigner:
             return TubeResult(None, None, alpha, math.inf, best.status, math.nan, elapsed, n_solves)
         K_s = np.linalg.solve(best.Pe_s, best.Y_s.T).T
         K = self.u_max * K_s / d[None, :]
-        Pe, resid = certify_design(A, B, K, _sym(best.Pe_s * np.outer(d, d)), P_W, alpha, self.u_max)
-        status = best.status if resid <= 0.0 else TubeStatus.INVALID
+        Pe, resid, certified = certify_design(A, B, K, _sym(best.Pe_s * np.outer(d, d)), P_W, alpha, self.u_max)
+        status = best.status if certified else TubeStatus.INVALID
         elapsed = time.perf_counter() - t0
         return TubeResult(K, Pe, alpha, best.value * c, status, resid, elapsed, n_solves)
 
@@ -473,26 +473,22 @@ CERTIFY_SCALES = (0.0, 1e-9, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3)
 
 def certify_design(
     A: FloatArray, B: FloatArray, K: FloatArray, Pe: FloatArray, P_W: FloatArray, alpha: float, u_max: float
-) -> tuple[FloatArray, float]:
-    """The exact acceptance of an LMI design: (Pe', residual) with Pe' = (1 + s) Pe for the first s of
-    :data:`CERTIFY_SCALES` with ``lmi_residual <= 0`` and a non-empty input tightening
-    (sqrt(K_i Pe' K_i^T) < u_max), so that a design the solver met only to its tolerance is certified
-    exactly or refused. Enlarging Pe by (1 + s) turns a residual r > 0 into at most
+) -> tuple[FloatArray, float, bool]:
+    """The exact acceptance of an LMI design: (Pe', residual, certified) with Pe' = (1 + s) Pe for the
+    first s of :data:`CERTIFY_SCALES` with ``lmi_residual <= 0``, certified when its input tightening is
+    non-empty too (sqrt(K_i Pe' K_i^T) < u_max), so that a design the solver met only to its tolerance
+    is certified exactly or refused. Enlarging Pe by (1 + s) turns a residual r > 0 into at most
     (1 + s) r - s lambda_min(S^-1 P_W S^-1) / (1 - alpha) (S = diag(Pe)^1/2): a small s suffices when
-    r is of the solver's tolerance. Returns the last candidate and its (positive) residual, or its
-    residual + 1 when only the tightening fails, if none is accepted."""
-    resid = math.inf
-    Pe_s = Pe
+    r is of the solver's tolerance; a larger Pe only widens the feedback, so the search stops at the
+    first s with r <= 0. Not certified: the last candidate and its residual."""
+    Pe_s, resid = Pe, math.inf
     for s in CERTIFY_SCALES:
         Pe_s = Pe * (1.0 + s)
         resid = lmi_residual(A, B, K, Pe_s, P_W, alpha)
-        if resid > 0.0:
-            continue
-        feedback = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", K, Pe_s, K), 0.0))
-        if np.all(feedback < u_max):
-            return Pe_s, resid
-        return Pe_s, resid + 1.0  # a larger Pe only widens the feedback: refused
-    return Pe_s, resid
+        if resid <= 0.0:
+            feedback = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", K, Pe_s, K), 0.0))
+            return Pe_s, resid, bool(np.all(feedback < u_max))
+    return Pe_s, resid, False
 
 
 #: Relative inflation of P_W in the Lyapunov update: keeps the certified tube strictly inside the

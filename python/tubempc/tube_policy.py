@@ -249,7 +249,7 @@ class BackgroundDesigns:
                 self.design_failures.append(f"{k0}:{i}:ERROR ({exc})")
                 results.append(None)
         self.last_wait_s = time.perf_counter() - t0
-        from .tube_library import subsystem_design
+        from .tube_library import subsystem_design  # here: the design process needs none of its imports
 
         for i, res in enumerate(results):
             if res is None:

@@ -1,6 +1,5 @@
 """Tube design (paper Eq. 25; docs/model.md "Tube design")."""
 
-import time
 
 import numpy as np
 import pytest
@@ -142,12 +141,8 @@ def test_problem_is_dpp_and_compiled_once() -> None:
     d.design_fixed_alpha(A_DI, B_ROT, PW_ROT, 0.9)
     prog = d.problem._cache.param_prog
     assert prog is not None
-    t0 = time.perf_counter()
     d.design_fixed_alpha(A_DI + 1e-3, B_ROT, 2.0 * PW_ROT, 0.95)
-    elapsed = time.perf_counter() - t0
-    assert d.problem._cache.param_prog is prog  # no re-canonicalisation
-    assert d.problem.compilation_time is not None and d.problem.compilation_time < 0.05
-    assert elapsed < 1.0
+    assert d.problem._cache.param_prog is prog  # no re-canonicalisation: the compiled program is re-used
 
 
 def test_input_validation() -> None:

@@ -73,8 +73,9 @@ double lmi_residual(const SubMatrix& A, const SubInputMatrix& B, const SubGain& 
   const SubMatrix M = Acl * Pe_s * Acl.transpose() / alpha + P_W / (1.0 - alpha) - Pe_s;
   const SubVector s = Pe_s.diagonal().cwiseSqrt().cwiseInverse();
   const SubMatrix Ms = sym(M.cwiseProduct(s * s.transpose()));
+  if (!Ms.allFinite()) return std::numeric_limits<double>::infinity();
   Eigen::SelfAdjointEigenSolver<SubMatrix> eig(Ms, Eigen::EigenvaluesOnly);
-  if (eig.info() != Eigen::Success || !Ms.allFinite()) return std::numeric_limits<double>::infinity();
+  if (eig.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
   return eig.eigenvalues().maxCoeff();
 }
 
@@ -153,10 +154,10 @@ void TubePolicy::reset() {
 
 TubeStatus TubePolicy::update(int k, const SubMatrix& A, const SubInputMatrix& B, const SubMatrix& P_W,
                               bool design_due) {
-  if (!settings_.adaptive) return TubeStatus::Fixed;
-  if (k == 0) {
-    reset();
-    return TubeStatus::Initial;
+  if (!settings_.adaptive || k == 0) {
+    if (k == 0) reset();
+    tube_.residual = lmi_residual(A, B, tube_.K, tube_.Pe, P_W, tube_.alpha);
+    return settings_.adaptive ? TubeStatus::Initial : TubeStatus::Fixed;
   }
   const double m = settings_.redesign_margin;
   const SubMatrix P_margin = (1.0 + m) * P_W;
@@ -173,6 +174,7 @@ TubeStatus TubePolicy::update(int k, const SubMatrix& A, const SubInputMatrix& B
   }
   if (from_library(A, B, P_margin, k)) return TubeStatus::Library;
   if (m > 0.0 && from_library(A, B, P_W, k)) return TubeStatus::LibraryNoMargin;
+  tube_.residual = lmi_residual(A, B, tube_.K, tube_.Pe, P_W, tube_.alpha);  // the last tube, for this step
   return TubeStatus::Uncertified;
 }
 

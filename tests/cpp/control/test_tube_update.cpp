@@ -120,6 +120,10 @@ TEST(TubePolicy, FixedInitialAndLyapunov) {
   TubePolicy fixed(s, f.u_max, initial, {}, "p");
   EXPECT_EQ(fixed.update(3, f.A, f.B, 4.0 * f.P_W0, false), TubeStatus::Fixed);
   EXPECT_EQ(fixed.tube().Pe, initial.Pe);
+  // the fixed tube is checked, not certified: its residual for a set it was not designed for is > 0
+  EXPECT_EQ(fixed.tube().residual,
+            lmi_residual(f.A, f.B, initial.K, initial.Pe, 4.0 * f.P_W0, initial.alpha));
+  EXPECT_GT(fixed.tube().residual, 0.0);
   EXPECT_FALSE(certified(TubeStatus::Fixed));
   s.adaptive = true;
   TubePolicy ffa(s, f.u_max, initial, {}, "p");
@@ -165,6 +169,7 @@ TEST(TubePolicy, FallsBackThroughTheNamedLevels) {
   const SubsystemTube last = policy.tube();
   EXPECT_EQ(policy.update(4, f.A, f.B, 1e8 * f.P_W0, false), TubeStatus::Uncertified);
   EXPECT_EQ(policy.tube().Pe, last.Pe);
+  EXPECT_GT(policy.tube().residual, 0.0);  // the last tube's residual for this step, not its old one
 }
 
 // Without background designs a due design comes from the library: the smallest design covering

@@ -83,7 +83,7 @@ struct ControlStep {
   mpc::Tube tube;                           ///< the tube flown: K (6 x 12), Pe (12 x 12), block diagonal
   std::array<TubeStatus, 2> tube_status{};  ///< per subsystem (p, r)
   std::array<double, 2> alpha{};            ///< per subsystem
-  std::array<double, 2> residual{};         ///< lmi_residual of each tube for this step (<= 0 when certified)
+  std::array<double, 2> residual{};  ///< each tube's lmi_residual for this step (SubsystemTube::residual)
   /// Whether a new LMI design is due at this step (a search step, or the margin was lost at the last
   /// step): a caller with background designs starts one from A, B and (1 + margin) P_W of this step.
   bool design_due = false;

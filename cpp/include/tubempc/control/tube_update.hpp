@@ -47,7 +47,10 @@ struct SubsystemTube {
   SubGain K = SubGain::Zero();       ///< ancillary gain
   SubMatrix Pe = SubMatrix::Zero();  ///< tube shape (squared state units)
   double alpha = 0.5;                ///< contraction parameter
-  double residual = 0.0;             ///< lmi_residual for the step it was certified for (<= 0)
+  /// lmi_residual for the last update's (A, B) and set: the set it was certified for ((1 + margin) P_W,
+  /// or P_W for the *_no_margin statuses; <= 0), or P_W for the fixed, initial and uncertified statuses
+  /// (> 0 where the tube is not invariant for the identified set).
+  double residual = 0.0;
 };
 
 /// Outcome of a certification (lyapunov_tube).
