@@ -1,6 +1,5 @@
 """Tube design (paper Eq. 25; docs/model.md "Tube design")."""
 
-
 import numpy as np
 import pytest
 import scipy.linalg
