@@ -106,6 +106,9 @@ void bind_mpc(py::module_& m) {
   py::enum_<mpc::Linearization>(s, "Linearization")
       .value("Reuse", mpc::Linearization::Reuse)
       .value("EveryIteration", mpc::Linearization::EveryIteration);
+  py::enum_<mpc::ScpMode>(s, "ScpMode")
+      .value("Converge", mpc::ScpMode::Converge)
+      .value("RealTime", mpc::ScpMode::RealTime);
   py::enum_<mpc::KktSolver>(s, "KktSolver")
       .value("SparseLdlt", mpc::KktSolver::SparseLdlt)
       .value("SparseMultistage", mpc::KktSolver::SparseMultistage);
@@ -137,6 +140,7 @@ void bind_mpc(py::module_& m) {
       .def_readwrite("kkt_solver", &mpc::Settings::kkt_solver)
       .def_readwrite("qp_scale_cost", &mpc::Settings::qp_scale_cost)
       .def_readwrite("linearization", &mpc::Settings::linearization)
+      .def_readwrite("scp_mode", &mpc::Settings::scp_mode)
       .def_readwrite("active_set_max_iterations", &mpc::Settings::active_set_max_iterations)
       .def_readwrite("qp_preconditioner_iterations", &mpc::Settings::qp_preconditioner_iterations)
       .def_readwrite("qp_reg_lower_limit", &mpc::Settings::qp_reg_lower_limit)
@@ -181,6 +185,7 @@ void bind_mpc(py::module_& m) {
       .def_readonly("active_set_solves", &mpc::StepResult::active_set_solves)
       .def_readonly("active_set_iterations", &mpc::StepResult::active_set_iterations)
       .def_readonly("active_set_failures", &mpc::StepResult::active_set_failures)
+      .def_readonly("active_set_refinements", &mpc::StepResult::active_set_refinements)
       .def_readonly("model_evaluations", &mpc::StepResult::model_evaluations)
       .def_readonly("scp_residual", &mpc::StepResult::scp_residual)
       .def_readonly("objective", &mpc::StepResult::objective)

@@ -156,7 +156,9 @@ class Mpc:
     lies within scp_eps of the plan are kept, across steps and SCP iterations) or "every_iteration"
     (Algorithm 1 literally: every node re-linearised about the latest plan at every SCP iteration).
     qp_solver: "active_set" (a primal-dual active set warm-started from the previous QP's active set,
-    PIQP when it does not verify the KKT conditions) or "piqp" (PIQP's interior point only)."""
+    PIQP when it does not verify the KKT conditions) or "piqp" (PIQP's interior point only).
+    scp_mode: "converge" (SCP iterations until the plan moves less than scp_eps, Algorithm 1) or
+    "real_time" (one QP per step; the nodes it moved are re-linearised at the next step)."""
 
     dt: float = field(metadata=_q("s", "time", check=_POS))
     horizon: int = field(metadata=_int(check=_GE1))
@@ -170,6 +172,7 @@ class Mpc:
     input_cost: str = field(metadata=_opt("absolute", "deviation"))
     linearization: str = field(metadata=_opt("reuse", "every_iteration"))
     qp_solver: str = field(metadata=_opt("active_set", "piqp"))
+    scp_mode: str = field(metadata=_opt("converge", "real_time"))
 
     @property
     def n_steps(self) -> int:
@@ -695,6 +698,8 @@ def _check_consistency(c: Config) -> None:
         )
     if c.boundary.initial == "hover" and c.boundary.terminal != "site":
         raise ConfigError(f'{c.source}: boundary.initial: "hover" needs boundary.terminal = "site"')
+    if c.mpc.scp_mode == "real_time" and c.mpc.linearization != "reuse":
+        raise ConfigError(f'{c.source}: mpc.scp_mode: "real_time" needs mpc.linearization = "reuse"')
     if c.mpc.horizon > c.mpc.n_steps:
         raise ConfigError(f"{c.source}: mpc.horizon: horizon {c.mpc.horizon} exceeds t_f / dt = {c.mpc.n_steps} steps")
     if c.tube.design_adoption == "when_ready" and c.tube.design_worker == "inline":

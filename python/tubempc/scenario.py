@@ -52,6 +52,7 @@ Array = npt.NDArray[np.float64]
 METHODS = ("tbmpc", "ffa")
 # Configuration option -> C++ enum: the same names in the TOML, the C++ to_string and scenario files.
 _INPUT_COSTS = {"absolute": _core.mpc.InputCost.Absolute, "deviation": _core.mpc.InputCost.Deviation}
+_SCP_MODES = {"converge": _core.mpc.ScpMode.Converge, "real_time": _core.mpc.ScpMode.RealTime}
 _LINEARIZATIONS = {"reuse": _core.mpc.Linearization.Reuse, "every_iteration": _core.mpc.Linearization.EveryIteration}
 _QP_SOLVERS = {"active_set": _core.mpc.QpSolver.ActiveSet, "piqp": _core.mpc.QpSolver.Piqp}
 P_STATES, R_STATES = slice(0, 6), slice(6, 12)  # translational x_p = [r_L, v_L], rotational x_r = [phi, omega_BL_B]
@@ -448,6 +449,7 @@ def mpc_settings(scn: Scenario) -> Any:
     st.input_cost = _INPUT_COSTS[m.input_cost]
     st.linearization = _LINEARIZATIONS[m.linearization]
     st.qp_solver = _QP_SOLVERS[m.qp_solver]
+    st.scp_mode = _SCP_MODES[m.scp_mode]
     return st
 
 

@@ -179,8 +179,12 @@ def test_reused_linearizations_fly_the_literal_algorithms_loop(scenario) -> None
     """mpc.linearization = "reuse" keeps model data within eps of the plan: far fewer model calls, and
     the same inputs as re-linearising every node at every SCP iteration (Algorithm 1 literally) to
     within what the SCP threshold allows."""
-    literal = dataclasses.replace(scenario, config=scenario.config.with_overrides({"mpc.linearization": "every_iteration"}))
-    a = simulate(scenario, "tbmpc", seed=3, max_steps=8)
+    converged = dataclasses.replace(scenario, config=scenario.config.with_overrides({"mpc.scp_mode": "converge"}))
+    literal = dataclasses.replace(
+        scenario,
+        config=scenario.config.with_overrides({"mpc.linearization": "every_iteration", "mpc.scp_mode": "converge"}),
+    )
+    a = simulate(converged, "tbmpc", seed=3, max_steps=8)
     b = simulate(literal, "tbmpc", seed=3, max_steps=8)
     N = scenario.config.mpc.horizon
     np.testing.assert_array_equal(b.model_evaluations, N * b.scp_iterations)
@@ -188,6 +192,20 @@ def test_reused_linearizations_fly_the_literal_algorithms_loop(scenario) -> None
     assert a.model_evaluations.sum() < 0.5 * b.model_evaluations.sum()
     np.testing.assert_allclose(a.u, b.u, rtol=0, atol=2e-4 * scenario.config.spacecraft.u_max)
     np.testing.assert_allclose(a.x, b.x, rtol=0, atol=1e-6)
+
+
+def test_real_time_iteration_flies_the_converged_loop(scenario) -> None:  # type: ignore[no-untyped-def]
+    """mpc.scp_mode = "real_time" (default) solves one QP per step and flies the states of SCP iterated
+    to convergence (Algorithm 1, "converge") to within what the SCP threshold allows."""
+    converged = dataclasses.replace(scenario, config=scenario.config.with_overrides({"mpc.scp_mode": "converge"}))
+    a = simulate(scenario, "ffa", seed=3, max_steps=12)
+    b = simulate(converged, "ffa", seed=3, max_steps=12)
+    np.testing.assert_array_equal(a.scp_iterations, 1)
+    assert b.scp_iterations.max() > 1  # the comparison is not between two single-QP loops
+    # one SCP iteration fewer moves the torques by up to ~5e-4 of their bound, the states by ~1e-6
+    u_max = np.r_[[scenario.config.spacecraft.u_max] * 3, [scenario.config.spacecraft.T_max] * 3]
+    np.testing.assert_array_less(np.abs(a.u - b.u).max(axis=0), 1e-3 * u_max)
+    np.testing.assert_allclose(a.x, b.x, rtol=0, atol=1e-5)
 
 
 def test_active_set_qp_solver_flies_the_interior_points_loop(scenario) -> None:  # type: ignore[no-untyped-def]

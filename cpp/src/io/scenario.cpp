@@ -46,6 +46,8 @@ const Options<mpc::QpSolver> kBackendsV1 = {{"piqp", mpc::QpSolver::Piqp},
                                             {"active_set_piqp", mpc::QpSolver::ActiveSet}};
 const Options<mpc::Linearization> kLinearizations = {{"reuse", mpc::Linearization::Reuse},
                                                      {"every_iteration", mpc::Linearization::EveryIteration}};
+const Options<mpc::ScpMode> kScpModes = {{"converge", mpc::ScpMode::Converge},
+                                         {"real_time", mpc::ScpMode::RealTime}};
 const Options<mpc::KktSolver> kKktSolvers = {{"sparse_ldlt", mpc::KktSolver::SparseLdlt},
                                              {"sparse_multistage", mpc::KktSolver::SparseMultistage}};
 
@@ -509,6 +511,7 @@ Scenario read_scenario(const std::string& path) {
     r.option("mpc.qp_solver", kQpSolvers, st.qp_solver, false);
     r.option("mpc.linearization", kLinearizations, st.linearization, false);
   }
+  r.option("mpc.scp_mode", kScpModes, st.scp_mode, false);
   r.integer("mpc.active_set_max_iterations", st.active_set_max_iterations, false);
   r.flag("mpc.qp_scale_cost", st.qp_scale_cost, false);
   r.integer("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations, false);
@@ -608,6 +611,7 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   w.scalar("mpc.active_set_max_iterations", st.active_set_max_iterations);
   w.scalar("mpc.qp_scale_cost", st.qp_scale_cost ? 1.0 : 0.0);
   w.text("mpc.linearization", option_name(kLinearizations, st.linearization));
+  w.text("mpc.scp_mode", option_name(kScpModes, st.scp_mode));
   w.scalar("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations);
   w.scalar("mpc.qp_reg_lower_limit", st.qp_reg_lower_limit);
   w.scalar("mpc.qp_retry_reg_lower_limit", st.qp_retry_reg_lower_limit);

@@ -255,96 +255,107 @@ ActiveSetQp::Status ActiveSetQp::solve(const SpMat& P_upper, const Eigen::Vector
     // constraint rows keep residuals of ~1e-9, which the large multipliers of the shrinking phase
     // turn into objective errors of ~1e-5 relative.
     const double dual_rhs = q_norm, primal_rhs = rhs_.tail(rhs_.size() - n).lpNorm<Eigen::Infinity>();
-    double last = inf;
-    for (int r = 0; r <= settings_.max_refinement; ++r) {
-      residual();
-      double dual_norm = 0.0, primal_norm = 0.0;
-      for (int i = 0; i < n; ++i) dual_norm = std::max(dual_norm, std::abs(res_p_(perm_(i))));
-      for (Eigen::Index i = n; i < rhs_.size(); ++i)
-        primal_norm = std::max(primal_norm, std::abs(res_p_(perm_(i))));
-      const double norm = std::max(dual_norm, primal_norm);
-      if (!std::isfinite(norm)) return info_.status = Status::Singular;
-      // Accurate enough at a hundredth of the verification tolerance, or stagnating.
+    // Refinement to `tight` accuracy (a hundredth of the verification tolerance; the solution a
+    // repeated set returns) or, while the set still changes, to the set updates' resolution (a
+    // hundredth of their tolerances eps_abs + 1e-12 x scale); false on a non-finite residual.
+    const auto refine = [&](bool tight) {
+      double last = inf;
       const double tol = 1e-2 * settings_.eps_abs;
-      if (r == settings_.max_refinement ||
-          (dual_norm <= tol + 1e-15 * dual_rhs && primal_norm <= 1e-2 * tol + 1e-15 * primal_rhs) ||
-          norm > 0.5 * last)
-        break;
-      last = norm;
-      ldlt_.solve_in_place(res_p_);
-      sol_p_ += res_p_;
-      ++info_.refinements;
-    }
-    for (Eigen::Index i = 0; i < sol_.size(); ++i) sol_(i) = sol_p_(perm_(i));
-    w_ = sol_.head(n);
-    y_ = sol_.segment(n, m);
-    for (int i = 0; i < p; ++i) lam_g_(i) = set_(i) != 0 ? sol_(n + m + i) : 0.0;
-    for (Eigen::Index k = 0; k < bound_var_.size(); ++k)
-      lam_b_(k) = set_(p + bound_var_(k)) != 0 ? sol_(n + m + p + k) : 0.0;
-
-    // Set update: drop rows whose multiplier has the wrong sign, add violated rows.
-    g_.noalias() = G * w_;
-    const double dual_scale = std::max({q_norm, y_.lpNorm<Eigen::Infinity>(),
-                                        lam_g_.lpNorm<Eigen::Infinity>(), lam_b_.lpNorm<Eigen::Infinity>()});
-    // Dependent active rows: the regularised KKT matrix gives them multipliers of the order of
-    // 1/dual_reg, and the set updates they drive lead the iteration astray.
-    if (std::max(lam_g_.lpNorm<Eigen::Infinity>(), lam_b_.lpNorm<Eigen::Infinity>()) >
-        settings_.max_multiplier_ratio * std::max(1.0, q_norm))
-      return info_.status = Status::Singular;
-    const double tol_d = settings_.eps_abs + 1e-12 * dual_scale;
-    const auto tol_p = [&](double bound) { return settings_.eps_abs + settings_.eps_rel * std::abs(bound); };
-    // The first kFullUpdates iterations change every such row (the primal-dual active-set step);
-    // later ones only the worst wrong-sign multiplier and the worst violated row (this breaks the
-    // cycles the full step can fall into when the Hessian is not an M-matrix; one of each, not one
-    // in all, halves the iterations of a guess that is off by several rows of each kind). One full
-    // step: on the Bennu mission's shrinking phase, further full steps add rows that make the set
-    // dependent (with 3 full steps 2 of its 545 QPs went to PIQP, with 1 none, in fewer factorisations).
-    constexpr int kFullUpdates = 1;
-    const bool full = info_.iterations <= kFullUpdates;
-    bool changed = false;
-    int drop_row = -1, drop_to = 0, add_row = -1, add_to = 0;
-    double worst_drop = 0.0, worst_add = 0.0;
-    const auto update = [&](int i, double value, double lam, double lo, double up) {
-      const int a = set_(i);
-      int to = a;
-      double score = 0.0;
-      bool drop = false;
-      if (a > 0 && lam < -tol_d) {
-        to = lo == up ? -1 : 0;
-        score = -lam;
-        drop = true;
-      } else if (a < 0 && lam > tol_d) {
-        to = lo == up ? 1 : 0;
-        score = lam;
-        drop = true;
-      } else if (a == 0 && value > up + tol_p(up)) {
-        to = 1;
-        score = value - up;
-      } else if (a == 0 && value < lo - tol_p(lo)) {
-        to = -1;
-        score = lo - value;
+      for (int r = 0; r <= settings_.max_refinement; ++r) {
+        residual();
+        double dual_norm = 0.0, primal_norm = 0.0;
+        for (int i = 0; i < n; ++i) dual_norm = std::max(dual_norm, std::abs(res_p_(perm_(i))));
+        for (Eigen::Index i = n; i < rhs_.size(); ++i)
+          primal_norm = std::max(primal_norm, std::abs(res_p_(perm_(i))));
+        const double norm = std::max(dual_norm, primal_norm);
+        if (!std::isfinite(norm)) return false;
+        const bool accurate =
+            tight ? dual_norm <= tol + 1e-15 * dual_rhs && primal_norm <= 1e-2 * tol + 1e-15 * primal_rhs
+                  : dual_norm <= tol + 1e-14 * dual_rhs && primal_norm <= tol + 1e-14 * primal_rhs;
+        if (r == settings_.max_refinement || accurate || norm > 0.5 * last) break;
+        last = norm;
+        ldlt_.solve_in_place(res_p_);
+        sol_p_ += res_p_;
+        ++info_.refinements;
       }
-      if (to == a) return;
-      changed = true;
-      if (full) {
-        set_(i) = to;
-      } else if (drop && score > worst_drop) {
-        drop_row = i;
-        drop_to = to;
-        worst_drop = score;
-      } else if (!drop && score > worst_add) {
-        add_row = i;
-        add_to = to;
-        worst_add = score;
-      }
+      return true;
     };
-    for (int i = 0; i < p; ++i) update(i, g_(i), lam_g_(i), h_l(i), h_u(i));
-    for (Eigen::Index k = 0; k < bound_var_.size(); ++k) {
-      const int j = bound_var_(k);
-      update(p + j, w_(j), lam_b_(k), x_l(j), x_u(j));
+    // Set update: drop rows whose multiplier has the wrong sign, add violated rows. A set that the
+    // loose solution leaves unchanged is checked again on the tight one before it counts as repeated.
+    bool changed = false;
+    for (int pass = 0; pass < 2 && !changed; ++pass) {
+      if (!refine(pass == 1)) return info_.status = Status::Singular;
+      for (Eigen::Index i = 0; i < sol_.size(); ++i) sol_(i) = sol_p_(perm_(i));
+      w_ = sol_.head(n);
+      y_ = sol_.segment(n, m);
+      for (int i = 0; i < p; ++i) lam_g_(i) = set_(i) != 0 ? sol_(n + m + i) : 0.0;
+      for (Eigen::Index k = 0; k < bound_var_.size(); ++k)
+        lam_b_(k) = set_(p + bound_var_(k)) != 0 ? sol_(n + m + p + k) : 0.0;
+      g_.noalias() = G * w_;
+      const double dual_scale =
+          std::max({q_norm, y_.lpNorm<Eigen::Infinity>(), lam_g_.lpNorm<Eigen::Infinity>(),
+                    lam_b_.lpNorm<Eigen::Infinity>()});
+      // Dependent active rows: the regularised KKT matrix gives them multipliers of the order of
+      // 1/dual_reg, and the set updates they drive lead the iteration astray.
+      if (std::max(lam_g_.lpNorm<Eigen::Infinity>(), lam_b_.lpNorm<Eigen::Infinity>()) >
+          settings_.max_multiplier_ratio * std::max(1.0, q_norm))
+        return info_.status = Status::Singular;
+      const double tol_d = settings_.eps_abs + 1e-12 * dual_scale;
+      const auto tol_p = [&](double bound) {
+        return settings_.eps_abs + settings_.eps_rel * std::abs(bound);
+      };
+      // The first kFullUpdates iterations change every such row (the primal-dual active-set step);
+      // later ones only the worst wrong-sign multiplier and the worst violated row (this breaks the
+      // cycles the full step can fall into when the Hessian is not an M-matrix; one of each, not one
+      // in all, halves the iterations of a guess that is off by several rows of each kind). One full
+      // step: on the Bennu mission's shrinking phase, further full steps add rows that make the set
+      // dependent (with 3 full steps 2 of its 545 QPs went to PIQP, with 1 none, in fewer factorisations).
+      constexpr int kFullUpdates = 1;
+      const bool full = info_.iterations <= kFullUpdates;
+      int drop_row = -1, drop_to = 0, add_row = -1, add_to = 0;
+      double worst_drop = 0.0, worst_add = 0.0;
+      const auto update = [&](int i, double value, double lam, double lo, double up) {
+        const int a = set_(i);
+        int to = a;
+        double score = 0.0;
+        bool drop = false;
+        if (a > 0 && lam < -tol_d) {
+          to = lo == up ? -1 : 0;
+          score = -lam;
+          drop = true;
+        } else if (a < 0 && lam > tol_d) {
+          to = lo == up ? 1 : 0;
+          score = lam;
+          drop = true;
+        } else if (a == 0 && value > up + tol_p(up)) {
+          to = 1;
+          score = value - up;
+        } else if (a == 0 && value < lo - tol_p(lo)) {
+          to = -1;
+          score = lo - value;
+        }
+        if (to == a) return;
+        changed = true;
+        if (full) {
+          set_(i) = to;
+        } else if (drop && score > worst_drop) {
+          drop_row = i;
+          drop_to = to;
+          worst_drop = score;
+        } else if (!drop && score > worst_add) {
+          add_row = i;
+          add_to = to;
+          worst_add = score;
+        }
+      };
+      for (int i = 0; i < p; ++i) update(i, g_(i), lam_g_(i), h_l(i), h_u(i));
+      for (Eigen::Index k = 0; k < bound_var_.size(); ++k) {
+        const int j = bound_var_(k);
+        update(p + j, w_(j), lam_b_(k), x_l(j), x_u(j));
+      }
+      if (drop_row >= 0) set_(drop_row) = drop_to;
+      if (add_row >= 0) set_(add_row) = add_to;
     }
-    if (drop_row >= 0) set_(drop_row) = drop_to;
-    if (add_row >= 0) set_(add_row) = add_to;
     if (!changed) {
       repeated = true;
       break;

@@ -38,11 +38,23 @@ void LinearizationCache::begin_step(int k, int n, bool reuse, int& n_reuse_d, in
     std::rotate(cd.begin(), cd.begin() + 1, cd.end());
     std::rotate(Gc.begin(), Gc.begin() + 1, Gc.end());
     std::rotate(hc.begin(), hc.begin() + 1, hc.end());
+    // Points and flags move with their data (ascending: column i + 1 is read before it is written).
+    const Eigen::Index nd = eval_d.size(), ncs = eval_c.size();
+    for (Eigen::Index i = 0; i < ncs; ++i) {
+      if (i + 1 < ncs) z_lin_at.col(i) = z_lin_at.col(i + 1);
+      eval_c(i) = i >= n_reuse_z || (i + 1 < ncs && eval_c(i + 1));
+    }
+    for (Eigen::Index i = 0; i < nd; ++i) {
+      if (i + 1 < nd) v_lin_at.col(i) = v_lin_at.col(i + 1);
+      eval_d(i) = i >= n_reuse_d || (i + 1 < nd && eval_d(i + 1));
+    }
+  } else {
+    eval_d.setConstant(true);
+    eval_c.setConstant(true);
   }
+  n_reused_d_ = n_reuse_d;
   lin_k = -1;  // valid again only if this step converges
   primed_ = false;
-  for (Eigen::Index i = 0; i < eval_d.size(); ++i) eval_d(i) = i >= n_reuse_d;
-  for (Eigen::Index i = 0; i < eval_c.size(); ++i) eval_c(i) = i >= n_reuse_z;
 }
 
 void LinearizationCache::prime(const LinearizedModel& model, const Eigen::MatrixXd& z_ref,
@@ -65,6 +77,8 @@ void LinearizationCache::prime(const LinearizedModel& model, const Eigen::Matrix
   }
   lin_k = -1;
   lin_n = n0;
+  eval_d.setConstant(false);  // data about the reference itself: no node is pending
+  eval_c.setConstant(false);
   primed_ = finite;  // otherwise the first step evaluates (and reports) them itself
 }
 
@@ -74,7 +88,8 @@ Status LinearizationCache::evaluate(const LinearizedModel& model, double t0, int
   bool finite = true;
   for (int i = 0; i < n; ++i) {
     if (!eval_d(i)) continue;
-    if (it > 0)  // the node holds data about (z_lin_at, v_lin_at) for the same time: the model may keep parts
+    if (it > 0 ||
+        i < n_reused_d_)  // data about (z_lin_at, v_lin_at) for the same time: the model may keep parts
       model.rediscretize(t_node(i), dt, z_lin_at.col(i), v_lin_at.col(i), z_lin.col(i), v_lin.col(i), Ad[i],
                          Bd[i], cd[i]);
     else

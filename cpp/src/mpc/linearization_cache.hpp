@@ -29,12 +29,15 @@ struct LinearizationCache {
   void prime(const LinearizedModel& model, const Eigen::MatrixXd& z_ref, const Eigen::MatrixXd& u_ref,
              double t0, double dt);
   // Start of step k with horizon n: with `reuse` after a converged step at k - 1, that step's model
-  // data shifted by one node. Sets the nodes to evaluate; returns the re-used nodes' counts
-  // (discretisations n_reuse_d, states and constraints n_reuse_z).
+  // data and their points (z_lin_at, v_lin_at) shifted by one node. Sets the nodes to evaluate: the
+  // new ones and, shifted with them, those that step's last QP moved by scp_eps or more (ScpMode::
+  // RealTime; none after a step that converged); returns the re-used nodes' counts (discretisations
+  // n_reuse_d, states and constraints n_reuse_z).
   void begin_step(int k, int n, bool reuse, int& n_reuse_d, int& n_reuse_z);
   // Evaluates the marked nodes of the horizon n about (z_lin, v_lin) (node i at time t0 + (k + i) dt;
-  // `rediscretize` after the first SCP iteration); NumericalError on non-finite data, ModelStructure
-  // on a nonzero outside the masks.
+  // `rediscretize` where the node holds data about (z_lin_at, v_lin_at) for the same time: after the
+  // first SCP iteration, and for re-used nodes); NumericalError on non-finite data, ModelStructure on a
+  // nonzero outside the masks.
   Status evaluate(const LinearizedModel& model, double t0, int k, double dt, int n, int it, const Mask& mA,
                   const Mask& mB, const Mask& mG, int& model_evaluations);
   // Whether the model data equal the previous QP's (only for it > 0 with an inactive trust region);
@@ -44,10 +47,16 @@ struct LinearizationCache {
   // and point, the others take the plan as their next linearisation point.
   void update(const Eigen::MatrixXd& z_star, const Eigen::MatrixXd& v_star, int n, bool reuse,
               double scp_eps);
-  // Step k with horizon n converged: its data may be re-used by step k + 1.
-  void converged(int k, int n) {
+  // Step k with horizon n converged (or ran its one QP, `keep_moved`: ScpMode::RealTime): its data
+  // may be re-used by step k + 1, which re-evaluates the nodes the last update() marked as moved only
+  // with `keep_moved`.
+  void converged(int k, int n, bool keep_moved) {
     lin_k = k;
     lin_n = n;
+    if (!keep_moved) {
+      eval_d.setConstant(false);
+      eval_c.setConstant(false);
+    }
   }
   void reset() {
     lin_k = -1;
@@ -56,6 +65,7 @@ struct LinearizationCache {
 
  private:
   int nc_ = 0;           // state constraints per node
+  int n_reused_d_ = 0;   // nodes 0..n_reused_d_-1 hold discretisations about z_lin_at for this step's times
   bool primed_ = false;  // the data are prime()'s (for k = 0)
   std::vector<Eigen::MatrixXd> Ad_prev_, Bd_prev_, Gc_prev_;
   std::vector<Eigen::VectorXd> cd_prev_, hc_prev_;

@@ -86,6 +86,7 @@ Status ActiveSetBackend::solve(const QpProblem& qp, const Settings& s, StepResul
     by_active_set_ = active_set_.solve(qp.P, qp.q, qp.A, qp.b, qp.G, qp.h_l, qp.h_u, qp.x_l, qp.x_u, set_) ==
                      ActiveSetQp::Status::Solved;
     res.active_set_iterations += active_set_.info().iterations;
+    res.active_set_refinements += active_set_.info().refinements;
     if (!by_active_set_) ++res.active_set_failures;
   }
   if (by_active_set_) {

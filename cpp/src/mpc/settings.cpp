@@ -25,6 +25,7 @@ void check_square_symmetric(const Eigen::MatrixXd& M, int n, const char* field) 
 const char* to_string(InputCost c) { return c == InputCost::Absolute ? "absolute" : "deviation"; }
 const char* to_string(QpSolver q) { return q == QpSolver::Piqp ? "piqp" : "active_set"; }
 const char* to_string(Linearization l) { return l == Linearization::Reuse ? "reuse" : "every_iteration"; }
+const char* to_string(ScpMode m) { return m == ScpMode::Converge ? "converge" : "real_time"; }
 
 void Settings::validate(int nx, int nu) const {
   auto fail = [](const std::string& field, const std::string& what) {
@@ -66,6 +67,9 @@ void Settings::validate(int nx, int nu) const {
     fail("qp_solver", "is not a known QP solver");
   if (linearization != Linearization::Reuse && linearization != Linearization::EveryIteration)
     fail("linearization", "is not a known policy");
+  if (scp_mode != ScpMode::Converge && scp_mode != ScpMode::RealTime) fail("scp_mode", "is not a known mode");
+  if (scp_mode == ScpMode::RealTime && linearization != Linearization::Reuse)
+    fail("scp_mode", "real_time needs linearization = reuse (its next step re-linearises the moved nodes)");
   if (qp_preconditioner_iterations < 0) fail("qp_preconditioner_iterations", "must be >= 0");
   if (!(qp_reg_lower_limit > 0.0) || !std::isfinite(qp_reg_lower_limit))
     fail("qp_reg_lower_limit", "must be finite and > 0");

@@ -219,22 +219,22 @@ void TubeMPC::shift_warm_start(StepContext& c) {
 
 // Phase 2: the linearisation trajectory: the previous plan shifted to k (usually by one node),
 // completed from the reference; the reference alone without a usable plan. Nodes with re-used data
-// take the trajectory those data were computed about.
+// take the trajectory those data were computed about, unless the last QP moved them (ScpMode::RealTime).
 void TubeMPC::seed_linearization(StepContext& c) {
   Impl& m = *impl_;
   const int N = m.N, T = m.T, k = c.k;
   c.shift = k - m.plan_k;
   c.use_plan = m.have_plan && c.shift >= 0 && c.shift < N;
   for (int i = 0; i <= N; ++i) {
-    if (i < c.n_reuse_z)
-      m.lin.z_lin.col(i) = m.lin.z_lin_at.col(i + 1);
+    if (i < c.n_reuse_z && !m.lin.eval_c(i))
+      m.lin.z_lin.col(i) = m.lin.z_lin_at.col(i);
     else
       m.lin.z_lin.col(i) =
           c.use_plan && i + c.shift <= N ? m.z_plan.col(i + c.shift) : m.ref.z.col(std::min(k + i, T));
   }
   for (int i = 0; i < N; ++i) {
-    if (i < c.n_reuse_d)
-      m.lin.v_lin.col(i) = m.lin.v_lin_at.col(i + 1);
+    if (i < c.n_reuse_d && !m.lin.eval_d(i))
+      m.lin.v_lin.col(i) = m.lin.v_lin_at.col(i);
     else
       m.lin.v_lin.col(i) =
           c.use_plan && i + c.shift < N ? m.v_plan.col(i + c.shift) : m.ref.u.col(std::min(k + i, T - 1));
@@ -457,7 +457,7 @@ const StepResult& TubeMPC::finish(const StepContext& c, bool converged, bool ina
   res.u = res.u.cwiseMax(-c.s.u_max).cwiseMin(c.s.u_max);
   res.status = !converged ? Status::MaxIterations : (inaccurate ? Status::SolvedInaccurate : Status::Solved);
   if (!res.u.allFinite()) return fallback(c, Status::NumericalError);
-  if (converged) m.lin.converged(c.k, c.n);
+  if (converged) m.lin.converged(c.k, c.n, c.s.scp_mode == ScpMode::RealTime);
   m.solver->plan_applied(c.k);
   res.timings.total = seconds_since(c.t_start);
   return res;
@@ -483,6 +483,7 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   res.active_set_solves = 0;
   res.active_set_iterations = 0;
   res.active_set_failures = 0;
+  res.active_set_refinements = 0;
   res.model_evaluations = 0;
   res.scp_residual = kInf;
   res.failure = Status::Solved;
@@ -528,7 +529,8 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     res.scp_residual = delta;
     last_delta = delta;
     res.objective = m.solver->objective() + m.qp.constant;
-    if (delta < s.scp_eps) {
+    // ScpMode::RealTime: one QP; the nodes it moved are re-linearised at the next step.
+    if (delta < s.scp_eps || s.scp_mode == ScpMode::RealTime) {
       converged = true;
       break;
     }

@@ -620,3 +620,69 @@ TEST(TubeMPC, ReusedLinearizationHoldsEachNodesModelData) {
       EXPECT_EQ(model->call_times[before + i], ref.t0 + (k + i) * s.dt) << k;
   }
 }
+
+// ScpMode::RealTime runs one QP per step; the next step re-linearises about that QP's plan exactly the
+// nodes it moved by scp_eps or more from their linearisation points (and the node it appends), hands
+// the re-used nodes' data and points to rediscretize, and keeps the others' data; its commands stay
+// close to those of a controller that iterates to convergence.
+TEST(TubeMPC, RealTimeIterationRelinearizesTheNodesTheLastQpMoved) {
+  auto model = std::make_shared<RecordingPendulum>();
+  auto converged_model = std::make_shared<RecordingPendulum>();
+  Settings s = pendulum_settings(12);
+  const Settings s_converge = s;
+  s.scp_mode = ScpMode::RealTime;
+  TubeMPC mpc(model, s), reference_mpc(converged_model, s_converge);
+  const int T = 30;
+  Eigen::VectorXd x0(2), xf(2);
+  x0 << 0.0, 0.0;
+  xf << 1.0, 0.0;
+  Reference ref = straight_reference(x0, xf, T, 1);
+  ref.t0 = 0.3;
+  setup_pendulum(mpc, ref);
+  setup_pendulum(reference_mpc, ref);
+  const Tube tube = small_tube(2, 1, 1e-8);
+  Eigen::VectorXd x = x0;
+  Eigen::MatrixXd last_plan;
+  std::map<double, Eigen::VectorXd> last_points;
+  int moved_total = 0;
+  for (int k = 0; k < T; ++k) {
+    const int calls_before = model->discretize_calls;
+    const StepResult r = mpc.step(k, x, tube);
+    const StepResult& rc = reference_mpc.step(k, x, tube);
+    ASSERT_EQ(r.status, Status::Solved) << k;
+    ASSERT_EQ(rc.status, Status::Solved) << k;
+    EXPECT_EQ(r.scp_iterations, 1) << k;
+    EXPECT_EQ(r.model_evaluations, model->discretize_calls - calls_before) << k;
+    if (k > 0) {
+      int expected = r.horizon == s.horizon ? 1 : 0;  // the appended node
+      for (int i = 0; i < r.horizon; ++i) {
+        const double t = ref.t0 + (k + i) * s.dt;
+        if (last_points.count(t) == 0) continue;  // the appended node
+        const bool moved = (last_plan.col(i + 1) - last_points[t]).cwiseAbs().maxCoeff() >= s.scp_eps;
+        expected += moved ? 1 : 0;
+        moved_total += moved ? 1 : 0;
+        const Eigen::VectorXd& now = model->points[t];
+        EXPECT_EQ(
+            (now - (moved ? Eigen::VectorXd(last_plan.col(i + 1)) : last_points[t])).cwiseAbs().maxCoeff(),
+            0.0)
+            << k << " " << i;
+      }
+      EXPECT_EQ(r.model_evaluations, expected) << k;
+    }
+    const QpData qp = mpc.qp_data();
+    for (int i = 0; i < r.horizon; ++i) {
+      const double t = ref.t0 + (k + i) * s.dt;
+      const Eigen::MatrixXd A_qp = -Eigen::MatrixXd(qp.A.block((i + 1) * 2, i * 3, 2, 2));
+      EXPECT_EQ((A_qp - model->dynamics[t]).cwiseAbs().maxCoeff(), 0.0) << k << " " << i;
+    }
+    EXPECT_LT((r.u - rc.u).cwiseAbs().maxCoeff(), 1e-2 * s.u_max(0)) << k;
+    last_plan = r.z;
+    last_points = model->points;
+    x = r.z.col(1) + Eigen::Vector2d(1e-5 * ((k % 3) - 1.0), 2e-5 * ((k % 2) - 0.5));
+  }
+  EXPECT_GT(moved_total, 0);  // the test exercised the re-linearisation of moved nodes
+  EXPECT_EQ(model->rediscretize_mismatches, 0);
+  Settings bad = s;
+  bad.linearization = Linearization::EveryIteration;
+  EXPECT_THROW(bad.validate(2, 1), std::invalid_argument);
+}

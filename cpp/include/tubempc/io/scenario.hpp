@@ -51,6 +51,7 @@
 ///   | `mpc.qp_eps_abs`, `mpc.qp_eps_rel`, `mpc.qp_inaccurate_tol`, `mpc.soft_penalty`, `mpc.riccati_tol`, `mpc.qp_reg_lower_limit`, `mpc.qp_retry_reg_lower_limit` (opt.) | 1 1 | |
 ///   | `mpc.soft_state_constraints`, `mpc.soft_terminal`, `mpc.qp_scale_cost` (opt.) | 1 1 | 0 or 1 |
 ///   | `mpc.linearization` (opt.) | text | `reuse` or `every_iteration` |
+///   | `mpc.scp_mode` (opt.) | text | `converge` or `real_time` |
 ///   | `mpc.kkt_solver` (opt.) | text | `sparse_ldlt` or `sparse_multistage` |
 ///   | `mpc.qp_solver` (opt.) | text | `active_set` or `piqp` |
 ///   | `mpc.A_structure`, `mpc.B_structure`, `mpc.G_structure` (opt.) | 12 12, 12 6, 2 12 (or 0 0) | model structures |

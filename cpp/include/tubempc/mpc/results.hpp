@@ -52,11 +52,12 @@ struct StepResult {
       0;  ///< Active-set factorisations summed over the step's QPs (incl. failed tries).
   int active_set_failures =
       0;  ///< Active-set tries of this step that did not verify (a cold try or PIQP followed).
-  int model_evaluations = 0;  ///< Nodes discretised by the model in this step (calls of
-                              ///< LinearizedModel::discretize; see Settings::reuse_linearization).
-  double scp_residual = 0.0;  ///< Final max_i ||z*_i - z_lin_i||_inf (state units).
-  double objective = 0.0;     ///< Nominal cost of the applied plan's last QP (incl. constant).
-  Timings timings;            ///< Wall-clock split of the step (s).
+  int active_set_refinements = 0;  ///< Iterative-refinement solves of the active set, summed over the step.
+  int model_evaluations = 0;       ///< Nodes discretised by the model in this step (calls of
+                                   ///< LinearizedModel::discretize; see Settings::reuse_linearization).
+  double scp_residual = 0.0;       ///< Final max_i ||z*_i - z_lin_i||_inf (state units).
+  double objective = 0.0;          ///< Nominal cost of the applied plan's last QP (incl. constant).
+  Timings timings;                 ///< Wall-clock split of the step (s).
 };
 
 /// The last QP built, in PIQP's standard form (see tube_mpc.hpp). P is the full symmetric matrix.

@@ -49,6 +49,21 @@ enum class Linearization {
 /// @return "reuse" or "every_iteration".
 const char* to_string(Linearization l);
 
+/// How many SCP iterations (QPs) one step runs.
+enum class ScpMode {
+  /// Until the plan moves less than scp_eps from its linearisation points, at most scp_max_iterations
+  /// QPs (the paper's Algorithm 1; default).
+  Converge,
+  /// One QP per step (a real-time iteration, as acados' RTI): the nodes whose plan moved by scp_eps or
+  /// more are re-linearised about that plan at the next step, before its QP; needs
+  /// Linearization::Reuse. StepResult::scp_residual reports the move.
+  RealTime,
+};
+/// Name of an SCP mode (as in configuration and scenario files).
+/// @param m the mode.
+/// @return "converge" or "real_time".
+const char* to_string(ScpMode m);
+
 /// Factorisation of PIQP's KKT systems.
 enum class KktSolver {
   SparseLdlt,        ///< General sparse LDL^T with fill-reducing ordering (default).
@@ -65,7 +80,8 @@ struct Settings {
   InputCost input_cost = InputCost::Absolute;                          ///< Input part of the stage cost.
   InitialCondition initial_condition = InitialCondition::WhitenedBox;  ///< How z_0 relates to x_k.
   double scp_eps = 1e-3;        ///< SCP stops when max_i ||z*_i - z_lin_i||_inf < scp_eps (state units).
-  int scp_max_iterations = 10;  ///< Cap on SCP iterations per step.
+  int scp_max_iterations = 10;  ///< Cap on SCP iterations per step (ScpMode::Converge).
+  ScpMode scp_mode = ScpMode::Converge;  ///< Iterate to convergence or one QP per step.
   double trust_region =
       std::numeric_limits<double>::infinity();  ///< |z_i - z_lin_i|_inf bound (i >= 1); inf: off.
   double qp_eps_abs = 1e-8;                     ///< PIQP absolute tolerance.
