@@ -31,6 +31,7 @@ void ActiveSetQp::Settings::validate() const {
     throw std::invalid_argument(std::string("ActiveSetQp Settings: ") + field + " " + what);
   };
   if (max_iterations < 1) fail("max_iterations", "must be >= 1");
+  if (primal_dual_iterations < 1) fail("primal_dual_iterations", "must be >= 1");
   if (!(eps_abs >= 0.0) || !(eps_rel >= 0.0) || !std::isfinite(eps_abs) || !std::isfinite(eps_rel) ||
       eps_abs + eps_rel <= 0.0)
     fail("eps_abs/eps_rel", "must be finite, >= 0 and not both 0");
@@ -137,6 +138,10 @@ void ActiveSetQp::setup(const SpMat& P_upper, const SpMat& A, const SpMat& G,
   z_bu_.setZero(n);
   lam_g_.setZero(p_);
   lam_b_.setZero(nb);
+  w_c_.setZero(n);
+  y_c_.setZero(m_);
+  lam_gc_.setZero(p_);
+  lam_bc_.setZero(nb);
   info_ = Info{};
 }
 
@@ -234,11 +239,12 @@ ActiveSetQp::Status ActiveSetQp::solve(const SpMat& P_upper, const Eigen::Vector
   }
 
   const double q_norm = q.lpNorm<Eigen::Infinity>();
-  bool repeated = false;
-  while (info_.iterations < settings_.max_iterations) {
+  // One factorisation of the KKT matrix of the current set and its solve (rhs_p_, sol_p_); false on a
+  // zero pivot.
+  const auto factor_and_solve = [&] {
     ++info_.iterations;
     write_matrix(P_upper, A, G, set_);
-    if (!factorize()) return info_.status = Status::Singular;
+    if (!factorize()) return false;
     rhs_.head(n) = -q;
     rhs_.segment(n, m) = b;
     for (int i = 0; i < p; ++i) rhs_(n + m + i) = set_(i) > 0 ? h_u(i) : (set_(i) < 0 ? h_l(i) : 0.0);
@@ -246,84 +252,132 @@ ActiveSetQp::Status ActiveSetQp::solve(const SpMat& P_upper, const Eigen::Vector
       const int j = bound_var_(k), a = set_(p + j);
       rhs_(n + m + p + k) = a > 0 ? x_u(j) : (a < 0 ? x_l(j) : 0.0);
     }
-    // Solve, then refine against the unregularised matrix while the residual keeps shrinking.
     for (Eigen::Index i = 0; i < rhs_.size(); ++i) rhs_p_(perm_(i)) = rhs_(i);
     sol_p_ = rhs_p_;
     ldlt_.solve_in_place(sol_p_);
-    // Stationarity rows scale with q (which holds the L1 penalty weights, ~1e6), constraint rows with
-    // b and the bounds: each block is judged against its own scale, or a 1e6 penalty would let the
-    // constraint rows keep residuals of ~1e-9, which the large multipliers of the shrinking phase
-    // turn into objective errors of ~1e-5 relative.
+    return true;
+  };
+  // Iterative refinement against the unregularised matrix while the residual keeps shrinking, to
+  // `tight` accuracy (a hundredth of the verification tolerance; the solution a final set returns) or,
+  // while the set still changes, to the set updates' resolution (a hundredth of their tolerances
+  // eps_abs + 1e-12 x scale); false on a non-finite residual. Stationarity rows scale with q (which
+  // holds the L1 penalty weights, ~1e6), constraint rows with b and the bounds: each block is judged
+  // against its own scale, or a 1e6 penalty would let the constraint rows keep residuals of ~1e-9,
+  // which the large multipliers of the shrinking phase turn into objective errors of ~1e-5 relative.
+  const auto refine = [&](bool tight) {
     const double dual_rhs = q_norm, primal_rhs = rhs_.tail(rhs_.size() - n).lpNorm<Eigen::Infinity>();
-    // Refinement to `tight` accuracy (a hundredth of the verification tolerance; the solution a
-    // repeated set returns) or, while the set still changes, to the set updates' resolution (a
-    // hundredth of their tolerances eps_abs + 1e-12 x scale); false on a non-finite residual.
-    const auto refine = [&](bool tight) {
-      double last = inf;
-      const double tol = 1e-2 * settings_.eps_abs;
-      for (int r = 0; r <= settings_.max_refinement; ++r) {
-        residual();
-        double dual_norm = 0.0, primal_norm = 0.0;
-        for (int i = 0; i < n; ++i) dual_norm = std::max(dual_norm, std::abs(res_p_(perm_(i))));
-        for (Eigen::Index i = n; i < rhs_.size(); ++i)
-          primal_norm = std::max(primal_norm, std::abs(res_p_(perm_(i))));
-        const double norm = std::max(dual_norm, primal_norm);
-        if (!std::isfinite(norm)) return false;
-        const bool accurate =
-            tight ? dual_norm <= tol + 1e-15 * dual_rhs && primal_norm <= 1e-2 * tol + 1e-15 * primal_rhs
-                  : dual_norm <= tol + 1e-14 * dual_rhs && primal_norm <= tol + 1e-14 * primal_rhs;
-        if (r == settings_.max_refinement || accurate || norm > 0.5 * last) break;
-        last = norm;
-        ldlt_.solve_in_place(res_p_);
-        sol_p_ += res_p_;
-        ++info_.refinements;
+    double last = inf;
+    const double tol = 1e-2 * settings_.eps_abs;
+    for (int r = 0; r <= settings_.max_refinement; ++r) {
+      residual();
+      double dual_norm = 0.0, primal_norm = 0.0;
+      for (int i = 0; i < n; ++i) dual_norm = std::max(dual_norm, std::abs(res_p_(perm_(i))));
+      for (Eigen::Index i = n; i < rhs_.size(); ++i)
+        primal_norm = std::max(primal_norm, std::abs(res_p_(perm_(i))));
+      const double norm = std::max(dual_norm, primal_norm);
+      if (!std::isfinite(norm)) return false;
+      const bool accurate =
+          tight ? dual_norm <= tol + 1e-15 * dual_rhs && primal_norm <= 1e-2 * tol + 1e-15 * primal_rhs
+                : dual_norm <= tol + 1e-14 * dual_rhs && primal_norm <= tol + 1e-14 * primal_rhs;
+      if (r == settings_.max_refinement || accurate || norm > 0.5 * last) break;
+      last = norm;
+      ldlt_.solve_in_place(res_p_);
+      sol_p_ += res_p_;
+      ++info_.refinements;
+    }
+    return true;
+  };
+  // The refined solution as (w_, y_, lam_g_, lam_b_, g_ = G w_); inactive rows' multipliers are 0.
+  const auto extract = [&] {
+    for (Eigen::Index i = 0; i < sol_.size(); ++i) sol_(i) = sol_p_(perm_(i));
+    w_ = sol_.head(n);
+    y_ = sol_.segment(n, m);
+    for (int i = 0; i < p; ++i) lam_g_(i) = set_(i) != 0 ? sol_(n + m + i) : 0.0;
+    for (Eigen::Index k = 0; k < bound_var_.size(); ++k)
+      lam_b_(k) = set_(p + bound_var_(k)) != 0 ? sol_(n + m + p + k) : 0.0;
+    g_.noalias() = G * w_;
+  };
+  const auto lo_of = [&](int i) { return i < p ? h_l(i) : x_l(i - p); };
+  const auto up_of = [&](int i) { return i < p ? h_u(i) : x_u(i - p); };
+  const auto value_of = [&](int i) { return i < p ? g_(i) : w_(i - p); };
+  const auto lam_of = [&](int i) { return i < p ? lam_g_(i) : lam_b_(bound_row_(i - p)); };
+  const auto tol_p = [&](double bound) { return settings_.eps_abs + settings_.eps_rel * std::abs(bound); };
+  const auto tol_d = [&] {
+    return settings_.eps_abs +
+           1e-12 * std::max({q_norm, y_.lpNorm<Eigen::Infinity>(), lam_g_.lpNorm<Eigen::Infinity>(),
+                             lam_b_.lpNorm<Eigen::Infinity>()});
+  };
+  // A row whose multiplier has the wrong sign for its side (rows with lo == up take either sign).
+  const auto wrong_sign = [&](int i, double lam, double td) {
+    if (lo_of(i) == up_of(i)) return false;
+    return (set_(i) > 0 && lam < -td) || (set_(i) < 0 && lam > td);
+  };
+  // The most violated inactive row and its side (0: none beyond tol_p).
+  const auto most_violated = [&](int& side) {
+    int worst = -1;
+    double worst_violation = 0.0;
+    side = 0;
+    for (int i = 0; i < p + n; ++i) {
+      if (set_(i) != 0 || (i >= p && bound_row_(i - p) < 0)) continue;
+      const double v = value_of(i), lo = lo_of(i), up = up_of(i);
+      if (v > up + tol_p(up) && v - up > worst_violation) {
+        worst = i;
+        worst_violation = v - up;
+        side = 1;
+      } else if (v < lo - tol_p(lo) && lo - v > worst_violation) {
+        worst = i;
+        worst_violation = lo - v;
+        side = -1;
       }
-      return true;
-    };
-    // Set update: drop rows whose multiplier has the wrong sign, add violated rows. A set that the
-    // loose solution leaves unchanged is checked again on the tight one before it counts as repeated.
+    }
+    return worst;
+  };
+
+  // Phase 1, primal-dual active set: the first kFullUpdates iterations change every row whose
+  // multiplier has the wrong sign or whose bound is violated (the primal-dual active-set step); later
+  // ones only the worst wrong-sign multiplier and the worst violated row (this breaks the cycles the
+  // full step can fall into when the Hessian is not an M-matrix; one of each, not one in all, halves the
+  // iterations of a guess that is off by several rows of each kind). One full step: on the Bennu
+  // mission's shrinking phase, further full steps add rows that make the set dependent. A set that the
+  // loose solution leaves unchanged is checked again on the tight one before it counts as repeated.
+  bool repeated = false;
+  bool singular = false;
+  while (info_.iterations < std::min(settings_.max_iterations, settings_.primal_dual_iterations)) {
+    if (!factor_and_solve()) {
+      singular = true;
+      break;
+    }
     bool changed = false;
-    for (int pass = 0; pass < 2 && !changed; ++pass) {
-      if (!refine(pass == 1)) return info_.status = Status::Singular;
-      for (Eigen::Index i = 0; i < sol_.size(); ++i) sol_(i) = sol_p_(perm_(i));
-      w_ = sol_.head(n);
-      y_ = sol_.segment(n, m);
-      for (int i = 0; i < p; ++i) lam_g_(i) = set_(i) != 0 ? sol_(n + m + i) : 0.0;
-      for (Eigen::Index k = 0; k < bound_var_.size(); ++k)
-        lam_b_(k) = set_(p + bound_var_(k)) != 0 ? sol_(n + m + p + k) : 0.0;
-      g_.noalias() = G * w_;
-      const double dual_scale =
-          std::max({q_norm, y_.lpNorm<Eigen::Infinity>(), lam_g_.lpNorm<Eigen::Infinity>(),
-                    lam_b_.lpNorm<Eigen::Infinity>()});
+    for (int pass = 0; pass < 2 && !changed && !singular; ++pass) {
+      if (!refine(pass == 1)) {
+        singular = true;
+        break;
+      }
+      extract();
       // Dependent active rows: the regularised KKT matrix gives them multipliers of the order of
       // 1/dual_reg, and the set updates they drive lead the iteration astray.
       if (std::max(lam_g_.lpNorm<Eigen::Infinity>(), lam_b_.lpNorm<Eigen::Infinity>()) >
-          settings_.max_multiplier_ratio * std::max(1.0, q_norm))
-        return info_.status = Status::Singular;
-      const double tol_d = settings_.eps_abs + 1e-12 * dual_scale;
-      const auto tol_p = [&](double bound) {
-        return settings_.eps_abs + settings_.eps_rel * std::abs(bound);
-      };
-      // The first kFullUpdates iterations change every such row (the primal-dual active-set step);
-      // later ones only the worst wrong-sign multiplier and the worst violated row (this breaks the
-      // cycles the full step can fall into when the Hessian is not an M-matrix; one of each, not one
-      // in all, halves the iterations of a guess that is off by several rows of each kind). One full
-      // step: on the Bennu mission's shrinking phase, further full steps add rows that make the set
-      // dependent (with 3 full steps 2 of its 545 QPs went to PIQP, with 1 none, in fewer factorisations).
+          settings_.max_multiplier_ratio * std::max(1.0, q_norm)) {
+        singular = true;
+        break;
+      }
+      const double td = tol_d();
       constexpr int kFullUpdates = 1;
       const bool full = info_.iterations <= kFullUpdates;
       int drop_row = -1, drop_to = 0, add_row = -1, add_to = 0;
       double worst_drop = 0.0, worst_add = 0.0;
-      const auto update = [&](int i, double value, double lam, double lo, double up) {
+      for (int i = 0; i < p + n; ++i) {
+        if (i >= p && bound_row_(i - p) < 0) continue;
         const int a = set_(i);
+        const double value = value_of(i), lam = lam_of(i), lo = lo_of(i), up = up_of(i);
         int to = a;
         double score = 0.0;
         bool drop = false;
-        if (a > 0 && lam < -tol_d) {
+        if (a > 0 && lam < -td) {
           to = lo == up ? -1 : 0;
           score = -lam;
           drop = true;
-        } else if (a < 0 && lam > tol_d) {
+        } else if (a < 0 && lam > td) {
           to = lo == up ? 1 : 0;
           score = lam;
           drop = true;
@@ -334,7 +388,7 @@ ActiveSetQp::Status ActiveSetQp::solve(const SpMat& P_upper, const Eigen::Vector
           to = -1;
           score = lo - value;
         }
-        if (to == a) return;
+        if (to == a) continue;
         changed = true;
         if (full) {
           set_(i) = to;
@@ -347,18 +401,96 @@ ActiveSetQp::Status ActiveSetQp::solve(const SpMat& P_upper, const Eigen::Vector
           add_to = to;
           worst_add = score;
         }
-      };
-      for (int i = 0; i < p; ++i) update(i, g_(i), lam_g_(i), h_l(i), h_u(i));
-      for (Eigen::Index k = 0; k < bound_var_.size(); ++k) {
-        const int j = bound_var_(k);
-        update(p + j, w_(j), lam_b_(k), x_l(j), x_u(j));
       }
       if (drop_row >= 0) set_(drop_row) = drop_to;
       if (add_row >= 0) set_(add_row) = add_to;
     }
+    if (singular) break;
     if (!changed) {
       repeated = true;
       break;
+    }
+  }
+
+  // Phase 2, dual active set (Goldfarb and Idnani, Math. Program. 27, 1983), when the primal-dual
+  // iteration did not settle within Settings::primal_dual_iterations or met a dependent set. From a
+  // dual-feasible set (the current one without its wrong-sign rows; the empty set if that is singular),
+  // add the most violated row c: the solutions of the equality-constrained QPs on W and on W + {c} are
+  // joined by a segment of minimisers along which c's multiplier grows from 0; where an active row's
+  // multiplier reaches 0 first, that row leaves W and the segment continues from there. The dual
+  // objective increases at every step, so sets do not repeat (no cycling, unlike phase 1).
+  if (!repeated && info_.iterations < settings_.max_iterations) {
+    bool feasible = false;  // a dual-feasible set with its solution in (w_, ..., g_)
+    while (!feasible && info_.iterations < settings_.max_iterations) {
+      if (!factor_and_solve() || !refine(false)) {
+        if ((set_.array() == 0).all()) return info_.status = Status::Singular;
+        set_.setZero();
+        continue;
+      }
+      extract();
+      const double td = tol_d();
+      feasible = true;
+      for (int i = 0; i < p + n; ++i)
+        if (set_(i) != 0 && wrong_sign(i, lam_of(i), td)) {
+          set_(i) = 0;
+          feasible = false;
+        }
+    }
+    // The current point (the last solution, interpolated along the segment) in w_c_, y_c_, lam_c_.
+    w_c_ = w_;
+    y_c_ = y_;
+    lam_gc_ = lam_g_;
+    lam_bc_ = lam_b_;
+    while (feasible && info_.iterations < settings_.max_iterations) {
+      int side = 0;
+      const int c = most_violated(side);
+      if (c <
+          0) {  // the current point solves the QP on the current set: refine it to the verification's accuracy
+        if (!refine(true)) return info_.status = Status::Singular;
+        extract();
+        int side_tight = 0;
+        if (most_violated(side_tight) < 0) {
+          repeated = true;
+          break;
+        }
+        continue;
+      }
+      set_(c) = side;
+      bool added = false;
+      while (!added && info_.iterations < settings_.max_iterations) {
+        if (!factor_and_solve() || !refine(false)) return info_.status = Status::Singular;
+        extract();
+        // The first active row (other than c) whose multiplier changes sign along the segment.
+        const double td = tol_d();
+        double t_block = 1.0;
+        int blocking = -1;
+        for (int i = 0; i < p + n; ++i) {
+          if (i == c || set_(i) == 0 || !wrong_sign(i, lam_of(i), td)) continue;
+          const double now = i < p ? lam_gc_(i) : lam_bc_(bound_row_(i - p)), next = lam_of(i);
+          const double t = now == next ? 0.0 : std::max(0.0, now / (now - next));
+          if (t < t_block) {
+            t_block = t;
+            blocking = i;
+          }
+        }
+        if (blocking < 0) {
+          added = true;
+          w_c_ = w_;
+          y_c_ = y_;
+          lam_gc_ = lam_g_;
+          lam_bc_ = lam_b_;
+          break;
+        }
+        w_c_ += t_block * (w_ - w_c_);
+        y_c_ += t_block * (y_ - y_c_);
+        lam_gc_ += t_block * (lam_g_ - lam_gc_);
+        lam_bc_ += t_block * (lam_b_ - lam_bc_);
+        set_(blocking) = 0;
+        if (blocking < p)
+          lam_gc_(blocking) = 0.0;
+        else
+          lam_bc_(bound_row_(blocking - p)) = 0.0;
+      }
     }
   }
 

@@ -9,8 +9,14 @@
 /// At that point the KKT conditions hold, which `solve` verifies on the unregularised problem before
 /// it reports Status::Solved. In MPC the active set of the previous QP (shifted by one node) is
 /// usually right or nearly right, so a QP costs one to three factorisations, against the ~14 of an
-/// interior point. The iteration can cycle on hard instances: it then stops at
-/// Settings::max_iterations with Status::MaxIterations, and the caller uses its fallback solver.
+/// interior point. The iteration can cycle on hard instances (the Bennu mission's shrinking phase, where
+/// a soft-terminal L1 penalty makes the QP nearly an LP): after Settings::primal_dual_iterations
+/// factorisations, or on a dependent set, a dual active-set phase (Goldfarb and Idnani, Math. Program.
+/// 27, 1983) takes over from the current set without its wrong-sign rows. It adds one violated row at a
+/// time along the segment of minimisers on which that row's multiplier grows from zero, dropping any
+/// active row whose multiplier reaches zero first; the dual objective increases at every step, so no set
+/// repeats. A solve that has not settled after Settings::max_iterations factorisations in all returns
+/// Status::MaxIterations, and the caller uses its fallback solver.
 ///
 /// The KKT matrix [[P + rho I, A^T, C^T], [A, -delta I, 0], [C, 0, -D]] (C: the rows of G and the
 /// bound rows of the variables that may carry bounds; inactive rows have C_i = 0 and D_ii = 1, so
@@ -47,7 +53,9 @@ class ActiveSetQp {
 
   /// Settings; `validate()` throws std::invalid_argument naming the field.
   struct Settings {
-    int max_iterations = 12;   ///< Factorisations (active-set iterations) per solve (>= 1).
+    int max_iterations = 20;  ///< Factorisations (active-set iterations) per solve (>= 1).
+    /// Factorisations of the primal-dual phase before the dual phase takes over (>= 1; see the file comment).
+    int primal_dual_iterations = 4;
     double eps_abs = 1e-8;     ///< Absolute tolerance of the KKT verification.
     double eps_rel = 1e-9;     ///< Relative tolerance of the KKT verification (and of the set updates).
     double primal_reg = 1e-9;  ///< rho: regularisation of the Hessian block (> 0).
@@ -123,6 +131,7 @@ class ActiveSetQp {
   Eigen::VectorXd rhs_p_, sol_p_, res_p_;  // the same and the residual (permuted order)
   Eigen::VectorXd tmp_, corr_, g_;
   Eigen::VectorXd w_, y_, z_l_, z_u_, z_bl_, z_bu_, lam_g_, lam_b_;
+  Eigen::VectorXd w_c_, y_c_, lam_gc_, lam_bc_;  // the dual phase's current point
   double objective_ = 0.0;
   Info info_;
 };

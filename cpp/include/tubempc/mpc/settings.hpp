@@ -103,7 +103,7 @@ struct Settings {
   /// Factorisations the active-set solver may spend on each of its (at most two) tries on one QP
   /// before PIQP takes over (>= 1). Its KKT
   /// verification uses qp_eps_abs and qp_eps_rel.
-  int active_set_max_iterations = 12;
+  int active_set_max_iterations = 20;
   KktSolver kkt_solver = KktSolver::SparseLdlt;  ///< Factorisation of PIQP's KKT systems.
   /// PIQP also scales the cost in its equilibration (on by default): the shrinking-horizon QPs, whose
   /// terminal-equality multipliers reach ~1e6, need ~14 interior-point iterations instead of 200+
