@@ -176,6 +176,7 @@ void bind_nav(py::module_& m) {
       .def_readwrite("star_tracker", &FilterSettings::star_tracker)
       .def_readwrite("imu", &FilterSettings::imu)
       .def_readwrite("accel_model_noise", &FilterSettings::accel_model_noise)
+      .def_readwrite("altimeter_terrain_sigma", &FilterSettings::altimeter_terrain_sigma)
       .def_readwrite("innovation_gate", &FilterSettings::innovation_gate)
       .def_readwrite("max_step", &FilterSettings::max_step)
       .def_readwrite("max_substeps", &FilterSettings::max_substeps)

@@ -145,6 +145,7 @@ class FilterSettings:
     star_tracker: StarTrackerSettings
     imu: ImuSettings
     accel_model_noise: float
+    altimeter_terrain_sigma: float
     innovation_gate: float
     max_step: float
     max_substeps: int

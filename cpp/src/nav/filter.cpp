@@ -78,6 +78,8 @@ void FilterSettings::validate() const {
   imu.validate();
   if (!(std::isfinite(accel_model_noise) && accel_model_noise >= 0.0))
     fail("accel_model_noise", "must be finite and >= 0");
+  if (!(std::isfinite(altimeter_terrain_sigma) && altimeter_terrain_sigma >= 0.0))
+    fail("altimeter_terrain_sigma", "must be finite and >= 0");
   if (!(innovation_gate > 0.0)) fail("innovation_gate", "must be > 0");
   if (!(std::isfinite(max_step) && max_step > 0.0)) fail("max_step", "must be finite and > 0");
   if (max_substeps < 1) fail("max_substeps", "must be >= 1");
@@ -271,7 +273,8 @@ UpdateResult NavigationFilter::update_altimeter(const AltimeterMeasurement& m) {
     return result.status = FilterStatus::NoPrediction, result;
   }
   const Eigen::Matrix<double, 1, 1> y(m.range - settings_.altimeter.bias - range);
-  const Eigen::Matrix<double, 1, 1> R(settings_.altimeter.sigma * settings_.altimeter.sigma);
+  const Eigen::Matrix<double, 1, 1> R(settings_.altimeter.sigma * settings_.altimeter.sigma +
+                                      settings_.altimeter_terrain_sigma * settings_.altimeter_terrain_sigma);
   fold<1>(y, H, R, result);
   result.status = result.accepted > 0 ? FilterStatus::Ok : FilterStatus::Rejected;
   return result;

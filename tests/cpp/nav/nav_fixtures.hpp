@@ -82,8 +82,10 @@ struct RunResult {
   double nees_final{0.0};
   double nis_camera{0.0};
   int dof_camera{0};
-  double nis_other{0.0};
-  int dof_other{0};
+  double nis_star{0.0};
+  int dof_star{0};
+  double nis_altimeter{0.0};
+  int dof_altimeter{0};
   int camera_frames{0}, camera_empty{0}, altimeter_ok{0}, altimeter_out{0};
   int filter_failures{0};
   bool finite{true};
@@ -145,16 +147,16 @@ inline RunResult run(const World& w, const RunSettings& rs, std::uint64_t seed) 
       if (k % every_st == 0) {
         star.measure(truth, st);
         const nav::UpdateResult r = filter.update_star_tracker(st);
-        out.nis_other += r.nis;
-        out.dof_other += r.dof;
+        out.nis_star += r.nis;
+        out.dof_star += r.dof;
       }
       if (k % every_alt == 0) {
         const nav::SensorStatus a = altimeter.measure(truth, alt);
         out.altimeter_ok += a == nav::SensorStatus::Ok;
         out.altimeter_out += a == nav::SensorStatus::OutOfRange;
         const nav::UpdateResult r = filter.update_altimeter(alt);
-        out.nis_other += r.nis;
-        out.dof_other += r.dof;
+        out.nis_altimeter += r.nis;
+        out.dof_altimeter += r.dof;
       }
       if (k % every_cam == 0) {
         const nav::SensorStatus c = camera.measure(truth, frame);

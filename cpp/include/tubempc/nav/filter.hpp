@@ -64,6 +64,10 @@ struct FilterSettings {
   StarTrackerSettings star_tracker{};   ///< attitude noise, calibrated misalignment
   ImuSettings imu{};                    ///< noise densities and bias random walks of the IMU
   double accel_model_noise{0.0};        ///< extra acceleration noise density for unmodelled forces (m/s^2/sqrt(Hz)), >= 0
+  /// Range noise added in quadrature to the altimeter's (m), >= 0: the range to a faceted shape model
+  /// is piecewise linear in the state, and a beam that crosses a facet edge between the estimate and
+  /// the truth leaves the linearisation (docs/decisions.md, "Navigation").
+  double altimeter_terrain_sigma{0.1};
   double innovation_gate{1e4};          ///< largest accepted NIS of one measurement, > 0 (inf: no gate)
   double max_step{0.5};                 ///< longest propagation sub-step (s), > 0
   int max_substeps{64};                 ///< most sub-steps of one propagate call, >= 1 (a longer call is refused)
