@@ -121,7 +121,10 @@ TEST(NavigationFilter, NeesAndNisInsideChiSquareBounds) {
   const nav_test::World w = nav_test::make_world();
   nav_test::RunSettings rs;
   rs.duration = 40.0;
-  const int runs = 24;
+  // The test body is smooth at the scale of the position error: the filter's noise model is exact
+  // without the terrain term (tests/py/test_nav.py flies the Bennu-like body with it).
+  rs.filter.altimeter_terrain_sigma = 0.0;
+  const int runs = 40;
   double nees = 0.0, nis_cam = 0.0, nis_star = 0.0, nis_alt = 0.0;
   int dof_cam = 0, dof_star = 0, dof_alt = 0, frames = 0, empty = 0;
   for (int r = 0; r < runs; ++r) {
@@ -150,8 +153,7 @@ TEST(NavigationFilter, NeesAndNisInsideChiSquareBounds) {
   EXPECT_LT(nis_cam, nav_test::chi2_quantile(dof_cam, z)) << "camera NIS per dof " << nis_cam / dof_cam;
   EXPECT_GT(nis_star, nav_test::chi2_quantile(dof_star, -z)) << "star tracker NIS per dof " << nis_star / dof_star;
   EXPECT_LT(nis_star, nav_test::chi2_quantile(dof_star, z)) << "star tracker NIS per dof " << nis_star / dof_star;
-  // The altimeter's terrain noise (FilterSettings::altimeter_terrain_sigma) is deliberately conservative:
-  // its NIS is bounded above only.
+  EXPECT_GT(nis_alt, nav_test::chi2_quantile(dof_alt, -z)) << "altimeter NIS per dof " << nis_alt / dof_alt;
   EXPECT_LT(nis_alt, nav_test::chi2_quantile(dof_alt, z)) << "altimeter NIS per dof " << nis_alt / dof_alt;
 }
 
