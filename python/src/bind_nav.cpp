@@ -42,7 +42,8 @@ py::tuple cast_batch(const RayCaster& caster, const Eigen::Ref<const Rows3>& ori
     py::gil_scoped_release release;
     for (Eigen::Index i = 0; i < n; ++i) {
       const Eigen::Vector3d o = origins_A.row(i).transpose(), d = directions_A.row(i).transpose();
-      const RayHit h = brute_force ? caster.cast_all_faces(o, d, max_distance) : caster.cast(o, d, max_distance);
+      const RayHit h =
+          brute_force ? caster.cast_all_faces(o, d, max_distance) : caster.cast(o, d, max_distance);
       distance(i) = h.hit ? h.distance : std::numeric_limits<double>::infinity();
       face(i) = h.face;
     }
@@ -53,11 +54,13 @@ py::tuple cast_batch(const RayCaster& caster, const Eigen::Ref<const Rows3>& ori
 }  // namespace
 
 void bind_nav(py::module_& m) {
-  auto s = m.def_submodule("nav",
-                           "Navigation: ray casting on the shape model, landmark catalogue, altimeter, camera, IMU, "
-                           "star tracker and the joint error-state EKF (docs/model.md 'Navigation'); SI units");
+  auto s = m.def_submodule(
+      "nav",
+      "Navigation: ray casting on the shape model, landmark catalogue, altimeter, camera, IMU, "
+      "star tracker and the joint error-state EKF (docs/model.md 'Navigation'); SI units");
 
-  py::class_<Random>(s, "Random", "The project's seeded stream: xoshiro256** (SplitMix64 seeding), Box-Muller normals")
+  py::class_<Random>(s, "Random",
+                     "The project's seeded stream: xoshiro256** (SplitMix64 seeding), Box-Muller normals")
       .def(py::init<std::uint64_t>(), py::arg("seed") = 0)
       .def("reseed", &Random::reseed, py::arg("seed"))
       .def("next_u64", &Random::next_u64)
@@ -71,13 +74,14 @@ void bind_nav(py::module_& m) {
       .def_readonly("point_A", &RayHit::point_A)
       .def_readonly("normal_A", &RayHit::normal_A);
 
-  py::class_<RayCaster, std::shared_ptr<RayCaster>>(s, "RayCaster",
-                                                     "Ray caster over a Shape (bounding-volume hierarchy, frame A)")
+  py::class_<RayCaster, std::shared_ptr<RayCaster>>(
+      s, "RayCaster", "Ray caster over a Shape (bounding-volume hierarchy, frame A)")
       .def(py::init<const gravity::Shape&>(), py::arg("shape"))
       .def("cast", &RayCaster::cast, py::arg("origin_A"), py::arg("direction_A"),
            py::arg("max_distance") = std::numeric_limits<double>::infinity(), "First face met (m)")
       .def("cast_all_faces", &RayCaster::cast_all_faces, py::arg("origin_A"), py::arg("direction_A"),
-           py::arg("max_distance") = std::numeric_limits<double>::infinity(), "The same over every face (O(m))")
+           py::arg("max_distance") = std::numeric_limits<double>::infinity(),
+           "The same over every face (O(m))")
       .def("cast_batch", &cast_batch, py::arg("origins_A"), py::arg("directions_A"),
            py::arg("max_distance") = std::numeric_limits<double>::infinity(), py::arg("brute_force") = false,
            "Rows of rays (n, 3): (distances (n,) m, inf for a miss; faces (n,), -1 for a miss); GIL released")
@@ -216,8 +220,8 @@ void bind_nav(py::module_& m) {
       .def_readwrite("q_BL", &StarTrackerMeasurement::q_BL);
 
   py::class_<Altimeter>(s, "Altimeter", "Laser altimeter (range along a beam fixed in B)")
-      .def(py::init<std::shared_ptr<const RayCaster>, const AltimeterSettings&, std::uint64_t>(), py::arg("caster"),
-           py::arg("settings"), py::arg("seed"))
+      .def(py::init<std::shared_ptr<const RayCaster>, const AltimeterSettings&, std::uint64_t>(),
+           py::arg("caster"), py::arg("settings"), py::arg("seed"))
       .def(
           "measure",
           [](Altimeter& a, const SensorTruth& t) {
@@ -228,7 +232,8 @@ void bind_nav(py::module_& m) {
           py::arg("truth"))
       .def_property_readonly("settings", &Altimeter::settings);
   py::class_<NavCamera>(s, "NavCamera", "Pinhole navigation camera observing the landmark catalogue")
-      .def(py::init<std::shared_ptr<const RayCaster>, std::vector<Landmark>, const CameraSettings&, std::uint64_t>(),
+      .def(py::init<std::shared_ptr<const RayCaster>, std::vector<Landmark>, const CameraSettings&,
+                    std::uint64_t>(),
            py::arg("caster"), py::arg("landmarks"), py::arg("settings"), py::arg("seed"))
       .def(
           "project",
@@ -297,12 +302,14 @@ void bind_nav(py::module_& m) {
       .def_readonly("rejected", &UpdateResult::rejected)
       .def_readonly("nis", &UpdateResult::nis)
       .def_readonly("dof", &UpdateResult::dof);
-  s.def("nav_error", &nav_error, py::arg("estimate"), py::arg("truth"), "Error state dx (15) of truth against estimate");
+  s.def("nav_error", &nav_error, py::arg("estimate"), py::arg("truth"),
+        "Error state dx (15) of truth against estimate");
   s.def("nees", &nees, py::arg("estimate"), py::arg("covariance"), py::arg("truth"));
   s.attr("N_STATES") = kNavStates;
   s.attr("MAX_LANDMARKS_PER_FRAME") = kMaxLandmarksPerFrame;
 
-  py::class_<NavigationFilter>(s, "NavigationFilter", "Joint error-state EKF (translation, attitude, IMU biases)")
+  py::class_<NavigationFilter>(s, "NavigationFilter",
+                               "Joint error-state EKF (translation, attitude, IMU biases)")
       .def(py::init<std::shared_ptr<const dynamics::ProximityModel>, std::shared_ptr<const RayCaster>,
                     std::vector<Landmark>, const FilterSettings&>(),
            py::arg("model"), py::arg("caster"), py::arg("landmarks"), py::arg("settings"))

@@ -57,8 +57,8 @@ NavErrorVector nav_error(const NavState& estimate, const NavState& truth) {
   NavErrorVector dx;
   dx.segment<3>(0) = truth.r_L - estimate.r_L;
   dx.segment<3>(3) = truth.v_L - estimate.v_L;
-  dx.segment<3>(6) = math::log_map(math::quat_mul(math::quat_conj(math::quat_normalize(estimate.q_BL)),
-                                                  math::quat_normalize(truth.q_BL)));
+  dx.segment<3>(6) = math::log_map(
+      math::quat_mul(math::quat_conj(math::quat_normalize(estimate.q_BL)), math::quat_normalize(truth.q_BL)));
   dx.segment<3>(9) = truth.gyro_bias_B - estimate.gyro_bias_B;
   dx.segment<3>(12) = truth.accel_bias_B - estimate.accel_bias_B;
   return dx;
@@ -88,7 +88,10 @@ void FilterSettings::validate() const {
 NavigationFilter::NavigationFilter(std::shared_ptr<const dynamics::ProximityModel> model,
                                    std::shared_ptr<const RayCaster> caster, std::vector<Landmark> landmarks,
                                    const FilterSettings& settings)
-    : model_(std::move(model)), caster_(std::move(caster)), landmarks_(std::move(landmarks)), settings_(settings) {
+    : model_(std::move(model)),
+      caster_(std::move(caster)),
+      landmarks_(std::move(landmarks)),
+      settings_(settings) {
   if (!model_) throw std::invalid_argument("filter: model must not be null");
   if (!caster_) throw std::invalid_argument("filter: caster must not be null");
   settings_.validate();
@@ -194,7 +197,8 @@ FilterStatus NavigationFilter::propagate(double t_to, const ImuSample& imu) {
 }
 
 template <int M>
-bool NavigationFilter::fold(const Eigen::Matrix<double, M, 1>& residual, const Eigen::Matrix<double, M, kNavStates>& H,
+bool NavigationFilter::fold(const Eigen::Matrix<double, M, 1>& residual,
+                            const Eigen::Matrix<double, M, kNavStates>& H,
                             const Eigen::Matrix<double, M, M>& R, UpdateResult& result) {
   using MatM = Eigen::Matrix<double, M, M>;
   const Eigen::Matrix<double, M, kNavStates> HP = H * P_;
@@ -338,7 +342,8 @@ UpdateResult NavigationFilter::update_star_tracker(const StarTrackerMeasurement&
   UpdateResult result;
   if (!initialized_) return result.status = FilterStatus::InvalidInput, result;
   if (m.status != SensorStatus::Ok) return result.status = FilterStatus::NoMeasurement, result;
-  if (!m.q_BL.allFinite() || !(m.q_BL.norm() > 1e-12)) return result.status = FilterStatus::InvalidInput, result;
+  if (!m.q_BL.allFinite() || !(m.q_BL.norm() > 1e-12))
+    return result.status = FilterStatus::InvalidInput, result;
   if (!same_time(m.t, x_.t)) return result.status = FilterStatus::TimeMismatch, result;
   const math::Quaternion q_meas =
       math::quat_mul(math::quat_normalize(m.q_BL), math::exp_map(-settings_.star_tracker.misalignment_B));
@@ -375,7 +380,8 @@ dynamics::StateVector NavigationFilter::model_state(const Eigen::Vector3d& phi_r
 }
 
 dynamics::StateMatrix NavigationFilter::model_covariance(const Eigen::Vector3d& phi_ref) const {
-  Eigen::Matrix<double, dynamics::kNx, kNavStates> J = Eigen::Matrix<double, dynamics::kNx, kNavStates>::Zero();
+  Eigen::Matrix<double, dynamics::kNx, kNavStates> J =
+      Eigen::Matrix<double, dynamics::kNx, kNavStates>::Zero();
   J.block<6, 6>(0, 0).setIdentity();
   J.block<3, 3>(6, 6) = math::right_jacobian_inverse(phi_near(phi_ref));
   J.block<3, 3>(9, 9) = -Eigen::Matrix3d::Identity();

@@ -60,7 +60,8 @@ RayCaster::RayCaster(const gravity::Shape& shape) {
   if (depth_ > kMaxDepth) throw std::invalid_argument("RayCaster: hierarchy deeper than kMaxDepth");
 }
 
-int RayCaster::build(std::int32_t begin, std::int32_t end, std::vector<Eigen::Vector3d>& centroids, int depth) {
+int RayCaster::build(std::int32_t begin, std::int32_t end, std::vector<Eigen::Vector3d>& centroids,
+                     int depth) {
   depth_ = std::max(depth_, depth);
   const int index = static_cast<int>(nodes_.size());
   nodes_.push_back(Node{});
@@ -108,7 +109,8 @@ double RayCaster::intersect(std::int32_t f, const Eigen::Vector3d& o, const Eige
   return e2_[f].dot(q) * inv;
 }
 
-RayHit RayCaster::make_hit(std::int32_t face, double s, const Eigen::Vector3d& o, const Eigen::Vector3d& d) const {
+RayHit RayCaster::make_hit(std::int32_t face, double s, const Eigen::Vector3d& o,
+                           const Eigen::Vector3d& d) const {
   RayHit h;
   if (face < 0) return h;
   h.hit = true;

@@ -13,13 +13,15 @@ namespace {
 }
 
 void check_nonnegative(const char* sensor, const char* field, double x) {
-  if (!(std::isfinite(x) && x >= 0.0)) fail(sensor, field, "must be finite and >= 0, got " + std::to_string(x));
+  if (!(std::isfinite(x) && x >= 0.0))
+    fail(sensor, field, "must be finite and >= 0, got " + std::to_string(x));
 }
 void check_positive(const char* sensor, const char* field, double x) {
   if (!(std::isfinite(x) && x > 0.0)) fail(sensor, field, "must be finite and > 0, got " + std::to_string(x));
 }
 void check_probability(const char* sensor, double p) {
-  if (!(p >= 0.0 && p <= 1.0)) fail(sensor, "dropout_probability", "must lie in [0, 1], got " + std::to_string(p));
+  if (!(p >= 0.0 && p <= 1.0))
+    fail(sensor, "dropout_probability", "must lie in [0, 1], got " + std::to_string(p));
 }
 
 bool finite(const SensorTruth& s) {
@@ -55,11 +57,13 @@ const char* to_string(SensorStatus s) {
 
 void AltimeterSettings::validate() const {
   constexpr const char* s = "altimeter";
-  if (!boresight_B.allFinite() || !(boresight_B.norm() > 0.0)) fail(s, "boresight_B", "must be finite and non-zero");
+  if (!boresight_B.allFinite() || !(boresight_B.norm() > 0.0))
+    fail(s, "boresight_B", "must be finite and non-zero");
   check_nonnegative(s, "sigma", sigma);
   if (!std::isfinite(bias)) fail(s, "bias", "must be finite");
   check_nonnegative(s, "min_range", min_range);
-  if (!(std::isfinite(max_range) && max_range > min_range)) fail(s, "max_range", "must be finite and > min_range");
+  if (!(std::isfinite(max_range) && max_range > min_range))
+    fail(s, "max_range", "must be finite and > min_range");
   check_positive(s, "period", period);
   check_probability(s, dropout_probability);
 }
@@ -126,7 +130,8 @@ void CameraSettings::validate() const {
   if (!(max_incidence_angle > 0.0 && max_incidence_angle <= half_pi))
     fail(s, "max_incidence_angle", "must lie in (0, pi/2]");
   check_nonnegative(s, "min_range", min_range);
-  if (!(std::isfinite(max_range) && max_range > min_range)) fail(s, "max_range", "must be finite and > min_range");
+  if (!(std::isfinite(max_range) && max_range > min_range))
+    fail(s, "max_range", "must be finite and > min_range");
   if (max_landmarks < 1 || max_landmarks > kMaxLandmarksPerFrame)
     fail(s, "max_landmarks", "must lie in [1, " + std::to_string(kMaxLandmarksPerFrame) + "]");
   check_positive(s, "period", period);
@@ -152,7 +157,8 @@ NavCamera::NavCamera(std::shared_ptr<const RayCaster> caster, std::vector<Landma
 bool NavCamera::project(const Eigen::Vector3d& s_C, Eigen::Vector2d& pixel) const {
   if (!(s_C.z() > 0.0)) return false;
   const double f = settings_.focal_length_px;
-  pixel << 0.5 * settings_.width_px + f * s_C.x() / s_C.z(), 0.5 * settings_.height_px + f * s_C.y() / s_C.z();
+  pixel << 0.5 * settings_.width_px + f * s_C.x() / s_C.z(),
+      0.5 * settings_.height_px + f * s_C.y() / s_C.z();
   return pixel.x() >= 0.0 && pixel.x() <= settings_.width_px && pixel.y() >= 0.0 &&
          pixel.y() <= settings_.height_px;
 }
@@ -236,7 +242,8 @@ void StarTrackerSettings::validate() const {
   check_probability(s, dropout_probability);
 }
 
-StarTracker::StarTracker(const StarTrackerSettings& settings, std::uint64_t seed) : settings_(settings), rng_(seed) {
+StarTracker::StarTracker(const StarTrackerSettings& settings, std::uint64_t seed)
+    : settings_(settings), rng_(seed) {
   settings_.validate();
 }
 

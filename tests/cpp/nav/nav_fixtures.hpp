@@ -46,7 +46,8 @@ inline math::Quaternion nadir_attitude(const Eigen::Vector3d& r_L) {
 }
 
 // The sensors' view of a truth state.
-inline nav::SensorTruth sensor_truth(const dynamics::ProximityModel& model, double t, const dynamics::TruthState& s) {
+inline nav::SensorTruth sensor_truth(const dynamics::ProximityModel& model, double t,
+                                     const dynamics::TruthState& s) {
   nav::SensorTruth st;
   st.t = t;
   st.r_L = s.segment<3>(0);
@@ -72,10 +73,9 @@ struct RunSettings {
   Eigen::Vector3d r0_L{-420.0, 40.0, 60.0};
   Eigen::Vector3d v0_L{0.02, -0.03, 0.01};
   Eigen::Vector3d omega0_BL_B{1e-4, -2e-4, 5e-5};
-  Eigen::Matrix<double, 15, 1> sigma0 =
-      (Eigen::Matrix<double, 15, 1>() << 2.0, 2.0, 2.0, 0.01, 0.01, 0.01, 1e-3, 1e-3, 1e-3, 1e-5, 1e-5, 1e-5,
-       1e-5, 1e-5, 1e-5)
-          .finished();
+  Eigen::Matrix<double, 15, 1> sigma0 = (Eigen::Matrix<double, 15, 1>() << 2.0, 2.0, 2.0, 0.01, 0.01, 0.01,
+                                         1e-3, 1e-3, 1e-3, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5)
+                                            .finished();
 };
 
 struct RunResult {

@@ -143,7 +143,8 @@ TEST(NavigationFilter, NeesAndNisInsideChiSquareBounds) {
   }
   const double k_nees = 15.0 * runs;
   std::printf("NEES/15 %.3f  NIS/dof: camera %.3f (%d), star tracker %.3f (%d), altimeter %.3f (%d)\n",
-              nees / k_nees, nis_cam / dof_cam, dof_cam, nis_star / dof_star, dof_star, nis_alt / dof_alt, dof_alt);
+              nees / k_nees, nis_cam / dof_cam, dof_cam, nis_star / dof_star, dof_star, nis_alt / dof_alt,
+              dof_alt);
   EXPECT_EQ(empty, 0);
   EXPECT_GT(dof_cam, 2 * 8 * frames);  // at least 8 landmarks per frame on average
   const double z = 1.959963984540054;
@@ -151,8 +152,10 @@ TEST(NavigationFilter, NeesAndNisInsideChiSquareBounds) {
   EXPECT_LT(nees, nav_test::chi2_quantile(k_nees, z)) << "average NEES " << nees / runs;
   EXPECT_GT(nis_cam, nav_test::chi2_quantile(dof_cam, -z)) << "camera NIS per dof " << nis_cam / dof_cam;
   EXPECT_LT(nis_cam, nav_test::chi2_quantile(dof_cam, z)) << "camera NIS per dof " << nis_cam / dof_cam;
-  EXPECT_GT(nis_star, nav_test::chi2_quantile(dof_star, -z)) << "star tracker NIS per dof " << nis_star / dof_star;
-  EXPECT_LT(nis_star, nav_test::chi2_quantile(dof_star, z)) << "star tracker NIS per dof " << nis_star / dof_star;
+  EXPECT_GT(nis_star, nav_test::chi2_quantile(dof_star, -z))
+      << "star tracker NIS per dof " << nis_star / dof_star;
+  EXPECT_LT(nis_star, nav_test::chi2_quantile(dof_star, z))
+      << "star tracker NIS per dof " << nis_star / dof_star;
   EXPECT_GT(nis_alt, nav_test::chi2_quantile(dof_alt, -z)) << "altimeter NIS per dof " << nis_alt / dof_alt;
   EXPECT_LT(nis_alt, nav_test::chi2_quantile(dof_alt, z)) << "altimeter NIS per dof " << nis_alt / dof_alt;
 }

@@ -80,7 +80,8 @@ TEST(RayCaster, SphereRangeWithinFacetingBounds) {
   for (Eigen::Index f = 0; f < m.f.rows(); ++f) {
     Eigen::Vector3d c = Eigen::Vector3d::Zero();
     for (int j = 0; j < 3; ++j) c += m.v.row(m.f(f, j)).transpose();
-    for (int j = 0; j < 3; ++j) delta = std::max(delta, std::acos(c.normalized().dot(m.v.row(m.f(f, j)).normalized())));
+    for (int j = 0; j < 3; ++j)
+      delta = std::max(delta, std::acos(c.normalized().dot(m.v.row(m.f(f, j)).normalized())));
   }
   nav::Random rng(5);
   for (int i = 0; i < 500; ++i) {

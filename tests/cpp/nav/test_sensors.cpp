@@ -104,7 +104,8 @@ TEST(Camera, PixelsMatchAnIndependentProjection) {
     const nav::LandmarkObservation& o = frame.observations[static_cast<std::size_t>(i)];
     // s_C = q_BC^* (x) q_BL^* (x) (p - r) (x) q_BL (x) q_BC.
     const Eigen::Vector3d s_C =
-        rotate(math::quat_conj(q_BC), rotate(math::quat_conj(q), lms[static_cast<std::size_t>(o.landmark)].p_A - truth.r_L));
+        rotate(math::quat_conj(q_BC),
+               rotate(math::quat_conj(q), lms[static_cast<std::size_t>(o.landmark)].p_A - truth.r_L));
     const double u = 512.0 + 1500.0 * s_C.x() / s_C.z() + 0.5, v = 512.0 + 1500.0 * s_C.y() / s_C.z() - 0.25;
     EXPECT_NEAR(o.pixel.x(), u, 1e-9);
     EXPECT_NEAR(o.pixel.y(), v, 1e-9);
@@ -129,7 +130,8 @@ TEST(Camera, OccludedAndBackFacingLandmarksAreNotSeen) {
   nav::CameraSettings s;
   s.max_incidence_angle = 1.0;
   nav::NavCamera cam(caster, {hidden, top}, s, 1);
-  const nav::SensorTruth truth = above_box(60.0, math::exp_map(Eigen::Vector3d(3.14159265358979323846, 0.0, 0.0)));
+  const nav::SensorTruth truth =
+      above_box(60.0, math::exp_map(Eigen::Vector3d(3.14159265358979323846, 0.0, 0.0)));
   Eigen::Vector2d pixel;
   EXPECT_FALSE(cam.visible(0, truth, pixel));
   EXPECT_TRUE(cam.visible(1, truth, pixel));
@@ -175,8 +177,10 @@ TEST(Imu, MeasuresSpecificForceAndInertialRate) {
   nav::ImuSample m;
   ASSERT_EQ(imu.measure(t, m), nav::SensorStatus::Ok);
   EXPECT_GT(imu.gyro_bias().norm(), 0.0);
-  EXPECT_TRUE(m.specific_force_B.isApprox(rotate(math::quat_conj(t.q_BL), t.accel_nongrav_L) + imu.accel_bias(), 1e-12));
-  EXPECT_TRUE(m.omega_BI_B.isApprox(t.omega_BL_B + rotate(math::quat_conj(t.q_BL), t.omega_LI_L) + imu.gyro_bias(), 1e-12));
+  EXPECT_TRUE(m.specific_force_B.isApprox(
+      rotate(math::quat_conj(t.q_BL), t.accel_nongrav_L) + imu.accel_bias(), 1e-12));
+  EXPECT_TRUE(m.omega_BI_B.isApprox(
+      t.omega_BL_B + rotate(math::quat_conj(t.q_BL), t.omega_LI_L) + imu.gyro_bias(), 1e-12));
   // Noise: standard deviation density / sqrt(period).
   s.gyro_noise_density = 1e-4;
   s.period = 0.25;
@@ -185,7 +189,8 @@ TEST(Imu, MeasuresSpecificForceAndInertialRate) {
   const int n = 10000;
   for (int i = 0; i < n; ++i) {
     noisy.measure(t, m);
-    sum2 += (m.omega_BI_B - t.omega_BL_B - rotate(math::quat_conj(t.q_BL), t.omega_LI_L) - noisy.gyro_bias()).squaredNorm();
+    sum2 += (m.omega_BI_B - t.omega_BL_B - rotate(math::quat_conj(t.q_BL), t.omega_LI_L) - noisy.gyro_bias())
+                .squaredNorm();
   }
   EXPECT_NEAR(std::sqrt(sum2 / (3 * n)), 2e-4, 5.0 * 2e-4 / std::sqrt(6.0 * n));
 }
@@ -199,7 +204,8 @@ TEST(StarTracker, MeasuresAttitudeWithNoiseAndMisalignment) {
   t.q_BL = math::exp_map(Eigen::Vector3d(0.5, 2.0, -1.0));
   nav::StarTrackerMeasurement m;
   ASSERT_EQ(st.measure(t, m), nav::SensorStatus::Ok);
-  EXPECT_TRUE(math::log_map(math::quat_mul(math::quat_conj(t.q_BL), m.q_BL)).isApprox(s.misalignment_B, 1e-9));
+  EXPECT_TRUE(
+      math::log_map(math::quat_mul(math::quat_conj(t.q_BL), m.q_BL)).isApprox(s.misalignment_B, 1e-9));
   s.misalignment_B.setZero();
   s.sigma_B = Eigen::Vector3d(1e-4, 2e-4, 1e-3);
   nav::StarTracker noisy(s, 3);
@@ -209,7 +215,8 @@ TEST(StarTracker, MeasuresAttitudeWithNoiseAndMisalignment) {
     noisy.measure(t, m);
     sum2 += math::log_map(math::quat_mul(math::quat_conj(t.q_BL), m.q_BL)).cwiseAbs2();
   }
-  for (int j = 0; j < 3; ++j) EXPECT_NEAR(std::sqrt(sum2(j) / n), s.sigma_B(j), 5.0 * s.sigma_B(j) / std::sqrt(2.0 * n));
+  for (int j = 0; j < 3; ++j)
+    EXPECT_NEAR(std::sqrt(sum2(j) / n), s.sigma_B(j), 5.0 * s.sigma_B(j) / std::sqrt(2.0 * n));
   s.dropout_probability = 1.0;
   nav::StarTracker lost(s, 3);
   EXPECT_EQ(lost.measure(t, m), nav::SensorStatus::Dropout);

@@ -59,33 +59,34 @@ double nees(const NavState& estimate, const NavCovariance& covariance, const Nav
 /// their noise is the filter's model of it and their biases (altimeter bias, pixel bias, star tracker
 /// misalignment) are known calibrations the filter subtracts.
 struct FilterSettings {
-  AltimeterSettings altimeter{};        ///< beam, range noise, calibrated bias, max range
-  CameraSettings camera{};              ///< intrinsics, C_BC, pixel noise, calibrated bias
-  StarTrackerSettings star_tracker{};   ///< attitude noise, calibrated misalignment
-  ImuSettings imu{};                    ///< noise densities and bias random walks of the IMU
-  double accel_model_noise{0.0};        ///< extra acceleration noise density for unmodelled forces (m/s^2/sqrt(Hz)), >= 0
+  AltimeterSettings altimeter{};       ///< beam, range noise, calibrated bias, max range
+  CameraSettings camera{};             ///< intrinsics, C_BC, pixel noise, calibrated bias
+  StarTrackerSettings star_tracker{};  ///< attitude noise, calibrated misalignment
+  ImuSettings imu{};                   ///< noise densities and bias random walks of the IMU
+  double accel_model_noise{
+      0.0};  ///< extra acceleration noise density for unmodelled forces (m/s^2/sqrt(Hz)), >= 0
   /// Range noise added in quadrature to the altimeter's (m), >= 0: the range to a faceted shape model
   /// is piecewise linear in the state, and a beam that crosses a facet edge between the estimate and
   /// the truth leaves the linearisation (docs/decisions.md, "Navigation").
   double altimeter_terrain_sigma{0.1};
-  double innovation_gate{1e4};          ///< largest accepted NIS of one measurement, > 0 (inf: no gate)
-  double max_step{0.5};                 ///< longest propagation sub-step (s), > 0
-  int max_substeps{64};                 ///< most sub-steps of one propagate call, >= 1 (a longer call is refused)
+  double innovation_gate{1e4};  ///< largest accepted NIS of one measurement, > 0 (inf: no gate)
+  double max_step{0.5};         ///< longest propagation sub-step (s), > 0
+  int max_substeps{64};         ///< most sub-steps of one propagate call, >= 1 (a longer call is refused)
   /// @throws std::invalid_argument naming the first bad field ("filter.<field>", or the sensor's).
   void validate() const;
 };
 
 /// Outcome of a filter call.
 enum class FilterStatus {
-  Ok,                  ///< done
-  ImuHeld,             ///< propagated with the last good IMU sample (this one was not Ok)
-  NoMeasurement,       ///< the measurement's status was not Ok: nothing to fold in (prediction only)
-  Rejected,            ///< every measurement failed the innovation gate (prediction only)
-  NoPrediction,        ///< the measurement cannot be predicted from the estimate (beam misses, landmark behind)
-  TimeMismatch,        ///< the measurement's time is not the filter's time (call propagate first)
-  StepTooLong,         ///< the propagation would need more than max_substeps sub-steps: not done
-  InvalidInput,        ///< a non-finite input or a time going backwards: nothing changed
-  NumericalFailure,    ///< an innovation covariance not positive definite or a non-finite result: undone
+  Ok,                ///< done
+  ImuHeld,           ///< propagated with the last good IMU sample (this one was not Ok)
+  NoMeasurement,     ///< the measurement's status was not Ok: nothing to fold in (prediction only)
+  Rejected,          ///< every measurement failed the innovation gate (prediction only)
+  NoPrediction,      ///< the measurement cannot be predicted from the estimate (beam misses, landmark behind)
+  TimeMismatch,      ///< the measurement's time is not the filter's time (call propagate first)
+  StepTooLong,       ///< the propagation would need more than max_substeps sub-steps: not done
+  InvalidInput,      ///< a non-finite input or a time going backwards: nothing changed
+  NumericalFailure,  ///< an innovation covariance not positive definite or a non-finite result: undone
 };
 /// Name of a filter status.
 /// @param s the status.
@@ -111,8 +112,9 @@ class NavigationFilter {
   /// @param landmarks the landmark catalogue (frame A), as the camera's.
   /// @param settings  validated here.
   /// @throws std::invalid_argument for a null pointer or bad settings.
-  NavigationFilter(std::shared_ptr<const dynamics::ProximityModel> model, std::shared_ptr<const RayCaster> caster,
-                   std::vector<Landmark> landmarks, const FilterSettings& settings);
+  NavigationFilter(std::shared_ptr<const dynamics::ProximityModel> model,
+                   std::shared_ptr<const RayCaster> caster, std::vector<Landmark> landmarks,
+                   const FilterSettings& settings);
 
   /// Sets the estimate and its covariance.
   /// @param x0 the initial estimate (its time is the filter's).
@@ -164,7 +166,8 @@ class NavigationFilter {
   /// @param pixel    receives (u, v) (pixels).
   /// @param H        if non-null, receives d pixel / d dx (2 x 15).
   /// @return false when not initialised, the landmark is behind the camera or the index is out of range.
-  bool predict_pixel(int landmark, Eigen::Vector2d& pixel, Eigen::Matrix<double, 2, kNavStates>* H = nullptr) const;
+  bool predict_pixel(int landmark, Eigen::Vector2d& pixel,
+                     Eigen::Matrix<double, 2, kNavStates>* H = nullptr) const;
   /// Predicted altimeter range from the estimate (the calibrated bias not added) and its Jacobian.
   /// @param range receives the distance along the beam to the shape model (m).
   /// @param H     if non-null, receives d range / d dx (1 x 15).
@@ -192,7 +195,7 @@ class NavigationFilter {
   Eigen::Vector3d omega_LI_L_;
   NavState x_;
   NavCovariance P_{NavCovariance::Identity()};
-  Eigen::Vector3d f_B_{Eigen::Vector3d::Zero()};      // last good specific force (m/s^2)
+  Eigen::Vector3d f_B_{Eigen::Vector3d::Zero()};         // last good specific force (m/s^2)
   Eigen::Vector3d omega_BI_B_{Eigen::Vector3d::Zero()};  // last good gyro rate (rad/s)
   bool initialized_{false};
 };

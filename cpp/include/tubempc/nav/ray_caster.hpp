@@ -17,10 +17,10 @@ namespace tubempc::nav {
 
 /// The nearest intersection of a ray with the mesh.
 struct RayHit {
-  bool hit{false};                                   ///< whether the ray meets a face within its range
-  double distance{0.0};                              ///< distance from the origin to the hit (m)
-  Eigen::Index face{-1};                             ///< the face hit (0-based), -1 without a hit
-  Eigen::Vector3d point_A{Eigen::Vector3d::Zero()};  ///< the hit point in A (m)
+  bool hit{false};                                    ///< whether the ray meets a face within its range
+  double distance{0.0};                               ///< distance from the origin to the hit (m)
+  Eigen::Index face{-1};                              ///< the face hit (0-based), -1 without a hit
+  Eigen::Vector3d point_A{Eigen::Vector3d::Zero()};   ///< the hit point in A (m)
   Eigen::Vector3d normal_A{Eigen::Vector3d::Zero()};  ///< the face's unit outward normal in A
 };
 

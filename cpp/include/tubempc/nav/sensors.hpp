@@ -34,13 +34,15 @@ const char* to_string(SensorStatus s);
 
 /// The true state the sensors observe at one instant.
 struct SensorTruth {
-  double t{0.0};                                            ///< time (s)
-  Eigen::Vector3d r_L{Eigen::Vector3d::Zero()};             ///< position in L (m)
-  math::Quaternion q_BL{0.0, 0.0, 0.0, 1.0};                ///< attitude q_B/L (R(q_B/L) = C_LB), unit
-  Eigen::Vector3d omega_BL_B{Eigen::Vector3d::Zero()};      ///< angular velocity of B relative to L, in B (rad/s)
-  Eigen::Vector3d omega_LI_L{Eigen::Vector3d::Zero()};      ///< angular velocity of L relative to I, in L: n z_L (rad/s)
-  Eigen::Vector3d accel_nongrav_L{Eigen::Vector3d::Zero()};  ///< non-gravitational acceleration (thrust, SRP) in L (m/s^2)
-  Eigen::Matrix3d C_AL{Eigen::Matrix3d::Identity()};        ///< rotation from L to A at t (r_A = C_AL r_L)
+  double t{0.0};                                        ///< time (s)
+  Eigen::Vector3d r_L{Eigen::Vector3d::Zero()};         ///< position in L (m)
+  math::Quaternion q_BL{0.0, 0.0, 0.0, 1.0};            ///< attitude q_B/L (R(q_B/L) = C_LB), unit
+  Eigen::Vector3d omega_BL_B{Eigen::Vector3d::Zero()};  ///< angular velocity of B relative to L, in B (rad/s)
+  Eigen::Vector3d omega_LI_L{
+      Eigen::Vector3d::Zero()};  ///< angular velocity of L relative to I, in L: n z_L (rad/s)
+  Eigen::Vector3d accel_nongrav_L{
+      Eigen::Vector3d::Zero()};  ///< non-gravitational acceleration (thrust, SRP) in L (m/s^2)
+  Eigen::Matrix3d C_AL{Eigen::Matrix3d::Identity()};  ///< rotation from L to A at t (r_A = C_AL r_L)
 };
 
 /// Laser altimeter settings.
@@ -97,7 +99,7 @@ class Altimeter {
 
 /// A surface landmark, fixed on the asteroid.
 struct Landmark {
-  Eigen::Vector3d p_A{Eigen::Vector3d::Zero()};       ///< position in A (m)
+  Eigen::Vector3d p_A{Eigen::Vector3d::Zero()};        ///< position in A (m)
   Eigen::Vector3d normal_A{Eigen::Vector3d::UnitZ()};  ///< unit outward normal of its face in A
   Eigen::Index face{-1};                               ///< the face it lies on (0-based)
 };
@@ -116,19 +118,21 @@ inline constexpr int kMaxLandmarksPerFrame = 32;
 
 /// Navigation camera settings (pinhole model).
 struct CameraSettings {
-  double focal_length_px{1500.0};                         ///< focal length (pixels), > 0
-  int width_px{1024};                                     ///< image width (pixels, along x_C), >= 1
-  int height_px{1024};                                    ///< image height (pixels, along y_C), >= 1
-  double pixel_sigma{0.5};                                ///< pixel noise standard deviation (pixels), >= 0
-  Eigen::Vector2d pixel_bias{Eigen::Vector2d::Zero()};    ///< constant pixel bias (pixels; not estimated)
-  Eigen::Matrix3d C_BC{Eigen::Matrix3d::Identity()};      ///< camera axes in B (v_B = C_BC v_C), a rotation
-  double max_emission_angle{1.2217304763960306};           ///< largest angle between normal and view (rad, 70 deg), in (0, pi/2]
-  double max_incidence_angle{1.3962634015954636};          ///< largest Sun incidence angle (rad, 80 deg), in (0, pi/2]
-  double min_range{1.0};                                  ///< nearest landmark observed (m), >= 0
-  double max_range{5000.0};                               ///< farthest landmark observed (m), > min_range
-  int max_landmarks{16};                                  ///< most landmarks per frame, in [1, kMaxLandmarksPerFrame]
-  double period{2.0};                                     ///< frame period (s), > 0
-  double dropout_probability{0.0};                        ///< probability that a frame is lost, in [0, 1]
+  double focal_length_px{1500.0};                       ///< focal length (pixels), > 0
+  int width_px{1024};                                   ///< image width (pixels, along x_C), >= 1
+  int height_px{1024};                                  ///< image height (pixels, along y_C), >= 1
+  double pixel_sigma{0.5};                              ///< pixel noise standard deviation (pixels), >= 0
+  Eigen::Vector2d pixel_bias{Eigen::Vector2d::Zero()};  ///< constant pixel bias (pixels; not estimated)
+  Eigen::Matrix3d C_BC{Eigen::Matrix3d::Identity()};    ///< camera axes in B (v_B = C_BC v_C), a rotation
+  double max_emission_angle{
+      1.2217304763960306};  ///< largest angle between normal and view (rad, 70 deg), in (0, pi/2]
+  double max_incidence_angle{
+      1.3962634015954636};          ///< largest Sun incidence angle (rad, 80 deg), in (0, pi/2]
+  double min_range{1.0};            ///< nearest landmark observed (m), >= 0
+  double max_range{5000.0};         ///< farthest landmark observed (m), > min_range
+  int max_landmarks{16};            ///< most landmarks per frame, in [1, kMaxLandmarksPerFrame]
+  double period{2.0};               ///< frame period (s), > 0
+  double dropout_probability{0.0};  ///< probability that a frame is lost, in [0, 1]
   /// @throws std::invalid_argument naming the first bad field ("camera.<field>").
   void validate() const;
   /// Focal length that gives a horizontal field of view.
@@ -140,15 +144,15 @@ struct CameraSettings {
 
 /// One landmark's pixel coordinates.
 struct LandmarkObservation {
-  int landmark{-1};                                 ///< index into the catalogue
+  int landmark{-1};                                ///< index into the catalogue
   Eigen::Vector2d pixel{Eigen::Vector2d::Zero()};  ///< measured pixel coordinates (u, v) (pixels)
 };
 
 /// One camera frame with a fixed capacity.
 struct CameraFrame {
-  double t{0.0};                                                       ///< frame time (s)
-  SensorStatus status{SensorStatus::Ok};                               ///< outcome; count > 0 only for Ok
-  int count{0};                                                        ///< observations held
+  double t{0.0};                                                        ///< frame time (s)
+  SensorStatus status{SensorStatus::Ok};                                ///< outcome; count > 0 only for Ok
+  int count{0};                                                         ///< observations held
   std::array<LandmarkObservation, kMaxLandmarksPerFrame> observations;  ///< the first `count` are valid
 };
 
@@ -198,24 +202,26 @@ class NavCamera {
 /// IMU settings: white noise given as densities (continuous-time), biases as an initial random draw
 /// plus a random walk. A sample's noise is the density over sqrt(period) (the mean over the period).
 struct ImuSettings {
-  double period{0.1};                      ///< sample period (s), > 0
-  double gyro_noise_density{1e-6};         ///< gyro angle random walk (rad/s/sqrt(Hz)), >= 0
-  double gyro_bias_sigma{1e-5};            ///< standard deviation of the initial gyro bias (rad/s), >= 0
-  double gyro_bias_random_walk{1e-8};      ///< gyro bias random walk (rad/s^2/sqrt(Hz)), >= 0
-  double accel_noise_density{1e-6};        ///< accelerometer velocity random walk (m/s^2/sqrt(Hz)), >= 0
-  double accel_bias_sigma{1e-5};           ///< standard deviation of the initial accelerometer bias (m/s^2), >= 0
-  double accel_bias_random_walk{1e-8};     ///< accelerometer bias random walk (m/s^3/sqrt(Hz)), >= 0
-  double dropout_probability{0.0};         ///< probability that a sample is lost, in [0, 1]
+  double period{0.1};                  ///< sample period (s), > 0
+  double gyro_noise_density{1e-6};     ///< gyro angle random walk (rad/s/sqrt(Hz)), >= 0
+  double gyro_bias_sigma{1e-5};        ///< standard deviation of the initial gyro bias (rad/s), >= 0
+  double gyro_bias_random_walk{1e-8};  ///< gyro bias random walk (rad/s^2/sqrt(Hz)), >= 0
+  double accel_noise_density{1e-6};    ///< accelerometer velocity random walk (m/s^2/sqrt(Hz)), >= 0
+  double accel_bias_sigma{1e-5};       ///< standard deviation of the initial accelerometer bias (m/s^2), >= 0
+  double accel_bias_random_walk{1e-8};  ///< accelerometer bias random walk (m/s^3/sqrt(Hz)), >= 0
+  double dropout_probability{0.0};      ///< probability that a sample is lost, in [0, 1]
   /// @throws std::invalid_argument naming the first bad field ("imu.<field>").
   void validate() const;
 };
 
 /// One IMU sample.
 struct ImuSample {
-  double t{0.0};                                             ///< sample time (s)
-  SensorStatus status{SensorStatus::Ok};                     ///< outcome; the vectors are valid only for Ok
-  Eigen::Vector3d specific_force_B{Eigen::Vector3d::Zero()};  ///< accelerometer: non-gravitational acceleration in B (m/s^2)
-  Eigen::Vector3d omega_BI_B{Eigen::Vector3d::Zero()};       ///< gyro: angular velocity of B relative to I, in B (rad/s)
+  double t{0.0};                          ///< sample time (s)
+  SensorStatus status{SensorStatus::Ok};  ///< outcome; the vectors are valid only for Ok
+  Eigen::Vector3d specific_force_B{
+      Eigen::Vector3d::Zero()};  ///< accelerometer: non-gravitational acceleration in B (m/s^2)
+  Eigen::Vector3d omega_BI_B{
+      Eigen::Vector3d::Zero()};  ///< gyro: angular velocity of B relative to I, in B (rad/s)
 };
 
 /// IMU: f_B = C_BL a_ng_L + b_a + noise (the accelerometer senses no gravity, the Sun's included) and
@@ -247,18 +253,18 @@ class Imu {
 
 /// Star tracker settings.
 struct StarTrackerSettings {
-  double period{1.0};                                           ///< sample period (s), > 0
-  Eigen::Vector3d sigma_B{2e-5, 2e-5, 1e-4};                    ///< attitude noise per B axis (rad), >= 0
-  Eigen::Vector3d misalignment_B{Eigen::Vector3d::Zero()};      ///< constant rotation error (rad; not estimated)
-  double dropout_probability{0.0};                              ///< probability that a sample is lost, in [0, 1]
+  double period{1.0};                                       ///< sample period (s), > 0
+  Eigen::Vector3d sigma_B{2e-5, 2e-5, 1e-4};                ///< attitude noise per B axis (rad), >= 0
+  Eigen::Vector3d misalignment_B{Eigen::Vector3d::Zero()};  ///< constant rotation error (rad; not estimated)
+  double dropout_probability{0.0};                          ///< probability that a sample is lost, in [0, 1]
   /// @throws std::invalid_argument naming the first bad field ("star_tracker.<field>").
   void validate() const;
 };
 
 /// One star tracker sample.
 struct StarTrackerMeasurement {
-  double t{0.0};                          ///< sample time (s)
-  SensorStatus status{SensorStatus::Ok};  ///< outcome; q_BL is valid only for Ok
+  double t{0.0};                              ///< sample time (s)
+  SensorStatus status{SensorStatus::Ok};      ///< outcome; q_BL is valid only for Ok
   math::Quaternion q_BL{0.0, 0.0, 0.0, 1.0};  ///< measured q_B/L (unit)
 };
 
