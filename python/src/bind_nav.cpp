@@ -300,6 +300,7 @@ void bind_nav(py::module_& m) {
       .def_readonly("status", &UpdateResult::status)
       .def_readonly("accepted", &UpdateResult::accepted)
       .def_readonly("rejected", &UpdateResult::rejected)
+      .def_readonly("failed", &UpdateResult::failed)
       .def_readonly("nis", &UpdateResult::nis)
       .def_readonly("dof", &UpdateResult::dof);
   s.def("nav_error", &nav_error, py::arg("estimate"), py::arg("truth"),

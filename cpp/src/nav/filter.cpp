@@ -27,6 +27,13 @@ bool same_time(double a, double b) { return std::abs(a - b) <= 1e-9 * std::max(1
 
 Mat15 symmetric(const Mat15& P) { return 0.5 * (P + P.transpose()); }
 
+// An update call's status from its counts: Ok when anything was folded in, else NumericalFailure when a
+// measurement failed for numerics, else Rejected (the gate).
+FilterStatus outcome(const UpdateResult& r) {
+  if (r.accepted > 0) return FilterStatus::Ok;
+  return r.failed > 0 ? FilterStatus::NumericalFailure : FilterStatus::Rejected;
+}
+
 }  // namespace
 
 const char* to_string(FilterStatus s) {
@@ -206,6 +213,7 @@ bool NavigationFilter::fold(const Eigen::Matrix<double, M, 1>& residual,
   const Eigen::LLT<MatM> llt(0.5 * (S + S.transpose()));
   if (llt.info() != Eigen::Success || !residual.allFinite()) {
     ++result.rejected;
+    ++result.failed;
     return false;
   }
   const double nis = residual.dot(llt.solve(residual));
@@ -224,6 +232,7 @@ bool NavigationFilter::fold(const Eigen::Matrix<double, M, 1>& residual,
     x_ = x_backup;
     P_ = P_backup;
     ++result.rejected;
+    ++result.failed;
     return false;
   }
   ++result.accepted;
@@ -280,7 +289,7 @@ UpdateResult NavigationFilter::update_altimeter(const AltimeterMeasurement& m) {
   const Eigen::Matrix<double, 1, 1> R(settings_.altimeter.sigma * settings_.altimeter.sigma +
                                       settings_.altimeter_terrain_sigma * settings_.altimeter_terrain_sigma);
   fold<1>(y, H, R, result);
-  result.status = result.accepted > 0 ? FilterStatus::Ok : FilterStatus::Rejected;
+  result.status = outcome(result);
   return result;
 }
 
@@ -332,9 +341,7 @@ UpdateResult NavigationFilter::update_camera(const CameraFrame& frame) {
     const Eigen::Vector2d y = o.pixel - settings_.camera.pixel_bias - pixel;
     fold<2>(y, H, R, result);
   }
-  result.status = result.accepted > 0 ? FilterStatus::Ok
-                  : predicted         ? FilterStatus::Rejected
-                                      : FilterStatus::NoPrediction;
+  result.status = predicted ? outcome(result) : FilterStatus::NoPrediction;
   return result;
 }
 
@@ -352,7 +359,7 @@ UpdateResult NavigationFilter::update_star_tracker(const StarTrackerMeasurement&
   H.block<3, 3>(0, 6).setIdentity();
   const Eigen::Matrix3d R = settings_.star_tracker.sigma_B.cwiseAbs2().asDiagonal();
   fold<3>(y, H, R, result);
-  result.status = result.accepted > 0 ? FilterStatus::Ok : FilterStatus::Rejected;
+  result.status = outcome(result);
   return result;
 }
 

@@ -163,20 +163,23 @@ bool NavCamera::project(const Eigen::Vector3d& s_C, Eigen::Vector2d& pixel) cons
          pixel.y() <= settings_.height_px;
 }
 
-bool NavCamera::visible(int i, const SensorTruth& truth, Eigen::Vector2d& pixel) const {
+bool NavCamera::visible_from(int i, const Eigen::Vector3d& r_A, const Eigen::Matrix3d& C_CA,
+                             const Eigen::Vector3d& sun_A, Eigen::Vector2d& pixel) const {
   const Landmark& lm = landmarks_[static_cast<std::size_t>(i)];
-  const Eigen::Vector3d r_A = truth.C_AL * truth.r_L;
   const Eigen::Vector3d view_A = r_A - lm.p_A;  // landmark -> camera
   const double range = view_A.norm();
   if (!(range >= settings_.min_range && range <= settings_.max_range)) return false;
   if (lm.normal_A.dot(view_A) < cos_emission_ * range) return false;
-  const Eigen::Vector3d sun_A = -truth.C_AL.col(0);  // the Sun is along -x_L
   if (lm.normal_A.dot(sun_A) < cos_incidence_) return false;
-  const Eigen::Matrix3d C_LB = math::rotation_matrix(truth.q_BL);
-  const Eigen::Vector3d s_C =
-      settings_.C_BC.transpose() * (C_LB.transpose() * (truth.C_AL.transpose() * (-view_A)));
-  if (!project(s_C, pixel)) return false;
+  if (!project(C_CA * (-view_A), pixel)) return false;
   return !caster_->blocked(lm.p_A, r_A, 1e-9 * caster_->size());
+}
+
+bool NavCamera::visible(int i, const SensorTruth& truth, Eigen::Vector2d& pixel) const {
+  if (i < 0 || i >= static_cast<int>(landmarks_.size()) || !finite(truth)) return false;
+  const Eigen::Matrix3d C_CA =
+      settings_.C_BC.transpose() * math::rotation_matrix(truth.q_BL).transpose() * truth.C_AL.transpose();
+  return visible_from(i, truth.C_AL * truth.r_L, C_CA, -truth.C_AL.col(0), pixel);  // the Sun is along -x_L
 }
 
 SensorStatus NavCamera::measure(const SensorTruth& truth, CameraFrame& out) {
@@ -184,9 +187,13 @@ SensorStatus NavCamera::measure(const SensorTruth& truth, CameraFrame& out) {
   out.count = 0;
   if (!finite(truth)) return out.status = SensorStatus::InvalidInput;
   if (rng_.uniform() < settings_.dropout_probability) return out.status = SensorStatus::Dropout;
+  const Eigen::Vector3d r_A = truth.C_AL * truth.r_L;
+  const Eigen::Matrix3d C_CA =
+      settings_.C_BC.transpose() * math::rotation_matrix(truth.q_BL).transpose() * truth.C_AL.transpose();
+  const Eigen::Vector3d sun_A = -truth.C_AL.col(0);
   Eigen::Vector2d pixel;
   for (int i = 0; i < static_cast<int>(landmarks_.size()) && out.count < settings_.max_landmarks; ++i) {
-    if (!visible(i, truth, pixel)) continue;
+    if (!visible_from(i, r_A, C_CA, sun_A, pixel)) continue;
     LandmarkObservation& o = out.observations[static_cast<std::size_t>(out.count++)];
     o.landmark = i;
     const double nu = rng_.normal(), nv = rng_.normal();

@@ -254,5 +254,23 @@ TEST(NavigationFilter, BadCallsGiveStatusesAndChangeNothing) {
   EXPECT_EQ(ok.status, nav::FilterStatus::Ok);
   EXPECT_EQ(ok.dof, 3);
   EXPECT_LT(f.covariance().block(6, 6, 3, 3).trace(), 1e-3 * before);
+  // A non-finite pixel: the update is refused for numerics and undone.
+  nav::CameraFrame frame;
+  frame.t = f.state().t;
+  frame.count = 1;
+  frame.observations[0].landmark = 0;
+  frame.observations[0].pixel = Eigen::Vector2d(INFINITY, 1.0);
+  const nav::NavState before_frame = f.state();
+  Eigen::Vector2d pixel;
+  for (int i = 0; i < static_cast<int>(w.landmarks.size()); ++i) {
+    if (f.predict_pixel(i, pixel)) {
+      frame.observations[0].landmark = i;
+      break;
+    }
+  }
+  const nav::UpdateResult bad = f.update_camera(frame);
+  EXPECT_EQ(bad.status, nav::FilterStatus::NumericalFailure);
+  EXPECT_EQ(bad.failed, 1);
+  EXPECT_TRUE(f.state().r_L == before_frame.r_L);
   EXPECT_THROW(nav::NavigationFilter(nullptr, w.caster, w.landmarks, fs), std::invalid_argument);
 }

@@ -98,8 +98,9 @@ struct UpdateResult {
   FilterStatus status{FilterStatus::Ok};  ///< outcome (Ok when at least one measurement was folded in)
   int accepted{0};                        ///< scalar, 2-D or 3-D measurements folded in
   int rejected{0};                        ///< measurements refused (gate, no prediction, numerics)
-  double nis{0.0};                        ///< sum of the accepted measurements' NIS
-  int dof{0};                             ///< degrees of freedom of that sum (components accepted)
+  int failed{0};    ///< of those, refused for numerics (S not positive definite, non-finite result)
+  double nis{0.0};  ///< sum of the accepted measurements' NIS
+  int dof{0};       ///< degrees of freedom of that sum (components accepted)
 };
 
 /// The joint error-state EKF. Lifecycle: construct (set-up, may allocate), `initialize`, then per IMU

@@ -179,7 +179,7 @@ class NavCamera {
   /// @param i     catalogue index.
   /// @param truth the true state.
   /// @param pixel receives its noise-free pixel coordinates when visible.
-  /// @return true when visible.
+  /// @return true when visible (false for an index out of range or a non-finite state).
   bool visible(int i, const SensorTruth& truth, Eigen::Vector2d& pixel) const;
   /// Takes one frame: the first max_landmarks visible landmarks in catalogue order.
   /// @param truth the true state.
@@ -192,6 +192,10 @@ class NavCamera {
   const std::vector<Landmark>& landmarks() const { return landmarks_; }
 
  private:
+  // Visibility of landmark i from r_A, with C_CA = C_CB C_BL C_LA and the Sun's direction in A.
+  bool visible_from(int i, const Eigen::Vector3d& r_A, const Eigen::Matrix3d& C_CA,
+                    const Eigen::Vector3d& sun_A, Eigen::Vector2d& pixel) const;
+
   std::shared_ptr<const RayCaster> caster_;
   std::vector<Landmark> landmarks_;
   CameraSettings settings_;
