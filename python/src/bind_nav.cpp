@@ -184,6 +184,7 @@ void bind_nav(py::module_& m) {
       .def_readwrite("innovation_gate", &FilterSettings::innovation_gate)
       .def_readwrite("max_step", &FilterSettings::max_step)
       .def_readwrite("max_substeps", &FilterSettings::max_substeps)
+      .def_readwrite("split", &FilterSettings::split)
       .def("validate", &FilterSettings::validate);
 
   py::class_<AltimeterMeasurement>(s, "AltimeterMeasurement")

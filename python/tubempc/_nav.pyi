@@ -149,6 +149,7 @@ class FilterSettings:
     innovation_gate: float
     max_step: float
     max_substeps: int
+    split: bool
     def __init__(self) -> None: ...
     def validate(self) -> None: ...
 

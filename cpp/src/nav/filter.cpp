@@ -27,6 +27,14 @@ bool same_time(double a, double b) { return std::abs(a - b) <= 1e-9 * std::max(1
 
 Mat15 symmetric(const Mat15& P) { return 0.5 * (P + P.transpose()); }
 
+// Drops the cross-covariances between translation [r, v, b_a] and attitude [theta, b_g] (FilterSettings::split).
+void decouple(Mat15& P) {
+  P.block<6, 6>(0, 6).setZero();
+  P.block<6, 6>(6, 0).setZero();
+  P.block<3, 6>(12, 6).setZero();
+  P.block<6, 3>(6, 12).setZero();
+}
+
 // An update call's status from its counts: Ok when anything was folded in, else NumericalFailure when a
 // measurement failed for numerics, else Rejected (the gate).
 FilterStatus outcome(const UpdateResult& r) {
@@ -115,6 +123,7 @@ FilterStatus NavigationFilter::initialize(const NavState& x0, const NavCovarianc
   x_ = x0;
   x_.q_BL = math::quat_normalize(x0.q_BL);
   P_ = symmetric(P0);
+  if (settings_.split) decouple(P_);
   f_B_ = x_.accel_bias_B;  // no IMU sample yet: zero specific force and rate
   omega_BI_B_ = x_.gyro_bias_B + math::rotation_matrix(x_.q_BL).transpose() * omega_LI_L_;
   initialized_ = true;
@@ -194,6 +203,7 @@ FilterStatus NavigationFilter::propagate(double t_to, const ImuSample& imu) {
     const Mat15 Qd = h * Qc + (h * h / 2.0) * (FQ + FQ.transpose()) +
                      (h * h * h / 6.0) * (FFQ + 2.0 * FQ * F.transpose() + FFQ.transpose());
     P_ = symmetric(Phi * P_ * Phi.transpose() + Qd);
+    if (settings_.split) decouple(P_);
   }
   if (!finite(x_) || !P_.allFinite()) {
     x_ = x_backup;
@@ -228,6 +238,7 @@ bool NavigationFilter::fold(const Eigen::Matrix<double, M, 1>& residual,
   const Mat15 P_backup = P_;
   P_ = symmetric(I_KH * P_ * I_KH.transpose() + K * R * K.transpose());
   inject(dx);
+  if (settings_.split) decouple(P_);
   if (!finite(x_) || !P_.allFinite()) {
     x_ = x_backup;
     P_ = P_backup;
@@ -268,7 +279,8 @@ bool NavigationFilter::predict_range(double& range, Eigen::Matrix<double, 1, kNa
     // range = n.(p - r) / n.d on the face's plane; d = C_LB Exp(dtheta) b_B.
     H->setZero();
     H->block<1, 3>(0, 0) = -n_L.transpose() / nd;
-    H->block<1, 3>(0, 6) = hit.distance * n_L.transpose() * C_LB * math::skew(boresight_B_) / nd;
+    if (!settings_.split)
+      H->block<1, 3>(0, 6) = hit.distance * n_L.transpose() * C_LB * math::skew(boresight_B_) / nd;
   }
   return true;
 }
@@ -310,7 +322,7 @@ bool NavigationFilter::pixel_model(int landmark, Eigen::Vector2d& pixel,
     J << f * iz, 0.0, -f * s_C.x() * iz * iz, 0.0, f * iz, -f * s_C.y() * iz * iz;
     H->setZero();
     H->block<2, 3>(0, 0) = -J * cam.C_BC.transpose() * C_LB.transpose();
-    H->block<2, 3>(0, 6) = J * cam.C_BC.transpose() * math::skew(s_B);
+    if (!settings_.split) H->block<2, 3>(0, 6) = J * cam.C_BC.transpose() * math::skew(s_B);
   }
   return true;
 }

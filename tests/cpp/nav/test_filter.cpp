@@ -182,6 +182,36 @@ TEST(NavigationFilter, WrongPixelNoiseFailsTheConsistencyCheck) {
   EXPECT_GT(nis, nav_test::chi2_quantile(dof, 1.959963984540054));
 }
 
+TEST(NavigationFilter, SplitFiltersAreInconsistentWithACoarseStarTracker) {
+  // With a star tracker 10 times coarser than the default, the attitude error common to a frame's
+  // landmarks matters: the joint filter stays consistent, two separate filters (FilterSettings::split)
+  // count the frames as independent information and their NEES leaves the bound.
+  const nav_test::World w = nav_test::make_world();
+  nav_test::RunSettings rs;
+  rs.duration = 40.0;
+  rs.filter.altimeter_terrain_sigma = 0.0;
+  rs.star_tracker.sigma_B *= 10.0;
+  const int runs = 20;
+  const double hi = nav_test::chi2_quantile(15.0 * runs, 1.959963984540054);
+  double nees_joint = 0.0, nees_split = 0.0, err_joint = 0.0, err_split = 0.0;
+  for (int r = 0; r < runs; ++r) {
+    rs.filter.split = false;
+    const nav_test::RunResult joint = nav_test::run(w, rs, 300 + r);
+    rs.filter.split = true;
+    const nav_test::RunResult split = nav_test::run(w, rs, 300 + r);
+    nees_joint += joint.nees_final;
+    nees_split += split.nees_final;
+    err_joint += (joint.estimate.r_L - joint.truth.r_L).squaredNorm();
+    err_split += (split.estimate.r_L - split.truth.r_L).squaredNorm();
+  }
+  std::printf("NEES/15 joint %.3f split %.3f; RMS position error joint %.4f m split %.4f m\n",
+              nees_joint / (15.0 * runs), nees_split / (15.0 * runs), std::sqrt(err_joint / runs),
+              std::sqrt(err_split / runs));
+  EXPECT_LT(nees_joint, hi);
+  EXPECT_GT(nees_split, hi);
+  EXPECT_LT(err_joint, err_split);
+}
+
 TEST(NavigationFilter, BrokenSensorsLeaveThePredictionRunning) {
   // The night side: every landmark is dark; the altimeter looks away from the body (beam +x_B, out of
   // range). The filter reports the statuses and keeps predicting: finite, covariance growing.
