@@ -71,12 +71,12 @@ struct FilterSettings {
   double altimeter_terrain_sigma{0.1};
   double innovation_gate{1e4};  ///< largest accepted NIS of one measurement, > 0 (inf: no gate)
   double max_step{0.5};         ///< longest propagation sub-step (s), > 0
-  int max_substeps{64};
+  int max_substeps{64};         ///< most sub-steps of one propagate call, >= 1 (a longer call is refused)
   /// Emulate two separate filters (translation [r, v, b_a], attitude [theta, b_g]) instead of the joint
   /// one: the cross-covariances between the two are dropped after every step and the altimeter's and the
   /// camera's attitude Jacobians are dropped (the translation filter takes the attitude as known). The
   /// alternative of docs/decisions.md ("One joint filter"), kept for its measurement.
-  bool split{false};  ///< most sub-steps of one propagate call, >= 1 (a longer call is refused)
+  bool split{false};
   /// @throws std::invalid_argument naming the first bad field ("filter.<field>", or the sensor's).
   void validate() const;
 };
