@@ -233,10 +233,11 @@ bool NavigationFilter::fold(const Eigen::Matrix<double, M, 1>& residual,
   }
   const Eigen::Matrix<double, kNavStates, M> K = llt.solve(HP).transpose();
   const NavErrorVector dx = K * residual;
-  const Mat15 I_KH = Mat15::Identity() - K * H;
   const NavState x_backup = x_;
   const Mat15 P_backup = P_;
-  P_ = symmetric(I_KH * P_ * I_KH.transpose() + K * R * K.transpose());
+  // Joseph form (I - K H) P (I - K H)^T + K R K^T, expanded (an identity for any K): O(15^2 M).
+  const Mat15 KHP = K * HP;
+  P_ = symmetric(P_ - KHP - KHP.transpose() + K * S * K.transpose());
   inject(dx);
   if (settings_.split) decouple(P_);
   if (!finite(x_) || !P_.allFinite()) {
@@ -260,9 +261,12 @@ void NavigationFilter::inject(const NavErrorVector& dx) {
   x_.gyro_bias_B += dx.segment<3>(9);
   x_.accel_bias_B += dx.segment<3>(12);
   // Reset of the attitude error to the new estimate (first order).
-  Mat15 Gamma = Mat15::Identity();
-  Gamma.block<3, 3>(6, 6) -= 0.5 * math::skew(dtheta);
-  P_ = symmetric(Gamma * P_ * Gamma.transpose());
+  const Eigen::Matrix3d Gamma = Eigen::Matrix3d::Identity() - 0.5 * math::skew(dtheta);
+  const Eigen::Matrix<double, 3, kNavStates> rows = Gamma * P_.middleRows<3>(6);
+  P_.middleRows<3>(6) = rows;
+  const Eigen::Matrix<double, kNavStates, 3> cols = P_.middleCols<3>(6) * Gamma.transpose();
+  P_.middleCols<3>(6) = cols;
+  P_ = symmetric(P_);
 }
 
 bool NavigationFilter::predict_range(double& range, Eigen::Matrix<double, 1, kNavStates>* H) const {
