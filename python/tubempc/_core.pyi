@@ -7,9 +7,10 @@ from . import _dynamics as dynamics
 from . import _gravity as gravity
 from . import _io as io
 from . import _mpc as mpc
+from . import _nav as nav
 from . import _so3 as so3
 
-__all__ = ["__version__", "build_info", "control", "dynamics", "gravity", "io", "mpc", "so3"]
+__all__ = ["__version__", "build_info", "control", "dynamics", "gravity", "io", "mpc", "nav", "so3"]
 
 __version__: str
 

@@ -1,0 +1,209 @@
+/// @file filter.hpp
+/// The onboard navigation filter (docs/model.md, "Navigation"; docs/decisions.md, "Navigation"): one
+/// joint error-state extended Kalman filter for the translation (r_L, v_L) and the attitude (q_B/L,
+/// multiplicative error), with the gyro and accelerometer biases. The IMU drives the prediction: the
+/// gyro's rate propagates the attitude, the accelerometer's specific force (thrust, SRP) is added to
+/// the modelled accelerations of M1 (polyhedral gravity, Coriolis and tidal terms of L); the
+/// altimeter, the camera's landmarks and the star tracker correct it, one measurement at a time
+/// (sequential scalar, 2-D and 3-D updates), in Joseph form. Fixed-size Eigen matrices throughout:
+/// after construction no call allocates, and every call reports a FilterStatus instead of throwing.
+///
+/// Error state (15): dx = [dr_L (m), dv_L (m/s), dtheta (rad), db_g (rad/s), db_a (m/s^2)] with
+/// r = r^ + dr, v = v^ + dv, q_B/L = q^_B/L (x) exp(dtheta) (C_LB = C^_LB Exp(dtheta)),
+/// b_g = b^_g + db_g, b_a = b^_a + db_a.
+#pragma once
+
+#include <Eigen/Dense>
+#include <memory>
+#include <vector>
+
+#include "tubempc/dynamics/proximity_model.hpp"
+#include "tubempc/math/so3.hpp"
+#include "tubempc/nav/ray_caster.hpp"
+#include "tubempc/nav/sensors.hpp"
+
+namespace tubempc::nav {
+
+inline constexpr int kNavStates = 15;  ///< dimension of the error state dx
+/// Error-state vector dx = [dr_L (m), dv_L (m/s), dtheta (rad), db_g (rad/s), db_a (m/s^2)].
+using NavErrorVector = Eigen::Matrix<double, kNavStates, 1>;
+/// Error-state covariance (15 x 15, in the units of dx squared).
+using NavCovariance = Eigen::Matrix<double, kNavStates, kNavStates>;
+
+/// The navigation state (the estimate, or the truth it is compared with).
+struct NavState {
+  double t{0.0};                                          ///< time (s)
+  Eigen::Vector3d r_L{Eigen::Vector3d::Zero()};           ///< position in L (m)
+  Eigen::Vector3d v_L{Eigen::Vector3d::Zero()};           ///< velocity in L (m/s)
+  math::Quaternion q_BL{0.0, 0.0, 0.0, 1.0};              ///< attitude q_B/L, unit
+  Eigen::Vector3d gyro_bias_B{Eigen::Vector3d::Zero()};   ///< gyro bias b_g in B (rad/s)
+  Eigen::Vector3d accel_bias_B{Eigen::Vector3d::Zero()};  ///< accelerometer bias b_a in B (m/s^2)
+};
+
+/// The error dx between a reference state and an estimate (truth minus estimate; dtheta =
+/// log(q^* (x) q)).
+/// @param estimate the estimate x^.
+/// @param truth    the reference x.
+/// @return dx with x = x^ (+) dx.
+NavErrorVector nav_error(const NavState& estimate, const NavState& truth);
+
+/// Normalised estimation error squared dx^T P^-1 dx.
+/// @param estimate   the estimate.
+/// @param covariance its covariance P (positive definite).
+/// @param truth      the reference.
+/// @return the NEES (chi-square with 15 degrees of freedom for a consistent filter), or NaN when P is
+///         not positive definite.
+double nees(const NavState& estimate, const NavCovariance& covariance, const NavState& truth);
+
+/// What the filter assumes about the sensors and the dynamics. The sensors' Settings types are reused:
+/// their noise is the filter's model of it and their biases (altimeter bias, pixel bias, star tracker
+/// misalignment) are known calibrations the filter subtracts.
+struct FilterSettings {
+  AltimeterSettings altimeter{};       ///< beam, range noise, calibrated bias, max range
+  CameraSettings camera{};             ///< intrinsics, C_BC, pixel noise, calibrated bias
+  StarTrackerSettings star_tracker{};  ///< attitude noise, calibrated misalignment
+  ImuSettings imu{};                   ///< noise densities and bias random walks of the IMU
+  double accel_model_noise{
+      0.0};  ///< extra acceleration noise density for unmodelled forces (m/s^2/sqrt(Hz)), >= 0
+  /// Range noise added in quadrature to the altimeter's (m), >= 0: the range to a faceted shape model
+  /// is piecewise linear in the state, and a beam that crosses a facet edge between the estimate and
+  /// the truth leaves the linearisation (docs/decisions.md, "Navigation").
+  double altimeter_terrain_sigma{0.1};
+  double innovation_gate{1e4};  ///< largest accepted NIS of one measurement, > 0 (inf: no gate)
+  double max_step{0.5};         ///< longest propagation sub-step (s), > 0
+  int max_substeps{64};         ///< most sub-steps of one propagate call, >= 1 (a longer call is refused)
+  /// Emulate two separate filters (translation [r, v, b_a], attitude [theta, b_g]) instead of the joint
+  /// one: the cross-covariances between the two are dropped after every step and the altimeter's and the
+  /// camera's attitude Jacobians are dropped (the translation filter takes the attitude as known). The
+  /// alternative of docs/decisions.md ("One joint filter"), kept for its measurement.
+  bool split{false};
+  /// @throws std::invalid_argument naming the first bad field ("filter.<field>", or the sensor's).
+  void validate() const;
+};
+
+/// Outcome of a filter call.
+enum class FilterStatus {
+  Ok,                ///< done
+  ImuHeld,           ///< propagated with the last good IMU sample (this one was not Ok)
+  NoMeasurement,     ///< the measurement's status was not Ok: nothing to fold in (prediction only)
+  Rejected,          ///< every measurement failed the innovation gate (prediction only)
+  NoPrediction,      ///< the measurement cannot be predicted from the estimate (beam misses, landmark behind)
+  TimeMismatch,      ///< the measurement's time is not the filter's time (call propagate first)
+  StepTooLong,       ///< the propagation would need more than max_substeps sub-steps: not done
+  InvalidInput,      ///< a non-finite input or a time going backwards: nothing changed
+  NumericalFailure,  ///< an innovation covariance not positive definite or a non-finite result: undone
+};
+/// Name of a filter status.
+/// @param s the status.
+/// @return its name ("ok", "imu_held", ...).
+const char* to_string(FilterStatus s);
+
+/// Result of one update call.
+struct UpdateResult {
+  FilterStatus status{FilterStatus::Ok};  ///< outcome (Ok when at least one measurement was folded in)
+  int accepted{0};                        ///< scalar, 2-D or 3-D measurements folded in
+  int rejected{0};                        ///< measurements refused (gate, no prediction, numerics)
+  int failed{0};    ///< of those, refused for numerics (S not positive definite, non-finite result)
+  double nis{0.0};  ///< sum of the accepted measurements' NIS
+  int dof{0};       ///< degrees of freedom of that sum (components accepted)
+};
+
+/// The joint error-state EKF. Lifecycle: construct (set-up, may allocate), `initialize`, then per IMU
+/// sample `propagate` and, at the same time, the `update_*` of the sensors that sampled.
+class NavigationFilter {
+ public:
+  /// @param model     the proximity model (gravity in A, frame rotation, mean motion), non-null. Its
+  ///                  SRP term is not used: the accelerometer measures it.
+  /// @param caster    ray caster on the shape model (the altimeter's prediction), non-null.
+  /// @param landmarks the landmark catalogue (frame A), as the camera's.
+  /// @param settings  validated here.
+  /// @throws std::invalid_argument for a null pointer or bad settings.
+  NavigationFilter(std::shared_ptr<const dynamics::ProximityModel> model,
+                   std::shared_ptr<const RayCaster> caster, std::vector<Landmark> landmarks,
+                   const FilterSettings& settings);
+
+  /// Sets the estimate and its covariance.
+  /// @param x0 the initial estimate (its time is the filter's).
+  /// @param P0 its covariance, symmetric positive definite.
+  /// @return Ok, or InvalidInput (non-finite input or P0 not positive definite; nothing changed).
+  FilterStatus initialize(const NavState& x0, const NavCovariance& P0);
+
+  /// Propagates from the filter's time to t_to holding the IMU sample (taken at the filter's time)
+  /// over the interval, in sub-steps of at most max_step: attitude by the gyro's rate, translation
+  /// by M1 with the polyhedral gravity linearised over each sub-step plus the measured specific
+  /// force, covariance by the Taylor series of the error dynamics to third order.
+  /// @param t_to time to reach (s), >= the filter's time.
+  /// @param imu  the IMU sample; if its status is not Ok the last good sample is used (ImuHeld).
+  /// @return Ok, ImuHeld, StepTooLong, InvalidInput or NumericalFailure (the last three: unchanged).
+  FilterStatus propagate(double t_to, const ImuSample& imu);
+
+  /// Folds an altimeter range in (scalar update).
+  /// @param m the sample, at the filter's time.
+  /// @return the result.
+  UpdateResult update_altimeter(const AltimeterMeasurement& m);
+  /// Folds a camera frame in: one 2-D pixel update per landmark.
+  /// @param frame the frame, at the filter's time.
+  /// @return the result.
+  UpdateResult update_camera(const CameraFrame& frame);
+  /// Folds a star tracker attitude in (3-D update).
+  /// @param m the sample, at the filter's time.
+  /// @return the result.
+  UpdateResult update_star_tracker(const StarTrackerMeasurement& m);
+
+  /// @return the estimate.
+  const NavState& state() const { return x_; }
+  /// @return the error-state covariance P (symmetric positive semi-definite).
+  const NavCovariance& covariance() const { return P_; }
+  /// @return the estimate of omega_BL_B from the last good gyro sample (rad/s).
+  Eigen::Vector3d omega_BL_B() const;
+  /// The controller's state x = [r_L, v_L, phi, omega_BL_B] from the estimate.
+  /// @param phi_ref rotation vector (rad) the branch of phi = log(q^_B/L) is chosen nearest to (as
+  ///                dynamics::truth_to_state).
+  /// @return the model state estimate.
+  dynamics::StateVector model_state(const Eigen::Vector3d& phi_ref) const;
+  /// Covariance of model_state(phi_ref)'s error: dphi = Jr(phi)^-1 dtheta, domega = -db_g - gyro
+  /// noise over one IMU period.
+  /// @param phi_ref as for model_state.
+  /// @return the 12 x 12 covariance (units of x squared).
+  dynamics::StateMatrix model_covariance(const Eigen::Vector3d& phi_ref) const;
+  /// Predicted pixel of a landmark from the estimate (the calibrated pixel bias not added) and its
+  /// Jacobian with respect to the error state.
+  /// @param landmark catalogue index.
+  /// @param pixel    receives (u, v) (pixels).
+  /// @param H        if non-null, receives d pixel / d dx (2 x 15).
+  /// @return false when not initialised, the landmark is behind the camera or the index is out of range.
+  bool predict_pixel(int landmark, Eigen::Vector2d& pixel,
+                     Eigen::Matrix<double, 2, kNavStates>* H = nullptr) const;
+  /// Predicted altimeter range from the estimate (the calibrated bias not added) and its Jacobian.
+  /// @param range receives the distance along the beam to the shape model (m).
+  /// @param H     if non-null, receives d range / d dx (1 x 15).
+  /// @return false when not initialised or the beam meets no face within 2 max_range, or grazes one.
+  bool predict_range(double& range, Eigen::Matrix<double, 1, kNavStates>* H = nullptr) const;
+  /// @return the settings.
+  const FilterSettings& settings() const { return settings_; }
+  /// @return whether initialize has succeeded.
+  bool initialized() const { return initialized_; }
+
+ private:
+  template <int M>
+  bool fold(const Eigen::Matrix<double, M, 1>& residual, const Eigen::Matrix<double, M, kNavStates>& H,
+            const Eigen::Matrix<double, M, M>& R, UpdateResult& result);
+  void inject(const NavErrorVector& dx);
+  bool pixel_model(int landmark, Eigen::Vector2d& pixel, Eigen::Matrix<double, 2, kNavStates>* H) const;
+  Eigen::Vector3d phi_near(const Eigen::Vector3d& phi_ref) const;
+
+  std::shared_ptr<const dynamics::ProximityModel> model_;
+  std::shared_ptr<const RayCaster> caster_;
+  std::vector<Landmark> landmarks_;
+  FilterSettings settings_;
+  Eigen::Vector3d boresight_B_;
+  Eigen::Matrix3d D_tidal_;  // n^2 diag(3, 0, -1) (1/s^2)
+  Eigen::Vector3d omega_LI_L_;
+  NavState x_;
+  NavCovariance P_{NavCovariance::Identity()};
+  Eigen::Vector3d f_B_{Eigen::Vector3d::Zero()};         // last good specific force (m/s^2)
+  Eigen::Vector3d omega_BI_B_{Eigen::Vector3d::Zero()};  // last good gyro rate (rad/s)
+  bool initialized_{false};
+};
+
+}  // namespace tubempc::nav

@@ -1,0 +1,417 @@
+#include "tubempc/nav/filter.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace tubempc::nav {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+using Mat15 = NavCovariance;
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+
+[[noreturn]] void fail(const char* field, const std::string& why) {
+  throw std::invalid_argument(std::string("filter.") + field + ": " + why);
+}
+
+bool finite(const NavState& x) {
+  return std::isfinite(x.t) && x.r_L.allFinite() && x.v_L.allFinite() && x.q_BL.allFinite() &&
+         x.q_BL.norm() > 1e-12 && x.gyro_bias_B.allFinite() && x.accel_bias_B.allFinite();
+}
+
+bool same_time(double a, double b) { return std::abs(a - b) <= 1e-9 * std::max(1.0, std::abs(b)); }
+
+Mat15 symmetric(const Mat15& P) { return 0.5 * (P + P.transpose()); }
+
+// Drops the cross-covariances between translation [r, v, b_a] and attitude [theta, b_g] (FilterSettings::split).
+void decouple(Mat15& P) {
+  P.block<6, 6>(0, 6).setZero();
+  P.block<6, 6>(6, 0).setZero();
+  P.block<3, 6>(12, 6).setZero();
+  P.block<6, 3>(6, 12).setZero();
+}
+
+// An update call's status from its counts: Ok when anything was folded in, else NumericalFailure when a
+// measurement failed for numerics, else Rejected (the gate).
+FilterStatus outcome(const UpdateResult& r) {
+  if (r.accepted > 0) return FilterStatus::Ok;
+  return r.failed > 0 ? FilterStatus::NumericalFailure : FilterStatus::Rejected;
+}
+
+}  // namespace
+
+const char* to_string(FilterStatus s) {
+  switch (s) {
+    case FilterStatus::Ok:
+      return "ok";
+    case FilterStatus::ImuHeld:
+      return "imu_held";
+    case FilterStatus::NoMeasurement:
+      return "no_measurement";
+    case FilterStatus::Rejected:
+      return "rejected";
+    case FilterStatus::NoPrediction:
+      return "no_prediction";
+    case FilterStatus::TimeMismatch:
+      return "time_mismatch";
+    case FilterStatus::StepTooLong:
+      return "step_too_long";
+    case FilterStatus::InvalidInput:
+      return "invalid_input";
+    case FilterStatus::NumericalFailure:
+      return "numerical_failure";
+  }
+  return "unknown";
+}
+
+NavErrorVector nav_error(const NavState& estimate, const NavState& truth) {
+  NavErrorVector dx;
+  dx.segment<3>(0) = truth.r_L - estimate.r_L;
+  dx.segment<3>(3) = truth.v_L - estimate.v_L;
+  dx.segment<3>(6) = math::log_map(
+      math::quat_mul(math::quat_conj(math::quat_normalize(estimate.q_BL)), math::quat_normalize(truth.q_BL)));
+  dx.segment<3>(9) = truth.gyro_bias_B - estimate.gyro_bias_B;
+  dx.segment<3>(12) = truth.accel_bias_B - estimate.accel_bias_B;
+  return dx;
+}
+
+double nees(const NavState& estimate, const NavCovariance& covariance, const NavState& truth) {
+  const Eigen::LLT<NavCovariance> llt(symmetric(covariance));
+  if (llt.info() != Eigen::Success) return std::numeric_limits<double>::quiet_NaN();
+  const NavErrorVector dx = nav_error(estimate, truth);
+  return dx.dot(llt.solve(dx));
+}
+
+void FilterSettings::validate() const {
+  altimeter.validate();
+  camera.validate();
+  star_tracker.validate();
+  imu.validate();
+  if (!(std::isfinite(accel_model_noise) && accel_model_noise >= 0.0))
+    fail("accel_model_noise", "must be finite and >= 0");
+  if (!(std::isfinite(altimeter_terrain_sigma) && altimeter_terrain_sigma >= 0.0))
+    fail("altimeter_terrain_sigma", "must be finite and >= 0");
+  if (!(innovation_gate > 0.0)) fail("innovation_gate", "must be > 0");
+  if (!(std::isfinite(max_step) && max_step > 0.0)) fail("max_step", "must be finite and > 0");
+  if (max_substeps < 1) fail("max_substeps", "must be >= 1");
+}
+
+NavigationFilter::NavigationFilter(std::shared_ptr<const dynamics::ProximityModel> model,
+                                   std::shared_ptr<const RayCaster> caster, std::vector<Landmark> landmarks,
+                                   const FilterSettings& settings)
+    : model_(std::move(model)),
+      caster_(std::move(caster)),
+      landmarks_(std::move(landmarks)),
+      settings_(settings) {
+  if (!model_) throw std::invalid_argument("filter: model must not be null");
+  if (!caster_) throw std::invalid_argument("filter: caster must not be null");
+  settings_.validate();
+  boresight_B_ = settings_.altimeter.boresight_B.normalized();
+  const double n = model_->mean_motion();
+  D_tidal_ = (n * n * Eigen::Vector3d(3.0, 0.0, -1.0)).asDiagonal();
+  omega_LI_L_ = Eigen::Vector3d(0.0, 0.0, n);
+}
+
+FilterStatus NavigationFilter::initialize(const NavState& x0, const NavCovariance& P0) {
+  if (!finite(x0) || !P0.allFinite()) return FilterStatus::InvalidInput;
+  const Eigen::LLT<NavCovariance> llt(symmetric(P0));
+  if (llt.info() != Eigen::Success) return FilterStatus::InvalidInput;
+  x_ = x0;
+  x_.q_BL = math::quat_normalize(x0.q_BL);
+  P_ = symmetric(P0);
+  if (settings_.split) decouple(P_);
+  f_B_ = x_.accel_bias_B;  // no IMU sample yet: zero specific force and rate
+  omega_BI_B_ = x_.gyro_bias_B + math::rotation_matrix(x_.q_BL).transpose() * omega_LI_L_;
+  initialized_ = true;
+  return FilterStatus::Ok;
+}
+
+FilterStatus NavigationFilter::propagate(double t_to, const ImuSample& imu) {
+  if (!initialized_ || !std::isfinite(t_to) || t_to < x_.t) return FilterStatus::InvalidInput;
+  FilterStatus status = FilterStatus::Ok;
+  if (imu.status == SensorStatus::Ok && imu.specific_force_B.allFinite() && imu.omega_BI_B.allFinite()) {
+    f_B_ = imu.specific_force_B;
+    omega_BI_B_ = imu.omega_BI_B;
+  } else {
+    status = FilterStatus::ImuHeld;
+  }
+  const double span = t_to - x_.t;
+  if (span == 0.0) return status;
+  const double pieces = std::ceil(span / settings_.max_step - 1e-9);
+  if (!(pieces <= settings_.max_substeps)) return FilterStatus::StepTooLong;
+  const int n_sub = std::max(1, static_cast<int>(pieces));
+  const double h = span / n_sub;
+
+  const ImuSettings& imu_s = settings_.imu;
+  Mat15 Qc = Mat15::Zero();
+  Qc.block<3, 3>(3, 3).diagonal().setConstant(imu_s.accel_noise_density * imu_s.accel_noise_density +
+                                              settings_.accel_model_noise * settings_.accel_model_noise);
+  Qc.block<3, 3>(6, 6).diagonal().setConstant(imu_s.gyro_noise_density * imu_s.gyro_noise_density);
+  Qc.block<3, 3>(9, 9).diagonal().setConstant(imu_s.gyro_bias_random_walk * imu_s.gyro_bias_random_walk);
+  Qc.block<3, 3>(12, 12).diagonal().setConstant(imu_s.accel_bias_random_walk * imu_s.accel_bias_random_walk);
+
+  const NavState x_backup = x_;
+  const Mat15 P_backup = P_;
+  const Eigen::Matrix3d coriolis = -2.0 * math::skew(omega_LI_L_);
+  for (int s = 0; s < n_sub; ++s) {
+    const double t = x_.t;
+    const Eigen::Vector3d f_hat = f_B_ - x_.accel_bias_B;
+    const Eigen::Vector3d w_BI = omega_BI_B_ - x_.gyro_bias_B;
+    const Eigen::Matrix3d C_LB = math::rotation_matrix(x_.q_BL);
+    Eigen::Vector3d a_grav;
+    Eigen::Matrix3d G;
+    try {
+      model_->gravity_L(t, x_.r_L, a_grav, G);
+    } catch (const std::exception&) {  // r = 0 or a non-finite estimate: nothing to propagate
+      x_ = x_backup;
+      P_ = P_backup;
+      return FilterStatus::NumericalFailure;
+    }
+    // Translation: M1 with the gravity linearised about r^ over the sub-step (exact to O(h^5)).
+    Mat6 A = Mat6::Zero();
+    A.block<3, 3>(0, 3).setIdentity();
+    A.block<3, 3>(3, 0) = G + D_tidal_;
+    A.block<3, 3>(3, 3) = coriolis;
+    Vec6 z;
+    z << x_.r_L, x_.v_L;
+    Vec6 c = Vec6::Zero();
+    c.tail<3>() = a_grav - G * x_.r_L + C_LB * f_hat;
+    const Vec6 d1 = A * z + c;
+    const Vec6 d2 = A * d1, d3 = A * d2, d4 = A * d3;
+    z += h * d1 + (h * h / 2.0) * d2 + (h * h * h / 6.0) * d3 + (h * h * h * h / 24.0) * d4;
+    // Attitude: constant rate over the sub-step.
+    const Eigen::Vector3d w_BL = w_BI - C_LB.transpose() * omega_LI_L_;
+    x_.q_BL = math::quat_normalize(math::quat_mul(x_.q_BL, math::exp_map(w_BL * h)));
+    x_.r_L = z.head<3>();
+    x_.v_L = z.tail<3>();
+    x_.t = (s + 1 == n_sub) ? t_to : t + h;
+    // Error dynamics and the covariance (Taylor series of Phi and Van Loan's integral to h^3).
+    Mat15 F = Mat15::Zero();
+    F.block<6, 6>(0, 0) = A;
+    F.block<3, 3>(3, 6) = -C_LB * math::skew(f_hat);
+    F.block<3, 3>(3, 12) = -C_LB;
+    F.block<3, 3>(6, 6) = -math::skew(w_BI);
+    F.block<3, 3>(6, 9) = -Eigen::Matrix3d::Identity();
+    const Mat15 F2 = F * F;
+    const Mat15 Phi = Mat15::Identity() + h * F + (h * h / 2.0) * F2 + (h * h * h / 6.0) * F2 * F;
+    const Mat15 FQ = F * Qc;
+    const Mat15 FFQ = F * FQ;
+    const Mat15 Qd = h * Qc + (h * h / 2.0) * (FQ + FQ.transpose()) +
+                     (h * h * h / 6.0) * (FFQ + 2.0 * FQ * F.transpose() + FFQ.transpose());
+    P_ = symmetric(Phi * P_ * Phi.transpose() + Qd);
+    if (settings_.split) decouple(P_);
+  }
+  if (!finite(x_) || !P_.allFinite()) {
+    x_ = x_backup;
+    P_ = P_backup;
+    return FilterStatus::NumericalFailure;
+  }
+  return status;
+}
+
+template <int M>
+bool NavigationFilter::fold(const Eigen::Matrix<double, M, 1>& residual,
+                            const Eigen::Matrix<double, M, kNavStates>& H,
+                            const Eigen::Matrix<double, M, M>& R, UpdateResult& result) {
+  using MatM = Eigen::Matrix<double, M, M>;
+  const Eigen::Matrix<double, M, kNavStates> HP = H * P_;
+  const MatM S = HP * H.transpose() + R;
+  const Eigen::LLT<MatM> llt(0.5 * (S + S.transpose()));
+  if (llt.info() != Eigen::Success || !residual.allFinite()) {
+    ++result.rejected;
+    ++result.failed;
+    return false;
+  }
+  const double nis = residual.dot(llt.solve(residual));
+  if (!(nis <= settings_.innovation_gate)) {
+    ++result.rejected;
+    return false;
+  }
+  const Eigen::Matrix<double, kNavStates, M> K = llt.solve(HP).transpose();
+  const NavErrorVector dx = K * residual;
+  const NavState x_backup = x_;
+  const Mat15 P_backup = P_;
+  // Joseph form (I - K H) P (I - K H)^T + K R K^T, expanded (an identity for any K): O(15^2 M).
+  const Mat15 KHP = K * HP;
+  P_ = symmetric(P_ - KHP - KHP.transpose() + K * S * K.transpose());
+  inject(dx);
+  if (settings_.split) decouple(P_);
+  if (!finite(x_) || !P_.allFinite()) {
+    x_ = x_backup;
+    P_ = P_backup;
+    ++result.rejected;
+    ++result.failed;
+    return false;
+  }
+  ++result.accepted;
+  result.nis += nis;
+  result.dof += M;
+  return true;
+}
+
+void NavigationFilter::inject(const NavErrorVector& dx) {
+  x_.r_L += dx.segment<3>(0);
+  x_.v_L += dx.segment<3>(3);
+  const Eigen::Vector3d dtheta = dx.segment<3>(6);
+  x_.q_BL = math::quat_normalize(math::quat_mul(x_.q_BL, math::exp_map(dtheta)));
+  x_.gyro_bias_B += dx.segment<3>(9);
+  x_.accel_bias_B += dx.segment<3>(12);
+  // Reset of the attitude error to the new estimate (first order).
+  const Eigen::Matrix3d Gamma = Eigen::Matrix3d::Identity() - 0.5 * math::skew(dtheta);
+  const Eigen::Matrix<double, 3, kNavStates> rows = Gamma * P_.middleRows<3>(6);
+  P_.middleRows<3>(6) = rows;
+  const Eigen::Matrix<double, kNavStates, 3> cols = P_.middleCols<3>(6) * Gamma.transpose();
+  P_.middleCols<3>(6) = cols;
+  P_ = symmetric(P_);
+}
+
+bool NavigationFilter::predict_range(double& range, Eigen::Matrix<double, 1, kNavStates>* H) const {
+  if (!initialized_) return false;
+  const Eigen::Matrix3d C_LB = math::rotation_matrix(x_.q_BL);
+  const Eigen::Matrix3d C_AL = model_->C_AL(x_.t);
+  const Eigen::Vector3d d_L = C_LB * boresight_B_;
+  const RayHit hit = caster_->cast(C_AL * x_.r_L, C_AL * d_L, 2.0 * settings_.altimeter.max_range);
+  const Eigen::Vector3d n_L = C_AL.transpose() * hit.normal_A;
+  const double nd = n_L.dot(d_L);
+  if (!hit.hit || !(std::abs(nd) > 1e-3)) return false;
+  range = hit.distance;
+  if (H != nullptr) {
+    // range = n.(p - r) / n.d on the face's plane; d = C_LB Exp(dtheta) b_B.
+    H->setZero();
+    H->block<1, 3>(0, 0) = -n_L.transpose() / nd;
+    if (!settings_.split)
+      H->block<1, 3>(0, 6) = hit.distance * n_L.transpose() * C_LB * math::skew(boresight_B_) / nd;
+  }
+  return true;
+}
+
+UpdateResult NavigationFilter::update_altimeter(const AltimeterMeasurement& m) {
+  UpdateResult result;
+  if (!initialized_) return result.status = FilterStatus::InvalidInput, result;
+  if (m.status != SensorStatus::Ok) return result.status = FilterStatus::NoMeasurement, result;
+  if (!std::isfinite(m.range)) return result.status = FilterStatus::InvalidInput, result;
+  if (!same_time(m.t, x_.t)) return result.status = FilterStatus::TimeMismatch, result;
+  double range = 0.0;
+  Eigen::Matrix<double, 1, kNavStates> H;
+  if (!predict_range(range, &H)) {
+    result.rejected = 1;
+    return result.status = FilterStatus::NoPrediction, result;
+  }
+  const Eigen::Matrix<double, 1, 1> y(m.range - settings_.altimeter.bias - range);
+  const Eigen::Matrix<double, 1, 1> R(settings_.altimeter.sigma * settings_.altimeter.sigma +
+                                      settings_.altimeter_terrain_sigma * settings_.altimeter_terrain_sigma);
+  fold<1>(y, H, R, result);
+  result.status = outcome(result);
+  return result;
+}
+
+bool NavigationFilter::pixel_model(int landmark, Eigen::Vector2d& pixel,
+                                   Eigen::Matrix<double, 2, kNavStates>* H) const {
+  if (landmark < 0 || landmark >= static_cast<int>(landmarks_.size())) return false;
+  const CameraSettings& cam = settings_.camera;
+  const Eigen::Matrix3d C_LB = math::rotation_matrix(x_.q_BL);
+  const Eigen::Matrix3d C_AL = model_->C_AL(x_.t);
+  const Eigen::Vector3d s_L = C_AL.transpose() * landmarks_[static_cast<std::size_t>(landmark)].p_A - x_.r_L;
+  const Eigen::Vector3d s_B = C_LB.transpose() * s_L;
+  const Eigen::Vector3d s_C = cam.C_BC.transpose() * s_B;
+  if (!(s_C.z() > 1e-6 * s_C.norm())) return false;
+  const double f = cam.focal_length_px, iz = 1.0 / s_C.z();
+  pixel << 0.5 * cam.width_px + f * s_C.x() * iz, 0.5 * cam.height_px + f * s_C.y() * iz;
+  if (H != nullptr) {
+    Eigen::Matrix<double, 2, 3> J;
+    J << f * iz, 0.0, -f * s_C.x() * iz * iz, 0.0, f * iz, -f * s_C.y() * iz * iz;
+    H->setZero();
+    H->block<2, 3>(0, 0) = -J * cam.C_BC.transpose() * C_LB.transpose();
+    if (!settings_.split) H->block<2, 3>(0, 6) = J * cam.C_BC.transpose() * math::skew(s_B);
+  }
+  return true;
+}
+
+bool NavigationFilter::predict_pixel(int landmark, Eigen::Vector2d& pixel,
+                                     Eigen::Matrix<double, 2, kNavStates>* H) const {
+  return initialized_ && pixel_model(landmark, pixel, H);
+}
+
+UpdateResult NavigationFilter::update_camera(const CameraFrame& frame) {
+  UpdateResult result;
+  if (!initialized_) return result.status = FilterStatus::InvalidInput, result;
+  if (frame.status != SensorStatus::Ok) return result.status = FilterStatus::NoMeasurement, result;
+  if (!same_time(frame.t, x_.t)) return result.status = FilterStatus::TimeMismatch, result;
+  const double var = settings_.camera.pixel_sigma * settings_.camera.pixel_sigma;
+  const Eigen::Matrix2d R = Eigen::Vector2d::Constant(var).asDiagonal();
+  Eigen::Matrix<double, 2, kNavStates> H;
+  Eigen::Vector2d pixel;
+  bool predicted = false;
+  const int count = std::min(std::max(frame.count, 0), kMaxLandmarksPerFrame);
+  for (int i = 0; i < count; ++i) {
+    const LandmarkObservation& o = frame.observations[static_cast<std::size_t>(i)];
+    if (!pixel_model(o.landmark, pixel, &H)) {
+      ++result.rejected;
+      continue;
+    }
+    predicted = true;
+    const Eigen::Vector2d y = o.pixel - settings_.camera.pixel_bias - pixel;
+    fold<2>(y, H, R, result);
+  }
+  result.status = predicted ? outcome(result) : FilterStatus::NoPrediction;
+  return result;
+}
+
+UpdateResult NavigationFilter::update_star_tracker(const StarTrackerMeasurement& m) {
+  UpdateResult result;
+  if (!initialized_) return result.status = FilterStatus::InvalidInput, result;
+  if (m.status != SensorStatus::Ok) return result.status = FilterStatus::NoMeasurement, result;
+  if (!m.q_BL.allFinite() || !(m.q_BL.norm() > 1e-12))
+    return result.status = FilterStatus::InvalidInput, result;
+  if (!same_time(m.t, x_.t)) return result.status = FilterStatus::TimeMismatch, result;
+  const math::Quaternion q_meas =
+      math::quat_mul(math::quat_normalize(m.q_BL), math::exp_map(-settings_.star_tracker.misalignment_B));
+  const Eigen::Vector3d y = math::log_map(math::quat_mul(math::quat_conj(x_.q_BL), q_meas));
+  Eigen::Matrix<double, 3, kNavStates> H = Eigen::Matrix<double, 3, kNavStates>::Zero();
+  H.block<3, 3>(0, 6).setIdentity();
+  const Eigen::Matrix3d R = settings_.star_tracker.sigma_B.cwiseAbs2().asDiagonal();
+  fold<3>(y, H, R, result);
+  result.status = outcome(result);
+  return result;
+}
+
+Eigen::Vector3d NavigationFilter::omega_BL_B() const {
+  return omega_BI_B_ - x_.gyro_bias_B - math::rotation_matrix(x_.q_BL).transpose() * omega_LI_L_;
+}
+
+Eigen::Vector3d NavigationFilter::phi_near(const Eigen::Vector3d& phi_ref) const {
+  const Eigen::Vector3d phi = math::log_map(x_.q_BL);
+  const double angle = phi.norm();
+  if (!(angle > 0.0) || !phi_ref.allFinite()) return phi;
+  Eigen::Vector3d best = phi;
+  for (int k = -1; k <= 1; k += 2) {
+    const Eigen::Vector3d candidate = phi + (2.0 * kPi * k / angle) * phi;
+    if (candidate.norm() < 2.0 * kPi - 1e-3 && (candidate - phi_ref).norm() < (best - phi_ref).norm())
+      best = candidate;
+  }
+  return best;
+}
+
+dynamics::StateVector NavigationFilter::model_state(const Eigen::Vector3d& phi_ref) const {
+  dynamics::StateVector x;
+  x << x_.r_L, x_.v_L, phi_near(phi_ref), omega_BL_B();
+  return x;
+}
+
+dynamics::StateMatrix NavigationFilter::model_covariance(const Eigen::Vector3d& phi_ref) const {
+  Eigen::Matrix<double, dynamics::kNx, kNavStates> J =
+      Eigen::Matrix<double, dynamics::kNx, kNavStates>::Zero();
+  J.block<6, 6>(0, 0).setIdentity();
+  J.block<3, 3>(6, 6) = math::right_jacobian_inverse(phi_near(phi_ref));
+  J.block<3, 3>(9, 9) = -Eigen::Matrix3d::Identity();
+  dynamics::StateMatrix C = J * P_ * J.transpose();
+  const double g = settings_.imu.gyro_noise_density;
+  C.block<3, 3>(9, 9).diagonal().array() += g * g / settings_.imu.period;
+  return 0.5 * (C + C.transpose());
+}
+
+}  // namespace tubempc::nav

@@ -1,0 +1,306 @@
+// The navigation filter: measurement Jacobians against finite differences, the noise-free prediction
+// against the truth propagator, NEES and NIS inside their 95 % chi-square bounds over a Monte Carlo set
+// (and outside them for a filter told the wrong pixel noise), broken sensors and bad calls.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "nav_fixtures.hpp"
+
+using namespace tubempc;
+
+namespace {
+
+nav::NavState perturbed(const nav::NavState& x, const nav::NavErrorVector& dx) {
+  nav::NavState y = x;
+  y.r_L += dx.segment<3>(0);
+  y.v_L += dx.segment<3>(3);
+  y.q_BL = math::quat_mul(x.q_BL, math::exp_map(dx.segment<3>(6)));
+  y.gyro_bias_B += dx.segment<3>(9);
+  y.accel_bias_B += dx.segment<3>(12);
+  return y;
+}
+
+nav::NavState start_state() {
+  nav::NavState x;
+  x.t = 12.0;
+  x.r_L = Eigen::Vector3d(-420.0, 40.0, 60.0);
+  x.v_L = Eigen::Vector3d(0.02, -0.03, 0.01);
+  x.q_BL = nav_test::nadir_attitude(x.r_L);
+  return x;
+}
+
+}  // namespace
+
+TEST(NavigationFilter, MeasurementJacobiansMatchFiniteDifferences) {
+  const nav_test::World w = nav_test::make_world();
+  nav::FilterSettings fs;
+  nav::NavigationFilter f(w.model, w.caster, w.landmarks, fs), g(w.model, w.caster, w.landmarks, fs);
+  const nav::NavState x = start_state();
+  ASSERT_EQ(f.initialize(x, nav::NavCovariance::Identity()), nav::FilterStatus::Ok);
+  double range = 0.0;
+  Eigen::Matrix<double, 1, 15> Hr;
+  ASSERT_TRUE(f.predict_range(range, &Hr));
+  int checked = 0;
+  for (int i = 0; i < static_cast<int>(w.landmarks.size()) && checked < 5; ++i) {
+    Eigen::Vector2d p;
+    Eigen::Matrix<double, 2, 15> H;
+    if (!f.predict_pixel(i, p, &H) || (p.array() < 0.0).any() || (p.array() > 1024.0).any()) continue;
+    ++checked;
+    for (int j = 0; j < 15; ++j) {
+      const double h = j < 3 ? 1e-3 : 1e-6;
+      nav::NavErrorVector dx = nav::NavErrorVector::Zero();
+      dx(j) = h;
+      Eigen::Vector2d pp, pm;
+      g.initialize(perturbed(x, dx), nav::NavCovariance::Identity());
+      ASSERT_TRUE(g.predict_pixel(i, pp));
+      g.initialize(perturbed(x, -dx), nav::NavCovariance::Identity());
+      ASSERT_TRUE(g.predict_pixel(i, pm));
+      const Eigen::Vector2d fd = (pp - pm) / (2.0 * h);
+      EXPECT_NEAR(H(0, j), fd(0), 1e-5 * (1.0 + std::abs(fd(0)))) << "landmark " << i << " column " << j;
+      EXPECT_NEAR(H(1, j), fd(1), 1e-5 * (1.0 + std::abs(fd(1)))) << "landmark " << i << " column " << j;
+    }
+  }
+  EXPECT_EQ(checked, 5);
+  for (int j = 0; j < 15; ++j) {
+    const double h = j < 3 ? 1e-4 : 1e-7;  // small: the beam stays on one face
+    nav::NavErrorVector dx = nav::NavErrorVector::Zero();
+    dx(j) = h;
+    double rp = 0.0, rm = 0.0;
+    g.initialize(perturbed(x, dx), nav::NavCovariance::Identity());
+    ASSERT_TRUE(g.predict_range(rp));
+    g.initialize(perturbed(x, -dx), nav::NavCovariance::Identity());
+    ASSERT_TRUE(g.predict_range(rm));
+    EXPECT_NEAR(Hr(0, j), (rp - rm) / (2.0 * h), 1e-5 * (1.0 + std::abs(Hr(0, j)))) << "column " << j;
+  }
+}
+
+TEST(NavigationFilter, NoiseFreePredictionFollowsTheTruth) {
+  // Perfect IMU (no noise, no bias): 120 s of prediction against the truth propagator (RK4, DOPRI-grade
+  // steps); the gravity is linearised over each 0.1 s sub-step.
+  const nav_test::World w = nav_test::make_world();
+  nav::ImuSettings imu_s;
+  imu_s.gyro_noise_density = imu_s.accel_noise_density = 0.0;
+  imu_s.gyro_bias_sigma = imu_s.accel_bias_sigma = 0.0;
+  imu_s.gyro_bias_random_walk = imu_s.accel_bias_random_walk = 0.0;
+  nav::FilterSettings fs;
+  fs.imu = imu_s;
+  nav::NavigationFilter f(w.model, w.caster, w.landmarks, fs);
+  nav::Imu imu(imu_s, 1);
+  nav::NavState x0 = start_state();
+  x0.t = 0.0;
+  ASSERT_EQ(f.initialize(x0, nav::NavCovariance::Identity() * 1e-6), nav::FilterStatus::Ok);
+  dynamics::TruthState s;
+  s << x0.r_L, x0.v_L, x0.q_BL, Eigen::Vector3d(0.0, 0.0, 0.0);
+  dynamics::PropagatorSettings ps;
+  ps.substeps = 4;
+  nav::ImuSample sample;
+  const double T = 0.1;
+  for (int k = 0; k < 1200; ++k) {
+    imu.measure(nav_test::sensor_truth(*w.model, k * T, s), sample);
+    ASSERT_EQ(f.propagate((k + 1) * T, sample), nav::FilterStatus::Ok);
+    s = dynamics::propagate(*w.model, k * T, s, dynamics::InputVector::Zero(), T, {}, ps).state;
+  }
+  // The truth moved ~40 m and fell under gravity; the prediction stays within millimetres.
+  EXPECT_GT((s.segment<3>(0) - x0.r_L).norm(), 3.0);
+  EXPECT_LT((f.state().r_L - s.segment<3>(0)).norm(), 1e-3);
+  EXPECT_LT((f.state().v_L - s.segment<3>(3)).norm(), 1e-5);
+  EXPECT_LT(math::log_map(math::quat_mul(math::quat_conj(f.state().q_BL), s.segment<4>(6))).norm(), 1e-9);
+  EXPECT_NEAR(f.state().t, 120.0, 1e-9);
+  // The controller's view: r, v, phi, omega.
+  const dynamics::StateVector xm = f.model_state(Eigen::Vector3d::Zero());
+  EXPECT_TRUE(xm.head<3>().isApprox(f.state().r_L));
+  EXPECT_LT(xm.tail<3>().norm(), 1e-12);
+  const dynamics::StateMatrix C = f.model_covariance(Eigen::Vector3d::Zero());
+  EXPECT_TRUE(C.allFinite());
+  EXPECT_GT(Eigen::SelfAdjointEigenSolver<dynamics::StateMatrix>(C).eigenvalues().minCoeff(), 0.0);
+}
+
+TEST(NavigationFilter, NeesAndNisInsideChiSquareBounds) {
+  const nav_test::World w = nav_test::make_world();
+  nav_test::RunSettings rs;
+  rs.duration = 40.0;
+  // The test body is smooth at the scale of the position error: the filter's noise model is exact
+  // without the terrain term (tests/py/test_nav.py flies the Bennu-like body with it).
+  rs.filter.altimeter_terrain_sigma = 0.0;
+  const int runs = 40;
+  double nees = 0.0, nis_cam = 0.0, nis_star = 0.0, nis_alt = 0.0;
+  int dof_cam = 0, dof_star = 0, dof_alt = 0, frames = 0, empty = 0;
+  for (int r = 0; r < runs; ++r) {
+    const nav_test::RunResult out = nav_test::run(w, rs, 100 + r);
+    ASSERT_TRUE(out.finite);
+    EXPECT_EQ(out.filter_failures, 0);
+    nees += out.nees_final;
+    nis_cam += out.nis_camera;
+    dof_cam += out.dof_camera;
+    nis_star += out.nis_star;
+    dof_star += out.dof_star;
+    nis_alt += out.nis_altimeter;
+    dof_alt += out.dof_altimeter;
+    frames += out.camera_frames;
+    empty += out.camera_empty;
+  }
+  const double k_nees = 15.0 * runs;
+  std::printf("NEES/15 %.3f  NIS/dof: camera %.3f (%d), star tracker %.3f (%d), altimeter %.3f (%d)\n",
+              nees / k_nees, nis_cam / dof_cam, dof_cam, nis_star / dof_star, dof_star, nis_alt / dof_alt,
+              dof_alt);
+  EXPECT_EQ(empty, 0);
+  EXPECT_GT(dof_cam, 2 * 8 * frames);  // at least 8 landmarks per frame on average
+  const double z = 1.959963984540054;
+  EXPECT_GT(nees, nav_test::chi2_quantile(k_nees, -z)) << "average NEES " << nees / runs;
+  EXPECT_LT(nees, nav_test::chi2_quantile(k_nees, z)) << "average NEES " << nees / runs;
+  EXPECT_GT(nis_cam, nav_test::chi2_quantile(dof_cam, -z)) << "camera NIS per dof " << nis_cam / dof_cam;
+  EXPECT_LT(nis_cam, nav_test::chi2_quantile(dof_cam, z)) << "camera NIS per dof " << nis_cam / dof_cam;
+  EXPECT_GT(nis_star, nav_test::chi2_quantile(dof_star, -z))
+      << "star tracker NIS per dof " << nis_star / dof_star;
+  EXPECT_LT(nis_star, nav_test::chi2_quantile(dof_star, z))
+      << "star tracker NIS per dof " << nis_star / dof_star;
+  EXPECT_GT(nis_alt, nav_test::chi2_quantile(dof_alt, -z)) << "altimeter NIS per dof " << nis_alt / dof_alt;
+  EXPECT_LT(nis_alt, nav_test::chi2_quantile(dof_alt, z)) << "altimeter NIS per dof " << nis_alt / dof_alt;
+}
+
+TEST(NavigationFilter, WrongPixelNoiseFailsTheConsistencyCheck) {
+  // The same check catches a filter that trusts its camera 10 times too much.
+  const nav_test::World w = nav_test::make_world();
+  nav_test::RunSettings rs;
+  rs.duration = 20.0;
+  rs.keep_filter_sensors = true;
+  rs.filter.altimeter = rs.altimeter;
+  rs.filter.star_tracker = rs.star_tracker;
+  rs.filter.imu = rs.imu;
+  rs.filter.camera = rs.camera;
+  rs.filter.camera.pixel_sigma = 0.1 * rs.camera.pixel_sigma;
+  double nis = 0.0;
+  int dof = 0;
+  for (int r = 0; r < 4; ++r) {
+    const nav_test::RunResult out = nav_test::run(w, rs, 200 + r);
+    nis += out.nis_camera;
+    dof += out.dof_camera;
+  }
+  ASSERT_GT(dof, 0);
+  EXPECT_GT(nis, nav_test::chi2_quantile(dof, 1.959963984540054));
+}
+
+TEST(NavigationFilter, SplitFiltersAreInconsistentWithACoarseStarTracker) {
+  // With a star tracker 10 times coarser than the default, the attitude error common to a frame's
+  // landmarks matters: the joint filter stays consistent, two separate filters (FilterSettings::split)
+  // count the frames as independent information and their NEES leaves the bound.
+  const nav_test::World w = nav_test::make_world();
+  nav_test::RunSettings rs;
+  rs.duration = 40.0;
+  rs.filter.altimeter_terrain_sigma = 0.0;
+  rs.star_tracker.sigma_B *= 10.0;
+  const int runs = 20;
+  const double hi = nav_test::chi2_quantile(15.0 * runs, 1.959963984540054);
+  double nees_joint = 0.0, nees_split = 0.0, err_joint = 0.0, err_split = 0.0;
+  for (int r = 0; r < runs; ++r) {
+    rs.filter.split = false;
+    const nav_test::RunResult joint = nav_test::run(w, rs, 300 + r);
+    rs.filter.split = true;
+    const nav_test::RunResult split = nav_test::run(w, rs, 300 + r);
+    nees_joint += joint.nees_final;
+    nees_split += split.nees_final;
+    err_joint += (joint.estimate.r_L - joint.truth.r_L).squaredNorm();
+    err_split += (split.estimate.r_L - split.truth.r_L).squaredNorm();
+  }
+  std::printf("NEES/15 joint %.3f split %.3f; RMS position error joint %.4f m split %.4f m\n",
+              nees_joint / (15.0 * runs), nees_split / (15.0 * runs), std::sqrt(err_joint / runs),
+              std::sqrt(err_split / runs));
+  EXPECT_LT(nees_joint, hi);
+  EXPECT_GT(nees_split, hi);
+  EXPECT_LT(err_joint, err_split);
+}
+
+TEST(NavigationFilter, BrokenSensorsLeaveThePredictionRunning) {
+  // The night side: every landmark is dark; the altimeter looks away from the body (beam +x_B, out of
+  // range). The filter reports the statuses and keeps predicting: finite, covariance growing.
+  const nav_test::World w = nav_test::make_world();
+  nav_test::RunSettings rs;
+  rs.duration = 20.0;
+  rs.r0_L = Eigen::Vector3d(420.0, 40.0, 60.0);
+  rs.altimeter.boresight_B = Eigen::Vector3d::UnitX();
+  rs.star_tracker.dropout_probability = 1.0;
+  const nav_test::RunResult out = nav_test::run(w, rs, 7);
+  EXPECT_TRUE(out.finite);
+  EXPECT_EQ(out.filter_failures, 0);
+  EXPECT_EQ(out.camera_empty, out.camera_frames);
+  EXPECT_EQ(out.altimeter_ok, 0);
+  EXPECT_EQ(out.altimeter_out, 20);
+  EXPECT_EQ(out.dof_camera + out.dof_star + out.dof_altimeter, 0);
+  EXPECT_GT(out.trace_P_final, out.trace_P0);
+  EXPECT_TRUE(std::isfinite(out.nees_final));
+
+  // The update calls' statuses for those samples.
+  nav::NavigationFilter f(w.model, w.caster, w.landmarks, nav::FilterSettings{});
+  nav::CameraFrame frame;
+  frame.status = nav::SensorStatus::NoLandmarkVisible;
+  nav::AltimeterMeasurement alt;
+  alt.status = nav::SensorStatus::OutOfRange;
+  EXPECT_EQ(f.update_camera(frame).status, nav::FilterStatus::InvalidInput);  // not initialised
+  ASSERT_EQ(f.initialize(start_state(), nav::NavCovariance::Identity()), nav::FilterStatus::Ok);
+  frame.t = alt.t = start_state().t;
+  EXPECT_EQ(f.update_camera(frame).status, nav::FilterStatus::NoMeasurement);
+  EXPECT_EQ(f.update_altimeter(alt).status, nav::FilterStatus::NoMeasurement);
+}
+
+TEST(NavigationFilter, BadCallsGiveStatusesAndChangeNothing) {
+  const nav_test::World w = nav_test::make_world();
+  nav::FilterSettings fs;
+  nav::NavigationFilter f(w.model, w.caster, w.landmarks, fs);
+  nav::NavCovariance P0 = nav::NavCovariance::Identity();
+  P0(0, 0) = -1.0;
+  EXPECT_EQ(f.initialize(start_state(), P0), nav::FilterStatus::InvalidInput);
+  EXPECT_FALSE(f.initialized());
+  ASSERT_EQ(f.initialize(start_state(), nav::NavCovariance::Identity() * 1e-4), nav::FilterStatus::Ok);
+  const nav::NavState x = f.state();
+  nav::ImuSample imu;
+  imu.t = x.t;
+  EXPECT_EQ(f.propagate(x.t - 1.0, imu), nav::FilterStatus::InvalidInput);
+  EXPECT_EQ(f.propagate(x.t + 1000.0, imu), nav::FilterStatus::StepTooLong);
+  EXPECT_EQ(f.propagate(NAN, imu), nav::FilterStatus::InvalidInput);
+  EXPECT_EQ(f.state().t, x.t);
+  imu.status = nav::SensorStatus::Dropout;
+  imu.omega_BI_B.setConstant(NAN);
+  EXPECT_EQ(f.propagate(x.t + 0.1, imu), nav::FilterStatus::ImuHeld);
+  EXPECT_TRUE(f.state().r_L.allFinite());
+  nav::StarTrackerMeasurement st;
+  st.t = x.t;  // the filter is now at x.t + 0.1
+  EXPECT_EQ(f.update_star_tracker(st).status, nav::FilterStatus::TimeMismatch);
+  st.t = f.state().t;
+  st.q_BL = math::quat_mul(f.state().q_BL, math::exp_map(Eigen::Vector3d(0.5, 0.0, 0.0)));
+  nav::FilterSettings gated = fs;
+  gated.innovation_gate = 9.0;
+  nav::NavigationFilter g(w.model, w.caster, w.landmarks, gated);
+  g.initialize(f.state(), nav::NavCovariance::Identity() * 1e-8);
+  const nav::UpdateResult r = g.update_star_tracker(st);
+  EXPECT_EQ(r.status, nav::FilterStatus::Rejected);
+  EXPECT_EQ(r.rejected, 1);
+  EXPECT_TRUE(g.state().q_BL.isApprox(f.state().q_BL));
+  // An accepted update: the NIS and the covariance's shrinkage.
+  st.q_BL = math::quat_mul(f.state().q_BL, math::exp_map(Eigen::Vector3d(1e-5, 0.0, 0.0)));
+  const double before = f.covariance().block(6, 6, 3, 3).trace();
+  const nav::UpdateResult ok = f.update_star_tracker(st);
+  EXPECT_EQ(ok.status, nav::FilterStatus::Ok);
+  EXPECT_EQ(ok.dof, 3);
+  EXPECT_LT(f.covariance().block(6, 6, 3, 3).trace(), 1e-3 * before);
+  // A non-finite pixel: the update is refused for numerics and undone.
+  nav::CameraFrame frame;
+  frame.t = f.state().t;
+  frame.count = 1;
+  frame.observations[0].landmark = 0;
+  frame.observations[0].pixel = Eigen::Vector2d(INFINITY, 1.0);
+  const nav::NavState before_frame = f.state();
+  Eigen::Vector2d pixel;
+  for (int i = 0; i < static_cast<int>(w.landmarks.size()); ++i) {
+    if (f.predict_pixel(i, pixel)) {
+      frame.observations[0].landmark = i;
+      break;
+    }
+  }
+  const nav::UpdateResult bad = f.update_camera(frame);
+  EXPECT_EQ(bad.status, nav::FilterStatus::NumericalFailure);
+  EXPECT_EQ(bad.failed, 1);
+  EXPECT_TRUE(f.state().r_L == before_frame.r_L);
+  EXPECT_THROW(nav::NavigationFilter(nullptr, w.caster, w.landmarks, fs), std::invalid_argument);
+}

@@ -1,0 +1,77 @@
+// The sensors' measurements and the navigation filter's propagation and updates must not allocate
+// after construction: every malloc-family call and operator new is counted around them
+// (tubempc/core/allocation_counter.hpp, glibc only).
+#include <gtest/gtest.h>
+
+#include "../nav/nav_fixtures.hpp"
+#include "tubempc/core/allocation_counter.hpp"
+
+using namespace tubempc;
+using tubempc::core::AllocationWindow;
+
+TEST(NavAllocation, CounterSeesAllocations) {
+  if (!core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  AllocationWindow window;
+  std::vector<nav::Landmark> v(3);
+  EXPECT_GE(window.count(), 1);
+}
+
+TEST(NavAllocation, SensorsAndFilterDoNotAllocateAfterSetup) {
+  if (!core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  const nav_test::World w = nav_test::make_world();
+  nav_test::RunSettings rs;
+  rs.altimeter.dropout_probability = 0.2;
+  rs.camera.dropout_probability = 0.2;
+  nav::FilterSettings fs;
+  fs.altimeter = rs.altimeter;
+  fs.camera = rs.camera;
+  nav::Altimeter altimeter(w.caster, rs.altimeter, 1);
+  nav::NavCamera camera(w.caster, w.landmarks, rs.camera, 2);
+  nav::Imu imu(rs.imu, 3);
+  nav::StarTracker star(rs.star_tracker, 4);
+  nav::NavigationFilter filter(w.model, w.caster, w.landmarks, fs);
+  dynamics::TruthState s;
+  s << rs.r0_L, rs.v0_L, nav_test::nadir_attitude(rs.r0_L), rs.omega0_BL_B;
+  nav::NavState x0;
+  x0.r_L = rs.r0_L + Eigen::Vector3d(1.0, -1.0, 0.5);
+  x0.v_L = rs.v0_L;
+  x0.q_BL = s.segment<4>(6);
+  ASSERT_EQ(filter.initialize(x0, nav::NavCovariance::Identity() * 1e-2), nav::FilterStatus::Ok);
+  nav::ImuSample sample;
+  nav::AltimeterMeasurement alt;
+  nav::CameraFrame frame;
+  nav::StarTrackerMeasurement st;
+  dynamics::PropagatorSettings ps;
+  ps.substeps = 1;
+  long allocations = 0;
+  int camera_updates = 0, altimeter_updates = 0;
+  double checksum = 0.0;
+  for (int k = 0; k < 200; ++k) {
+    const double t = 0.1 * k;
+    const nav::SensorTruth truth = nav_test::sensor_truth(*w.model, t, s);
+    {
+      AllocationWindow window;
+      if (k > 0 && k % 10 == 0) {
+        star.measure(truth, st);
+        filter.update_star_tracker(st);
+        altimeter.measure(truth, alt);
+        altimeter_updates += filter.update_altimeter(alt).status == nav::FilterStatus::Ok;
+      }
+      if (k > 0 && k % 20 == 0) {
+        camera.measure(truth, frame);
+        camera_updates += filter.update_camera(frame).status == nav::FilterStatus::Ok;
+        const dynamics::StateVector x = filter.model_state(Eigen::Vector3d::Zero());
+        const dynamics::StateMatrix C = filter.model_covariance(x.segment<3>(6));
+        checksum += x(0) + C(0, 0) + nav::nees(filter.state(), filter.covariance(), filter.state());
+      }
+      imu.measure(truth, sample);
+      filter.propagate(t + 0.1, sample);
+      allocations += window.count();
+    }
+    s = dynamics::propagate(*w.model, t, s, dynamics::InputVector::Zero(), 0.1, {}, ps).state;
+  }
+  EXPECT_GT(camera_updates, 3);
+  EXPECT_GT(altimeter_updates, 5);
+  EXPECT_TRUE(std::isfinite(checksum));
+  EXPECT_EQ(allocations, 0);
+}
