@@ -1,0 +1,79 @@
+/// @file achievable_set.hpp
+/// The sets the tube design needs from the actuators (docs/model.md "Actuators"): an inner box of the
+/// wrenches the thrusters and wheels can always deliver, and a box containing every actuation error
+/// (commanded minus delivered wrench), each also in the MPC's input coordinates [u_p (m/s^2, L); T (N m, B)].
+/// Both are set-up computations (they allocate).
+#pragma once
+
+#include <Eigen/Dense>
+
+#include "tubempc/actuators/allocation.hpp"
+#include "tubempc/actuators/reaction_wheels.hpp"
+#include "tubempc/actuators/thrusters.hpp"
+
+namespace tubempc::actuators {
+
+/// An inner box of the achievable wrenches: every w_B with |w_i| <= half_width_B_i is allocated with a
+/// remainder within the allocation's tolerance, for every wheel momentum with |h_j| <= momentum_fraction
+/// h_max_j and (if asked) with any one thruster failed off.
+struct AchievableBox {
+  Vector6 half_width_B = Vector6::Zero();      ///< Half-widths of the box of [F_B (N); T_B (N m)].
+  Vector6 input_half_width = Vector6::Zero();  ///< The box in MPC input coordinates, valid at every attitude:
+      ///< |u_p,i| <= min_k a_F,k / (m sqrt 3) (m/s^2, L), |T_i| <= a_T,i (N m).
+  double scale = 0.0;         ///< The box is scale diag(shape) (the largest verified scale).
+  int limiting_failure = -1;  ///< The failed thruster that limits the box (-1: the healthy cluster).
+  int vertices_checked = 0;  ///< Allocations run on the box's vertices (64 per scale tried and failure case).
+};
+
+/// Settings of the inner-box computation.
+struct AchievableBoxSettings {
+  Vector6 shape = Vector6::Ones();  ///< The box's aspect: half-widths proportional to it (N, N m; > 0).
+  double momentum_fraction =
+      0.8;  ///< Wheel momenta up to this fraction of their limit are covered (in [0, 1]).
+  bool tolerate_one_failure = true;  ///< Whether the box must hold with any one thruster failed off.
+  int bisection_steps = 40;          ///< Bisection steps on the scale (>= 1).
+
+  /// Throws std::invalid_argument naming the field.
+  void validate() const;
+};
+
+/// The largest box scale diag(shape) whose 64 vertices are all allocated within tolerance (the achievable set
+/// of a box-constrained linear map is convex, so the vertices suffice), found by bisection; the result is the
+/// last scale verified, a deterministic inner approximation up to the allocation's remainder tolerance.
+/// The wheels' torque box is the one of the worst momentum within momentum_fraction: |u_j| <=
+/// min(u_max_j, (1 - momentum_fraction) h_max_j / period).
+/// @param cluster the thrusters (their configured faults are ignored: the healthy cluster).
+/// @param wheels the wheels (their momentum is ignored).
+/// @param allocation the allocation settings (its period and tolerances).
+/// @param mass the spacecraft's mass (kg, > 0), for input_half_width.
+/// @param settings the computation's settings.
+/// @return the box.
+AchievableBox achievable_box(const ThrusterCluster& cluster, const ReactionWheels& wheels,
+                             const AllocationSettings& allocation, double mass,
+                             const AchievableBoxSettings& settings = {});
+
+/// A box containing every actuation error e = M x - w_delivered of a period: the allocated nominal wrench
+/// minus the truth's period-average delivered wrench. Certified (deterministic) for: commanded thrusts in
+/// [0, F_j] with the cluster's faults known to the allocation, the modulator's remainders in [0, r_max_j)
+/// (true from a reset), and truth errors within the thrusters' scale_error_bound and misalignment_bound.
+/// The wheels deliver their allocated torque exactly (their bounds are the allocation's).
+struct ActuationErrorBound {
+  Vector6 modulation_B = Vector6::Zero();  ///< Part from pulse modulation: sum_j |D_ij| F_j r_max_j / dt.
+  Vector6 misalignment_B =
+      Vector6::Zero();  ///< Part from scale and misalignment errors: sum_j F_j max |v_j . e|,
+                        ///< v_j = (1 + s) R d_j - d_j over |s| <= s_j and rotations by at most theta_j,
+                        ///< e = e_i for force rows and e_i x p_j for torque rows (exact per thruster).
+  Vector6 wrench_B = Vector6::Zero();  ///< The sum: |e_i| <= wrench_B_i (N, N m).
+  Vector6 input = Vector6::Zero();     ///< The box in MPC input coordinates, valid at every attitude:
+      ///< |e_u_p,i| <= ||wrench_B(0:3)||_2 / m (m/s^2, L), |e_T,i| <= wrench_B_(3+i) (N m).
+};
+
+/// The actuation-error box (see ActuationErrorBound).
+/// @param cluster the thrusters (their error bounds).
+/// @param modulator the modulator (its period and resolution).
+/// @param mass the spacecraft's mass (kg, > 0).
+/// @return the bound.
+ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const PulseModulator& modulator,
+                                          double mass);
+
+}  // namespace tubempc::actuators
