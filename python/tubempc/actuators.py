@@ -207,9 +207,7 @@ def load_actuators(source: str | Path, period: float, *, seed: int = 0) -> Actua
     modulation.period = period
     mod = raw.get("modulation", {})
     if "on_time_resolution" in mod:
-        modulation.on_time_resolution = _quantity(
-            mod["on_time_resolution"], "s", f"{where}.modulation.on_time_resolution"
-        )
+        modulation.on_time_resolution = _quantity(mod["on_time_resolution"], "s", f"{where}.modulation.on_time_resolution")
     allocation = _act.AllocationSettings()
     allocation.period = period
     try:

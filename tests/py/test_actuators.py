@@ -197,7 +197,7 @@ def test_loader_reads_units_and_names_bad_fields(tmp_path: Path) -> None:
     faulty.write_text(text + '\n[[faults]]\nthruster = 16\nkind = "stuck_on"\ntime = "1 s"\n', encoding="utf-8")
     with pytest.raises(A.ActuatorConfigError, match=r"faults\[0\].thruster"):
         A.load_actuators(faulty, 1.0)
-    with pytest.raises(ValueError, match="thrusters\\[0\\].direction_B"):
+    with pytest.raises(ValueError, match=r"thrusters\[0\].direction_B"):
         spec = act.ThrusterSpec()
         spec.direction_B = np.array([0.0, 0.0, 2.0])
         act.ThrusterCluster([spec])
