@@ -41,6 +41,24 @@ class ActuatorConfigError(ValueError):
     """Invalid actuator preset; the message names the file and the field."""
 
 
+_SECTIONS = {"name", "mass", "thruster_defaults", "thrusters", "wheels", "momentum_dump", "modulation", "faults"}
+_SECTION_KEYS = {
+    "thruster_defaults": set(_THRUSTER_FIELDS) | {"misalignment_B"},
+    "wheels": {"max_torque", "max_momentum", "axes_B"},
+    "momentum_dump": {"enabled", "start_fraction", "stop_fraction", "time_constant"},
+    "modulation": {"on_time_resolution"},
+}
+
+
+def _known(table: Any, keys: set[str], where: str) -> None:
+    """Rejects a key outside `keys` (a misspelt field would otherwise be ignored)."""
+    if not isinstance(table, Mapping):
+        raise ActuatorConfigError(f"{where}: expected a table, got {table!r}")
+    unknown = sorted(set(table) - keys)
+    if unknown:
+        raise ActuatorConfigError(f"{where}: unknown field(s) {unknown}; expected some of {sorted(keys)}")
+
+
 @functools.cache
 def _ureg() -> Any:
     import pint  # deferred: `import tubempc` does not load pint
@@ -152,6 +170,14 @@ def load_actuators(source: str | Path, period: float, *, seed: int = 0) -> Actua
         raise ActuatorConfigError(f"{where}: cannot read: {exc}") from exc
     except tomllib.TOMLDecodeError as exc:
         raise ActuatorConfigError(f"{where}: not TOML: {exc}") from exc
+    _known(raw, _SECTIONS, where)
+    for section in ("thruster_defaults", "wheels", "momentum_dump", "modulation"):
+        if section in raw:
+            if not isinstance(raw[section], Mapping):
+                raise ActuatorConfigError(f"{where}.{section}: expected a table")
+            _known(raw[section], _SECTION_KEYS[section], f"{where}.{section}")
+    for i, f in enumerate(raw.get("faults", [])):
+        _known(f, {"thruster", "kind", "time", "window"}, f"{where}.faults[{i}]")
     if not (math.isfinite(period) and period > 0.0):
         raise ActuatorConfigError(f"{where}: period must be finite and > 0 (s), got {period!r}")
     mass = _quantity(raw.get("mass"), "kg", f"{where}.mass")

@@ -184,6 +184,9 @@ def test_loader_reads_units_and_names_bad_fields(tmp_path: Path) -> None:
     bad.write_text(text.replace('min_on_time = "20 ms"', 'min_on_time = "20 kg"'), encoding="utf-8")
     with pytest.raises(A.ActuatorConfigError, match="min_on_time"):
         A.load_actuators(bad, 1.0)
+    bad.write_text(text.replace("start_fraction = 0.8", "start_fractoin = 0.8"), encoding="utf-8")
+    with pytest.raises(A.ActuatorConfigError, match=r"momentum_dump: unknown field\(s\) \['start_fractoin'\]"):
+        A.load_actuators(bad, 1.0)
     faulty = tmp_path / "faulty.toml"
     faulty.write_text(
         text + '\n[[faults]]\nthruster = 3\nkind = "stuck_on"\ntime = "random"\n'
