@@ -174,3 +174,45 @@ TEST(Allocation, InputAndWrenchAreInverseWithMassAndFrame) {
   EXPECT_TRUE(w.head<3>().isApprox(1500.0 * C_BL * u.head<3>()));
   EXPECT_TRUE(input_from_wrench(w, C_BL, 1500.0).isApprox(u, 1e-14));
 }
+
+// A whole dump: allocation, modulation and wheel update in a loop with no command. The wheels unload below
+// the stop fraction, and the torque the spacecraft receives (thrusters' delivered plus wheels') sums to a
+// total angular impulse within one modulation remainder per thruster (the attitude is held).
+TEST(Allocation, DumpUnloadsTheWheelsWhileHoldingTheAttitude) {
+  const ThrusterCluster c = actuator_test::cube_cluster(4.5, 0.02);
+  MomentumDumpSettings dump;
+  dump.time_constant = 60.0;
+  ReactionWheels w = actuator_test::pyramid_wheels(0.2, 20.0, dump);
+  Eigen::VectorXd h(4);
+  h << 17.0, -6.0, 3.0, 9.0;
+  w.set_momentum(h);
+  ASSERT_TRUE(w.dumping());
+  const Eigen::Vector3d H0 = w.momentum_B();
+  AllocationSettings as;
+  as.period = 1.0;
+  ModulationSettings ms;
+  ms.period = 1.0;
+  Allocator a(c, w, as);
+  PulseModulator mod(c.size(), ms);
+  Eigen::Vector3d angular_impulse = Eigen::Vector3d::Zero(), linear_impulse = Eigen::Vector3d::Zero();
+  int k = 0;
+  for (; k < 2000 && w.dumping(); ++k) {
+    const AllocationResult& r = a.solve(c, w, k, Vector6::Zero());
+    ASSERT_EQ(r.info.status, AllocationStatus::Ok) << k;
+    const Firing& f = mod.modulate(c, k, r.thrust);
+    angular_impulse += f.delivered_B.tail<3>() + w.apply(r.wheel_torque, ms.period);
+    linear_impulse += f.delivered_B.head<3>();
+  }
+  EXPECT_FALSE(w.dumping());
+  EXPECT_LE(w.momentum().cwiseAbs().maxCoeff(), 0.2 * 20.0);
+  EXPECT_GT(k, 50);
+  // The body's angular momentum change is the external (thruster) impulse: the wheels' change plus it is 0.
+  double slack_T = 0.0, slack_F = 0.0;
+  for (int j = 0; j < c.size(); ++j) {
+    slack_T += c.mapping().col(j).tail<3>().norm() * 4.5 * mod.remainder_bound(c, j);
+    slack_F += 4.5 * mod.remainder_bound(c, j);
+  }
+  EXPECT_LT(angular_impulse.norm(), slack_T + 1e-6 * k);
+  EXPECT_LT(linear_impulse.norm(), slack_F + 1e-6 * k);
+  EXPECT_LT(w.momentum_B().norm(), 0.3 * H0.norm());
+}
