@@ -120,9 +120,10 @@ class Allocator {
   void last_problem(Eigen::MatrixXd& A, Eigen::VectorXd& b, Eigen::VectorXd& lower,
                     Eigen::VectorXd& upper) const;
 
-  /// Overrides the bounds of the allocation variables used by the next solves' thrusters (for the
-  /// achievable-set computation): the variables of thrusters with failed_off[j] are fixed at 0.
-  /// @param failed_off per-thruster flag (n), or an empty vector to clear.
+  /// Marks thrusters as failed off in addition to the cluster's faults, for the next solves (what-if
+  /// allocations, e.g. the achievable set with one thruster failed). Not for the control step: it is not
+  /// time-dependent.
+  /// @param failed_off per-thruster flag (n; nonzero: failed off), or an empty vector to clear.
   void set_extra_failures(const Eigen::VectorXi& failed_off);
 
   /// @return the number of thrusters n.
