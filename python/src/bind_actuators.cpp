@@ -235,7 +235,9 @@ void bind_actuators(py::module_& m) {
       .def_readonly("modulation_B", &ActuationErrorBound::modulation_B)
       .def_readonly("misalignment_B", &ActuationErrorBound::misalignment_B)
       .def_readonly("wrench_B", &ActuationErrorBound::wrench_B)
-      .def_readonly("input", &ActuationErrorBound::input);
+      .def_readonly("input", &ActuationErrorBound::input)
+      .def_readonly("shape_p", &ActuationErrorBound::shape_p)
+      .def_readonly("shape_T", &ActuationErrorBound::shape_T);
   s.def("actuation_error_bound", &actuation_error_bound, py::arg("cluster"), py::arg("modulator"),
         py::arg("mass"));
 }

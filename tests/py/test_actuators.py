@@ -140,6 +140,8 @@ def test_sampled_actuation_errors_lie_in_the_certified_box(suite: A.ActuatorSuit
         assert np.all(np.abs(e) <= bound.wrench_B), (k, e, bound.wrench_B)
         e_u = act.input_from_wrench(e, C_BL, suite.mass)
         assert np.all(np.abs(e_u) <= bound.input)
+        assert e_u[:3] @ np.linalg.solve(bound.shape_p, e_u[:3]) <= 1.0
+        assert e_u[3:] @ np.linalg.solve(bound.shape_T, e_u[3:]) <= 1.0
         worst = np.maximum(worst, np.abs(e) / bound.wrench_B)
     assert worst.max() > 0.05  # not vacuous: the sampled errors reach a visible part of the box
 

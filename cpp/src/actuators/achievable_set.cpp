@@ -132,6 +132,8 @@ ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const 
   e.wrench_B = e.modulation_B + e.misalignment_B;
   e.input.head<3>().setConstant(e.wrench_B.head<3>().norm() / mass);
   e.input.tail<3>() = e.wrench_B.tail<3>();
+  e.shape_p = Eigen::Matrix3d::Identity() * e.input(0) * e.input(0);
+  e.shape_T = (3.0 * e.wrench_B.tail<3>().cwiseAbs2()).asDiagonal();
   return e;
 }
 

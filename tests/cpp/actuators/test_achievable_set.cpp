@@ -108,4 +108,10 @@ TEST(ActuationErrorBound, ContainsEverySampledError) {
   EXPECT_GT(worst.maxCoeff(), 0.2);
   EXPECT_NEAR(bound.input(0), bound.wrench_B.head<3>().norm() / 1200.0, 1e-15);
   EXPECT_TRUE(bound.wrench_B.isApprox(bound.modulation_B + bound.misalignment_B));
+  // The torque ellipsoid contains the torque box: its 8 vertices lie on it.
+  for (int v = 0; v < 8; ++v) {
+    Eigen::Vector3d c;
+    for (int i = 0; i < 3; ++i) c(i) = ((v >> i) & 1 ? 1.0 : -1.0) * bound.wrench_B(3 + i);
+    EXPECT_NEAR(c.dot(bound.shape_T.ldlt().solve(c)), 1.0, 1e-12);
+  }
 }

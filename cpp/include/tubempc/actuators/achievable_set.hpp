@@ -17,9 +17,11 @@ namespace tubempc::actuators {
 /// remainder within the allocation's tolerance, for every wheel momentum with |h_j| <= momentum_fraction
 /// h_max_j and (if asked) with any one thruster failed off.
 struct AchievableBox {
-  Vector6 half_width_B = Vector6::Zero();      ///< Half-widths of the box of [F_B (N); T_B (N m)].
-  Vector6 input_half_width = Vector6::Zero();  ///< The box in MPC input coordinates, valid at every attitude:
-      ///< |u_p,i| <= min_k a_F,k / (m sqrt 3) (m/s^2, L), |T_i| <= a_T,i (N m).
+  /// Half-widths of the box of [F_B (N); T_B (N m)].
+  Vector6 half_width_B = Vector6::Zero();
+  /// The box in MPC input coordinates, valid at every attitude: |u_p,i| <= min_k a_F,k / (m sqrt 3)
+  /// (m/s^2, L) and |T_i| <= a_T,i (N m), a = half_width_B.
+  Vector6 input_half_width = Vector6::Zero();
   double scale = 0.0;         ///< The box is scale diag(shape) (the largest verified scale).
   int limiting_failure = -1;  ///< The failed thruster that limits the box (-1: the healthy cluster).
   int vertices_checked = 0;  ///< Allocations run on the box's vertices (64 per scale tried and failure case).
@@ -28,8 +30,8 @@ struct AchievableBox {
 /// Settings of the inner-box computation.
 struct AchievableBoxSettings {
   Vector6 shape = Vector6::Ones();  ///< The box's aspect: half-widths proportional to it (N, N m; > 0).
-  double momentum_fraction =
-      0.8;  ///< Wheel momenta up to this fraction of their limit are covered (in [0, 1]).
+  /// Wheel momenta up to this fraction of their limit are covered (in [0, 1)).
+  double momentum_fraction = 0.8;
   bool tolerate_one_failure = true;  ///< Whether the box must hold with any one thruster failed off.
   int bisection_steps = 40;          ///< Bisection steps on the scale (>= 1).
 
@@ -58,14 +60,23 @@ AchievableBox achievable_box(const ThrusterCluster& cluster, const ReactionWheel
 /// (true from a reset), and truth errors within the thrusters' scale_error_bound and misalignment_bound.
 /// The wheels deliver their allocated torque exactly (their bounds are the allocation's).
 struct ActuationErrorBound {
-  Vector6 modulation_B = Vector6::Zero();  ///< Part from pulse modulation: sum_j |D_ij| F_j r_max_j / dt.
-  Vector6 misalignment_B =
-      Vector6::Zero();  ///< Part from scale and misalignment errors: sum_j F_j max |v_j . e|,
-                        ///< v_j = (1 + s) R d_j - d_j over |s| <= s_j and rotations by at most theta_j,
-                        ///< e = e_i for force rows and e_i x p_j for torque rows (exact per thruster).
-  Vector6 wrench_B = Vector6::Zero();  ///< The sum: |e_i| <= wrench_B_i (N, N m).
-  Vector6 input = Vector6::Zero();     ///< The box in MPC input coordinates, valid at every attitude:
-      ///< |e_u_p,i| <= ||wrench_B(0:3)||_2 / m (m/s^2, L), |e_T,i| <= wrench_B_(3+i) (N m).
+  /// Part from pulse modulation: sum_j |D_ij| F_j r_max_j / dt (N, N m).
+  Vector6 modulation_B = Vector6::Zero();
+  /// Part from scale and misalignment errors: sum_j F_j max |v_j . c_ij| with v_j = (1 + s) R d_j - d_j over
+  /// |s| <= s_j and rotations by at most theta_j, c_ij = e_i for force rows and e_i x p_j for torque rows
+  /// (exact per thruster; N, N m).
+  Vector6 misalignment_B = Vector6::Zero();
+  /// The sum of both: |e_i| <= wrench_B_i (N, N m).
+  Vector6 wrench_B = Vector6::Zero();
+  /// The box in MPC input coordinates, valid at every attitude: |e_u_p,i| <= ||wrench_B(0:3)||_2 / m
+  /// (m/s^2, L) and |e_T,i| <= wrench_B(3 + i) (N m).
+  Vector6 input = Vector6::Zero();
+  /// Ellipsoid {e : e^T shape_p^-1 e <= 1} of the u_p error at every attitude: the ball
+  /// (||wrench_B(0:3)||_2 / m)^2 I ((m/s^2)^2).
+  Eigen::Matrix3d shape_p = Eigen::Matrix3d::Zero();
+  /// Ellipsoid {e : e^T shape_T^-1 e <= 1} of the torque error: 3 diag(wrench_B(3:6))^2, the smallest-volume
+  /// ellipsoid around the torque box ((N m)^2).
+  Eigen::Matrix3d shape_T = Eigen::Matrix3d::Zero();
 };
 
 /// The actuation-error box (see ActuationErrorBound).

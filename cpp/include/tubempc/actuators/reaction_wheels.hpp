@@ -34,8 +34,8 @@ struct MomentumDumpSettings {
   bool enabled = true;          ///< Whether momentum is dumped at all.
   double start_fraction = 0.8;  ///< Dumping starts when some |h_j| > start_fraction h_max_j (in (0, 1]).
   double stop_fraction = 0.2;   ///< ... and stops when every |h_j| <= stop_fraction h_max_j (in [0, start)).
-  double time_constant =
-      600.0;  ///< While dumping, u_dump_j = h_j / time_constant, clamped to the torque limit (s, > 0).
+  /// While dumping, u_dump_j = h_j / time_constant, clamped to the torque limit (s, > 0).
+  double time_constant = 600.0;
 
   /// Throws std::invalid_argument naming the field.
   void validate() const;

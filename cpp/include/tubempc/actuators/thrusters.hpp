@@ -44,21 +44,28 @@ FaultKind fault_kind_from_string(const std::string& name);
 /// misalignment_B. The certified error bounds hold for every truth error within scale_error_bound and
 /// misalignment_bound.
 struct ThrusterSpec {
-  Eigen::Vector3d position_B =
-      Eigen::Vector3d::Zero();  ///< Position relative to the centre of mass, in B (m).
-  Eigen::Vector3d direction_B =
-      Eigen::Vector3d::UnitZ();  ///< Unit direction of the force on the spacecraft, in B.
-  double max_thrust = 1.0;       ///< Thrust when on (N, > 0).
-  double min_on_time =
-      0.02;            ///< Shortest firing (s, >= 0): the minimum impulse bit is max_thrust min_on_time.
-  double isp = 220.0;  ///< Specific impulse (s, > 0).
-  double scale_error = 0.0;  ///< Truth's relative thrust error (delivered = (1 + scale_error) max_thrust).
-  Eigen::Vector3d misalignment_B =
-      Eigen::Vector3d::Zero();      ///< Truth's direction error, a rotation vector (rad).
-  double scale_error_bound = 0.0;   ///< Certified bound on |scale_error| (>= |scale_error|, < 1).
-  double misalignment_bound = 0.0;  ///< Certified bound on |misalignment_B| (rad, >= |misalignment_B|, < pi).
-  FaultKind fault = FaultKind::None;  ///< Configured fault (None: healthy).
-  double fault_time = 0.0;            ///< Time from which the fault acts (s).
+  /// Position relative to the centre of mass, in B (m).
+  Eigen::Vector3d position_B = Eigen::Vector3d::Zero();
+  /// Unit direction of the force on the spacecraft (opposite to the exhaust), in B.
+  Eigen::Vector3d direction_B = Eigen::Vector3d::UnitZ();
+  /// Thrust when on (N, > 0).
+  double max_thrust = 1.0;
+  /// Shortest firing (s, >= 0): the minimum impulse bit is max_thrust min_on_time.
+  double min_on_time = 0.02;
+  /// Specific impulse (s, > 0).
+  double isp = 220.0;
+  /// Truth's relative thrust error: it delivers (1 + scale_error) max_thrust.
+  double scale_error = 0.0;
+  /// Truth's direction error, a rotation vector (rad).
+  Eigen::Vector3d misalignment_B = Eigen::Vector3d::Zero();
+  /// Certified bound on |scale_error| (>= |scale_error|, < 1).
+  double scale_error_bound = 0.0;
+  /// Certified bound on |misalignment_B| (rad, >= |misalignment_B|, < pi).
+  double misalignment_bound = 0.0;
+  /// Configured fault (None: healthy).
+  FaultKind fault = FaultKind::None;
+  /// Time from which the fault acts (s).
+  double fault_time = 0.0;  ///< Time from which the fault acts (s).
 
   /// Throws std::invalid_argument naming the field (`what` prefixes it, e.g. "thrusters[3]").
   /// @param what name of this thruster in the message.
@@ -118,10 +125,10 @@ struct ModulationSettings {
 struct Firing {
   Eigen::VectorXd on_time;  ///< On-time of each thruster from the start of the period (s, n).
   Eigen::VectorXd impulse;  ///< Impulse delivered by each thruster, truth (N s, n).
-  Vector6 commanded_B =
-      Vector6::Zero();  ///< D f_cmd: the wrench of the commanded thrusts (nominal, N and N m).
-  Vector6 delivered_B =
-      Vector6::Zero();      ///< Period-average wrench delivered by the truth (errors and faults, N and N m).
+  /// D f_cmd: the wrench of the commanded thrusts (nominal, N and N m).
+  Vector6 commanded_B = Vector6::Zero();
+  /// Period-average wrench delivered by the truth (errors and faults, N and N m).
+  Vector6 delivered_B = Vector6::Zero();
   double propellant = 0.0;  ///< Propellant spent in the period (kg).
   int pulses = 0;           ///< Thrusters fired in the period.
 };
