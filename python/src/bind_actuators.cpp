@@ -86,7 +86,8 @@ void bind_actuators(py::module_& m) {
       .def_readonly("pulses", &Firing::pulses);
 
   py::class_<PulseModulator>(s, "PulseModulator", "Pulse-width modulation with remainder carry-over")
-      .def(py::init<int, const ModulationSettings&>(), py::arg("thrusters"), py::arg("settings"))
+      .def(py::init<const ThrusterCluster&, const ModulationSettings&>(), py::arg("cluster"),
+           py::arg("settings"))
       .def(
           "modulate",
           [](PulseModulator& self, const ThrusterCluster& c, double t,

@@ -118,7 +118,7 @@ class ActuatorSuite:
 
     def modulator(self) -> _act.PulseModulator:
         """A new pulse modulator for these thrusters."""
-        return _act.PulseModulator(len(self.cluster), self.modulation)
+        return _act.PulseModulator(self.cluster, self.modulation)
 
 
 def preset_names() -> list[str]:
@@ -241,6 +241,7 @@ def load_actuators(source: str | Path, period: float, *, seed: int = 0) -> Actua
         wheel_set = _act.ReactionWheels(wheels, dump)
         modulation.validate()
         allocation.validate()
+        _act.PulseModulator(cluster, modulation)  # every minimum on-time fits in the period
     except ValueError as exc:
         raise ActuatorConfigError(f"{where}: {exc}") from exc
     return ActuatorSuite(str(raw.get("name", path.stem)), mass, cluster, wheel_set, modulation, allocation)

@@ -189,6 +189,8 @@ def test_loader_reads_units_and_names_bad_fields(tmp_path: Path) -> None:
     bad.write_text(text.replace("start_fraction = 0.8", "start_fractoin = 0.8"), encoding="utf-8")
     with pytest.raises(A.ActuatorConfigError, match=r"momentum_dump: unknown field\(s\) \['start_fractoin'\]"):
         A.load_actuators(bad, 1.0)
+    with pytest.raises(A.ActuatorConfigError, match=r"thrusters\[0\].min_on_time: longer than"):
+        A.load_actuators("osiris_rex_like", 0.015)
     faulty = tmp_path / "faulty.toml"
     faulty.write_text(
         text + '\n[[faults]]\nthruster = 3\nkind = "stuck_on"\ntime = "random"\n'
@@ -254,7 +256,7 @@ def test_modulation_matches_basilisk_thr_firing_remainder() -> None:
     ms = act.ModulationSettings()
     ms.period = dt
     ms.on_time_resolution = 0.0
-    mod = act.PulseModulator(n, ms)
+    mod = act.PulseModulator(cluster, ms)
     mine = np.array([mod.modulate(cluster, k * dt, cmds[k]).on_time for k in range(1, len(cmds))])
     assert np.count_nonzero(mine == 0.0) > 10 and np.count_nonzero(mine) > 10
     np.testing.assert_allclose(mine, on_bsk, rtol=0, atol=1e-12)

@@ -109,10 +109,15 @@ void ModulationSettings::validate() const {
     throw std::invalid_argument("modulation.on_time_resolution: must be in [0, period] (s)");
 }
 
-PulseModulator::PulseModulator(int thrusters, const ModulationSettings& settings) : settings_(settings) {
+PulseModulator::PulseModulator(const ThrusterCluster& cluster, const ModulationSettings& settings)
+    : settings_(settings) {
   settings_.validate();
-  if (thrusters < 1 || thrusters > kMaxThrusters)
-    throw std::invalid_argument("modulator.thrusters: expected 1 to " + std::to_string(kMaxThrusters));
+  const int thrusters = cluster.size();
+  for (int j = 0; j < thrusters; ++j)
+    if (effective_min_on_time(cluster, j) > settings_.period)
+      throw std::invalid_argument(
+          "thrusters[" + std::to_string(j) +
+          "].min_on_time: longer than the modulation's period (rounded up to its resolution)");
   r_ = Eigen::VectorXd::Zero(thrusters);
   pulses_ = Eigen::VectorXi::Zero(thrusters);
   firing_.on_time = Eigen::VectorXd::Zero(thrusters);

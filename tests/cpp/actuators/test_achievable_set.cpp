@@ -89,7 +89,7 @@ TEST(ActuationErrorBound, ContainsEverySampledError) {
   ModulationSettings ms;
   ms.period = 2.0;
   ms.on_time_resolution = 0.01;
-  PulseModulator mod(c.size(), ms);
+  PulseModulator mod(c, ms);
   const ActuationErrorBound bound = actuation_error_bound(c, mod, 1200.0);
   Allocator a(c, w, as);
   Vector6 worst = Vector6::Zero();

@@ -193,7 +193,7 @@ TEST(Allocation, DumpUnloadsTheWheelsWhileHoldingTheAttitude) {
   ModulationSettings ms;
   ms.period = 1.0;
   Allocator a(c, w, as);
-  PulseModulator mod(c.size(), ms);
+  PulseModulator mod(c, ms);
   Eigen::Vector3d angular_impulse = Eigen::Vector3d::Zero(), linear_impulse = Eigen::Vector3d::Zero();
   int k = 0;
   for (; k < 2000 && w.dumping(); ++k) {

@@ -56,7 +56,14 @@ TEST(ThrusterCluster, BadInputNamesTheField) {
   EXPECT_THROW(c.set_fault(12, FaultKind::FailedOff, 0.0), std::invalid_argument);
   ModulationSettings m;
   m.period = 0.0;
-  EXPECT_THROW(PulseModulator(12, m), std::invalid_argument);
+  EXPECT_THROW(PulseModulator(c, m), std::invalid_argument);
+  m.period = 0.015;  // shorter than the 20 ms minimum on-time
+  try {
+    PulseModulator p(c, m);
+    FAIL() << "no throw";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("thrusters[0].min_on_time"), std::string::npos) << e.what();
+  }
 }
 
 // Binary fractions keep the arithmetic exact: tau_c = 7/1024 s per period with tau_min = 20/1024 s fires
@@ -70,7 +77,7 @@ TEST(PulseModulator, MinimumImpulseCarriesTheRemainderExactly) {
   ModulationSettings ms;
   ms.period = 1.0;
   ms.on_time_resolution = 1.0 / 1024;
-  PulseModulator mod(1, ms);
+  PulseModulator mod(c, ms);
   Eigen::VectorXd f(1);
   f << 4.0 * 7.0 / 1024;
   double impulse = 0.0;
@@ -92,7 +99,7 @@ TEST(PulseModulator, DeliveredImpulseMatchesTheCommandUpToTheRemainder) {
   ModulationSettings ms;
   ms.period = 0.5;
   ms.on_time_resolution = 0.004;  // tau_min rounds up to 0.02
-  PulseModulator mod(c.size(), ms);
+  PulseModulator mod(c, ms);
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   Eigen::VectorXd f(c.size()), commanded = Eigen::VectorXd::Zero(c.size()), delivered = commanded;
@@ -119,7 +126,7 @@ TEST(PulseModulator, FaultsOverrideTheCommandFromTheirTime) {
   EXPECT_EQ(c.faults_at(10.0), 2);
   ModulationSettings ms;
   ms.period = 2.0;
-  PulseModulator mod(c.size(), ms);
+  PulseModulator mod(c, ms);
   Eigen::VectorXd f = Eigen::VectorXd::Zero(c.size());
   f(1) = 4.5;
   const Firing& before = mod.modulate(c, 8.0, f);

@@ -33,7 +33,7 @@ TEST(ActuatorsAllocation, StepDoesNotAllocateAfterSetup) {
   ModulationSettings ms;
   ms.period = 1.0;
   Allocator alloc(cluster, wheels, as);
-  PulseModulator mod(cluster.size(), ms);
+  PulseModulator mod(cluster, ms);
   std::mt19937_64 rng(9);
   std::normal_distribution<double> n(0.0, 1.0);
   Vector6 cmd;

@@ -143,9 +143,11 @@ struct Firing {
 /// Allocation-free after construction.
 class PulseModulator {
  public:
-  /// @param thrusters number of thrusters n (1 to kMaxThrusters).
+  /// Sizes the modulator for the cluster; every thruster's minimum on-time, rounded up to the resolution,
+  /// must fit in the period (std::invalid_argument otherwise).
+  /// @param cluster the thrusters.
   /// @param settings the modulation settings (validated).
-  PulseModulator(int thrusters, const ModulationSettings& settings);
+  PulseModulator(const ThrusterCluster& cluster, const ModulationSettings& settings);
 
   /// Modulates one period's commanded thrusts. A non-finite command is taken as 0, the others are
   /// clamped into [0, max_thrust_j].
