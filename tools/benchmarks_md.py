@@ -244,6 +244,12 @@ def _actuators(d: dict[str, Any]) -> list[tuple[str, str]]:
             f"{_vec(e['wrench_B'])} (modulation {_vec(e['modulation_B'])}); sampled errors reach "
             f"{_vec(e['worst_sampled_over_bound'])} of it",
         ),
+        (
+            f"same, for commands inside the achievable box, {d['preset']}",
+            f"{_vec(e['in_box']['wrench_B'])} (thrust norm <= {e['in_box']['thrust_norm']:.3g} N, against "
+            f"{e['in_box']['thrust_norm_any_command']:.3g} N for any command); sampled errors reach "
+            f"{_vec(e['in_box']['worst_sampled_over_bound'])} of it; {e['in_box']['seconds']:.2g} s",
+        ),
     ]
 
 

@@ -235,12 +235,20 @@ void bind_actuators(py::module_& m) {
   py::class_<ActuationErrorBound>(s, "ActuationErrorBound", "A box containing every actuation error")
       .def_readonly("modulation_B", &ActuationErrorBound::modulation_B)
       .def_readonly("misalignment_B", &ActuationErrorBound::misalignment_B)
+      .def_readonly("thrust_norm", &ActuationErrorBound::thrust_norm)
       .def_readonly("wrench_B", &ActuationErrorBound::wrench_B)
       .def_readonly("input", &ActuationErrorBound::input)
       .def_readonly("shape_p", &ActuationErrorBound::shape_p)
       .def_readonly("shape_T", &ActuationErrorBound::shape_T);
-  s.def("actuation_error_bound", &actuation_error_bound, py::arg("cluster"), py::arg("modulator"),
-        py::arg("mass"));
+  s.def("actuation_error_bound",
+        py::overload_cast<const ThrusterCluster&, const PulseModulator&, double>(&actuation_error_bound),
+        py::arg("cluster"), py::arg("modulator"), py::arg("mass"), "The actuation-error box for any command");
+  s.def("actuation_error_bound",
+        py::overload_cast<const ThrusterCluster&, const PulseModulator&, double, const ReactionWheels&,
+                          const AllocationSettings&, const Vector6&, double, bool>(&actuation_error_bound),
+        py::arg("cluster"), py::arg("modulator"), py::arg("mass"), py::arg("wheels"), py::arg("allocation"),
+        py::arg("command_half_width_B"), py::arg("t") = 0.0, py::arg("tolerate_one_failure") = true,
+        "The actuation-error box for commands inside a wrench box (the allocation's thrust norm bounded)");
 }
 
 }  // namespace tubempc::python

@@ -2,6 +2,7 @@
 (see cpp/include/tubempc/actuators/)."""
 
 import enum
+from typing import overload
 
 import numpy as np
 import numpy.typing as npt
@@ -231,6 +232,8 @@ class ActuationErrorBound:
     @property
     def misalignment_B(self) -> _Arr: ...
     @property
+    def thrust_norm(self) -> float: ...
+    @property
     def wrench_B(self) -> _Arr: ...
     @property
     def input(self) -> _Arr: ...
@@ -239,4 +242,16 @@ class ActuationErrorBound:
     @property
     def shape_T(self) -> _Arr: ...
 
+@overload
 def actuation_error_bound(cluster: ThrusterCluster, modulator: PulseModulator, mass: float) -> ActuationErrorBound: ...
+@overload
+def actuation_error_bound(
+    cluster: ThrusterCluster,
+    modulator: PulseModulator,
+    mass: float,
+    wheels: ReactionWheels,
+    allocation: AllocationSettings,
+    command_half_width_B: _Vec,
+    t: float = 0.0,
+    tolerate_one_failure: bool = True,
+) -> ActuationErrorBound: ...

@@ -260,3 +260,35 @@ def test_modulation_matches_basilisk_thr_firing_remainder() -> None:
     mine = np.array([mod.modulate(cluster, k * dt, cmds[k]).on_time for k in range(1, len(cmds))])
     assert np.count_nonzero(mine == 0.0) > 10 and np.count_nonzero(mine) > 10
     np.testing.assert_allclose(mine, on_bsk, rtol=0, atol=1e-12)
+
+
+def test_errors_of_commands_in_the_achievable_box_lie_in_the_tighter_box(suite: A.ActuatorSuite) -> None:
+    """Commands inside the one-failure achievable box, wheels dumping, a thruster failing half-way: every
+    allocation's thrust norm and every sampled error stay inside the in-box bound, tighter than the other."""
+    rng = np.random.default_rng(9)
+    truth = A.sample_truth_errors(suite.cluster, rng)
+    box = act.achievable_box(truth, suite.wheels, suite.allocation, suite.mass)
+    mod = suite.modulator()
+    any_cmd = act.actuation_error_bound(truth, mod, suite.mass)
+    bound = act.actuation_error_bound(truth, mod, suite.mass, suite.wheels, suite.allocation, box.half_width_B)
+    assert bound.thrust_norm < 0.5 * any_cmd.thrust_norm
+    assert np.all(bound.wrench_B <= any_cmd.wrench_B) and bound.wrench_B[0] < 0.7 * any_cmd.wrench_B[0]
+    wheels = suite.wheels.copy()
+    wheels.set_momentum(np.array([45.0, -45.0, 30.0, -30.0]))
+    truth.set_fault(5, act.FaultKind.FailedOff, 300 * PERIOD)
+    alloc = act.Allocator(truth, wheels, suite.allocation)
+    worst, dumping, failed = np.zeros(6), 0, 0
+    for k in range(600):
+        t = k * PERIOD
+        r = alloc.solve(truth, wheels, t, rng.uniform(-1.0, 1.0, size=6) * box.half_width_B)
+        assert r.info.status in (act.AllocationStatus.Ok, act.AllocationStatus.ThrusterFailed)
+        assert np.linalg.norm(r.thrust) <= bound.thrust_norm
+        fire = mod.modulate(truth, t, r.thrust)
+        wheels.apply(r.wheel_torque, PERIOD)
+        dumping += r.info.dumping
+        failed += r.info.failed_thrusters
+        e = fire.commanded_B - fire.delivered_B
+        assert np.all(np.abs(e) <= bound.wrench_B), (k, e, bound.wrench_B)
+        worst = np.maximum(worst, np.abs(e) / bound.wrench_B)
+    assert dumping > 10 and failed == 300
+    assert worst.max() > 0.1

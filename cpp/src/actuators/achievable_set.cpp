@@ -105,35 +105,111 @@ AchievableBox achievable_box(const ThrusterCluster& cluster, const ReactionWheel
   return box;
 }
 
-ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const PulseModulator& modulator,
-                                          double mass) {
-  if (!(std::isfinite(mass) && mass > 0.0))
-    throw std::invalid_argument("actuation_error_bound.mass: must be finite and > 0 (kg)");
-  if (modulator.remainder().size() != cluster.size())
-    throw std::invalid_argument("actuation_error_bound: the modulator and the cluster differ in size");
-  ActuationErrorBound e;
-  const double dt = modulator.settings().period;
+namespace {
+
+// a_ij: the largest |(error of thruster j's unit force) . c_ij| (see ActuationErrorBound::misalignment_B).
+Eigen::Matrix<double, 6, Eigen::Dynamic> misalignment_gains(const ThrusterCluster& cluster) {
+  Eigen::Matrix<double, 6, Eigen::Dynamic> a =
+      Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, cluster.size());
   for (int j = 0; j < cluster.size(); ++j) {
     const ThrusterSpec& s = cluster.thruster(j);
-    const double F = s.max_thrust;
-    e.modulation_B += cluster.mapping().col(j).cwiseAbs() * (F * modulator.remainder_bound(cluster, j) / dt);
     for (int i = 0; i < 3; ++i) {
       const Eigen::Vector3d e_i = Eigen::Vector3d::Unit(i);
-      e.misalignment_B(i) +=
-          F * projected_error(s.direction_B, e_i, s.misalignment_bound, s.scale_error_bound);
+      a(i, j) = projected_error(s.direction_B, e_i, s.misalignment_bound, s.scale_error_bound);
       // Torque component i: (p x v) . e_i = v . (e_i x p).
       const Eigen::Vector3d q = e_i.cross(s.position_B);
       if (q.norm() > 0.0)
-        e.misalignment_B(3 + i) +=
-            F * q.norm() *
-            projected_error(s.direction_B, q / q.norm(), s.misalignment_bound, s.scale_error_bound);
+        a(3 + i, j) = q.norm() *
+                      projected_error(s.direction_B, q / q.norm(), s.misalignment_bound, s.scale_error_bound);
     }
   }
+  return a;
+}
+
+void finish(ActuationErrorBound& e, double mass) {
   e.wrench_B = e.modulation_B + e.misalignment_B;
   e.input.head<3>().setConstant(e.wrench_B.head<3>().norm() / mass);
   e.input.tail<3>() = e.wrench_B.tail<3>();
   e.shape_p = Eigen::Matrix3d::Identity() * e.input(0) * e.input(0);
   e.shape_T = (3.0 * e.wrench_B.tail<3>().cwiseAbs2()).asDiagonal();
+}
+
+void check_common(const ThrusterCluster& cluster, const PulseModulator& modulator, double mass) {
+  if (!(std::isfinite(mass) && mass > 0.0))
+    throw std::invalid_argument("actuation_error_bound.mass: must be finite and > 0 (kg)");
+  if (modulator.remainder().size() != cluster.size())
+    throw std::invalid_argument("actuation_error_bound: the modulator and the cluster differ in size");
+}
+
+}  // namespace
+
+ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const PulseModulator& modulator,
+                                          double mass) {
+  check_common(cluster, modulator, mass);
+  ActuationErrorBound e;
+  const double dt = modulator.settings().period;
+  const Eigen::Matrix<double, 6, Eigen::Dynamic> a = misalignment_gains(cluster);
+  for (int j = 0; j < cluster.size(); ++j) {
+    const double F = cluster.max_thrust()(j);
+    e.modulation_B += cluster.mapping().col(j).cwiseAbs() * (F * modulator.remainder_bound(cluster, j) / dt);
+    e.misalignment_B += a.col(j) * F;
+  }
+  e.thrust_norm = cluster.max_thrust().norm();
+  finish(e, mass);
+  return e;
+}
+
+ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const PulseModulator& modulator,
+                                          double mass, const ReactionWheels& wheels,
+                                          const AllocationSettings& allocation,
+                                          const Vector6& command_half_width_B, double t,
+                                          bool tolerate_one_failure) {
+  check_common(cluster, modulator, mass);
+  if (!(command_half_width_B.allFinite() && command_half_width_B.minCoeff() >= 0.0))
+    throw std::invalid_argument("actuation_error_bound.command_half_width_B: must be finite and >= 0");
+  ActuationErrorBound e = actuation_error_bound(cluster, modulator, mass);
+  // The thruster-only allocation (no wheels), its objective's maximum over the vertices of the box plus every
+  // wheel torque.
+  MomentumDumpSettings no_dump;
+  no_dump.enabled = false;
+  const ReactionWheels none({}, no_dump);
+  Allocator alloc(cluster, none, allocation);
+  const int m = wheels.size();
+  const Vector6 wr = allocation.residual_weight;
+  const double eps2 = allocation.thrust_weight * allocation.thrust_weight;
+  double J_max = 0.0;
+  auto sweep = [&]() {
+    for (long v = 0; v < (64L << m); ++v) {
+      Vector6 w;
+      for (int i = 0; i < 6; ++i) w(i) = ((v >> i) & 1 ? 1.0 : -1.0) * command_half_width_B(i);
+      for (int j = 0; j < m; ++j)
+        w.tail<3>() -= ((v >> (6 + j)) & 1 ? 1.0 : -1.0) * wheels.max_torque()(j) * wheels.axes_B().col(j);
+      const AllocationResult& r = alloc.solve(cluster, none, t, w);
+      if (r.info.status == AllocationStatus::MaxIterations) return false;
+      J_max = std::max(J_max, wr.cwiseProduct(r.remainder_B).squaredNorm() + eps2 * r.thrust.squaredNorm());
+    }
+    return true;
+  };
+  bool converged = sweep();
+  if (tolerate_one_failure) {
+    Eigen::VectorXi off = Eigen::VectorXi::Zero(cluster.size());
+    for (int j = 0; j < cluster.size() && converged; ++j) {
+      off.setZero();
+      off(j) = 1;
+      alloc.set_extra_failures(off);
+      converged = sweep();
+    }
+  }
+  if (!converged) return e;  // no certified norm bound: the bound for any command
+  e.thrust_norm = std::min(e.thrust_norm, std::sqrt(J_max * (1.0 + 1e-9)) / allocation.thrust_weight);
+  const double dt = modulator.settings().period;
+  Eigen::VectorXd carried(cluster.size());
+  for (int j = 0; j < cluster.size(); ++j)
+    carried(j) = cluster.max_thrust()(j) * modulator.remainder_bound(cluster, j) / dt;
+  const Eigen::Matrix<double, 6, Eigen::Dynamic> a = misalignment_gains(cluster);
+  for (int i = 0; i < 6; ++i)
+    e.misalignment_B(i) = std::min(e.misalignment_B(i), a.row(i).norm() * (e.thrust_norm + carried.norm()));
+  finish(e, mass);
   return e;
 }
 

@@ -115,3 +115,60 @@ TEST(ActuationErrorBound, ContainsEverySampledError) {
     EXPECT_NEAR(c.dot(bound.shape_T.ldlt().solve(c)), 1.0, 1e-12);
   }
 }
+
+// For commands inside a box the thrusters alone can deliver with the wheels' torques on top, the thrust norm is
+// bounded (while the wheels dump too), and so is every sampled error, by a box tighter than the one for any
+// command.
+TEST(ActuationErrorBound, InABoxBoundsTheThrustNormAndTheErrors) {
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto specs = actuator_test::cube_specs(4.5, 0.02);
+  for (auto& s : specs) {
+    s.scale_error_bound = 0.05;
+    s.misalignment_bound = 0.5 * M_PI / 180;
+    s.scale_error = 0.05 * u(rng);
+    s.misalignment_B =
+        Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized() * s.misalignment_bound * std::abs(u(rng));
+  }
+  const ThrusterCluster c(specs);
+  MomentumDumpSettings dump;
+  dump.time_constant = 30.0;
+  ReactionWheels w = actuator_test::pyramid_wheels(0.2, 8.0, dump);
+  AllocationSettings as;
+  as.period = 1.0;
+  ModulationSettings ms;
+  ms.period = 1.0;
+  ms.on_time_resolution = 0.005;
+  PulseModulator mod(c, ms);
+  AchievableBoxSettings bs;
+  bs.tolerate_one_failure = false;
+  const Vector6 half = 0.5 * achievable_box(c, w, as, 800.0, bs).half_width_B;
+  const ActuationErrorBound any = actuation_error_bound(c, mod, 800.0);
+  const ActuationErrorBound in_box = actuation_error_bound(c, mod, 800.0, w, as, half, 0.0, false);
+  EXPECT_LT(in_box.thrust_norm, 0.5 * any.thrust_norm);
+  for (int i = 0; i < 6; ++i) EXPECT_LE(in_box.wrench_B(i), any.wrench_B(i));
+  EXPECT_LT(in_box.wrench_B(0), 0.8 * any.wrench_B(0));
+  Eigen::VectorXd h(4);
+  h << 7.0, -7.0, 7.0, -7.0;
+  w.set_momentum(h);
+  Allocator a(c, w, as);
+  int dumping = 0;
+  Vector6 worst = Vector6::Zero();
+  for (int k = 0; k < 600; ++k) {
+    Vector6 cmd;
+    for (int i = 0; i < 6; ++i) cmd(i) = u(rng) * half(i);
+    const AllocationResult& r = a.solve(c, w, k, cmd);
+    ASSERT_EQ(r.info.status, AllocationStatus::Ok);
+    ASSERT_LE(r.thrust.norm(), in_box.thrust_norm) << k;
+    const Firing& f = mod.modulate(c, k, r.thrust);
+    w.apply(r.wheel_torque, 1.0);
+    dumping += r.info.dumping;
+    const Vector6 e = f.commanded_B - f.delivered_B;
+    for (int i = 0; i < 6; ++i) {
+      ASSERT_LE(std::abs(e(i)), in_box.wrench_B(i)) << "component " << i << " step " << k;
+      worst(i) = std::max(worst(i), std::abs(e(i)) / in_box.wrench_B(i));
+    }
+  }
+  EXPECT_GT(dumping, 10);
+  EXPECT_GT(worst.maxCoeff(), 0.1);
+}

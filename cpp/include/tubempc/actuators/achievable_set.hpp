@@ -62,10 +62,14 @@ AchievableBox achievable_box(const ThrusterCluster& cluster, const ReactionWheel
 struct ActuationErrorBound {
   /// Part from pulse modulation: sum_j |D_ij| F_j r_max_j / dt (N, N m).
   Vector6 modulation_B = Vector6::Zero();
-  /// Part from scale and misalignment errors: sum_j F_j max |v_j . c_ij| with v_j = (1 + s) R d_j - d_j over
-  /// |s| <= s_j and rotations by at most theta_j, c_ij = e_i for force rows and e_i x p_j for torque rows
-  /// (exact per thruster; N, N m).
+  /// Part from scale and misalignment errors: sum_j a_ij f_j over the delivered thrusts f_j, a_ij = max |v_j .
+  /// c_ij| with v_j = (1 + s) R d_j - d_j over |s| <= s_j and rotations by at most theta_j, c_ij = e_i for
+  /// force rows and e_i x p_j for torque rows (exact per thruster). For any command it is sum_j a_ij F_j
+  /// (every thruster at full thrust); for commands in a box, min(sum_j a_ij F_j, ||a_i||_2 (thrust_norm +
+  /// ||F_j r_max_j / dt||_2)) (N, N m).
   Vector6 misalignment_B = Vector6::Zero();
+  /// Bound on ||f||_2 of the commanded thrusts used by misalignment_B (N): sqrt(sum_j F_j^2) for any command.
+  double thrust_norm = 0.0;
   /// The sum of both: |e_i| <= wrench_B_i (N, N m).
   Vector6 wrench_B = Vector6::Zero();
   /// The box in MPC input coordinates, valid at every attitude: |e_u_p,i| <= ||wrench_B(0:3)||_2 / m
@@ -86,5 +90,28 @@ struct ActuationErrorBound {
 /// @return the bound.
 ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const PulseModulator& modulator,
                                           double mass);
+
+/// The actuation-error box for commands inside a wrench box |w_i| <= command_half_width_B_i (e.g. the
+/// achievable box), tighter than the one for any command: the thrusts the allocation commands are bounded in
+/// norm. Given the wheels' torques u, the allocated thrusts minimise the thruster-only objective
+/// J(w') = ||W_r (D f - w')||^2 + thrust_weight^2 ||f||^2 for w' = w_B - [0; G u], so thrust_weight^2 ||f||^2 <=
+/// J(w'); J is convex in w', so over the box plus every wheel torque (|u_j| <= u_max_j) its maximum is at a
+/// vertex of that zonotope, all of which are allocated here. Certified (deterministic) under the assumptions of
+/// ActuationErrorBound, for converged allocations (not AllocationStatus::MaxIterations), with or without
+/// momentum dumping, for the cluster's faults at time t and, if asked, any one more thruster failed off.
+/// @param cluster the thrusters (their error bounds and their faults at time t).
+/// @param modulator the modulator (its period and resolution).
+/// @param mass the spacecraft's mass (kg, > 0).
+/// @param wheels the wheels (their axes and torque limits).
+/// @param allocation the allocation's settings (its weights).
+/// @param command_half_width_B half-widths of the command box (N, N m; >= 0).
+/// @param t time at which the cluster's faults are read (s).
+/// @param tolerate_one_failure whether the bound must hold with any one more thruster failed off.
+/// @return the bound.
+ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const PulseModulator& modulator,
+                                          double mass, const ReactionWheels& wheels,
+                                          const AllocationSettings& allocation,
+                                          const Vector6& command_half_width_B, double t = 0.0,
+                                          bool tolerate_one_failure = true);
 
 }  // namespace tubempc::actuators
