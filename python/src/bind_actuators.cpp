@@ -221,6 +221,7 @@ void bind_actuators(py::module_& m) {
       .def_readonly("input_half_width", &AchievableBox::input_half_width)
       .def_readonly("scale", &AchievableBox::scale)
       .def_readonly("limiting_failure", &AchievableBox::limiting_failure)
+      .def_readonly("empty", &AchievableBox::empty)
       .def_readonly("vertices_checked", &AchievableBox::vertices_checked);
   py::class_<AchievableBoxSettings>(s, "AchievableBoxSettings", "Settings of the inner-box computation")
       .def(py::init<>())
@@ -228,6 +229,7 @@ void bind_actuators(py::module_& m) {
       .def_readwrite("momentum_fraction", &AchievableBoxSettings::momentum_fraction)
       .def_readwrite("tolerate_one_failure", &AchievableBoxSettings::tolerate_one_failure)
       .def_readwrite("bisection_steps", &AchievableBoxSettings::bisection_steps)
+      .def_readwrite("time", &AchievableBoxSettings::time)
       .def("validate", &AchievableBoxSettings::validate);
   s.def("achievable_box", &achievable_box, py::arg("cluster"), py::arg("wheels"), py::arg("allocation"),
         py::arg("mass"), py::arg("settings") = AchievableBoxSettings{});

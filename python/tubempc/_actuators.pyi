@@ -208,6 +208,8 @@ class AchievableBox:
     @property
     def limiting_failure(self) -> int: ...
     @property
+    def empty(self) -> bool: ...
+    @property
     def vertices_checked(self) -> int: ...
 
 class AchievableBoxSettings:
@@ -215,6 +217,7 @@ class AchievableBoxSettings:
     momentum_fraction: float
     tolerate_one_failure: bool
     bisection_steps: int
+    time: float
     def __init__(self) -> None: ...
     def validate(self) -> None: ...
 

@@ -32,6 +32,7 @@ void AchievableBoxSettings::validate() const {
   if (!(momentum_fraction >= 0.0 && momentum_fraction < 1.0))
     throw std::invalid_argument("achievable_box.momentum_fraction: must be in [0, 1)");
   if (bisection_steps < 1) throw std::invalid_argument("achievable_box.bisection_steps: must be >= 1");
+  if (!std::isfinite(time)) throw std::invalid_argument("achievable_box.time: must be finite (s)");
 }
 
 AchievableBox achievable_box(const ThrusterCluster& cluster, const ReactionWheels& wheels,
@@ -40,9 +41,10 @@ AchievableBox achievable_box(const ThrusterCluster& cluster, const ReactionWheel
   settings.validate();
   if (!(std::isfinite(mass) && mass > 0.0))
     throw std::invalid_argument("achievable_box.mass: must be finite and > 0 (kg)");
-  // The healthy cluster, and wheels at rest whose momentum box is the worst one within momentum_fraction.
-  ThrusterCluster healthy = cluster;
-  for (int j = 0; j < healthy.size(); ++j) healthy.set_fault(j, FaultKind::None, 0.0);
+  // The cluster with its faults at settings.time, and wheels at rest whose momentum box is the worst one within
+  // momentum_fraction.
+  const ThrusterCluster& healthy = cluster;
+  const double t = settings.time;
   std::vector<ReactionWheelSpec> specs;
   for (int j = 0; j < wheels.size(); ++j) {
     ReactionWheelSpec s = wheels.wheel(j);
@@ -69,7 +71,7 @@ AchievableBox achievable_box(const ThrusterCluster& cluster, const ReactionWheel
       Vector6 w;
       for (int i = 0; i < 6; ++i) w(i) = ((v >> i) & 1 ? 1.0 : -1.0) * s * settings.shape(i);
       ++box.vertices_checked;
-      const AllocationStatus st = alloc.solve(healthy, rest, 0.0, w).info.status;
+      const AllocationStatus st = alloc.solve(healthy, rest, t, w).info.status;
       if (st != AllocationStatus::Ok && st != AllocationStatus::ThrusterFailed) return false;
     }
     return true;
@@ -83,10 +85,15 @@ AchievableBox achievable_box(const ThrusterCluster& cluster, const ReactionWheel
     }
     return lo;
   };
+  if (!achievable(0.0)) {  // e.g. a stuck-on thruster the others cannot balance
+    box.empty = true;
+    return box;
+  }
   box.scale = largest_scale();
   if (settings.tolerate_one_failure) {
     Eigen::VectorXi off = Eigen::VectorXi::Zero(healthy.size());
     for (int j = 0; j < healthy.size(); ++j) {
+      if (healthy.fault_at(j, t) != FaultKind::None) continue;  // already failed
       off.setZero();
       off(j) = 1;
       alloc.set_extra_failures(off);

@@ -172,3 +172,45 @@ TEST(ActuationErrorBound, InABoxBoundsTheThrustNormAndTheErrors) {
   EXPECT_GT(dumping, 10);
   EXPECT_GT(worst.maxCoeff(), 0.1);
 }
+
+// The box tolerating one failure is the smallest of the boxes with each thruster failed in turn; a stuck-on
+// thruster the others balance leaves a box, and the boxes respect the fault time.
+TEST(AchievableBox, OneFailureBoxIsTheSmallestSingleFaultBox) {
+  ThrusterCluster c = actuator_test::cube_cluster();
+  const ReactionWheels w = actuator_test::pyramid_wheels();
+  AllocationSettings as;
+  AchievableBoxSettings bs;
+  bs.bisection_steps = 30;
+  const AchievableBox tolerant = achievable_box(c, w, as, 1000.0, bs);
+  bs.tolerate_one_failure = false;
+  double smallest = 1e300;
+  for (int j = 0; j < c.size(); ++j) {
+    ThrusterCluster failed = c;
+    failed.set_fault(j, FaultKind::FailedOff, 10.0);
+    bs.time = 10.0;
+    const AchievableBox b = achievable_box(failed, w, as, 1000.0, bs);
+    EXPECT_GE(b.scale, tolerant.scale * (1 - 1e-6)) << j;
+    smallest = std::min(smallest, b.scale);
+    bs.time = 9.0;  // before the fault: the healthy box
+    if (j == 0) EXPECT_GT(achievable_box(failed, w, as, 1000.0, bs).scale, b.scale);
+  }
+  EXPECT_NEAR(smallest, tolerant.scale, 1e-6 * tolerant.scale);
+  c.set_fault(0, FaultKind::StuckOn, 0.0);
+  bs.time = 0.0;
+  const AchievableBox stuck = achievable_box(c, w, as, 1000.0, bs);
+  EXPECT_FALSE(stuck.empty);  // its opposite thruster cancels it
+  EXPECT_GT(stuck.scale, 0.0);
+  // Four thrusters along +z, one stuck on: nothing cancels its force, not even a zero wrench is delivered.
+  std::vector<ThrusterSpec> up;
+  for (double x : {1.0, -1.0})
+    for (double y : {1.0, -1.0}) {
+      ThrusterSpec s;
+      s.position_B = Eigen::Vector3d(x, y, -1.0);
+      up.push_back(s);
+    }
+  ThrusterCluster u(up);
+  u.set_fault(2, FaultKind::StuckOn, 0.0);
+  const AchievableBox none = achievable_box(u, ReactionWheels({}), as, 1000.0, bs);
+  EXPECT_TRUE(none.empty);
+  EXPECT_EQ(none.half_width_B.norm(), 0.0);
+}

@@ -15,7 +15,8 @@ namespace tubempc::actuators {
 
 /// An inner box of the achievable wrenches: every w_B with |w_i| <= half_width_B_i is allocated with a
 /// remainder within the allocation's tolerance, for every wheel momentum with |h_j| <= momentum_fraction
-/// h_max_j and (if asked) with any one thruster failed off.
+/// h_max_j, with the cluster's faults at AchievableBoxSettings::time and (if asked) any one more thruster
+/// failed off.
 struct AchievableBox {
   /// Half-widths of the box of [F_B (N); T_B (N m)].
   Vector6 half_width_B = Vector6::Zero();
@@ -23,7 +24,8 @@ struct AchievableBox {
   /// (m/s^2, L) and |T_i| <= a_T,i (N m), a = half_width_B.
   Vector6 input_half_width = Vector6::Zero();
   double scale = 0.0;         ///< The box is scale diag(shape) (the largest verified scale).
-  int limiting_failure = -1;  ///< The failed thruster that limits the box (-1: the healthy cluster).
+  int limiting_failure = -1;  ///< The additional failed thruster that limits the box (-1: none).
+  bool empty = false;         ///< Not even the zero wrench is delivered: no inner box (all half-widths 0).
   int vertices_checked = 0;  ///< Allocations run on the box's vertices (64 per scale tried and failure case).
 };
 
@@ -34,6 +36,7 @@ struct AchievableBoxSettings {
   double momentum_fraction = 0.8;
   bool tolerate_one_failure = true;  ///< Whether the box must hold with any one thruster failed off.
   int bisection_steps = 40;          ///< Bisection steps on the scale (>= 1).
+  double time = 0.0;                 ///< Time at which the cluster's faults are read (s).
 
   /// Throws std::invalid_argument naming the field.
   void validate() const;
@@ -44,7 +47,7 @@ struct AchievableBoxSettings {
 /// last scale verified, a deterministic inner approximation up to the allocation's remainder tolerance.
 /// The wheels' torque box is the one of the worst momentum within momentum_fraction: |u_j| <=
 /// min(u_max_j, (1 - momentum_fraction) h_max_j / period).
-/// @param cluster the thrusters (their configured faults are ignored: the healthy cluster).
+/// @param cluster the thrusters, with their faults at settings.time (none configured: the healthy cluster).
 /// @param wheels the wheels (their momentum is ignored).
 /// @param allocation the allocation settings (its period and tolerances).
 /// @param mass the spacecraft's mass (kg, > 0), for input_half_width.
