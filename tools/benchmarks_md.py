@@ -215,6 +215,44 @@ def _integrator(d: dict[str, Any]) -> list[tuple[str, str]]:
     return rows
 
 
+def _vec(v: list[float]) -> str:
+    return "(" + ", ".join(f"{x:.3g}" for x in v) + ")"
+
+
+def _actuators(d: dict[str, Any]) -> list[tuple[str, str]]:
+    a, b, e = d["allocation"], d["achievable_box"], d["actuation_error"]
+    where = f"{d['preset']} ({d['thrusters']} thrusters, {d['wheels']} wheels), {d['commands']} random commands"
+    return [
+        (
+            f"thruster and wheel allocation per solve, {where}",
+            f"median {a['solve_us']['median']:.3g} us, p99 {a['solve_us']['p99']:.3g} us; iterations median "
+            f"{a['iterations']['median']:.0f}, max {a['iterations']['max']:.0f}; "
+            + ", ".join(f"{k} {v}" for k, v in sorted(a["statuses"].items())),
+        ),
+        (
+            "same problems through scipy's BVLS (lsq_linear)",
+            f"median {a['scipy_bvls_us']['median']:.3g} us; allocation difference <= "
+            f"{a['max_x_difference_over_bounds']:.1e} of the bounds, objective excess <= {a['max_objective_excess']:.1e}",
+        ),
+        (
+            f"achievable wrench box (N, N m), {d['preset']}",
+            f"half-widths healthy {_vec(b['healthy_half_width_B'])}, any one thruster failed "
+            f"{_vec(b['one_failure_half_width_B'])}; {b['seconds']['one_failure']:.2g} s",
+        ),
+        (
+            f"certified actuation-error box (N, N m), {d['preset']}, period {d['period_s']:g} s",
+            f"{_vec(e['wrench_B'])} (modulation {_vec(e['modulation_B'])}); sampled errors reach "
+            f"{_vec(e['worst_sampled_over_bound'])} of it",
+        ),
+        (
+            f"same, for commands inside the achievable box, {d['preset']}",
+            f"{_vec(e['in_box']['wrench_B'])} (thrust norm <= {e['in_box']['thrust_norm']:.3g} N, against "
+            f"{e['in_box']['thrust_norm_any_command']:.3g} N for any command); sampled errors reach "
+            f"{_vec(e['in_box']['worst_sampled_over_bound'])} of it; {e['in_box']['seconds']:.2g} s",
+        ),
+    ]
+
+
 def _test_command(d: dict[str, Any]) -> list[tuple[str, str]]:
     return [
         (
@@ -236,6 +274,7 @@ EXTRACTORS: dict[str, Callable[[dict[str, Any], str], list[tuple[str, str]]]] = 
     "montecarlo": _montecarlo,
     "sweep": _sweep,
     "test_command": lambda d, _: _test_command(d),
+    "actuators": lambda d, _: _actuators(d),
 }
 
 

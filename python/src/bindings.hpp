@@ -13,5 +13,6 @@ void bind_mpc(pybind11::module_& m);
 void bind_control(pybind11::module_& m);
 void bind_io(pybind11::module_& m);
 void bind_nav(pybind11::module_& m);
+void bind_actuators(pybind11::module_& m);
 
 }  // namespace tubempc::python

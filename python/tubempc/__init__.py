@@ -58,6 +58,7 @@ _LAZY = {
     "TubeStatus": ".tube",
     "BackgroundDesigns": ".tube_policy",
     "controller_designs": ".tube_library",
+    "load_actuators": ".actuators",
     "new_controller": ".tube_library",
 }
 
@@ -92,6 +93,7 @@ __all__ = [
     "controller_designs",
     "glide_slope_constraint",
     "line_of_sight_constraint",
+    "load_actuators",
     "load_config",
     "load_shape",
     "new_controller",

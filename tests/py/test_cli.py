@@ -160,3 +160,15 @@ def test_bench_controller_reports_the_whole_step(tmp_path: Path) -> None:
     assert row["controller"]["median_ms"] >= row["mpc"]["median_ms"] > 0.0
     assert row["controller"]["max_ms"] >= row["controller"]["p99_ms"] >= row["controller"]["median_ms"]
     assert d["config"]["mpc"]["horizon"] == 30 and d["machine"]["cores"] >= 1
+
+
+def test_bench_actuators_agrees_with_scipy_and_contains_the_errors(tmp_path: Path) -> None:
+    out = tmp_path / "actuators.json"
+    assert main(["bench", "actuators", "--commands", "60", "--json", str(out)]) == EXIT_OK
+    d = json.loads(out.read_text())
+    a, e = d["allocation"], d["actuation_error"]
+    assert a["max_x_difference_over_bounds"] < 1e-5 and a["max_objective_excess"] < 1e-8
+    assert sum(a["statuses"].values()) == 60 and a["statuses"]["ok"] > 0
+    assert max(e["worst_sampled_over_bound"]) <= 1.0
+    healthy, failed = d["achievable_box"]["healthy_half_width_B"], d["achievable_box"]["one_failure_half_width_B"]
+    assert all(0.0 < f <= h for f, h in zip(failed, healthy, strict=True))

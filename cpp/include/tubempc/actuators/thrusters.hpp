@@ -1,0 +1,188 @@
+/// @file thrusters.hpp
+/// A cluster of on/off thrusters fixed to the spacecraft body B (docs/model.md "Actuators"): geometry, the
+/// force/torque mapping, per-thruster scale and misalignment errors of the truth, faults (failed off or
+/// stuck on from a time), and pulse modulation of commanded thrusts within a control period by
+/// remainder carry-over (docs/decisions.md "Thruster pulse modulation").
+///
+/// Wrenches are w_B = [F_B (N); T_B (N m)] about the spacecraft's centre of mass, in B. A thrust f_j (N)
+/// of thruster j produces F_B = f_j d_j and T_B = f_j (p_j x d_j), d_j its unit direction (the direction
+/// of the force on the spacecraft, opposite to the exhaust) and p_j its position relative to the centre
+/// of mass (m).
+#pragma once
+
+#include <Eigen/Dense>
+#include <string>
+#include <vector>
+
+namespace tubempc::actuators {
+
+/// A wrench [F_B (N); T_B (N m)] in B, about the centre of mass.
+using Vector6 = Eigen::Matrix<double, 6, 1>;
+/// A matrix with one wrench per column (6 x n).
+using Matrix6X = Eigen::Matrix<double, 6, Eigen::Dynamic>;
+
+/// Largest number of thrusters of a cluster (the allocation's workspace is fixed-size).
+inline constexpr int kMaxThrusters = 32;
+/// Standard gravity g0 (m/s^2), for the propellant mass m = I / (Isp g0).
+inline constexpr double kStandardGravity = 9.80665;
+
+/// A thruster's fault.
+enum class FaultKind {
+  None,       ///< Healthy.
+  FailedOff,  ///< Produces no thrust from the fault time on, whatever is commanded.
+  StuckOn,    ///< Fires at full thrust for the whole period from the fault time on.
+};
+
+/// Name of a fault kind ("none", "failed_off", "stuck_on").
+std::string to_string(FaultKind kind);
+/// The fault kind of a name (as to_string); throws std::invalid_argument naming the text otherwise.
+/// @param name "none", "failed_off" or "stuck_on".
+FaultKind fault_kind_from_string(const std::string& name);
+
+/// One thruster. The nominal fields (position, direction, thrust) are what the allocation knows; the
+/// truth delivers (1 + scale_error) max_thrust along direction_B turned by the rotation vector
+/// misalignment_B. The certified error bounds hold for every truth error within scale_error_bound and
+/// misalignment_bound.
+struct ThrusterSpec {
+  /// Position relative to the centre of mass, in B (m).
+  Eigen::Vector3d position_B = Eigen::Vector3d::Zero();
+  /// Unit direction of the force on the spacecraft (opposite to the exhaust), in B.
+  Eigen::Vector3d direction_B = Eigen::Vector3d::UnitZ();
+  /// Thrust when on (N, > 0).
+  double max_thrust = 1.0;
+  /// Shortest firing (s, >= 0): the minimum impulse bit is max_thrust min_on_time.
+  double min_on_time = 0.02;
+  /// Specific impulse (s, > 0).
+  double isp = 220.0;
+  /// Truth's relative thrust error: it delivers (1 + scale_error) max_thrust.
+  double scale_error = 0.0;
+  /// Truth's direction error, a rotation vector (rad).
+  Eigen::Vector3d misalignment_B = Eigen::Vector3d::Zero();
+  /// Certified bound on |scale_error| (>= |scale_error|, < 1).
+  double scale_error_bound = 0.0;
+  /// Certified bound on |misalignment_B| (rad, >= |misalignment_B|, < pi).
+  double misalignment_bound = 0.0;
+  /// Configured fault (None: healthy).
+  FaultKind fault = FaultKind::None;
+  /// Time from which the fault acts (s).
+  double fault_time = 0.0;  ///< Time from which the fault acts (s).
+
+  /// Throws std::invalid_argument naming the field (`what` prefixes it, e.g. "thrusters[3]").
+  /// @param what name of this thruster in the message.
+  void validate(const std::string& what = "thruster") const;
+};
+
+/// The thrusters of a spacecraft: geometry, truth errors and faults. A value type; set-up errors throw
+/// std::invalid_argument, the accessors do not allocate.
+class ThrusterCluster {
+ public:
+  /// Validates every thruster (1 to kMaxThrusters of them).
+  /// @param thrusters the thrusters, in the order of the allocation's variables.
+  explicit ThrusterCluster(std::vector<ThrusterSpec> thrusters);
+
+  /// @return the number of thrusters n.
+  int size() const { return static_cast<int>(specs_.size()); }
+  /// @return thruster i's specification (throws std::out_of_range for a bad index).
+  /// @param i thruster index in [0, n).
+  const ThrusterSpec& thruster(int i) const { return specs_.at(static_cast<std::size_t>(i)); }
+  /// @return the nominal mapping D (6 x n): w_B = D f for thrusts f (N), column j = [d_j; p_j x d_j].
+  const Matrix6X& mapping() const { return D_; }
+  /// @return the truth's mapping (6 x n) per unit commanded thrust: column j = (1 + s_j) [R_j d_j; p_j x R_j d_j]
+  /// with R_j = Exp(misalignment_j).
+  const Matrix6X& true_mapping() const { return D_true_; }
+  /// @return the thrusts when on, max_thrust_j (N, n).
+  const Eigen::VectorXd& max_thrust() const { return f_max_; }
+
+  /// Sets thruster i's fault from time t_start on (FaultKind::None clears it).
+  /// @param i thruster index in [0, n) (std::invalid_argument otherwise).
+  /// @param kind the fault.
+  /// @param t_start time from which it acts (s, finite).
+  void set_fault(int i, FaultKind kind, double t_start);
+  /// @return thruster i's fault at time t (None before its fault time).
+  /// @param i thruster index in [0, n).
+  /// @param t time (s).
+  FaultKind fault_at(int i, double t) const;
+  /// @return the number of thrusters failed (off or stuck on) at time t.
+  /// @param t time (s).
+  int faults_at(double t) const;
+
+ private:
+  std::vector<ThrusterSpec> specs_;
+  Matrix6X D_, D_true_;
+  Eigen::VectorXd f_max_;
+};
+
+/// Settings of the pulse modulation.
+struct ModulationSettings {
+  double period = 1.0;  ///< Control period dt over which a commanded thrust is averaged (s, > 0).
+  double on_time_resolution = 1e-3;  ///< On-times are whole multiples of this (s, >= 0; 0: continuous).
+
+  /// Throws std::invalid_argument naming the field.
+  void validate() const;
+};
+
+/// One period's firing (buffers sized at construction, overwritten by every call).
+struct Firing {
+  Eigen::VectorXd on_time;  ///< On-time of each thruster from the start of the period (s, n).
+  Eigen::VectorXd impulse;  ///< Impulse delivered by each thruster, truth (N s, n).
+  /// D f_cmd: the wrench of the commanded thrusts (nominal, N and N m).
+  Vector6 commanded_B = Vector6::Zero();
+  /// Period-average wrench delivered by the truth (errors and faults, N and N m).
+  Vector6 delivered_B = Vector6::Zero();
+  double propellant = 0.0;  ///< Propellant spent in the period (kg).
+  int pulses = 0;           ///< Thrusters fired in the period.
+};
+
+/// Pulse-width modulation with remainder carry-over: each period, thruster j is asked for the on-time
+/// tau_c = f_j dt / F_j plus its carried remainder r_j; the sum is rounded down to the resolution q; it
+/// fires if that reaches the minimum on-time (rounded up to q), at most for the whole period; what was not
+/// fired is carried: r_j' = tau_c + r_j - tau_j. The remainder stays in [0, r_max_j), r_max_j =
+/// max(tau_min_j, q) (tau_min rounded up to q), so over any number of periods the delivered nominal impulse
+/// differs from the commanded one by less than F_j r_max_j, and in one period by less than that too.
+/// A failed-off thruster fires 0, a stuck-on one the whole period (their remainders are cleared).
+/// Allocation-free after construction.
+class PulseModulator {
+ public:
+  /// Sizes the modulator for the cluster; every thruster's minimum on-time, rounded up to the resolution,
+  /// must fit in the period (std::invalid_argument otherwise).
+  /// @param cluster the thrusters.
+  /// @param settings the modulation settings (validated).
+  PulseModulator(const ThrusterCluster& cluster, const ModulationSettings& settings);
+
+  /// Modulates one period's commanded thrusts. A non-finite command is taken as 0, the others are
+  /// clamped into [0, max_thrust_j].
+  /// @param cluster the thrusters (n must match: std::invalid_argument otherwise).
+  /// @param t the period's start time (s; faults are evaluated at it).
+  /// @param thrust_cmd period-average commanded thrust of each thruster (N, n).
+  /// @return the firing (valid until the next call).
+  const Firing& modulate(const ThrusterCluster& cluster, double t,
+                         const Eigen::Ref<const Eigen::VectorXd>& thrust_cmd);
+
+  /// Clears the remainders, the pulse counts and the propellant total.
+  void reset();
+  /// @return the carried on-time remainders r_j (s, n).
+  const Eigen::VectorXd& remainder() const { return r_; }
+  /// @return thruster j's remainder bound r_max_j = max(tau_min_j rounded up to q, q) (s).
+  /// @param cluster the thrusters.
+  /// @param j thruster index.
+  double remainder_bound(const ThrusterCluster& cluster, int j) const;
+  /// @return thruster j's minimum on-time rounded up to the resolution (s).
+  /// @param cluster the thrusters.
+  /// @param j thruster index.
+  double effective_min_on_time(const ThrusterCluster& cluster, int j) const;
+  /// @return the pulses fired by each thruster since the last reset (n).
+  const Eigen::VectorXi& pulse_counts() const { return pulses_; }
+  /// @return the propellant spent since the last reset (kg).
+  double propellant() const { return propellant_; }
+  /// @return the settings.
+  const ModulationSettings& settings() const { return settings_; }
+
+ private:
+  ModulationSettings settings_;
+  Eigen::VectorXd r_;
+  Eigen::VectorXi pulses_;
+  double propellant_ = 0.0;
+  Firing firing_;
+};
+
+}  // namespace tubempc::actuators

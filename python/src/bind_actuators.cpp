@@ -1,0 +1,256 @@
+#include <pybind11/eigen.h>
+#include <pybind11/stl.h>
+
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "bindings.hpp"
+#include "tubempc/actuators/achievable_set.hpp"
+
+namespace py = pybind11;
+
+namespace tubempc::python {
+
+namespace {
+
+using namespace tubempc::actuators;
+
+template <typename E>
+py::enum_<E> bind_named_enum(py::module_& s, const char* name, const char* doc) {
+  py::enum_<E> e(s, name, doc);
+  e.def("__str__", [](E v) { return std::string(to_string(v)); });
+  return e;
+}
+
+}  // namespace
+
+void bind_actuators(py::module_& m) {
+  auto s = m.def_submodule(
+      "actuators",
+      "Thrusters, reaction wheels, allocation and the actuation sets (docs/model.md 'Actuators'); "
+      "wrenches [F_B (N); T_B (N m)] in B, SI units");
+  s.attr("MAX_THRUSTERS") = kMaxThrusters;
+  s.attr("MAX_WHEELS") = kMaxWheels;
+  s.attr("STANDARD_GRAVITY") = kStandardGravity;
+
+  bind_named_enum<FaultKind>(s, "FaultKind", "A thruster's fault")
+      .value("None_", FaultKind::None)
+      .value("FailedOff", FaultKind::FailedOff)
+      .value("StuckOn", FaultKind::StuckOn);
+  s.def("fault_kind_from_string", &fault_kind_from_string, py::arg("name"),
+        "'none', 'failed_off' or 'stuck_on' to a FaultKind (ValueError otherwise)");
+
+  py::class_<ThrusterSpec>(s, "ThrusterSpec",
+                           "One thruster (nominal geometry, truth errors and their bounds, fault)")
+      .def(py::init<>())
+      .def_readwrite("position_B", &ThrusterSpec::position_B)
+      .def_readwrite("direction_B", &ThrusterSpec::direction_B)
+      .def_readwrite("max_thrust", &ThrusterSpec::max_thrust)
+      .def_readwrite("min_on_time", &ThrusterSpec::min_on_time)
+      .def_readwrite("isp", &ThrusterSpec::isp)
+      .def_readwrite("scale_error", &ThrusterSpec::scale_error)
+      .def_readwrite("misalignment_B", &ThrusterSpec::misalignment_B)
+      .def_readwrite("scale_error_bound", &ThrusterSpec::scale_error_bound)
+      .def_readwrite("misalignment_bound", &ThrusterSpec::misalignment_bound)
+      .def_readwrite("fault", &ThrusterSpec::fault)
+      .def_readwrite("fault_time", &ThrusterSpec::fault_time)
+      .def("validate", &ThrusterSpec::validate, py::arg("what") = "thruster");
+
+  py::class_<ThrusterCluster>(s, "ThrusterCluster",
+                              "The thrusters of a spacecraft (a value: copies are independent)")
+      .def(py::init<std::vector<ThrusterSpec>>(), py::arg("thrusters"))
+      .def("__len__", &ThrusterCluster::size)
+      .def_property_readonly("size", &ThrusterCluster::size)
+      .def("thruster", &ThrusterCluster::thruster, py::arg("i"))
+      .def_property_readonly("mapping", &ThrusterCluster::mapping, "Nominal D (6 x n): w_B = D f")
+      .def_property_readonly("true_mapping", &ThrusterCluster::true_mapping, "Truth's mapping (6 x n)")
+      .def_property_readonly("max_thrust", &ThrusterCluster::max_thrust)
+      .def("set_fault", &ThrusterCluster::set_fault, py::arg("i"), py::arg("kind"), py::arg("t_start"))
+      .def("fault_at", &ThrusterCluster::fault_at, py::arg("i"), py::arg("t"))
+      .def("faults_at", &ThrusterCluster::faults_at, py::arg("t"))
+      .def("copy", [](const ThrusterCluster& c) { return ThrusterCluster(c); });
+
+  py::class_<ModulationSettings>(s, "ModulationSettings", "Pulse modulation settings")
+      .def(py::init<>())
+      .def_readwrite("period", &ModulationSettings::period)
+      .def_readwrite("on_time_resolution", &ModulationSettings::on_time_resolution)
+      .def("validate", &ModulationSettings::validate);
+
+  py::class_<Firing>(s, "Firing", "One period's firing (a copy)")
+      .def_readonly("on_time", &Firing::on_time)
+      .def_readonly("impulse", &Firing::impulse)
+      .def_readonly("commanded_B", &Firing::commanded_B)
+      .def_readonly("delivered_B", &Firing::delivered_B)
+      .def_readonly("propellant", &Firing::propellant)
+      .def_readonly("pulses", &Firing::pulses);
+
+  py::class_<PulseModulator>(s, "PulseModulator", "Pulse-width modulation with remainder carry-over")
+      .def(py::init<const ThrusterCluster&, const ModulationSettings&>(), py::arg("cluster"),
+           py::arg("settings"))
+      .def(
+          "modulate",
+          [](PulseModulator& self, const ThrusterCluster& c, double t,
+             const Eigen::Ref<const Eigen::VectorXd>& f) { return Firing(self.modulate(c, t, f)); },
+          py::arg("cluster"), py::arg("t"), py::arg("thrust_cmd"))
+      .def("reset", &PulseModulator::reset)
+      .def_property_readonly("remainder", &PulseModulator::remainder)
+      .def("remainder_bound", &PulseModulator::remainder_bound, py::arg("cluster"), py::arg("j"))
+      .def("effective_min_on_time", &PulseModulator::effective_min_on_time, py::arg("cluster"), py::arg("j"))
+      .def_property_readonly("pulse_counts", &PulseModulator::pulse_counts)
+      .def_property_readonly("propellant", &PulseModulator::propellant)
+      .def_property_readonly("settings", &PulseModulator::settings);
+
+  py::class_<ReactionWheelSpec>(s, "ReactionWheelSpec", "One reaction wheel")
+      .def(py::init<>())
+      .def_readwrite("axis_B", &ReactionWheelSpec::axis_B)
+      .def_readwrite("max_torque", &ReactionWheelSpec::max_torque)
+      .def_readwrite("max_momentum", &ReactionWheelSpec::max_momentum)
+      .def("validate", &ReactionWheelSpec::validate, py::arg("what") = "wheel");
+
+  py::class_<MomentumDumpSettings>(s, "MomentumDumpSettings", "When and how fast the wheels are unloaded")
+      .def(py::init<>())
+      .def_readwrite("enabled", &MomentumDumpSettings::enabled)
+      .def_readwrite("start_fraction", &MomentumDumpSettings::start_fraction)
+      .def_readwrite("stop_fraction", &MomentumDumpSettings::stop_fraction)
+      .def_readwrite("time_constant", &MomentumDumpSettings::time_constant)
+      .def("validate", &MomentumDumpSettings::validate);
+
+  py::class_<ReactionWheels>(s, "ReactionWheels",
+                             "Reaction wheels and their momentum (a value: copies are independent)")
+      .def(py::init<std::vector<ReactionWheelSpec>, const MomentumDumpSettings&>(), py::arg("wheels"),
+           py::arg("dump") = MomentumDumpSettings{})
+      .def("__len__", &ReactionWheels::size)
+      .def_property_readonly("size", &ReactionWheels::size)
+      .def("wheel", &ReactionWheels::wheel, py::arg("j"))
+      .def_property_readonly("axes_B", &ReactionWheels::axes_B)
+      .def_property_readonly("max_torque", &ReactionWheels::max_torque)
+      .def_property_readonly("max_momentum", &ReactionWheels::max_momentum)
+      .def_property_readonly("dump_settings", &ReactionWheels::dump_settings)
+      .def_property_readonly("momentum", &ReactionWheels::momentum)
+      .def_property_readonly("momentum_B", &ReactionWheels::momentum_B)
+      .def("set_momentum", &ReactionWheels::set_momentum, py::arg("h"))
+      .def(
+          "torque_bounds",
+          [](const ReactionWheels& w, double dt) {
+            Eigen::VectorXd lo, hi;
+            w.torque_bounds(dt, lo, hi);
+            return std::make_tuple(lo, hi);
+          },
+          py::arg("dt"), "(lower, upper) wheel torques (N m) that keep |h| within its limit over dt")
+      .def_property_readonly("dumping", &ReactionWheels::dumping)
+      .def("preferred_torque",
+           [](const ReactionWheels& w) {
+             Eigen::VectorXd u;
+             w.preferred_torque(u);
+             return u;
+           })
+      .def("apply", &ReactionWheels::apply, py::arg("u"), py::arg("dt"))
+      .def_property_readonly("applied_torque", &ReactionWheels::applied_torque)
+      .def("copy", [](const ReactionWheels& w) { return ReactionWheels(w); });
+
+  bind_named_enum<AllocationStatus>(s, "AllocationStatus", "Outcome of an allocation")
+      .value("Ok", AllocationStatus::Ok)
+      .value("ThrusterFailed", AllocationStatus::ThrusterFailed)
+      .value("Saturated", AllocationStatus::Saturated)
+      .value("Infeasible", AllocationStatus::Infeasible)
+      .value("MaxIterations", AllocationStatus::MaxIterations)
+      .value("InvalidCommand", AllocationStatus::InvalidCommand);
+
+  py::class_<AllocationSettings>(s, "AllocationSettings", "Allocation settings")
+      .def(py::init<>())
+      .def_readwrite("period", &AllocationSettings::period)
+      .def_readwrite("residual_weight", &AllocationSettings::residual_weight)
+      .def_readwrite("thrust_weight", &AllocationSettings::thrust_weight)
+      .def_readwrite("wheel_weight", &AllocationSettings::wheel_weight)
+      .def_readwrite("dump_weight", &AllocationSettings::dump_weight)
+      .def_readwrite("max_iterations", &AllocationSettings::max_iterations)
+      .def_readwrite("optimality_tolerance", &AllocationSettings::optimality_tolerance)
+      .def_readwrite("remainder_tolerance", &AllocationSettings::remainder_tolerance)
+      .def_readwrite("cone_test_scale", &AllocationSettings::cone_test_scale)
+      .def("validate", &AllocationSettings::validate);
+
+  py::class_<AllocationInfo>(s, "AllocationInfo", "Outcome and counters of an allocation")
+      .def_readonly("status", &AllocationInfo::status)
+      .def_readonly("iterations", &AllocationInfo::iterations)
+      .def_readonly("failed_thrusters", &AllocationInfo::failed_thrusters)
+      .def_readonly("resetup", &AllocationInfo::resetup)
+      .def_readonly("dumping", &AllocationInfo::dumping)
+      .def_readonly("remainder_norm", &AllocationInfo::remainder_norm)
+      .def_readonly("solve_time", &AllocationInfo::solve_time);
+
+  py::class_<AllocationResult>(s, "AllocationResult", "An allocation (a copy)")
+      .def_readonly("thrust", &AllocationResult::thrust)
+      .def_readonly("wheel_torque", &AllocationResult::wheel_torque)
+      .def_readonly("wrench_B", &AllocationResult::wrench_B)
+      .def_readonly("remainder_B", &AllocationResult::remainder_B)
+      .def_readonly("info", &AllocationResult::info);
+
+  py::class_<Allocator>(s, "Allocator",
+                        "Bounded least-squares allocation of a wrench to thrusts and wheel torques")
+      .def(py::init<const ThrusterCluster&, const ReactionWheels&, const AllocationSettings&>(),
+           py::arg("cluster"), py::arg("wheels"), py::arg("settings") = AllocationSettings{})
+      .def(
+          "solve",
+          [](Allocator& a, const ThrusterCluster& c, const ReactionWheels& w, double t, const Vector6& w_B) {
+            return AllocationResult(a.solve(c, w, t, w_B));
+          },
+          py::arg("cluster"), py::arg("wheels"), py::arg("t"), py::arg("w_B"))
+      .def(
+          "last_problem",
+          [](const Allocator& a) {
+            Eigen::MatrixXd A;
+            Eigen::VectorXd b, lo, hi;
+            a.last_problem(A, b, lo, hi);
+            return std::make_tuple(A, b, lo, hi);
+          },
+          "(A, b, lower, upper) of the last solve: min ||A x - b||^2, lower <= x <= upper")
+      .def("set_extra_failures", &Allocator::set_extra_failures, py::arg("failed_off"))
+      .def_property_readonly("thrusters", &Allocator::thrusters)
+      .def_property_readonly("wheels", &Allocator::wheels)
+      .def_property_readonly("mapping", &Allocator::mapping)
+      .def_property_readonly("settings", &Allocator::settings);
+
+  s.def("wrench_from_input", &wrench_from_input, py::arg("u"), py::arg("C_BL"), py::arg("mass"),
+        "[m C_BL u_p; T] from the MPC input [u_p (m/s^2, L); T (N m, B)]");
+  s.def("input_from_wrench", &input_from_wrench, py::arg("w_B"), py::arg("C_BL"), py::arg("mass"),
+        "[C_BL^T F_B / m; T_B] from a wrench in B");
+
+  py::class_<AchievableBox>(s, "AchievableBox", "An inner box of the achievable wrenches")
+      .def_readonly("half_width_B", &AchievableBox::half_width_B)
+      .def_readonly("input_half_width", &AchievableBox::input_half_width)
+      .def_readonly("scale", &AchievableBox::scale)
+      .def_readonly("limiting_failure", &AchievableBox::limiting_failure)
+      .def_readonly("empty", &AchievableBox::empty)
+      .def_readonly("vertices_checked", &AchievableBox::vertices_checked);
+  py::class_<AchievableBoxSettings>(s, "AchievableBoxSettings", "Settings of the inner-box computation")
+      .def(py::init<>())
+      .def_readwrite("shape", &AchievableBoxSettings::shape)
+      .def_readwrite("momentum_fraction", &AchievableBoxSettings::momentum_fraction)
+      .def_readwrite("tolerate_one_failure", &AchievableBoxSettings::tolerate_one_failure)
+      .def_readwrite("bisection_steps", &AchievableBoxSettings::bisection_steps)
+      .def_readwrite("time", &AchievableBoxSettings::time)
+      .def("validate", &AchievableBoxSettings::validate);
+  s.def("achievable_box", &achievable_box, py::arg("cluster"), py::arg("wheels"), py::arg("allocation"),
+        py::arg("mass"), py::arg("settings") = AchievableBoxSettings{});
+
+  py::class_<ActuationErrorBound>(s, "ActuationErrorBound", "A box containing every actuation error")
+      .def_readonly("modulation_B", &ActuationErrorBound::modulation_B)
+      .def_readonly("misalignment_B", &ActuationErrorBound::misalignment_B)
+      .def_readonly("thrust_norm", &ActuationErrorBound::thrust_norm)
+      .def_readonly("wrench_B", &ActuationErrorBound::wrench_B)
+      .def_readonly("input", &ActuationErrorBound::input)
+      .def_readonly("shape_p", &ActuationErrorBound::shape_p)
+      .def_readonly("shape_T", &ActuationErrorBound::shape_T);
+  s.def("actuation_error_bound",
+        py::overload_cast<const ThrusterCluster&, const PulseModulator&, double>(&actuation_error_bound),
+        py::arg("cluster"), py::arg("modulator"), py::arg("mass"), "The actuation-error box for any command");
+  s.def("actuation_error_bound",
+        py::overload_cast<const ThrusterCluster&, const PulseModulator&, double, const ReactionWheels&,
+                          const AllocationSettings&, const Vector6&, double, bool>(&actuation_error_bound),
+        py::arg("cluster"), py::arg("modulator"), py::arg("mass"), py::arg("wheels"), py::arg("allocation"),
+        py::arg("command_half_width_B"), py::arg("t") = 0.0, py::arg("tolerate_one_failure") = true,
+        "The actuation-error box for commands inside a wrench box (the allocation's thrust norm bounded)");
+}
+
+}  // namespace tubempc::python

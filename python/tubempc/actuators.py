@@ -1,0 +1,260 @@
+"""Actuator presets: a spacecraft's thrusters and reaction wheels from a TOML file with units
+(docs/model.md "Actuators"), built into the C++ objects of :mod:`tubempc._core.actuators`.
+
+A preset names its figures' public sources in comments (``python/tubempc/data/spacecraft/``). Quantities
+are strings or ``{value = [...], unit = "..."}`` tables parsed with pint; plain numbers are dimensionless.
+Faults are ``[[faults]]`` entries (``thruster``, ``kind`` = "failed_off" or "stuck_on", ``time`` a
+quantity or "random" with ``window`` = [start, end]); a random time is drawn with ``numpy.random.default_rng(seed)``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ._core import actuators as _act
+
+FloatArray = NDArray[np.float64]
+
+#: Directory of the presets.
+PRESET_DIR = Path(__file__).parent / "data" / "spacecraft"
+
+_THRUSTER_FIELDS = {
+    "max_thrust": "N",
+    "min_on_time": "s",
+    "isp": "s",
+    "scale_error_bound": "",
+    "misalignment_bound": "rad",
+    "scale_error": "",
+}
+
+
+class ActuatorConfigError(ValueError):
+    """Invalid actuator preset; the message names the file and the field."""
+
+
+_SECTIONS = {"name", "mass", "thruster_defaults", "thrusters", "wheels", "momentum_dump", "modulation", "faults"}
+_SECTION_KEYS = {
+    "thruster_defaults": set(_THRUSTER_FIELDS) | {"misalignment_B"},
+    "wheels": {"max_torque", "max_momentum", "axes_B"},
+    "momentum_dump": {"enabled", "start_fraction", "stop_fraction", "time_constant"},
+    "modulation": {"on_time_resolution"},
+}
+
+
+def _known(table: Any, keys: set[str], where: str) -> None:
+    """Rejects a key outside `keys` (a misspelt field would otherwise be ignored)."""
+    if not isinstance(table, Mapping):
+        raise ActuatorConfigError(f"{where}: expected a table, got {table!r}")
+    unknown = sorted(set(table) - keys)
+    if unknown:
+        raise ActuatorConfigError(f"{where}: unknown field(s) {unknown}; expected some of {sorted(keys)}")
+
+
+@functools.cache
+def _ureg() -> Any:
+    import pint  # deferred: `import tubempc` does not load pint
+
+    return pint.UnitRegistry()
+
+
+def _quantity(raw: Any, unit: str, where: str) -> float:
+    """A scalar in SI `unit` from a string with a unit ('20 ms'); a plain number if `unit` is ''."""
+    if unit == "":
+        if isinstance(raw, bool) or not isinstance(raw, (int, float)) or not math.isfinite(raw):
+            raise ActuatorConfigError(f"{where}: expected a finite number, got {raw!r}")
+        return float(raw)
+    if not isinstance(raw, str):
+        raise ActuatorConfigError(f"{where}: expected a string with a unit like '1 {unit}', got {raw!r}")
+    try:
+        q = _ureg().Quantity(raw)
+        value = float(q.to(unit).magnitude)
+    except Exception as exc:  # pint raises several unrelated exception types
+        raise ActuatorConfigError(f"{where}: cannot read {raw!r} as [{unit}]: {exc}") from exc
+    if not math.isfinite(value):
+        raise ActuatorConfigError(f"{where}: non-finite value {raw!r}")
+    return value
+
+
+def _vector(raw: Any, unit: str, where: str, shape: tuple[int, ...] = (3,)) -> FloatArray:
+    """An array in SI `unit` from {value = [...], unit = "..."}; a plain array of numbers if `unit` is ''."""
+    scale = 1.0
+    if unit != "":
+        if not isinstance(raw, Mapping) or set(raw) != {"value", "unit"}:
+            raise ActuatorConfigError(f'{where}: expected a table {{value = [...], unit = "{unit}"}}, got {raw!r}')
+        scale = _quantity(f"1 {raw['unit']}", unit, f"{where}.unit")
+        raw = raw["value"]
+    try:
+        arr = np.asarray(raw, dtype=np.float64) * scale
+    except (TypeError, ValueError) as exc:
+        raise ActuatorConfigError(f"{where}: expected numbers, got {raw!r}") from exc
+    if arr.shape != shape or not np.all(np.isfinite(arr)):
+        raise ActuatorConfigError(f"{where}: expected {shape} finite numbers, got {raw!r}")
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class ActuatorSuite:
+    """A spacecraft's actuators: its mass (kg), thrusters, wheels and the settings for a control period."""
+
+    name: str
+    mass: float
+    cluster: _act.ThrusterCluster
+    wheels: _act.ReactionWheels
+    modulation: _act.ModulationSettings
+    allocation: _act.AllocationSettings
+
+    def allocator(self) -> _act.Allocator:
+        """A new allocator for these actuators."""
+        return _act.Allocator(self.cluster, self.wheels, self.allocation)
+
+    def modulator(self) -> _act.PulseModulator:
+        """A new pulse modulator for these thrusters."""
+        return _act.PulseModulator(self.cluster, self.modulation)
+
+
+def preset_names() -> list[str]:
+    """The names of the shipped presets."""
+    return sorted(p.stem for p in PRESET_DIR.glob("*.toml"))
+
+
+def _thruster(raw: Mapping[str, Any], defaults: Mapping[str, Any], where: str) -> _act.ThrusterSpec:
+    s = _act.ThrusterSpec()
+    merged = {**defaults, **raw}
+    unknown = set(merged) - set(_THRUSTER_FIELDS) - {"position_B", "direction_B", "misalignment_B"}
+    if unknown:
+        raise ActuatorConfigError(f"{where}: unknown field(s) {sorted(unknown)}")
+    for key in ("position_B", "direction_B"):
+        if key not in merged:
+            raise ActuatorConfigError(f"{where}.{key}: missing")
+    s.position_B = _vector(merged["position_B"], "m", f"{where}.position_B")
+    direction = _vector(merged["direction_B"], "", f"{where}.direction_B")
+    norm = float(np.linalg.norm(direction))
+    if not abs(norm - 1.0) < 1e-6:
+        raise ActuatorConfigError(f"{where}.direction_B: expected a unit vector, got norm {norm}")
+    s.direction_B = direction / norm
+    for key, unit in _THRUSTER_FIELDS.items():
+        if key in merged:
+            setattr(s, key, _quantity(merged[key], unit, f"{where}.{key}"))
+    if "misalignment_B" in merged:
+        s.misalignment_B = _vector(merged["misalignment_B"], "rad", f"{where}.misalignment_B")
+    try:
+        s.validate(where)
+    except ValueError as exc:
+        raise ActuatorConfigError(str(exc)) from exc
+    return s
+
+
+def load_actuators(source: str | Path, period: float, *, seed: int = 0) -> ActuatorSuite:
+    """Reads a preset (a name of :func:`preset_names` or a path) for a control period (s).
+
+    Truth errors are 0 unless the file gives them (:func:`sample_truth_errors` draws them); faults are
+    applied to the cluster; a random fault time is drawn with ``numpy.random.default_rng(seed)``.
+    """
+    path = Path(source)
+    if not path.suffix:
+        path = PRESET_DIR / f"{source}.toml"
+    where = path.name
+    try:
+        with path.open("rb") as fh:
+            raw = tomllib.load(fh)
+    except OSError as exc:
+        raise ActuatorConfigError(f"{where}: cannot read: {exc}") from exc
+    except tomllib.TOMLDecodeError as exc:
+        raise ActuatorConfigError(f"{where}: not TOML: {exc}") from exc
+    _known(raw, _SECTIONS, where)
+    for section in ("thruster_defaults", "wheels", "momentum_dump", "modulation"):
+        if section in raw:
+            if not isinstance(raw[section], Mapping):
+                raise ActuatorConfigError(f"{where}.{section}: expected a table")
+            _known(raw[section], _SECTION_KEYS[section], f"{where}.{section}")
+    for i, f in enumerate(raw.get("faults", [])):
+        _known(f, {"thruster", "kind", "time", "window"}, f"{where}.faults[{i}]")
+    if not (math.isfinite(period) and period > 0.0):
+        raise ActuatorConfigError(f"{where}: period must be finite and > 0 (s), got {period!r}")
+    mass = _quantity(raw.get("mass"), "kg", f"{where}.mass")
+    if mass <= 0.0:
+        raise ActuatorConfigError(f"{where}.mass: must be > 0")
+    defaults = raw.get("thruster_defaults", {})
+    units = raw.get("thrusters", [])
+    if not isinstance(units, list) or not units:
+        raise ActuatorConfigError(f"{where}.thrusters: expected [[thrusters]] entries")
+    specs = [_thruster(t, defaults, f"{where}.thrusters[{i}]") for i, t in enumerate(units)]
+
+    rng = np.random.default_rng(seed)
+    for i, f in enumerate(raw.get("faults", [])):
+        w = f"{where}.faults[{i}]"
+        j = f.get("thruster")
+        if isinstance(j, bool) or not isinstance(j, int) or not 0 <= j < len(specs):
+            raise ActuatorConfigError(f"{w}.thruster: expected an index in [0, {len(specs)}), got {j!r}")
+        try:
+            specs[j].fault = _act.fault_kind_from_string(str(f.get("kind")))
+        except ValueError as exc:
+            raise ActuatorConfigError(f"{w}.kind: {exc}") from exc
+        t = f.get("time")
+        if t == "random":
+            lo, hi = _vector(f.get("window"), "s", f"{w}.window", (2,))
+            if not lo <= hi:
+                raise ActuatorConfigError(f"{w}.window: expected start <= end")
+            specs[j].fault_time = float(rng.uniform(lo, hi))
+        else:
+            specs[j].fault_time = _quantity(t, "s", f"{w}.time")
+
+    rw = raw.get("wheels", {})
+    dump = _act.MomentumDumpSettings()
+    md = raw.get("momentum_dump", {})
+    if "enabled" in md:
+        dump.enabled = bool(md["enabled"])
+    for key, unit in (("start_fraction", ""), ("stop_fraction", ""), ("time_constant", "s")):
+        if key in md:
+            setattr(dump, key, _quantity(md[key], unit, f"{where}.momentum_dump.{key}"))
+    wheels: list[_act.ReactionWheelSpec] = []
+    if rw:
+        axes = np.asarray(rw.get("axes_B", []), dtype=np.float64)
+        if axes.ndim != 2 or axes.shape[1] != 3:
+            raise ActuatorConfigError(f"{where}.wheels.axes_B: expected a list of 3-vectors")
+        for j, axis in enumerate(axes):
+            s = _act.ReactionWheelSpec()
+            s.axis_B = axis / np.linalg.norm(axis)
+            s.max_torque = _quantity(rw.get("max_torque"), "N*m", f"{where}.wheels.max_torque")
+            s.max_momentum = _quantity(rw.get("max_momentum"), "N*m*s", f"{where}.wheels.max_momentum")
+            if abs(float(np.linalg.norm(axis)) - 1.0) > 1e-6:
+                raise ActuatorConfigError(f"{where}.wheels.axes_B[{j}]: expected a unit vector")
+            wheels.append(s)
+    modulation = _act.ModulationSettings()
+    modulation.period = period
+    mod = raw.get("modulation", {})
+    if "on_time_resolution" in mod:
+        modulation.on_time_resolution = _quantity(mod["on_time_resolution"], "s", f"{where}.modulation.on_time_resolution")
+    allocation = _act.AllocationSettings()
+    allocation.period = period
+    try:
+        cluster = _act.ThrusterCluster(specs)
+        wheel_set = _act.ReactionWheels(wheels, dump)
+        modulation.validate()
+        allocation.validate()
+        _act.PulseModulator(cluster, modulation)  # every minimum on-time fits in the period
+    except ValueError as exc:
+        raise ActuatorConfigError(f"{where}: {exc}") from exc
+    return ActuatorSuite(str(raw.get("name", path.stem)), mass, cluster, wheel_set, modulation, allocation)
+
+
+def sample_truth_errors(cluster: _act.ThrusterCluster, rng: np.random.Generator) -> _act.ThrusterCluster:
+    """A copy of the cluster with truth errors drawn within each thruster's bounds: scale uniform in
+    [-b, b], misalignment about a uniform random axis by an angle uniform in [0, bound]."""
+    specs = []
+    for i in range(len(cluster)):
+        s = cluster.thruster(i)
+        s.scale_error = float(rng.uniform(-1.0, 1.0)) * s.scale_error_bound
+        axis = rng.normal(size=3)
+        s.misalignment_B = axis / np.linalg.norm(axis) * float(rng.uniform(0.0, 1.0)) * s.misalignment_bound
+        specs.append(s)
+    return _act.ThrusterCluster(specs)

@@ -1,0 +1,139 @@
+// Thruster cluster mapping, truth errors, faults and the remainder carry-over modulation.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "actuator_fixtures.hpp"
+
+using namespace tubempc::actuators;
+
+TEST(ThrusterCluster, MappingIsForceAndMomentArm) {
+  ThrusterSpec s;
+  s.position_B = Eigen::Vector3d(1.0, 0.0, 0.0);
+  s.direction_B = Eigen::Vector3d(0.0, 1.0, 0.0);
+  ThrusterSpec s2 = s;
+  s2.position_B = Eigen::Vector3d(0.0, 0.0, 2.0);
+  ThrusterCluster c({s, s2});
+  Vector6 col0, col1;
+  col0 << 0, 1, 0, 0, 0, 1;   // r x F = x x y = z
+  col1 << 0, 1, 0, -2, 0, 0;  // 2 z x y = -2 x
+  EXPECT_TRUE(c.mapping().col(0).isApprox(col0));
+  EXPECT_TRUE(c.mapping().col(1).isApprox(col1));
+  EXPECT_TRUE(c.true_mapping().isApprox(c.mapping()));
+}
+
+TEST(ThrusterCluster, TruthErrorsScaleAndTurnTheDirection) {
+  ThrusterSpec s;
+  s.position_B = Eigen::Vector3d(0.3, -0.2, 1.0);
+  s.direction_B = Eigen::Vector3d(0.0, 0.0, 1.0);
+  s.scale_error_bound = 0.05;
+  s.scale_error = -0.03;
+  s.misalignment_bound = 0.02;
+  s.misalignment_B = Eigen::Vector3d(0.01, 0.0, 0.0);  // perpendicular to d: turns it by 0.01 rad
+  ThrusterCluster c({s});
+  const Eigen::Vector3d F = c.true_mapping().col(0).head<3>();
+  EXPECT_NEAR(F.norm(), 0.97, 1e-14);
+  EXPECT_NEAR(std::acos(F.normalized().dot(s.direction_B)), 0.01, 1e-12);
+  EXPECT_NEAR(F.normalized().y(), -std::sin(0.01), 1e-14);  // right-handed about +x: z turns towards -y
+  EXPECT_TRUE(c.true_mapping().col(0).tail<3>().isApprox(s.position_B.cross(F)));
+}
+
+TEST(ThrusterCluster, BadInputNamesTheField) {
+  auto specs = actuator_test::cube_specs();
+  specs[3].direction_B *= 2.0;
+  try {
+    ThrusterCluster c(specs);
+    FAIL() << "no throw";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("thrusters[3].direction_B"), std::string::npos) << e.what();
+  }
+  specs = actuator_test::cube_specs();
+  specs[0].scale_error = 0.1;  // bound 0
+  EXPECT_THROW(ThrusterCluster{specs}, std::invalid_argument);
+  EXPECT_THROW(fault_kind_from_string("stuck"), std::invalid_argument);
+  EXPECT_EQ(fault_kind_from_string("stuck_on"), FaultKind::StuckOn);
+  ThrusterCluster c(actuator_test::cube_specs());
+  EXPECT_THROW(c.set_fault(12, FaultKind::FailedOff, 0.0), std::invalid_argument);
+  ModulationSettings m;
+  m.period = 0.0;
+  EXPECT_THROW(PulseModulator(c, m), std::invalid_argument);
+  m.period = 0.015;  // shorter than the 20 ms minimum on-time
+  try {
+    PulseModulator p(c, m);
+    FAIL() << "no throw";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("thrusters[0].min_on_time"), std::string::npos) << e.what();
+  }
+}
+
+// Binary fractions keep the arithmetic exact: tau_c = 7/1024 s per period with tau_min = 20/1024 s fires
+// 21/1024 s every third period and never otherwise.
+TEST(PulseModulator, MinimumImpulseCarriesTheRemainderExactly) {
+  ThrusterSpec s;
+  s.max_thrust = 4.0;
+  s.min_on_time = 20.0 / 1024;
+  s.isp = 200.0;
+  ThrusterCluster c({s});
+  ModulationSettings ms;
+  ms.period = 1.0;
+  ms.on_time_resolution = 1.0 / 1024;
+  PulseModulator mod(c, ms);
+  Eigen::VectorXd f(1);
+  f << 4.0 * 7.0 / 1024;
+  double impulse = 0.0;
+  for (int k = 1; k <= 30; ++k) {
+    const Firing& fr = mod.modulate(c, k, f);
+    EXPECT_EQ(fr.on_time(0), k % 3 == 0 ? 21.0 / 1024 : 0.0) << k;
+    EXPECT_EQ(fr.delivered_B(2), k % 3 == 0 ? 4.0 * 21.0 / 1024 : 0.0);
+    impulse += fr.impulse(0);
+  }
+  EXPECT_EQ(impulse, 10 * 4.0 * 21.0 / 1024);
+  EXPECT_EQ(mod.remainder()(0), 0.0);
+  EXPECT_EQ(mod.pulse_counts()(0), 10);
+  EXPECT_DOUBLE_EQ(mod.propellant(), impulse / (200.0 * kStandardGravity));
+}
+
+// Over any sequence of commands: delivered = commanded impulse - F r_K, with 0 <= r_K < r_max.
+TEST(PulseModulator, DeliveredImpulseMatchesTheCommandUpToTheRemainder) {
+  const ThrusterCluster c = actuator_test::cube_cluster(4.5, 0.02);
+  ModulationSettings ms;
+  ms.period = 0.5;
+  ms.on_time_resolution = 0.004;  // tau_min rounds up to 0.02
+  PulseModulator mod(c, ms);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Eigen::VectorXd f(c.size()), commanded = Eigen::VectorXd::Zero(c.size()), delivered = commanded;
+  for (int k = 0; k < 500; ++k) {
+    for (int j = 0; j < c.size(); ++j) f(j) = 4.5 * std::pow(u(rng), 3.0);  // many below the minimum impulse
+    const Firing& fr = mod.modulate(c, 0.5 * k, f);
+    commanded += f * ms.period;
+    delivered += fr.impulse;
+    for (int j = 0; j < c.size(); ++j) {
+      EXPECT_GE(mod.remainder()(j), 0.0);
+      EXPECT_LT(mod.remainder()(j), mod.remainder_bound(c, j));
+      EXPECT_TRUE(fr.on_time(j) == 0.0 || fr.on_time(j) >= 0.02 - 1e-15);
+    }
+  }
+  for (int j = 0; j < c.size(); ++j) EXPECT_NEAR(delivered(j), commanded(j) - 4.5 * mod.remainder()(j), 1e-9);
+  EXPECT_NEAR(mod.remainder_bound(c, 0), 0.02, 1e-15);
+}
+
+TEST(PulseModulator, FaultsOverrideTheCommandFromTheirTime) {
+  ThrusterCluster c = actuator_test::cube_cluster();
+  c.set_fault(0, FaultKind::StuckOn, 10.0);
+  c.set_fault(1, FaultKind::FailedOff, 10.0);
+  EXPECT_EQ(c.faults_at(9.99), 0);
+  EXPECT_EQ(c.faults_at(10.0), 2);
+  ModulationSettings ms;
+  ms.period = 2.0;
+  PulseModulator mod(c, ms);
+  Eigen::VectorXd f = Eigen::VectorXd::Zero(c.size());
+  f(1) = 4.5;
+  const Firing& before = mod.modulate(c, 8.0, f);
+  EXPECT_EQ(before.on_time(0), 0.0);
+  EXPECT_EQ(before.on_time(1), 2.0);
+  const Firing& after = mod.modulate(c, 10.0, f);
+  EXPECT_EQ(after.on_time(0), 2.0);
+  EXPECT_EQ(after.on_time(1), 0.0);
+  EXPECT_TRUE(after.delivered_B.isApprox(c.mapping().col(0) * 4.5));
+}

@@ -1,0 +1,62 @@
+// The per-step actuator path (allocation, pulse modulation, wheel update) must not allocate after set-up,
+// including the Saturated/Infeasible cone test, a fault's re-setup and momentum dumping: every malloc-family
+// call and operator new is counted around it (tubempc/core/allocation_counter.hpp, glibc only).
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "../actuators/actuator_fixtures.hpp"
+#include "tubempc/actuators/allocation.hpp"
+#include "tubempc/core/allocation_counter.hpp"
+
+using namespace tubempc::actuators;
+using tubempc::core::AllocationWindow;
+
+TEST(ActuatorsAllocation, CounterSeesAllocations) {
+  if (!tubempc::core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  AllocationWindow window;
+  Eigen::VectorXd v(100);
+  v.setZero();
+  EXPECT_GE(window.count(), 1);
+}
+
+TEST(ActuatorsAllocation, StepDoesNotAllocateAfterSetup) {
+  if (!tubempc::core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  ThrusterCluster cluster = actuator_test::cube_cluster();
+  cluster.set_fault(5, FaultKind::FailedOff, 100.0);
+  cluster.set_fault(8, FaultKind::StuckOn, 200.0);
+  MomentumDumpSettings dump;
+  dump.time_constant = 50.0;
+  ReactionWheels wheels = actuator_test::pyramid_wheels(0.2, 2.0, dump);  // small: dumps often
+  AllocationSettings as;
+  as.period = 1.0;
+  ModulationSettings ms;
+  ms.period = 1.0;
+  Allocator alloc(cluster, wheels, as);
+  PulseModulator mod(cluster, ms);
+  std::mt19937_64 rng(9);
+  std::normal_distribution<double> n(0.0, 1.0);
+  Vector6 cmd;
+  long allocations = 0;
+  int statuses[6] = {0, 0, 0, 0, 0, 0};
+  int dumping = 0;
+  for (int k = 0; k < 300; ++k) {
+    for (int i = 0; i < 6; ++i) cmd(i) = (k % 4 == 0 ? 20.0 : 0.5) * n(rng) * (i < 3 ? 1.0 : 0.3);
+    if (k == 150) cmd(0) = std::nan("");
+    {
+      AllocationWindow window;
+      const AllocationResult& r = alloc.solve(cluster, wheels, k, cmd);
+      mod.modulate(cluster, k, r.thrust);
+      wheels.apply(r.wheel_torque, ms.period);
+      ++statuses[static_cast<int>(r.info.status)];
+      dumping += r.info.dumping;
+      allocations += window.count();
+    }
+  }
+  EXPECT_EQ(allocations, 0);
+  EXPECT_GT(statuses[static_cast<int>(AllocationStatus::Ok)], 0);
+  EXPECT_GT(statuses[static_cast<int>(AllocationStatus::Saturated)], 0);
+  EXPECT_GT(statuses[static_cast<int>(AllocationStatus::ThrusterFailed)], 0);
+  EXPECT_EQ(statuses[static_cast<int>(AllocationStatus::InvalidCommand)], 1);
+  EXPECT_GT(dumping, 0);
+}
