@@ -153,10 +153,10 @@ def _cmd_refly(args: argparse.Namespace) -> int:
         )
         return EXIT_USAGE
     cmp = refly_montecarlo_run(Path(args.from_campaign), args.index, Path(args.out))
-    for m, r in cmp["methods"].items():
+    for m, r in cmp.methods.items():
         print(f"{m:6s} J_p={r['J_p']:.10g} J_r={r['J_r']:.10g}")
-    if not cmp["equal"]:
-        differences = ", ".join(cmp["differences"])
+    if not cmp.equal:
+        differences = ", ".join(cmp.differences)
         print(
             f"run {args.index} re-flown differs from the campaign record: {differences}: exit status "
             f"{EXIT_REFLIGHT_DIFFERS}",
@@ -164,11 +164,11 @@ def _cmd_refly(args: argparse.Namespace) -> int:
         )
         return EXIT_REFLIGHT_DIFFERS
     print(
-        f"run {args.index} (seed {cmp['seed']}) re-flown: every metric, dispersion and array (runs/run_*.npz) "
+        f"run {args.index} (seed {cmp.seed}) re-flown: every metric, dispersion and array (runs/run_*.npz) "
         "equals the campaign record, under the campaign's configuration hash"
     )
     print(f"results in {args.out}/ (refly.json, <method>.h5)")
-    return _guarantee_status({m: reasons for m, reasons in cmp["guarantee_lost"].items() if reasons})
+    return _guarantee_status({m: reasons for m, reasons in cmp.guarantee_lost.items() if reasons})
 
 
 def _guarantee_status(lost: dict[str, list[str]]) -> int:
@@ -231,37 +231,36 @@ def _cmd_run(args: argparse.Namespace) -> int:
         cache_dir=Path(args.cache_dir) if args.cache_dir else out / "cache",
         make_figures=not args.no_figures,
     )
-    ref = summary["reference"]
+    ref = summary.reference
     accuracy = (
         ""
-        if ref["last_subproblem"] == "optimal"
-        else f"; its last convex subproblem solved to reduced accuracy ({ref['last_subproblem']}), its solution "
+        if ref.last_subproblem == "optimal"
+        else f"; its last convex subproblem solved to reduced accuracy ({ref.last_subproblem}), its solution "
         "checked against the input bounds and the dynamics"
     )
     print(
-        f"reference: {'converged' if ref['converged'] else 'NOT converged'} in {ref['iterations']} SCP iterations "
-        f"(dynamics defect {ref['max_defect']:.2g}{accuracy})"
+        f"reference: {'converged' if ref.converged else 'NOT converged'} in {ref.iterations} SCP iterations "
+        f"(dynamics defect {ref.max_defect:.2g}{accuracy})"
     )
     lost: dict[str, list[str]] = {}
-    for m, s in summary["methods"].items():
-        st = s["step_time"]
-        outside, fallbacks = s["steps_outside_tube"], s["fallback_steps"]
+    for m, s in summary.methods.items():
+        st = s.step_time
         print(
-            f"{m:6s} J_p={s['J_p']:.4g} J_r={s['J_r']:.4g} terminal |dr|={s['terminal_error']['position']:.3g} m "
-            f"steps outside the tube {outside}, fallback steps {fallbacks}, largest excursion p/r "
-            f"{s['max_tube_excursion']['translation']:.3g}/{s['max_tube_excursion']['rotation']:.3g} "
-            f"cone violations gs/los={s['constraint_violations']['glide_slope_steps']}/"
-            f"{s['constraint_violations']['los_steps']} step median {st['step']['median_ms']:.2f} ms "
-            f"(tube {st['tube']['median_ms']:.2f}, mpc {st['mpc']['median_ms']:.2f}) run {s['run_time_s']:.1f} s "
-            f"states inside the body {s['states_inside_body']}"
+            f"{m:6s} J_p={s.J_p:.4g} J_r={s.J_r:.4g} terminal |dr|={s.terminal_error.position:.3g} m "
+            f"steps outside the tube {s.steps_outside_tube}, fallback steps {s.fallback_steps}, largest excursion p/r "
+            f"{s.max_tube_excursion.translation:.3g}/{s.max_tube_excursion.rotation:.3g} "
+            f"cone violations gs/los={s.constraint_violations.glide_slope_steps}/"
+            f"{s.constraint_violations.los_steps} step median {st['step'].median_ms:.2f} ms "
+            f"(tube {st['tube'].median_ms:.2f}, mpc {st['mpc'].median_ms:.2f}) run {s.run_time_s:.1f} s "
+            f"states inside the body {s.states_inside_body}"
         )
         reasons = guarantee_lost(s)
         if reasons:
             lost[m] = reasons
     print("(tube excursion: e^T Pe^-1 e of the error one step after the plan; <= 1 inside the tube, > 1 outside)")
-    if "comparison" in summary:
-        print(f"TBMPC-FFA J_p is {below_or_above(summary['comparison']['J_p_reduction_percent'])} TBMPC's")
-    for name, error in summary.get("figure_errors", {}).items():
+    if summary.comparison is not None:
+        print(f"TBMPC-FFA J_p is {below_or_above(summary.comparison.J_p_reduction_percent)} TBMPC's")
+    for name, error in (summary.figure_errors or {}).items():
         print(f"figure {name} not drawn: {error}", file=sys.stderr)
     print(f"results in {out}/ (summary.json, <method>.h5, figures)")
     return _guarantee_status(lost)
@@ -324,25 +323,25 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         only=args.only,
         progress=not args.quiet,
     )
-    for m, row in s["methods"].items():
+    for m, row in s.methods.items():
         print(
-            f"{m:6s} J_p mean {row['J_p']['mean']:.4g} (3 sigma {row['J_p']['3sigma']:.3g})  "
-            f"J_r mean {row['J_r']['mean']:.4g} (3 sigma {row['J_r']['3sigma']:.3g})  "
-            f"runs outside the tube {row['runs_outside_tube']}/{s['runs']}"
+            f"{m:6s} J_p mean {row.J_p.mean:.4g} (3 sigma {row.J_p.three_sigma:.3g})  "
+            f"J_r mean {row.J_r.mean:.4g} (3 sigma {row.J_r.three_sigma:.3g})  "
+            f"runs outside the tube {row.runs_outside_tube}/{s.runs}"
         )
-    if "J_p_mean_reduction_percent" in s:
-        print(f"TBMPC-FFA mean J_p is {below_or_above(s['J_p_mean_reduction_percent'])} TBMPC's")
+    if s.J_p_mean_reduction_percent is not None:
+        print(f"TBMPC-FFA mean J_p is {below_or_above(s.J_p_mean_reduction_percent)} TBMPC's")
     print(
-        f"{s['runs']} runs done ({s['executed_now']} now, {len(s['failed_runs'])} failed) in {s['wall_time_s']:.1f} s; "
+        f"{s.runs} runs done ({s.executed_now} now, {len(s.failed_runs)} failed) in {s.wall_time_s:.1f} s; "
         f"{args.out}/summary.json"
     )
-    if s["failed_runs"]:
-        print(f"{len(s['failed_runs'])} runs failed: exit status {EXIT_FAILED_RUNS}", file=sys.stderr)
+    if s.failed_runs:
+        print(f"{len(s.failed_runs)} runs failed: exit status {EXIT_FAILED_RUNS}", file=sys.stderr)
         return EXIT_FAILED_RUNS
     lost = {
-        m: [f"{row['runs_guarantee_lost']}/{s['runs']} runs (outside the tube, fallback steps or inside the body)"]
-        for m, row in s["methods"].items()
-        if row["runs_guarantee_lost"]
+        m: [f"{row.runs_guarantee_lost}/{s.runs} runs (outside the tube, fallback steps or inside the body)"]
+        for m, row in s.methods.items()
+        if row.runs_guarantee_lost
     }
     return _guarantee_status(lost)
 
@@ -356,22 +355,22 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
     s = sweep(_config(args), args.lambda_p, args.lambda_r, Path(args.out), seed=args.seed, progress=not args.quiet)
     print(f"{'':40s} {'J_p':>8s} {'J_r':>8s} {'|dr(T)| m':>10s} {'RMS r m':>9s} {'outside':>8s} {'tube feasible':>14s}")
-    for name, row in s["rows"].items():
+    for name, row in s.rows.items():
         feasible = (
             "every step"
-            if row["tube_feasible_every_step"]
-            else f"no: {row['tube_design_failures']} designs failed, {row['tube_uncertified_steps']} steps uncertified"
+            if row.tube_feasible_every_step
+            else f"no: {row.tube_design_failures} designs failed, {row.tube_uncertified_steps} steps uncertified"
         )
         print(
-            f"{name:40s} {row['J_p']:8.4g} {row['J_r']:8.4g} {row['terminal_error']['position']:10.3g} "
-            f"{row['rms_error']['position']:9.3g} {row['steps_outside_tube']:8d} {feasible:>14s}"
+            f"{name:40s} {row.J_p:8.4g} {row.J_r:8.4g} {row.terminal_error.position:10.3g} "
+            f"{row.rms_error.position:9.3g} {row.steps_outside_tube:8d} {feasible:>14s}"
         )
-    smallest = s["smallest_feasible_lambda_p"]
+    smallest = s.smallest_feasible_lambda_p
     print(f"smallest lambda_p with a feasible tube at every step: {smallest if smallest is not None else 'none'}")
-    floor = holding_floor([r for r in s["rows"].values() if "lambda_p" in r])
+    floor = holding_floor(s.ffa_rows)
     print(f"the tube holds (feasible, never left) for every lambda_p swept >= {floor if floor is not None else 'none'}")
     print(f"{args.out}/sweep.json and figures")
-    return _guarantee_status({name: reasons for name, row in s["rows"].items() if (reasons := guarantee_lost(row))})
+    return _guarantee_status({name: reasons for name, row in s.rows.items() if (reasons := guarantee_lost(row))})
 
 
 def _cmd_report(args: argparse.Namespace) -> int:

@@ -223,4 +223,4 @@ def test_every_packaged_scenario_exports_campaigns_and_flies_in_cpp(name: str, t
         assert r.returncode == 0, r.stdout + r.stderr
         assert "statuses: solved 300" in r.stdout
     summary = montecarlo(cfg, 2, tmp_path / "mc", workers=1, progress=False, max_steps=3)
-    assert summary["runs"] == 2 and not summary["failed_runs"]
+    assert summary.runs == 2 and not summary.failed_runs
