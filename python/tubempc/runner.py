@@ -19,11 +19,11 @@ import numpy as np
 from . import __version__, figures, metrics
 from .closed_loop import simulate
 from .config import Config
+from .landing_site import inside
 from .machine import machine_info
 from .pinning import pin_config, shape_record
 from .results import RunRecord, save_record
 from .scenario import Scenario, build_scenario, landing_geometry
-from .site import inside
 from .summaries import CampaignMethodResult, Comparison, ReferenceSummary, RunMetrics, RunSummary, write_summary
 
 __all__ = ["guarantee_lost", "run_methods", "run_summary", "save_figures", "states_inside_body"]

@@ -23,9 +23,9 @@ from .config import Config
 from .disturbances import AdditiveDisturbance
 from .dynamics import ProximityModel
 from .identification import ForgettingFactorIdentifier
+from .landing_site import Site, inside, ray_cast, site_from_lat_lon, site_from_vector, terminal_state
 from .reference import ReferenceSettings, ReferenceTrajectory, load_or_generate_reference
 from .shapes import Shape, bennu_like_shape, load_shape
-from .site import Site, inside, ray_cast, site_from_lat_lon, site_from_vector, terminal_state
 from .tube import TubeDesigner
 
 __all__ = [

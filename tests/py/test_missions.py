@@ -18,6 +18,7 @@ from tubempc import _core
 from tubempc.bodies import ellipsoid_shape
 from tubempc.config import ConfigError, load_config
 from tubempc.dynamics import ProximityModel
+from tubempc.landing_site import inside, ray_cast
 from tubempc.scenario import (
     PAPER_TARGET_MAX_DEPTH,
     ScenarioError,
@@ -28,7 +29,6 @@ from tubempc.scenario import (
     scenario_shape,
 )
 from tubempc.shapes import bennu_like_shape, load_shape, save_shape
-from tubempc.site import inside, ray_cast
 
 RADAR_MODEL = Path(__file__).resolve().parents[3] / "shared" / "data" / "101955bennu.tab"
 

@@ -13,9 +13,9 @@ from tubempc import _core, so3
 from tubempc.bodies import contact_binary_shape, ellipsoid_shape
 from tubempc.config import SCENARIOS, Config, ConfigError, load_config
 from tubempc.dynamics import ProximityModel
+from tubempc.landing_site import Site, inside, ray_cast, site_from_lat_lon, terminal_state
 from tubempc.scenario import ScenarioError, boundary_states, build_scenario, landing_site, model_params, scenario_shape
 from tubempc.shapes import bennu_like_shape, save_shape
-from tubempc.site import Site, inside, ray_cast, site_from_lat_lon, terminal_state
 
 HERE = Path(__file__).parent
 
