@@ -9,6 +9,7 @@ option to a C++ setting lives here, once.
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from dataclasses import dataclass, field
@@ -19,8 +20,8 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from .config import Config
-from .disturbances import AdditiveDisturbance
+from .config import Config, Disturbance, Tube
+from .disturbances import ActuatorMismatch, AdditiveDisturbance
 from .dynamics import ProximityModel
 from .identification import ForgettingFactorIdentifier
 from .landing_site import Site, inside, ray_cast, site_from_lat_lon, site_from_vector, terminal_state
@@ -30,6 +31,7 @@ from .tube import TubeDesigner
 
 __all__ = [
     "METHODS",
+    "LoopSetup",
     "Scenario",
     "ScenarioError",
     "build_scenario",
@@ -101,6 +103,49 @@ class Scenario:
     def n_steps(self) -> int:
         """Number of control steps T = t_f / dt."""
         return int(self.reference.u.shape[0])
+
+    @functools.cached_property
+    def loop(self) -> LoopSetup:
+        """Everything the closed loop takes from the configuration, built once for the scenario."""
+        cfg = self.config
+        designers = tube_designers(cfg)
+        return LoopSetup(
+            mpc_settings=mpc_settings(self),
+            designer_specs=(designers[0].spec, designers[1].spec),
+            propagate_kw=propagator_options(cfg),
+            disturbance=cfg.disturbance,
+            tube=cfg.tube,
+            n_steps=self.n_steps,
+        )
+
+
+@dataclass(frozen=True)
+class LoopSetup:
+    """What a closed-loop run (:func:`tubempc.closed_loop.simulate`) takes from the configuration,
+    handed over once by the scenario (:attr:`Scenario.loop`): the MPC's settings, the LMI tube
+    designers' arguments, the truth propagator's options, the tube policy's section, and the plant's
+    disturbance and actuator errors, drawn per run from its seed."""
+
+    mpc_settings: Any  # _core.mpc.Settings (the controller copies it)
+    designer_specs: tuple[dict[str, Any], dict[str, Any]]  # TubeDesigner arguments: translation, rotation
+    propagate_kw: dict[str, Any]  # ProximityModel.propagate options of the truth
+    disturbance: Disturbance
+    tube: Tube
+    n_steps: int
+
+    def designers(self) -> tuple[TubeDesigner, TubeDesigner]:
+        """A run's own tube designers (a designer keeps its last design, so runs do not share them)."""
+        return TubeDesigner(**self.designer_specs[0]), TubeDesigner(**self.designer_specs[1])
+
+    def plant_disturbance(self, seed: int) -> AdditiveDisturbance:
+        """The simulated additive disturbance of a run with seed ``seed`` (``[disturbance]``)."""
+        d = self.disturbance
+        return AdditiveDisturbance(d.S_p, d.S_r, seed=seed, growth_p=d.growth_p, growth_r=d.growth_r, n_steps=self.n_steps)
+
+    def actuators(self, seed: int) -> ActuatorMismatch:
+        """The actuator errors of a run with seed ``seed`` (drawn from ``seed + 1``)."""
+        d = self.disturbance
+        return ActuatorMismatch(seed + 1, d.scale_error_p, d.misalignment_p, d.scale_error_r, d.misalignment_r)
 
 
 def model_params(cfg: Config, srp_scale: float = 1.0, site: Site | None = None) -> dict[str, Any]:
@@ -518,8 +563,7 @@ def memory_weight(lam: float) -> float:
 
 def plant_disturbance(scn: Scenario, seed: int) -> AdditiveDisturbance:
     """The simulated additive disturbance of a run with seed ``seed`` (``[disturbance]``)."""
-    d = scn.config.disturbance
-    return AdditiveDisturbance(d.S_p, d.S_r, seed=seed, growth_p=d.growth_p, growth_r=d.growth_r, n_steps=scn.n_steps)
+    return scn.loop.plant_disturbance(seed)
 
 
 def initial_tube(scn: Scenario) -> tuple[Array, Array]:
