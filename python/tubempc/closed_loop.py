@@ -49,14 +49,14 @@ class _Plant:
     scn: Scenario
     disturbance: AdditiveDisturbance
     actuators: ActuatorMismatch
-    propagate_kw: dict[str, Any]
+    propagator: Any  # _core.dynamics.PropagatorSettings
     state: Array  # 13-state [r_L, v_L, q_B/L, omega_BL_B] of the truth
 
     def step(self, k: int, u: Array) -> tuple[Array, Array]:
         """Propagates one control period with input ``u``; returns x_{k+1} and the disturbance drawn."""
         scn, dt = self.scn, self.scn.config.mpc.dt
         u_applied = np.concatenate([self.actuators.apply_acceleration(u[:3]), self.actuators.apply_torque(u[3:])])
-        prop = scn.truth.propagate(k * dt, self.state, u_applied, dt, **self.propagate_kw)
+        prop = scn.truth.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator)
         if prop.status.name != "Success":
             raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
         w_p, w_r = self.disturbance.sample(k)
@@ -112,9 +112,7 @@ def _new_record(scn: Scenario, method: str, seed: int) -> RunRecord:
 
 def _new_plant(scn: Scenario, seed: int) -> _Plant:
     loop = scn.loop
-    return _Plant(
-        scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagate_kw, scn.model.state_to_truth(scn.x0)
-    )
+    return _Plant(scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, scn.model.state_to_truth(scn.x0))
 
 
 def simulate(

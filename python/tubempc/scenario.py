@@ -4,7 +4,8 @@ Data flow of the package: configuration (:mod:`tubempc.config`) -> scenario (thi
 shape, boundary states, reference, MPC settings, tube designers, identifiers, TBMPC's initial tube)
 -> closed loop (:mod:`tubempc.closed_loop`) -> run record (:mod:`tubempc.results`) -> metrics
 (:mod:`tubempc.metrics`) -> report (:mod:`tubempc.report`). Every mapping from a configuration
-option to a C++ setting lives here, once.
+option to a C++ setting lives here, once; a scenario hands the closed loop what it takes from the
+configuration once (:attr:`Scenario.loop`).
 """
 
 from __future__ import annotations
@@ -43,8 +44,6 @@ __all__ = [
     "model_params",
     "model_structure",
     "mpc_settings",
-    "plant_disturbance",
-    "propagator_options",
     "propagator_settings",
     "scenario_shape",
     "tube_designers",
@@ -112,7 +111,7 @@ class Scenario:
         return LoopSetup(
             mpc_settings=mpc_settings(self),
             designer_specs=(designers[0].spec, designers[1].spec),
-            propagate_kw=propagator_options(cfg),
+            propagator=propagator_settings(cfg),
             disturbance=cfg.disturbance,
             tube=cfg.tube,
             n_steps=self.n_steps,
@@ -128,7 +127,7 @@ class LoopSetup:
 
     mpc_settings: Any  # _core.mpc.Settings (the controller copies it)
     designer_specs: tuple[dict[str, Any], dict[str, Any]]  # TubeDesigner arguments: translation, rotation
-    propagate_kw: dict[str, Any]  # ProximityModel.propagate options of the truth
+    propagator: Any  # _core.dynamics.PropagatorSettings of the truth
     disturbance: Disturbance
     tube: Tube
     n_steps: int
@@ -496,16 +495,9 @@ def mpc_settings(scn: Scenario) -> Any:
     return st
 
 
-def propagator_options(cfg: Config) -> dict[str, Any]:
-    """Keyword arguments of :meth:`tubempc.dynamics.ProximityModel.propagate` for the truth."""
-    sim = cfg.simulation
-    if sim.integrator == "rk4":
-        return {"method": "rk4", "substeps": sim.substeps}
-    return {"method": "dopri5", "rtol": sim.rtol}
-
-
 def propagator_settings(cfg: Config) -> Any:
-    """The same truth propagator as ``_core.dynamics.PropagatorSettings`` (for scenario files)."""
+    """The truth propagator (``_core.dynamics.PropagatorSettings``) of the closed loop and of scenario
+    files (``[simulation]``; the core's defaults for the rest)."""
     sim = cfg.simulation
     prop = _core.dynamics.PropagatorSettings()
     if sim.integrator == "rk4":
@@ -559,11 +551,6 @@ def memory_weight(lam: float) -> float:
     weight of a prior worth one full memory (``identification.prior_memory`` = 1)."""
     q = math.exp(lam - 1.0)
     return q / (1.0 - q)
-
-
-def plant_disturbance(scn: Scenario, seed: int) -> AdditiveDisturbance:
-    """The simulated additive disturbance of a run with seed ``seed`` (``[disturbance]``)."""
-    return scn.loop.plant_disturbance(seed)
 
 
 def initial_tube(scn: Scenario) -> tuple[Array, Array]:
