@@ -22,7 +22,7 @@ from tubempc.summaries import (
     summary_json,
 )
 
-BENCHMARKS = Path(__file__).resolve().parents[2] / "docs" / "benchmarks"
+BENCHMARKS = Path(__file__).resolve().parents[3] / "docs" / "benchmarks"
 KINDS = {"run": RunSummary, "sweep": SweepSummary, "montecarlo": MonteCarloSummary}
 LEGACY = sorted(p for p in BENCHMARKS.glob("*.json") if p.name.split("_")[0] in KINDS)
 

@@ -30,7 +30,7 @@ from tubempc.scenario import (
 )
 from tubempc.shapes import bennu_like_shape, load_shape, save_shape
 
-RADAR_MODEL = Path(__file__).resolve().parents[3] / "shared" / "data" / "101955bennu.tab"
+RADAR_MODEL = Path(__file__).resolve().parents[4] / "shared" / "data" / "101955bennu.tab"
 
 
 def _write(tmp_path: Path, text: str, name: str = "mission.toml") -> Path:

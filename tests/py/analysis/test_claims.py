@@ -58,7 +58,7 @@ def test_claims_are_computed_from_the_results_and_a_failing_claim_reads_no(tmp_p
 
 
 #: A sweep written by ``tubempc sweep`` (before summaries named their kind and format: format 0).
-SWEEP = Path(__file__).resolve().parents[2] / "docs" / "benchmarks" / "sweep_bennu-paper.json"
+SWEEP = Path(__file__).resolve().parents[3] / "docs" / "benchmarks" / "sweep_bennu-paper.json"
 
 
 def test_sweep_claims_follow_the_sweep_rows(tmp_path: Path) -> None:
