@@ -42,7 +42,6 @@ __all__ = [
     "landing_site",
     "memory_weight",
     "model_params",
-    "model_structure",
     "mpc_settings",
     "propagator_settings",
     "scenario_shape",
@@ -463,7 +462,7 @@ def build_scenario(
     return Scenario(cfg, shape, shape_src, model, truth, x0, xf, ref, site)
 
 
-def model_structure(scn: Scenario) -> tuple[Array, Array, Array]:
+def _model_structure(scn: Scenario) -> tuple[Array, Array, Array]:
     """Nonzero patterns of the model's A (12, 12), B (12, 6) and G (2, 12) over the reference."""
     ref, dt = scn.reference, scn.config.mpc.dt
     Ad, Bd, _ = scn.model.discretize(0.0, ref.x[:-1], ref.u, dt)
@@ -482,7 +481,7 @@ def mpc_settings(scn: Scenario) -> Any:
     cfg = scn.config
     m = cfg.mpc
     st = _core.mpc.Settings()
-    st.A_structure, st.B_structure, st.G_structure = model_structure(scn)
+    st.A_structure, st.B_structure, st.G_structure = _model_structure(scn)
     st.horizon = m.horizon
     st.dt = m.dt
     st.Q = np.diag(np.concatenate([m.Q_p, m.Q_r]))
