@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from .config import Config, Disturbance, Tube
+from .config import Config, DisturbanceSection, TubeSection
 from .disturbances import ActuatorMismatch, AdditiveDisturbance
 from .dynamics import ProximityModel
 from .identification import ForgettingFactorIdentifier
@@ -127,8 +127,8 @@ class LoopSetup:
     mpc_settings: Any  # _core.mpc.Settings (the controller copies it)
     designer_specs: tuple[dict[str, Any], dict[str, Any]]  # TubeDesigner arguments: translation, rotation
     propagator: Any  # _core.dynamics.PropagatorSettings of the truth
-    disturbance: Disturbance
-    tube: Tube
+    disturbance: DisturbanceSection
+    tube: TubeSection
     n_steps: int
 
     def designers(self) -> tuple[TubeDesigner, TubeDesigner]:
