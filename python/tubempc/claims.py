@@ -103,6 +103,12 @@ def _jp_source(run_dir: Path) -> str | None:
     )
 
 
+def _runs_outside(mc: MonteCarloSummary | None, method: str) -> int | None:
+    """The campaign's runs of ``method`` that left the tube (None: no campaign, or it did not fly it)."""
+    row = None if mc is None else mc.methods.get(method)
+    return None if row is None else row.runs_outside_tube
+
+
 def _run_claims(run_dir: Path, run: RunSummary, mc: MonteCarloSummary | None) -> list[Claim]:
     m = run.methods
     if not {"tbmpc", "ffa"} <= set(m):
@@ -110,13 +116,14 @@ def _run_claims(run_dir: Path, run: RunSummary, mc: MonteCarloSummary | None) ->
     t, f = m["tbmpc"], m["ffa"]
     steps = int(sum(t.statuses.values()))
     claims = []
-    mc_t = mc.methods["tbmpc"].runs_outside_tube if mc else None
+    mc_t = _runs_outside(mc, "tbmpc")
     claims.append(
         Claim(
             "TBMPC's trajectory partly leaves its fixed tube",
             "Sec. 3.2, Figs. 10-11",
             "yes",
-            f"{t.steps_outside_tube} of {steps} steps outside" + (f"; {mc_t} of {mc.runs} Monte Carlo runs" if mc else ""),
+            f"{t.steps_outside_tube} of {steps} steps outside"
+            + (f"; {mc_t} of {mc.runs} Monte Carlo runs" if mc and mc_t is not None else ""),
             t.steps_outside_tube > 0,
         )
     )
@@ -130,13 +137,14 @@ def _run_claims(run_dir: Path, run: RunSummary, mc: MonteCarloSummary | None) ->
             None if exc is None else exc[1] > 0,
         )
     )
-    mc_f = mc.methods["ffa"].runs_outside_tube if mc else None
+    mc_f = _runs_outside(mc, "ffa")
     claims.append(
         Claim(
             "TBMPC-FFA stays inside its tube",
             "Sec. 3.2, Figs. 10-11; Table 4 (100 runs)",
             "yes, in every run",
-            f"{f.steps_outside_tube} steps outside" + (f"; {mc_f} of {mc.runs} Monte Carlo runs" if mc else ""),
+            f"{f.steps_outside_tube} steps outside"
+            + (f"; {mc_f} of {mc.runs} Monte Carlo runs" if mc and mc_f is not None else ""),
             f.steps_outside_tube == 0 and (mc_f is None or mc_f == 0),
         )
     )

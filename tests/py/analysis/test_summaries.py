@@ -73,6 +73,7 @@ def test_a_file_of_another_kind_or_format_or_with_a_bad_field_is_refused_by_name
 
 
 def test_a_results_folder_of_format_0_files_still_reports(tmp_path: Path) -> None:
+    from tubempc.claims import paper_claims
     from tubempc.report import write_report
 
     shutil.copy(BENCHMARKS / "run_bennu-paper.json", tmp_path / "summary.json")
@@ -93,6 +94,15 @@ def test_a_results_folder_of_format_0_files_still_reports(tmp_path: Path) -> Non
     shutil.copy(tmp_path / "montecarlo" / "summary.json", only_mc / "summary.json")
     _, md = write_report(only_mc)
     assert "Monte Carlo (paper Table 4)" in md.read_text() and "Closed loop" not in md.read_text()
+    # a campaign of one method beside a run of both: the claims use what the campaign flew
+    mc = json.loads((tmp_path / "montecarlo" / "summary.json").read_text())
+    del mc["methods"]["tbmpc"], mc["J_p_mean_reduction_percent"]
+    (tmp_path / "montecarlo" / "summary.json").write_text(json.dumps(mc))
+    _, md = write_report(tmp_path)
+    assert f"| ffa | {mc['methods']['ffa']['J_p']['mean']:.4g} |" in md.read_text()
+    claims = {c.claim: c.measured for c in paper_claims(tmp_path, None, tmp_path / "montecarlo")}
+    assert "Monte Carlo" not in claims["TBMPC's trajectory partly leaves its fixed tube"]
+    assert f"of {mc['runs']} Monte Carlo runs" in claims["TBMPC-FFA stays inside its tube"]
 
 
 def test_a_campaign_with_a_format_0_summary_reports_and_re_flies(tmp_path: Path) -> None:
