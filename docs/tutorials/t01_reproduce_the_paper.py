@@ -29,12 +29,13 @@ from tubempc.runner import run_methods
 work = Path(tempfile.mkdtemp(prefix="tubempc_tutorial1_"))
 cfg = load_config()
 summary = run_methods(cfg, ["tbmpc", "ffa"], 0, work / "run", progress=False, cache_dir=work / "cache")
-for method, s in summary["methods"].items():
+for method, s in summary.methods.items():
     print(
-        f"{method:6s} J_p = {s['J_p']:.4g}, J_r = {s['J_r']:.4g}, terminal position error "
-        f"{1e3 * s['terminal_error']['position']:.2f} mm, steps outside the tube {s['steps_outside_tube']}"
+        f"{method:6s} J_p = {s.J_p:.4g}, J_r = {s.J_r:.4g}, terminal position error "
+        f"{1e3 * s.terminal_error.position:.2f} mm, steps outside the tube {s.steps_outside_tube}"
     )
-print(f"TBMPC-FFA's J_p is {summary['comparison']['J_p_reduction_percent']:.1f} % below TBMPC's (paper: about 90 %)")
+assert summary.comparison is not None  # both methods flown
+print(f"TBMPC-FFA's J_p is {summary.comparison.J_p_reduction_percent:.1f} % below TBMPC's (paper: about 90 %)")
 
 # %%
 # The tube, step by step
@@ -61,12 +62,12 @@ fig.tight_layout()
 # run's record keeps the dispersions it applied (``tubempc run --from-campaign DIR --index I`` flies
 # one again). The paper's Table 4 uses 100 runs; four keep this page quick.
 mc = montecarlo(cfg, 4, work / "montecarlo", master_seed=0, workers=2, progress=False)
-for method, row in mc["methods"].items():
+for method, row in mc.methods.items():
     print(
-        f"{method:6s} J_p mean {row['J_p']['mean']:.4g} (3 sigma {row['J_p']['3sigma']:.2g}), "
-        f"runs outside the tube {row['runs_outside_tube']}/{mc['runs']}"
+        f"{method:6s} J_p mean {row.J_p.mean:.4g} (3 sigma {row.J_p.three_sigma:.2g}), "
+        f"runs outside the tube {row.runs_outside_tube}/{mc.runs}"
     )
-print(f"campaign: {mc['wall_time_s']:.1f} s on {mc['workers']} workers")
+print(f"campaign: {mc.wall_time_s:.1f} s on {mc.workers} workers")
 
 # %%
 # The report
@@ -81,4 +82,4 @@ print(f"campaign: {mc['wall_time_s']:.1f} s on {mc['workers']} workers")
 #    :width: 100%
 html, md = write_report(work / "run")
 print(f"{html.name}: {html.stat().st_size / 1e6:.1f} MB; {md.name}: {len(md.read_text().splitlines())} lines")
-print(np.round([summary["methods"][m]["J_p"] for m in ("tbmpc", "ffa")], 4))
+print(np.round([summary.methods[m].J_p for m in ("tbmpc", "ffa")], 4))

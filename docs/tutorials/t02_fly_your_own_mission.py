@@ -72,11 +72,11 @@ print(f"{len(cfg.defaulted)} fields taken from the paper scenario, e.g. {', '.jo
 # Fly it
 # ------
 summary = run_methods(cfg, ["tbmpc", "ffa"], 0, work / "run", progress=False, cache_dir=work / "cache")
-for method, s in summary["methods"].items():
+for method, s in summary.methods.items():
     print(
-        f"{method:6s} J_p = {s['J_p']:.4g}, terminal position error {1e3 * s['terminal_error']['position']:.2f} mm, "
-        f"steps outside the tube {s['steps_outside_tube']}, glide-slope violations "
-        f"{s['constraint_violations']['glide_slope_steps']}"
+        f"{method:6s} J_p = {s.J_p:.4g}, terminal position error {1e3 * s.terminal_error.position:.2f} mm, "
+        f"steps outside the tube {s.steps_outside_tube}, glide-slope violations "
+        f"{s.constraint_violations.glide_slope_steps}"
     )
 
 # %%
@@ -101,8 +101,8 @@ fig.tight_layout()
 # Measured against the site itself, not against the reference's end (which a wrong site would share):
 # the surface point at 20 deg N, 40 deg E of the body, found again here by ray casting on the mesh, and
 # the final position turned into the body frame A at t_f.
+from tubempc.landing_site import site_from_lat_lon  # noqa: E402
 from tubempc.scenario import build_scenario  # noqa: E402
-from tubempc.site import site_from_lat_lon  # noqa: E402
 
 scn = build_scenario(load_config(work / "run" / "config.toml"), cache_dir=work / "cache")
 site = site_from_lat_lon(scn.shape, np.radians(20.0), np.radians(40.0), 0.0)

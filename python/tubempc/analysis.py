@@ -4,10 +4,12 @@ and :mod:`tubempc.campaign`."""
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import os
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -22,8 +24,18 @@ from .pinning import pin_config, shape_record
 from .results import RunRecord, save_record
 from .runner import guarantee_lost, run_summary
 from .scenario import METHODS, Scenario, build_scenario
+from .summaries import (
+    CampaignMethodResult,
+    CampaignRunResult,
+    MeanSpread,
+    MonteCarloMethodSummary,
+    MonteCarloSummary,
+    SweepRow,
+    SweepSummary,
+    write_summary,
+)
 
-__all__ = ["MONTECARLO_METRICS", "montecarlo", "montecarlo_summary", "refly_montecarlo_run", "sweep"]
+__all__ = ["MONTECARLO_METRICS", "Reflight", "montecarlo", "montecarlo_summary", "refly_montecarlo_run", "sweep"]
 
 _SCENARIOS: dict[str, Scenario] = {}
 
@@ -36,39 +48,28 @@ def _scenario(cfg: Config, cache_dir: str) -> Scenario:
     return _SCENARIOS[key]
 
 
-#: The metrics a Monte Carlo run keeps per method (its record's "result"; run_time_s is the machine's).
-MONTECARLO_METRICS = (
-    "J_p",
-    "J_r",
-    "control_effort",
-    "terminal_error",
-    "rms_error",
-    "max_tube_excursion",
-    "steps_outside_tube",
-    "constraint_violations",
-    "statuses",
-    "states_inside_body",
-    "run_time_s",
-)
+#: The metrics a Monte Carlo run keeps per method (the fields of its record's "result",
+#: :class:`tubempc.summaries.CampaignMethodResult`; run_time_s is the machine's).
+MONTECARLO_METRICS = tuple(f.name for f in dataclasses.fields(CampaignMethodResult))
 
 
 def _fly_montecarlo_run(
     cfg: Config, scn: Scenario, methods: tuple[str, ...], max_steps: int | None, tube_threads: int, seed: int
-) -> tuple[dict[str, Any], dict[str, RunRecord]]:
+) -> tuple[CampaignRunResult, dict[str, RunRecord]]:
     """Every method with disturbance seed ``seed`` as a campaign flies it: the run's result (metrics per
     method and the dispersions applied) and the records."""
     # The campaign's processes fill the cores: background designs run inline, with the same numbers
     # when their adoption is deterministic (tube_policy.py).
     worker = "inline" if cfg.tube.design_adoption == "deterministic" else None
-    out: dict[str, Any] = {}
+    out: dict[str, CampaignMethodResult] = {}
+    applied: dict[str, Any] | None = None
     records: dict[str, RunRecord] = {}
     for m in methods:
         rec = simulate(scn, m, seed, max_steps=max_steps, tube_threads=tube_threads, design_worker=worker)
-        s = run_summary(scn, rec)
-        out[m] = {k: s[k] for k in MONTECARLO_METRICS}
-        out["applied"] = rec.applied  # the same for every method: one seed, one sequence of draws
+        out[m] = CampaignMethodResult.of(run_summary(scn, rec))
+        applied = rec.applied  # the same for every method: one seed, one sequence of draws
         records[m] = rec
-    return out, records
+    return CampaignRunResult(methods=out, applied=applied), records
 
 
 def _run_arrays(records: dict[str, RunRecord]) -> dict[str, np.ndarray]:
@@ -102,10 +103,31 @@ def _montecarlo_run(
     tmp = path.with_name(f".{path.name}.tmp.npz")
     np.savez_compressed(tmp, allow_pickle=False, **arrays)
     os.replace(tmp, path)
-    return out
+    return out.to_json()
 
 
-def refly_montecarlo_run(campaign_dir: Path, index: int, out: Path) -> dict[str, Any]:
+@dataclass(frozen=True)
+class Reflight:
+    """A campaign run flown again (refly.json): its J_p and J_r per method, the guarantees it lost, and
+    what differs from the campaign's record (``equal``: nothing, to the bit)."""
+
+    campaign: str
+    index: int
+    seed: int
+    methods: dict[str, dict[str, float]]  # method -> {"J_p": ..., "J_r": ...}
+    guarantee_lost: dict[str, list[str]]
+    differences: list[str]
+    machine: dict[str, Any]
+
+    @property
+    def equal(self) -> bool:
+        return not self.differences
+
+    def to_json(self) -> dict[str, Any]:
+        return {**dataclasses.asdict(self), "equal": self.equal}
+
+
+def refly_montecarlo_run(campaign_dir: Path, index: int, out: Path) -> Reflight:
     """Flies run ``index`` of the campaign in ``campaign_dir`` again, alone, from its configuration and
     its record's seed and cut, writes ``out/<method>.h5`` and ``out/refly.json`` and returns the
     comparison: every metric (but run_time_s) and the applied dispersions against the record's, with
@@ -116,8 +138,8 @@ def refly_montecarlo_run(campaign_dir: Path, index: int, out: Path) -> dict[str,
     record = json.loads(path.read_text(encoding="utf-8"))
     if not record.get("ok"):
         raise ValueError(f"{path}: the run failed in the campaign: {record.get('error')}")
-    result = record["result"]
-    if "applied" not in result:
+    result = CampaignRunResult.from_json(record["result"], f"{path}: result")
+    if result.applied is None:
         raise ValueError(f"{path}: written before runs recorded their dispersions; rerun the campaign")
     cfg = load_config(campaign_dir / "config.toml")
     manifest_path = campaign_dir / "campaign.json"
@@ -132,32 +154,29 @@ def refly_montecarlo_run(campaign_dir: Path, index: int, out: Path) -> dict[str,
         now = shape_record(cfg)
         if now is None or now["sha256"] != pinned["sha256"]:
             differences.append(f"shape file {cfg.asteroid.shape} (its sha256 is not the campaign's)")
-    methods = tuple(m for m in METHODS if m in result)
+    methods = tuple(m for m in METHODS if m in result.methods)
     scn = build_scenario(cfg, cache_dir=campaign_dir / "cache")
-    again, records = _fly_montecarlo_run(cfg, scn, methods, result["applied"]["max_steps"], 1, int(record["seed"]))
+    flown, records = _fly_montecarlo_run(cfg, scn, methods, result.applied["max_steps"], 1, int(record["seed"]))
     out.mkdir(parents=True, exist_ok=True)
     for m, rec in records.items():
-        save_record(out / f"{m}.h5", rec, config=cfg.to_dict(), metadata=again[m])
+        save_record(out / f"{m}.h5", rec, config=cfg.to_dict(), metadata=flown.methods[m].to_json())
     # JSON round trip: the record's numbers were read from JSON (floats survive it exactly).
-    again = json.loads(json.dumps(again))
-    differences += [
-        f"{m}.{k}"
-        for m in methods
-        for k in MONTECARLO_METRICS
-        if k != "run_time_s" and k in result[m] and again[m][k] != result[m][k]
-    ] + (["applied"] if again["applied"] != result["applied"] else [])
+    again = CampaignRunResult.from_json(json.loads(json.dumps(flown.to_json())))
+    for m in methods:
+        now, then = again.methods[m].to_json(), record["result"][m]
+        differences += [f"{m}.{k}" for k in MONTECARLO_METRICS if k != "run_time_s" and k in then and now.get(k) != then[k]]
+    differences += ["applied"] if again.applied != result.applied else []
     differences += _array_differences(campaign_dir / "runs" / f"run_{index:05d}.npz", _run_arrays(records))
-    comparison = {
-        "campaign": str(campaign_dir),
-        "index": index,
-        "seed": int(record["seed"]),
-        "methods": {m: {"J_p": again[m]["J_p"], "J_r": again[m]["J_r"]} for m in methods},
-        "guarantee_lost": {m: guarantee_lost(again[m]) for m in methods},
-        "differences": differences,
-        "equal": not differences,
-        "machine": machine_info(),
-    }
-    (out / "refly.json").write_text(json.dumps(comparison, indent=1, sort_keys=True))
+    comparison = Reflight(
+        campaign=str(campaign_dir),
+        index=index,
+        seed=int(record["seed"]),
+        methods={m: {"J_p": again.methods[m].J_p, "J_r": again.methods[m].J_r} for m in methods},
+        guarantee_lost={m: guarantee_lost(again.methods[m]) for m in methods},
+        differences=differences,
+        machine=machine_info(),
+    )
+    (out / "refly.json").write_text(json.dumps(comparison.to_json(), indent=1, sort_keys=True))
     return comparison
 
 
@@ -182,36 +201,55 @@ def _array_differences(path: Path, arrays: dict[str, np.ndarray]) -> list[str]:
     return out
 
 
-def montecarlo_summary(campaign: CampaignResult, methods: tuple[str, ...]) -> dict[str, Any]:
+def montecarlo_summary(
+    campaign: CampaignResult,
+    methods: tuple[str, ...],
+    *,
+    master_seed: int,
+    config_hash: str,
+    wall_time_s: float,
+    workers: int | None = None,
+    scheduler: str | None = None,
+) -> MonteCarloSummary:
     """Table 4 (mean and 3 sigma of J_p and J_r per method) and the runs that ever left the tube."""
-    summary: dict[str, Any] = {"runs": len(campaign.results), "failed_runs": sorted(campaign.failures), "methods": {}}
+    where = campaign.out_dir / "runs"
+    results = [
+        CampaignRunResult.from_json(r, f"{where}/run_{i:05d}.json: result") for i, r in sorted(campaign.results.items())
+    ]
+    per_method: dict[str, MonteCarloMethodSummary] = {}
     for m in methods:
-        rows = [r[m] for r in campaign.results.values()]
+        rows = [r.methods[m] for r in results]
         if not rows:
             continue
-        jp = np.array([r["J_p"] for r in rows])
-        jr = np.array([r["J_r"] for r in rows])
-        exc = np.array([max(r["max_tube_excursion"].values()) for r in rows])
-        summary["methods"][m] = {
-            "J_p": {"mean": float(jp.mean()), "3sigma": float(3 * jp.std(ddof=1)) if jp.size > 1 else 0.0},
-            "J_r": {"mean": float(jr.mean()), "3sigma": float(3 * jr.std(ddof=1)) if jr.size > 1 else 0.0},
-            "runs_outside_tube": int(np.sum(exc > 1.0)),
-            "max_tube_excursion": float(exc.max()),
-            "runs_with_cone_violation": int(
-                sum(
-                    r["constraint_violations"]["glide_slope_steps"] + r["constraint_violations"]["los_steps"] > 0
-                    for r in rows
-                )
-            ),
-            "terminal_position_error_max_m": float(max(r["terminal_error"]["position"] for r in rows)),
-            "runs_inside_body": int(sum(r.get("states_inside_body", 0) > 0 for r in rows)),
-            # runs that lost a guarantee (tube left, fallback steps, a state inside the body): exit status 4
-            "runs_guarantee_lost": int(sum(bool(guarantee_lost(r)) for r in rows)),
-        }
-    if {"tbmpc", "ffa"} <= set(summary["methods"]):
-        t, f = summary["methods"]["tbmpc"]["J_p"], summary["methods"]["ffa"]["J_p"]
-        summary["J_p_mean_reduction_percent"] = 100.0 * (1.0 - f["mean"] / t["mean"])
-    return summary
+        jp = np.array([r.J_p for r in rows])
+        jr = np.array([r.J_r for r in rows])
+        exc = np.array([max(r.max_tube_excursion.translation, r.max_tube_excursion.rotation) for r in rows])
+        per_method[m] = MonteCarloMethodSummary(
+            J_p=MeanSpread(mean=float(jp.mean()), three_sigma=float(3 * jp.std(ddof=1)) if jp.size > 1 else 0.0),
+            J_r=MeanSpread(mean=float(jr.mean()), three_sigma=float(3 * jr.std(ddof=1)) if jr.size > 1 else 0.0),
+            runs_outside_tube=int(np.sum(exc > 1.0)),
+            max_tube_excursion=float(exc.max()),
+            runs_with_cone_violation=int(sum(r.constraint_violations.steps > 0 for r in rows)),
+            terminal_position_error_max_m=float(max(r.terminal_error.position for r in rows)),
+            runs_inside_body=int(sum((r.states_inside_body or 0) > 0 for r in rows)),
+            runs_guarantee_lost=int(sum(bool(guarantee_lost(r)) for r in rows)),
+        )
+    reduction = None
+    if {"tbmpc", "ffa"} <= set(per_method):
+        reduction = 100.0 * (1.0 - per_method["ffa"].J_p.mean / per_method["tbmpc"].J_p.mean)
+    return MonteCarloSummary(
+        runs=len(campaign.results),
+        failed_runs=sorted(campaign.failures),
+        methods=per_method,
+        J_p_mean_reduction_percent=reduction,
+        master_seed=master_seed,
+        config_hash=config_hash,
+        executed_now=len(campaign.executed),
+        wall_time_s=wall_time_s,
+        workers=workers,
+        scheduler=scheduler,
+        machine=machine_info(),
+    )
 
 
 def montecarlo(
@@ -227,7 +265,7 @@ def montecarlo(
     only: list[int] | None = None,
     progress: bool = True,
     max_steps: int | None = None,
-) -> dict[str, Any]:
+) -> MonteCarloSummary:
     """Runs (or resumes) a campaign into ``out`` and writes ``out/summary.json`` and the envelope figures.
 
     ``max_steps`` cuts every run short (quick checks); None runs the whole mission."""
@@ -257,19 +295,16 @@ def montecarlo(
         only=only,
         progress=progress,
     )
-    summary = montecarlo_summary(camp, tuple(methods))
-    summary.update(
-        {
-            "master_seed": master_seed,
-            "config_hash": cfg.hash(),
-            "executed_now": len(camp.executed),
-            "wall_time_s": time.perf_counter() - t0,
-            "workers": workers,
-            "scheduler": scheduler,
-            "machine": machine_info(),
-        }
+    summary = montecarlo_summary(
+        camp,
+        tuple(methods),
+        master_seed=master_seed,
+        config_hash=cfg.hash(),
+        wall_time_s=time.perf_counter() - t0,
+        workers=workers,
+        scheduler=scheduler,
     )
-    (out / "summary.json").write_text(json.dumps(summary, indent=1, sort_keys=True))
+    write_summary(out / "summary.json", summary)
     _envelope_figures(cfg, camp, out, tuple(methods))
     return summary
 
@@ -311,7 +346,7 @@ def _envelope_figures(cfg: Config, camp: CampaignResult, out: Path, methods: tup
 
 def sweep(
     cfg: Config, lambdas_p: list[float], lambdas_r: list[float] | None, out: Path, *, seed: int = 0, progress: bool = True
-) -> dict[str, Any]:
+) -> SweepSummary:
     """Table 3: TBMPC and TBMPC-FFA at each (lambda_p, lambda_r); Figures 15-16 (error and tube
     half-width of x and phi_x against lambda)."""
     if lambdas_r is not None and len(lambdas_r) != len(lambdas_p):
@@ -325,10 +360,10 @@ def sweep(
     cfg = pin_config(cfg, out)
     scn = build_scenario(cfg, cache_dir=out / "cache")
     cfg.save(out / "config.toml")
-    rows: dict[str, Any] = {}
+    rows: dict[str, SweepRow] = {}
     rec = simulate(scn, "tbmpc", seed, progress=progress)
     tube_half_x = float(np.mean(np.sqrt(rec.Pe_p[:, 0, 0])))
-    rows["TBMPC"] = {**run_summary(scn, rec), "mean_tube_half_width_x_m": tube_half_x}
+    rows["TBMPC"] = SweepRow.of(run_summary(scn, rec), mean_tube_half_width_x_m=tube_half_x)
     err_x: dict[str, np.ndarray] = {"TBMPC": rec.x[:, 0] - rec.zbar[:, 0]}
     err_phi: dict[str, np.ndarray] = {"TBMPC": rec.x[:, 6] - rec.zbar[:, 6]}
     tube_x = {"TBMPC": np.sqrt(rec.Pe_p[:, 0, 0])}
@@ -336,27 +371,26 @@ def sweep(
     for lp, lr in pairs:
         label = f"FFA lambda_p={lp:g}, lambda_r={lr:g}"
         r = simulate(scn, "ffa", seed, progress=progress, lambda_p=lp, lambda_r=lr)
-        rows[label] = {
-            **run_summary(scn, r),
-            "lambda_p": lp,
-            "lambda_r": lr,
-            "mean_tube_half_width_x_m": float(np.mean(np.sqrt(r.Pe_p[:, 0, 0]))),
-        }
+        rows[label] = SweepRow.of(
+            run_summary(scn, r),
+            lambda_p=lp,
+            lambda_r=lr,
+            mean_tube_half_width_x_m=float(np.mean(np.sqrt(r.Pe_p[:, 0, 0]))),
+        )
         err_x[label] = r.x[:, 0] - r.zbar[:, 0]
         err_phi[label] = r.x[:, 6] - r.zbar[:, 6]
         tube_x[label] = np.sqrt(r.Pe_p[:, 0, 0])
         tube_phi[label] = np.sqrt(r.Pe_r[:, 0, 0])
-    feasible = [r["lambda_p"] for r in rows.values() if "lambda_p" in r and r["tube_feasible_every_step"]]
-    summary = {
-        "seed": seed,
-        "config_hash": cfg.hash(),
-        "shape_file": shape_record(cfg),
-        "machine": machine_info(),
-        "rows": rows,
-        # of the lambda_p swept: the smallest whose TBMPC-FFA flew a designed or certified tube at every step
-        "smallest_feasible_lambda_p": min(feasible) if feasible else None,
-    }
-    (out / "sweep.json").write_text(json.dumps(summary, indent=1, sort_keys=True))
+    feasible = [r.lambda_p for r in rows.values() if r.lambda_p is not None and r.tube_feasible_every_step]
+    summary = SweepSummary(
+        seed=seed,
+        config_hash=cfg.hash(),
+        shape_file=shape_record(cfg),
+        machine=machine_info(),
+        rows=rows,
+        smallest_feasible_lambda_p=min(feasible) if feasible else None,
+    )
+    write_summary(out / "sweep.json", summary)
     t = np.arange(cfg.mpc.n_steps + 1) * cfg.mpc.dt
     figures.save(figures.lambda_sensitivity(t, err_x, tube_x, "x (m)"), out / "fig15_lambda_x.png")
     figures.save(figures.lambda_sensitivity(t, err_phi, tube_phi, "phi_x (rad)"), out / "fig16_lambda_phi.png")

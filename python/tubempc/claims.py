@@ -8,12 +8,13 @@ table in both reports.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TypeVar
 
 import numpy as np
+
+from .summaries import MonteCarloSummary, RunSummary, SweepRow, SweepSummary, read_summary
 
 __all__ = ["PAPER_TABLE3", "PAPER_TABLE4", "Claim", "holding_floor", "paper_claims"]
 
@@ -49,8 +50,8 @@ class Claim:
         return "not measured" if self.reproduced is None else ("yes" if self.reproduced else "no")
 
 
-def _load(path: Path | None) -> dict[str, Any] | None:
-    return None if path is None or not path.exists() else dict(json.loads(path.read_text(encoding="utf-8")))
+def _load(path: Path | None, cls: type[_S]) -> _S | None:
+    return None if path is None or not path.exists() else read_summary(path, cls)
 
 
 def _exceedances(run_dir: Path) -> tuple[int, int] | None:
@@ -67,6 +68,8 @@ def _exceedances(run_dir: Path) -> tuple[int, int] | None:
     out = prior_bound_exceedances(rec.w, prior, ident.pw_scale)[:, 6:12]
     return int(out.shape[0]), int(np.any(out, axis=1).sum())
 
+
+_S = TypeVar("_S", RunSummary, SweepSummary, MonteCarloSummary)
 
 #: The share of a J_p difference whose source steps the claim names.
 SOURCE_SHARE = 0.9
@@ -100,22 +103,28 @@ def _jp_source(run_dir: Path) -> str | None:
     )
 
 
-def _run_claims(run_dir: Path, run: dict[str, Any], mc: dict[str, Any] | None) -> list[Claim]:
-    m = run["methods"]
+def _runs_outside(mc: MonteCarloSummary | None, method: str) -> int | None:
+    """The campaign's runs of ``method`` that left the tube (None: no campaign, or it did not fly it)."""
+    row = None if mc is None else mc.methods.get(method)
+    return None if row is None else row.runs_outside_tube
+
+
+def _run_claims(run_dir: Path, run: RunSummary, mc: MonteCarloSummary | None) -> list[Claim]:
+    m = run.methods
     if not {"tbmpc", "ffa"} <= set(m):
         return []
     t, f = m["tbmpc"], m["ffa"]
-    steps = int(sum(t["statuses"].values()))
+    steps = int(sum(t.statuses.values()))
     claims = []
-    mc_t = mc["methods"]["tbmpc"]["runs_outside_tube"] if mc else None
+    mc_t = _runs_outside(mc, "tbmpc")
     claims.append(
         Claim(
             "TBMPC's trajectory partly leaves its fixed tube",
             "Sec. 3.2, Figs. 10-11",
             "yes",
-            f"{t['steps_outside_tube']} of {steps} steps outside"
-            + (f"; {mc_t} of {mc['runs']} Monte Carlo runs" if mc else ""),
-            t["steps_outside_tube"] > 0,
+            f"{t.steps_outside_tube} of {steps} steps outside"
+            + (f"; {mc_t} of {mc.runs} Monte Carlo runs" if mc and mc_t is not None else ""),
+            t.steps_outside_tube > 0,
         )
     )
     exc = _exceedances(run_dir)
@@ -128,27 +137,29 @@ def _run_claims(run_dir: Path, run: dict[str, Any], mc: dict[str, Any] | None) -
             None if exc is None else exc[1] > 0,
         )
     )
-    mc_f = mc["methods"]["ffa"]["runs_outside_tube"] if mc else None
+    mc_f = _runs_outside(mc, "ffa")
     claims.append(
         Claim(
             "TBMPC-FFA stays inside its tube",
             "Sec. 3.2, Figs. 10-11; Table 4 (100 runs)",
             "yes, in every run",
-            f"{f['steps_outside_tube']} steps outside" + (f"; {mc_f} of {mc['runs']} Monte Carlo runs" if mc else ""),
-            f["steps_outside_tube"] == 0 and (mc_f is None or mc_f == 0),
+            f"{f.steps_outside_tube} steps outside"
+            + (f"; {mc_f} of {mc.runs} Monte Carlo runs" if mc and mc_f is not None else ""),
+            f.steps_outside_tube == 0 and (mc_f is None or mc_f == 0),
         )
     )
-    red = 100.0 * (1.0 - f["J_p"] / t["J_p"])
+    red = 100.0 * (1.0 - f.J_p / t.J_p)
+    mc_red = mc.J_p_mean_reduction_percent if mc else None
     lo, hi = REDUCTION_BAND
     claims.append(
         Claim(
             f"TBMPC-FFA lowers J_p by about 90 % (taken as {lo:g}-{hi:g} %)",
             "Tables 3-4",
             f"{PAPER_REDUCTION_TABLE3:.1f} % (Table 3), {PAPER_REDUCTION_TABLE4:.1f} % (Table 4)",
-            f"{red:.1f} % (one run, J_p {t['J_p']:.4g} -> {f['J_p']:.4g}"
+            f"{red:.1f} % (one run, J_p {t.J_p:.4g} -> {f.J_p:.4g}"
             + (f"; {source})" if (source := _jp_source(run_dir)) else ")")
-            + (f"; {mc['J_p_mean_reduction_percent']:.1f} % (Monte Carlo means)" if mc else ""),
-            lo <= red <= hi and (mc is None or lo <= mc["J_p_mean_reduction_percent"] <= hi),
+            + (f"; {mc_red:.1f} % (Monte Carlo means)" if mc_red is not None else ""),
+            lo <= red <= hi and (mc_red is None or lo <= mc_red <= hi),
         )
     )
     claims.append(
@@ -156,8 +167,8 @@ def _run_claims(run_dir: Path, run: dict[str, Any], mc: dict[str, Any] | None) -
             "TBMPC-FFA uses more attitude torque (J_r higher)",
             "Sec. 3.3, Tables 3-4",
             f"{PAPER_TABLE4['tbmpc']['J_r'][0]:.3g} -> {PAPER_TABLE4['ffa']['J_r'][0]:.3g} (Table 4)",
-            f"{t['J_r']:.4g} -> {f['J_r']:.4g}",
-            f["J_r"] > t["J_r"],
+            f"{t.J_r:.4g} -> {f.J_r:.4g}",
+            f.J_r > t.J_r,
         )
     )
     claims.append(
@@ -165,40 +176,45 @@ def _run_claims(run_dir: Path, run: dict[str, Any], mc: dict[str, Any] | None) -
             "TBMPC-FFA tracks the position more closely",
             "Sec. 3.2, Figs. 6-7",
             "yes",
-            f"RMS position error {t['rms_error']['position']:.3g} m -> {f['rms_error']['position']:.3g} m",
-            f["rms_error"]["position"] < t["rms_error"]["position"],
+            f"RMS position error {t.rms_error.position:.3g} m -> {f.rms_error.position:.3g} m",
+            f.rms_error.position < t.rms_error.position,
         )
     )
     return claims
 
 
-def _holds(row: dict[str, Any]) -> bool:
+def _holds(row: SweepRow) -> bool:
     """The sweep row's TBMPC-FFA never met an infeasible tube LMI and never left its tube (steps on the
     last certified tube, whose certification failed, are reported apart: see the claim's text)."""
-    return bool(row.get("tube_design_failures", 0) == 0 and row["steps_outside_tube"] == 0)
+    return row.tube_design_failures == 0 and row.steps_outside_tube == 0
 
 
-def holding_floor(rows: list[dict[str, Any]]) -> float | None:
+def _lambda_p(row: SweepRow) -> float:
+    if row.lambda_p is None:
+        raise ValueError("a TBMPC row has no lambda_p")
+    return row.lambda_p
+
+
+def holding_floor(rows: list[SweepRow]) -> float | None:
     """Of the sweep's TBMPC-FFA rows, the smallest lambda_p from which the tube holds (no infeasible LMI,
     never left) at every larger lambda_p swept; None if it fails at the largest."""
     floor = None
-    for r in sorted(rows, key=lambda r: -r["lambda_p"]):
+    for r in sorted(rows, key=lambda r: -_lambda_p(r)):
         if not _holds(r):
             break
-        floor = r["lambda_p"]
+        floor = r.lambda_p
     return floor
 
 
-def _sweep_claims(sweep: dict[str, Any] | None) -> list[Claim]:
-    ffa_rows = [] if sweep is None else [r for r in sweep["rows"].values() if "lambda_p" in r]
-    all_rows = sorted(ffa_rows, key=lambda r: r["lambda_p"])
+def _sweep_claims(sweep: SweepSummary | None) -> list[Claim]:
+    all_rows = sorted([] if sweep is None else sweep.ffa_rows, key=_lambda_p)
     # The trend claims are Table 3's: its lambda_p (0.96, 0.97, 0.98) only.
-    rows = [r for r in all_rows if any(abs(r["lambda_p"] - float(lam)) < 1e-9 for lam in PAPER_TABLE3 if lam != "TBMPC")]
-    lams = [r["lambda_p"] for r in rows]
+    rows = [r for r in all_rows if any(abs(_lambda_p(r) - float(lam)) < 1e-9 for lam in PAPER_TABLE3 if lam != "TBMPC")]
+    lams = [_lambda_p(r) for r in rows]
     none = "no sweep in this folder (tubempc sweep)"
     trend = len(rows) >= 2
-    jp = [r["J_p"] for r in rows]
-    tube = [r.get("mean_tube_half_width_x_m") for r in rows]
+    jp = [r.J_p for r in rows]
+    tube = [r.mean_tube_half_width_x_m for r in rows]
     claims = [
         Claim(
             "J_p grows with lambda",
@@ -217,14 +233,14 @@ def _sweep_claims(sweep: dict[str, Any] | None) -> list[Claim]:
             bool(np.all(np.diff(np.asarray(tube, dtype=float)) > 0)) if trend and None not in tube else None,
         ),
     ]
-    below = [r for r in all_rows if r["lambda_p"] < PAPER_FEASIBILITY_LAMBDA]
-    above = [r for r in all_rows if r["lambda_p"] >= PAPER_FEASIBILITY_LAMBDA]
+    below = [r for r in all_rows if _lambda_p(r) < PAPER_FEASIBILITY_LAMBDA]
+    above = [r for r in all_rows if _lambda_p(r) >= PAPER_FEASIBILITY_LAMBDA]
     if below and above:
-        infeasible = [r["lambda_p"] for r in all_rows if r.get("tube_design_failures", 0) > 0]
-        uncertified = [(r["lambda_p"], r["tube_uncertified_steps"]) for r in all_rows if r.get("tube_uncertified_steps")]
-        left = [(r["lambda_p"], r["steps_outside_tube"]) for r in all_rows if r["steps_outside_tube"] > 0]
+        infeasible = [_lambda_p(r) for r in all_rows if r.tube_design_failures > 0]
+        uncertified = [(_lambda_p(r), r.tube_uncertified_steps) for r in all_rows if r.tube_uncertified_steps]
+        left = [(_lambda_p(r), r.steps_outside_tube) for r in all_rows if r.steps_outside_tube > 0]
         floor = holding_floor(all_rows)
-        lo_hi = f"{all_rows[0]['lambda_p']:g}-{all_rows[-1]['lambda_p']:g}"
+        lo_hi = f"{_lambda_p(all_rows[0]):g}-{_lambda_p(all_rows[-1]):g}"
         parts = [
             "LMI infeasible at lambda_p " + ", ".join(f"{v:g}" for v in infeasible)
             if infeasible
@@ -255,8 +271,8 @@ def _sweep_claims(sweep: dict[str, Any] | None) -> list[Claim]:
 def paper_claims(run_dir: Path | None, sweep_dir: Path | None = None, mc_dir: Path | None = None) -> list[Claim]:
     """The claims, measured on the results in ``run_dir`` (tubempc run), ``sweep_dir`` (tubempc sweep)
     and ``mc_dir`` (tubempc montecarlo); any of them may be None."""
-    run = _load(run_dir / "summary.json") if run_dir is not None else None
-    sweep = _load(sweep_dir / "sweep.json") if sweep_dir is not None else None
-    mc = _load(mc_dir / "summary.json") if mc_dir is not None else None
+    run = _load(run_dir / "summary.json", RunSummary) if run_dir is not None else None
+    sweep = _load(sweep_dir / "sweep.json", SweepSummary) if sweep_dir is not None else None
+    mc = _load(mc_dir / "summary.json", MonteCarloSummary) if mc_dir is not None else None
     claims = _run_claims(run_dir, run, mc) if run_dir is not None and run is not None else []
     return claims + _sweep_claims(sweep)

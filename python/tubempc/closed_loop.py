@@ -33,16 +33,7 @@ import numpy.typing as npt
 from .disturbances import ActuatorMismatch, AdditiveDisturbance
 from .metrics import tube_excursion
 from .results import RunRecord
-from .scenario import (
-    METHODS,
-    P_STATES,
-    R_STATES,
-    Scenario,
-    mpc_settings,
-    plant_disturbance,
-    propagator_options,
-    tube_designers,
-)
+from .scenario import METHODS, P_STATES, R_STATES, Scenario
 from .tube_library import new_controller
 from .tube_policy import BackgroundDesigns
 
@@ -58,14 +49,14 @@ class _Plant:
     scn: Scenario
     disturbance: AdditiveDisturbance
     actuators: ActuatorMismatch
-    propagate_kw: dict[str, Any]
+    propagator: Any  # _core.dynamics.PropagatorSettings
     state: Array  # 13-state [r_L, v_L, q_B/L, omega_BL_B] of the truth
 
     def step(self, k: int, u: Array) -> tuple[Array, Array]:
         """Propagates one control period with input ``u``; returns x_{k+1} and the disturbance drawn."""
         scn, dt = self.scn, self.scn.config.mpc.dt
         u_applied = np.concatenate([self.actuators.apply_acceleration(u[:3]), self.actuators.apply_torque(u[3:])])
-        prop = scn.truth.propagate(k * dt, self.state, u_applied, dt, **self.propagate_kw)
+        prop = scn.truth.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator)
         if prop.status.name != "Success":
             raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
         w_p, w_r = self.disturbance.sample(k)
@@ -120,14 +111,8 @@ def _new_record(scn: Scenario, method: str, seed: int) -> RunRecord:
 
 
 def _new_plant(scn: Scenario, seed: int) -> _Plant:
-    dist = scn.config.disturbance
-    return _Plant(
-        scn,
-        plant_disturbance(scn, seed),
-        ActuatorMismatch(seed + 1, dist.scale_error_p, dist.misalignment_p, dist.scale_error_r, dist.misalignment_r),
-        propagator_options(scn.config),
-        scn.model.state_to_truth(scn.x0),
-    )
+    loop = scn.loop
+    return _Plant(scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, scn.model.state_to_truth(scn.x0))
 
 
 def simulate(
@@ -154,11 +139,12 @@ def simulate(
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     T, dt = scn.n_steps, scn.config.mpc.dt
-    t = scn.config.tube
+    loop = scn.loop  # everything the run takes from the configuration, handed over once
+    t = loop.tube
     worker = design_worker or t.design_worker
     background = method == "ffa" and worker != "none"
     ctrl = new_controller(
-        scn, method, mpc_settings(scn), lambda_p=lambda_p, lambda_r=lambda_r, background_designs=background
+        scn, method, loop.mpc_settings, lambda_p=lambda_p, lambda_r=lambda_r, background_designs=background
     )
     plant = _new_plant(scn, seed)
     rec = _new_record(scn, method, seed)
@@ -172,7 +158,7 @@ def simulate(
     n_run = T if max_steps is None else max(1, min(int(max_steps), T))
     designs = (
         BackgroundDesigns(
-            tube_designers(scn.config),
+            loop.designers(),
             delay=t.design_delay,
             adopt_when_ready=t.design_adoption == "when_ready",
             worker=worker,

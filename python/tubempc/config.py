@@ -97,7 +97,7 @@ _SPD = (
 
 
 @dataclass(frozen=True, eq=False)
-class Environment:
+class EnvironmentSection:
     """Sun and solar radiation pressure (docs/model.md "Translational dynamics")."""
 
     mu_sun: float = field(metadata=_q("m^3/s^2", "gravitational parameter", check=_POS))
@@ -106,7 +106,7 @@ class Environment:
 
 
 @dataclass(frozen=True, eq=False)
-class Asteroid:
+class AsteroidSection:
     """Bennu gravity, spin and shape (docs/model.md "Gravity").
 
     shape: "generated" (the project's Bennu-like body) or a path to a shape file (relative paths
@@ -123,7 +123,7 @@ class Asteroid:
 
 
 @dataclass(frozen=True, eq=False)
-class Spacecraft:
+class SpacecraftSection:
     """Inertia (B principal axes), input bounds and boresight (docs/model.md "Attitude",
     "Constraints")."""
 
@@ -134,7 +134,7 @@ class Spacecraft:
 
 
 @dataclass(frozen=True, eq=False)
-class Constraints:
+class ConstraintsSection:
     """Glide-slope and line-of-sight half-angles (docs/model.md "Constraints"). The glide-slope cone
     is fixed in the body frame A: glide_slope_apex "centre" (the paper's) or "site" (the landing
     site's surface point; needs boundary.terminal = "site"); glide_slope_axis "z" (z_A = z_L, the
@@ -147,7 +147,7 @@ class Constraints:
 
 
 @dataclass(frozen=True, eq=False)
-class Mpc:
+class MpcSection:
     """Discretisation, horizon, SCP threshold and weights (docs/model.md "Linearisation",
     "Tube MPC"). Weights are diagonals, dimensionless as in Table 1. horizon: N (nodes). scp_eps:
     the SCP stop on ||z* - z_ref|| (inf-norm). kinematics: "first_order" (the paper's phi' = w) or
@@ -181,7 +181,7 @@ class Mpc:
 
 
 @dataclass(frozen=True, eq=False)
-class Boundary:
+class BoundarySection:
     """Initial and terminal states (Table 2; docs/model.md "Scenario"): r, v in L (m, m/s),
     phi the rotation vector of q_B/L (rad), w = omega_B/L in B (rad/s). terminal: "paper"
     (rf, vf, phi_f, wf as given, in L), "altitude" (rf moved along its direction to
@@ -215,7 +215,7 @@ class Boundary:
 
 
 @dataclass(frozen=True, eq=False)
-class Identification:
+class IdentificationSection:
     """Forgetting-factor identification (docs/model.md "Disturbance identification").
 
     measured_input: "residual" (default) or "reference_deviation" (literal Eq. 26);
@@ -260,7 +260,7 @@ class Identification:
 
 
 @dataclass(frozen=True, eq=False)
-class Disturbance:
+class DisturbanceSection:
     """Simulated disturbance (disturbances.py): additive, uniform in the ellipsoids with the
     per-axis squared semi-axes S_*, plus actuator mismatch. Project defaults, not the
     paper's (which does not give its realisation). growth_p, growth_r: the ellipsoids' semi-axes
@@ -288,7 +288,7 @@ class Disturbance:
 
 
 @dataclass(frozen=True, eq=False)
-class Tube:
+class TubeSection:
     """Tube design (paper Eq. 25; tube.py, tube_library.py) and update (the C++ controller,
     cpp/include/tubempc/control/tube_update.hpp). weighting: "mpc" takes C = [Q^1/2; 0],
     B2 = [0; R^1/2] from the MPC weights (the paper's choice); "normalized" weights Tr(Pe) by the
@@ -319,7 +319,7 @@ class Tube:
 
 
 @dataclass(frozen=True, eq=False)
-class Simulation:
+class SimulationSection:
     """Truth simulation (project options; docs/model.md "Attitude": the truth integrates the
     quaternion). integrator "rk4" with ``substeps`` per control step or "dopri5" (adaptive, rtol).
     Model mismatch between the controller and the truth: truth density = density_scale *
@@ -340,16 +340,16 @@ class Simulation:
 
 
 _SECTIONS: dict[str, type] = {
-    "environment": Environment,
-    "asteroid": Asteroid,
-    "spacecraft": Spacecraft,
-    "constraints": Constraints,
-    "mpc": Mpc,
-    "boundary": Boundary,
-    "identification": Identification,
-    "disturbance": Disturbance,
-    "tube": Tube,
-    "simulation": Simulation,
+    "environment": EnvironmentSection,
+    "asteroid": AsteroidSection,
+    "spacecraft": SpacecraftSection,
+    "constraints": ConstraintsSection,
+    "mpc": MpcSection,
+    "boundary": BoundarySection,
+    "identification": IdentificationSection,
+    "disturbance": DisturbanceSection,
+    "tube": TubeSection,
+    "simulation": SimulationSection,
 }
 
 
@@ -358,16 +358,16 @@ class Config:
     """The whole scenario in SI. `source` (the file it came from) is not part of the content:
     it is left out of to_dict(), equality and hash()."""
 
-    environment: Environment
-    asteroid: Asteroid
-    spacecraft: Spacecraft
-    constraints: Constraints
-    mpc: Mpc
-    boundary: Boundary
-    identification: Identification
-    disturbance: Disturbance
-    tube: Tube
-    simulation: Simulation
+    environment: EnvironmentSection
+    asteroid: AsteroidSection
+    spacecraft: SpacecraftSection
+    constraints: ConstraintsSection
+    mpc: MpcSection
+    boundary: BoundarySection
+    identification: IdentificationSection
+    disturbance: DisturbanceSection
+    tube: TubeSection
+    simulation: SimulationSection
     source: str = "<memory>"
     defaulted: tuple[str, ...] = ()  # "section.field" taken from the packaged defaults (not content)
 
@@ -768,17 +768,19 @@ __all__ = [
     "RENAMED_VALUES",
     "REPLACED_FIELDS",
     "SCENARIOS",
-    "Asteroid",
-    "Boundary",
+    "AsteroidSection",
+    "BoundarySection",
     "Config",
     "ConfigDeprecationWarning",
     "ConfigError",
-    "Constraints",
-    "Disturbance",
-    "Environment",
-    "Identification",
-    "Mpc",
-    "Spacecraft",
+    "ConstraintsSection",
+    "DisturbanceSection",
+    "EnvironmentSection",
+    "IdentificationSection",
+    "MpcSection",
+    "SimulationSection",
+    "SpacecraftSection",
+    "TubeSection",
     "load_config",
     "scenario_file",
 ]

@@ -250,18 +250,22 @@ class ProximityModel:
         max_steps: int = 100000,
         initial_step: float = 0.0,
         disturbance: Disturbance = None,
+        settings: _dyn.PropagatorSettings | None = None,
     ) -> PropagationResult:
         """Propagates the 13-state over dt (s) with u held constant (zero-order hold).
 
         method ``"rk4"`` (``substeps`` equal steps) or ``"dopri"`` (adaptive Dormand-Prince 5(4) with
-        ``rtol``/``atol``, at most ``max_steps`` steps). ``disturbance``: None, a constant 6-vector
-        [acceleration in L (m/s^2); angular acceleration in B (rad/s^2)] or a callable
+        ``rtol``/``atol``, at most ``max_steps`` steps); ``settings`` (a ``_core.dynamics.PropagatorSettings``,
+        e.g. :func:`tubempc.scenario.propagator_settings`) replaces all of them. ``disturbance``: None, a
+        constant 6-vector [acceleration in L (m/s^2); angular acceleration in B (rad/s^2)] or a callable
         ``(t, state) -> 6-vector``. Numerical failures are reported in ``result.status``.
         """
-        m = method.lower()
-        if m == "rk4":
+        if settings is not None:
+            integrator, substeps, rtol, atol = settings.method, settings.substeps, settings.rtol, settings.atol
+            max_steps, initial_step = settings.max_steps, settings.initial_step
+        elif method.lower() == "rk4":
             integrator = _dyn.Integrator.RK4
-        elif m in ("dopri", "dopri5"):
+        elif method.lower() in ("dopri", "dopri5"):
             integrator = _dyn.Integrator.DOPRI5
         else:
             raise ValueError(f"method must be 'rk4' or 'dopri', got {method!r}")

@@ -18,9 +18,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
+from .landing_site import cone_grid
 from .metrics import ConvergenceFit, prior_bound_exceedances
 from .results import RunRecord
-from .site import cone_grid
 
 __all__ = [
     "METHOD_COLORS",

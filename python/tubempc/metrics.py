@@ -19,13 +19,22 @@ from __future__ import annotations
 
 import collections
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 from scipy.optimize import minimize_scalar
 
 from . import _core
+from .summaries import (
+    ConstraintViolations,
+    ControlEffort,
+    EnvelopeFit,
+    GroupErrors,
+    RunMetrics,
+    StepTime,
+    SubsystemValues,
+)
 
 if TYPE_CHECKING:
     from .results import RunRecord
@@ -43,7 +52,6 @@ __all__ = [
     "run_metrics",
     "step_time_stats",
     "steps_outside_tube",
-    "summarize",
     "terminal_error",
     "tube_excursion",
     "tube_status_certified",
@@ -182,19 +190,6 @@ def fit_exponential_convergence(errors: npt.ArrayLike, ebar: float | None = None
     return ConvergenceFit(C=float(np.exp(log_c(res.x))), rho=rho, ebar=eb, e0=e0, no_fit=why)
 
 
-def summarize(
-    x: Array, zbar: Array, u: Array, dt: float, x_f: Array, Q: Array | None = None, R: Array | None = None
-) -> dict[str, object]:
-    """All scalar metrics of one closed-loop run as a JSON-ready dict."""
-    return {
-        "J_p": performance_index(x, zbar, u, "translation", Q, R),
-        "J_r": performance_index(x, zbar, u, "rotation", Q, R),
-        "control_effort": control_effort(u, dt),
-        "terminal_error": terminal_error(x, x_f),
-        "rms_error": rms_error(x, zbar),
-    }
-
-
 def steps_outside_tube(excursion: Array) -> int:
     """Steps whose excursion (T, 2) exceeds 1 in either subsystem (1 + EXCURSION_TOLERANCE)."""
     return int(np.sum(np.any(np.asarray(excursion) > 1.0 + EXCURSION_TOLERANCE, axis=1)))
@@ -220,16 +215,16 @@ def velocity_convergence(t: Array, x: Array, zbar: Array) -> tuple[Array, Array,
     return t[k0:], err[k0:], fit_exponential_convergence(err[k0:])
 
 
-def _fit_dict(rec: RunRecord) -> dict[str, Any]:
-    """The Theorem 2 envelope of the run: {"exists": True, C ||e0||, rho, ebar} or {"exists": False,
-    "reason": why no envelope exists} (never a search bound reported as a fit)."""
+def _fit(rec: RunRecord) -> EnvelopeFit:
+    """The Theorem 2 envelope of the run, or the reason none exists (never a search bound reported as
+    a fit)."""
     try:
         _, _, fit = velocity_convergence(rec.t, rec.x, rec.zbar)
     except ValueError as exc:  # too short, or no error at all
-        return {"exists": False, "reason": str(exc)}
+        return EnvelopeFit(exists=False, reason=str(exc))
     if not fit.exists:
-        return {"exists": False, "reason": fit.no_fit}
-    return {"exists": True, "C_e0_m_per_s": fit.C * fit.e0, "rho": fit.rho, "ebar_m_per_s": fit.ebar}
+        return EnvelopeFit(exists=False, reason=fit.no_fit)
+    return EnvelopeFit(exists=True, C_e0_m_per_s=fit.C * fit.e0, rho=fit.rho, ebar_m_per_s=fit.ebar)
 
 
 #: Tube statuses of the C++ controller (``_core.control.TubeStatus``) whose tube is certified for the
@@ -244,43 +239,43 @@ def tube_status_certified(status: str) -> bool:
     return all(part in CERTIFIED_TUBE_STATUSES for part in status.split("/"))
 
 
-def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> dict[str, Any]:
-    """Every scalar result of one closed-loop run (JSON-ready): :func:`summarize`, the tube
-    excursions, the constraint violations of the actual trajectory, step-time statistics, solver
-    figures, statuses and the velocity-convergence fit."""
-    s: dict[str, Any] = summarize(rec.x, rec.zbar, rec.u, dt, x_f)
+def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> RunMetrics:
+    """Every scalar result of one closed-loop run: J_p and J_r (Eq. 54-55), control effort, terminal and
+    RMS errors, the tube excursions, the constraint violations of the actual trajectory, step-time
+    statistics, solver figures, statuses and the velocity-convergence fit."""
     g = rec.g
-    s.update(
-        {
-            "max_tube_excursion": {
-                "translation": float(rec.excursion[:, 0].max()),
-                "rotation": float(rec.excursion[:, 1].max()),
-            },
-            "steps_outside_tube": steps_outside_tube(rec.excursion),
-            "fallback_steps": int(sum(s.startswith("fallback") for s in rec.statuses)),
-            "constraint_violations": {
-                "glide_slope_steps": int(np.sum(g[:, 0] > 0)),
-                "los_steps": int(np.sum(g[:, 1] > 0)),
-                "max_glide_slope_g_m": float(g[:, 0].max()),
-                "max_los_g_m": float(g[:, 1].max()),
-            },
-            "step_time": {name: step_time_stats(getattr(rec, f"time_{name}")) for name in STEP_PHASES},
-            "scp_iterations_mean": float(np.mean(rec.scp_iterations)),
-            "model_evaluations_mean": float(np.mean(rec.model_evaluations)),
-            "active_set_qp_fraction": float(np.sum(rec.active_set_solves) / max(1.0, float(np.sum(rec.scp_iterations)))),
-            "velocity_convergence_fit": _fit_dict(rec),
-            "statuses": dict(collections.Counter(rec.statuses)),
-            "tube_statuses": dict(collections.Counter(rec.tube_statuses)),
-            # Every step flew a designed or certified tube: no failed LMI design, no step on a last
-            # certified tube because the step's could not be certified.
-            "tube_design_failures": len(rec.design_failures),
-            "tube_uncertified_steps": sum(not tube_status_certified(s) for s in rec.tube_statuses),
-            "tube_feasible_every_step": not rec.design_failures and all(map(tube_status_certified, rec.tube_statuses)),
-            "run_time_s": rec.wall_time_s,
-            "seed": rec.seed,
-        }
+    return RunMetrics(
+        J_p=performance_index(rec.x, rec.zbar, rec.u, "translation"),
+        J_r=performance_index(rec.x, rec.zbar, rec.u, "rotation"),
+        control_effort=ControlEffort(**control_effort(rec.u, dt)),
+        terminal_error=GroupErrors(**terminal_error(rec.x, x_f)),
+        rms_error=GroupErrors(**rms_error(rec.x, rec.zbar)),
+        max_tube_excursion=SubsystemValues(
+            translation=float(rec.excursion[:, 0].max()), rotation=float(rec.excursion[:, 1].max())
+        ),
+        steps_outside_tube=steps_outside_tube(rec.excursion),
+        fallback_steps=int(sum(s.startswith("fallback") for s in rec.statuses)),
+        constraint_violations=ConstraintViolations(
+            glide_slope_steps=int(np.sum(g[:, 0] > 0)),
+            los_steps=int(np.sum(g[:, 1] > 0)),
+            max_glide_slope_g_m=float(g[:, 0].max()),
+            max_los_g_m=float(g[:, 1].max()),
+        ),
+        step_time={name: StepTime(**step_time_stats(getattr(rec, f"time_{name}"))) for name in STEP_PHASES},
+        scp_iterations_mean=float(np.mean(rec.scp_iterations)),
+        model_evaluations_mean=float(np.mean(rec.model_evaluations)),
+        active_set_qp_fraction=float(np.sum(rec.active_set_solves) / max(1.0, float(np.sum(rec.scp_iterations)))),
+        velocity_convergence_fit=_fit(rec),
+        statuses=dict(collections.Counter(rec.statuses)),
+        tube_statuses=dict(collections.Counter(rec.tube_statuses)),
+        # Every step flew a designed or certified tube: no failed LMI design, no step on a last
+        # certified tube because the step's could not be certified.
+        tube_design_failures=len(rec.design_failures),
+        tube_uncertified_steps=sum(not tube_status_certified(s) for s in rec.tube_statuses),
+        tube_feasible_every_step=not rec.design_failures and all(map(tube_status_certified, rec.tube_statuses)),
+        run_time_s=rec.wall_time_s,
+        seed=rec.seed,
     )
-    return s
 
 
 def below_or_above(reduction_percent: float) -> str:

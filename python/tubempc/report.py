@@ -1,9 +1,10 @@
 """``tubempc report DIR``: one self-contained HTML file (figures embedded) and a Markdown twin.
 
 DIR may hold a run (``summary.json`` from ``tubempc run``, here or in ``DIR/run``), a sweep
-(``sweep.json``, here or in ``DIR/sweep``) and a Monte Carlo campaign (``DIR/montecarlo/summary.json``).
-Each part states its scenario (from the ``config.toml`` saved beside it), the reference's status, the
-steps outside the tube, the fallbacks and the tube statuses. Only the paper's own scenario is set
+(``sweep.json``, here or in ``DIR/sweep``) and a Monte Carlo campaign (``summary.json`` here or in
+``DIR/montecarlo``); each file says its kind (:mod:`tubempc.summaries`). Each part states its
+scenario (from the ``config.toml`` saved beside it), the reference's status, the steps outside the
+tube, the fallbacks and the tube statuses. Only the paper's own scenario is set
 beside the paper's values (docs/model.md "Metrics"; paper Tables 3-4). Every figure has a caption.
 """
 
@@ -12,14 +13,13 @@ from __future__ import annotations
 import base64
 import datetime
 import html
-import json
 from pathlib import Path
-from typing import Any
 
 from . import __version__
 from .claims import PAPER_REDUCTION_TABLE3, PAPER_REDUCTION_TABLE4, PAPER_TABLE3, PAPER_TABLE4, paper_claims
 from .config import Config, ConfigError, load_config
 from .metrics import below_or_above
+from .summaries import MonteCarloSummary, RunSummary, Summary, SweepSummary, load_summary
 
 __all__ = ["write_report"]
 
@@ -32,11 +32,23 @@ _WHY = (
 )
 
 
-def _find(root: Path, *names: str) -> Path | None:
-    for n in names:
-        if (root / n).exists():
-            return root / n
-    return None
+#: Where a results folder may hold its summaries, in the order they are looked for.
+_SUMMARY_FILES = ("summary.json", "run/summary.json", "sweep.json", "sweep/sweep.json", "montecarlo/summary.json")
+
+
+def _summaries(root: Path) -> dict[str, tuple[Summary, Path]]:
+    """The first summary of each kind in ``root`` (each file says its kind, tubempc.summaries) and its
+    folder."""
+    found: dict[str, tuple[Summary, Path]] = {}
+    for name in _SUMMARY_FILES:
+        if (root / name).exists():
+            s = load_summary(root / name)
+            found.setdefault(s.KIND, (s, (root / name).parent))
+    return found
+
+
+def _or_dash(value: int | None) -> str:
+    return "-" if value is None else str(value)
 
 
 def _table(header: list[str], rows: list[list[str]]) -> tuple[str, str]:
@@ -144,13 +156,13 @@ def write_report(root: Path) -> tuple[Path, Path]:
     """Writes ``root/report.html`` and ``root/report.md``; returns their paths."""
     if not root.is_dir():
         raise ValueError(f"{root}: not a folder")
-    run = _find(root, "summary.json", "run/summary.json")
-    sweep = _find(root, "sweep.json", "sweep/sweep.json")
-    mc = _find(root, "montecarlo/summary.json")
-    if run is not None and "runs" in json.loads(run.read_text()):
-        mc, run = run, None  # root is itself a Monte Carlo folder (its summary counts runs)
-    if run is None and sweep is None and mc is None:
+    found = _summaries(root)
+    if not found:
         raise ValueError(f"{root}: no summary.json, sweep.json or montecarlo/summary.json to report")
+    folder = {id(s): where for s, where in found.values()}
+    run = next((s for s, _ in found.values() if isinstance(s, RunSummary)), None)
+    sweep = next((s for s, _ in found.values() if isinstance(s, SweepSummary)), None)
+    mc = next((s for s, _ in found.values() if isinstance(s, MonteCarloSummary)), None)
     parts_h: list[str] = []
     parts_m: list[str] = []
     figures: list[Path] = []
@@ -171,37 +183,40 @@ def write_report(root: Path) -> tuple[Path, Path]:
     paragraph(f"tubempc {__version__}, report written {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC from {root}.")
     any_paper = False
     if run is not None:
-        s: dict[str, Any] = json.loads(run.read_text())
-        cfg, paper = _scenario(run.parent)
+        run_dir = folder[id(run)]
+        cfg, paper = _scenario(run_dir)
         any_paper |= paper
-        ref = s["reference"]
-        accuracy = ref.get("last_subproblem", "optimal")
+        ref = run.reference
         section(
             "Closed loop (tubempc run)",
-            f"seed {s['seed']}, shape {s['shape']}, config {s['config_hash'][:12]}; "
-            f"{_scenario_text(cfg, paper)}; reference {'converged' if ref['converged'] else 'NOT converged'} "
-            f"in {ref['iterations']} SCP iterations"
-            + ("." if accuracy == "optimal" else f" (last convex subproblem: {accuracy}, its solution checked)."),
+            f"seed {run.seed}, shape {run.shape}, config {run.config_hash[:12]}; "
+            f"{_scenario_text(cfg, paper)}; reference {'converged' if ref.converged else 'NOT converged'} "
+            f"in {ref.iterations} SCP iterations"
+            + (
+                "."
+                if ref.last_subproblem == "optimal"
+                else f" (last convex subproblem: {ref.last_subproblem}, its solution checked)."
+            ),
         )
         rows = []
-        for m, r in s["methods"].items():
-            row = [m, _fmt(r["J_p"]), _fmt(r["J_r"])]
+        for m, r in run.methods.items():
+            row = [m, _fmt(r.J_p), _fmt(r.J_r)]
             if paper:
                 p3 = PAPER_TABLE3["TBMPC" if m == "tbmpc" else "0.96"]
-                row = [m, _fmt(r["J_p"]), _fmt(p3[0]), _fmt(r["J_r"]), _fmt(p3[1])]
-            tube = ", ".join(f"{k} {v}" for k, v in sorted(r.get("tube_statuses", {}).items()))
+                row = [m, _fmt(r.J_p), _fmt(p3[0]), _fmt(r.J_r), _fmt(p3[1])]
+            tube = ", ".join(f"{k} {v}" for k, v in sorted(r.tube_statuses.items()))
             rows.append(
                 [
                     *row,
-                    _fmt(r["terminal_error"]["position"]),
-                    str(r["steps_outside_tube"]),
-                    _fmt(r["max_tube_excursion"]["translation"]),
-                    _fmt(r["max_tube_excursion"]["rotation"]),
-                    str(r.get("fallback_steps", "-")),
-                    str(r.get("states_inside_body", "-")),
-                    str(r["constraint_violations"]["glide_slope_steps"] + r["constraint_violations"]["los_steps"]),
+                    _fmt(r.terminal_error.position),
+                    str(r.steps_outside_tube),
+                    _fmt(r.max_tube_excursion.translation),
+                    _fmt(r.max_tube_excursion.rotation),
+                    _or_dash(r.fallback_steps),
+                    _or_dash(r.states_inside_body),
+                    str(r.constraint_violations.steps),
                     tube,
-                    _fmt(r["step_time"]["step"]["median_ms"]),
+                    _fmt(r.step_time["step"].median_ms),
                 ]
             )
         head = ["method", "J_p", "paper J_p", "J_r", "paper J_r"] if paper else ["method", "J_p", "J_r"]
@@ -224,78 +239,79 @@ def write_report(root: Path) -> tuple[Path, Path]:
             "Tube excursion: e^T Pe^-1 e of the error one step after the plan; <= 1 inside the tube, > 1 "
             "outside (the robustness guarantee lost at that step)."
         )
-        if "comparison" in s:
-            red = s["comparison"]["J_p_reduction_percent"]
+        if run.comparison is not None:
+            red = run.comparison.J_p_reduction_percent
             paper_red = f" (paper: {PAPER_REDUCTION_TABLE3:.1f} %)." if paper else "."
             paragraph(f"TBMPC-FFA's J_p is {below_or_above(red)} TBMPC's" + paper_red)
-        view, note = _mission_view(run.parent, cfg, list(s["methods"]))
+        view, note = _mission_view(run_dir, cfg, list(run.methods))
         section("The mission in 3D", note)
         parts_h.append(view)
-        figures += sorted(run.parent.glob("fig*.png"))
+        figures += sorted(run_dir.glob("fig*.png"))
     if sweep is not None:
-        s = json.loads(sweep.read_text())
-        cfg, paper = _scenario(sweep.parent)
+        sweep_dir = folder[id(sweep)]
+        cfg, paper = _scenario(sweep_dir)
         any_paper |= paper
         section("Forgetting-factor sweep (paper Table 3)", _scenario_text(cfg, paper))
         rows = []
-        for name, r in s["rows"].items():
-            key = "TBMPC" if name == "TBMPC" else f"{r['lambda_p']:g}"
-            ref = PAPER_TABLE3.get(key)
-            paper_cols = [_fmt(ref[0]) if ref else "-", _fmt(ref[1]) if ref else "-"] if paper else []
+        for name, sr in sweep.rows.items():
+            key = "TBMPC" if sr.lambda_p is None else f"{sr.lambda_p:g}"
+            paper_ref = PAPER_TABLE3.get(key)
+            paper_cols = (
+                [_fmt(paper_ref[0]) if paper_ref else "-", _fmt(paper_ref[1]) if paper_ref else "-"] if paper else []
+            )
             rows.append(
                 [
                     name,
-                    _fmt(r["J_p"]),
-                    _fmt(r["J_r"]),
+                    _fmt(sr.J_p),
+                    _fmt(sr.J_r),
                     *paper_cols,
-                    _fmt(r["control_effort"]["translation"]),
-                    _fmt(r["control_effort"]["rotation"]),
-                    _fmt(r["terminal_error"]["position"]),
-                    _fmt(r["rms_error"]["position"]),
+                    _fmt(sr.control_effort.translation),
+                    _fmt(sr.control_effort.rotation),
+                    _fmt(sr.terminal_error.position),
+                    _fmt(sr.rms_error.position),
                 ]
             )
         head = ["case", "J_p", "J_r", *(["paper J_p", "paper J_r"] if paper else [])]
         table([*head, "effort u_p (m/s^2)", "effort T (N m)", "terminal position error (m)", "RMS r (m)"], rows)
-        figures += sorted(sweep.parent.glob("fig1[56]*.png"))
+        figures += sorted(sweep_dir.glob("fig1[56]*.png"))
     if mc is not None:
-        s = json.loads(mc.read_text())
-        cfg, paper = _scenario(mc.parent)
+        mc_dir = folder[id(mc)]
+        cfg, paper = _scenario(mc_dir)
         any_paper |= paper
         section(
             "Monte Carlo (paper Table 4)",
-            f"{s['runs']} runs, master seed {s.get('master_seed')}, "
-            f"wall time {s.get('wall_time_s', 0.0):.0f} s; {_scenario_text(cfg, paper)}",
+            f"{mc.runs} runs, master seed {mc.master_seed}, wall time {mc.wall_time_s:.0f} s; {_scenario_text(cfg, paper)}",
         )
         rows = []
-        for m, r in s["methods"].items():
+        for m, mr in mc.methods.items():
             p = PAPER_TABLE4.get(m)
             paper_cols = [_fmt(p["J_p"][0]), _fmt(p["J_p"][1]), _fmt(p["J_r"][0]), _fmt(p["J_r"][1])] if paper and p else []
             rows.append(
                 [
                     m,
-                    _fmt(r["J_p"]["mean"]),
-                    _fmt(r["J_p"]["3sigma"]),
-                    _fmt(r["J_r"]["mean"]),
-                    _fmt(r["J_r"]["3sigma"]),
+                    _fmt(mr.J_p.mean),
+                    _fmt(mr.J_p.three_sigma),
+                    _fmt(mr.J_r.mean),
+                    _fmt(mr.J_r.three_sigma),
                     *paper_cols,
-                    f"{r['runs_outside_tube']}/{s['runs']}",
+                    f"{mr.runs_outside_tube}/{mc.runs}",
                 ]
             )
         head = ["method", "J_p mean", "J_p 3 sigma", "J_r mean", "J_r 3 sigma"]
         if paper:
             head += ["paper J_p mean", "paper J_p 3 sigma", "paper J_r mean", "paper J_r 3 sigma"]
         table([*head, "runs outside the tube"], rows)
-        if "J_p_mean_reduction_percent" in s:
-            red = s["J_p_mean_reduction_percent"]
+        if mc.J_p_mean_reduction_percent is not None:
+            red = mc.J_p_mean_reduction_percent
             paragraph(
                 f"TBMPC-FFA's mean J_p is {below_or_above(red)} TBMPC's"
                 + (f" (paper: {PAPER_REDUCTION_TABLE4:.1f} % below)." if paper else ".")
             )
-        figures += sorted(mc.parent.glob("fig*.png"))
+        figures += sorted(mc_dir.glob("fig*.png"))
     claims = paper_claims(
-        run.parent if run is not None else None,
-        sweep.parent if sweep is not None else None,
-        mc.parent if mc is not None else None,
+        folder[id(run)] if run is not None else None,
+        folder[id(sweep)] if sweep is not None else None,
+        folder[id(mc)] if mc is not None else None,
     )
     if claims and any_paper:
         section(

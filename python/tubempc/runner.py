@@ -8,7 +8,7 @@ statuses), ``DIR/<method>.h5`` (all arrays, with the configuration and seed insi
 
 from __future__ import annotations
 
-import json
+import dataclasses
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -19,11 +19,12 @@ import numpy as np
 from . import __version__, figures, metrics
 from .closed_loop import simulate
 from .config import Config
+from .landing_site import inside
 from .machine import machine_info
 from .pinning import pin_config, shape_record
 from .results import RunRecord, save_record
 from .scenario import Scenario, build_scenario, landing_geometry
-from .site import inside
+from .summaries import CampaignMethodResult, Comparison, ReferenceSummary, RunMetrics, RunSummary, write_summary
 
 __all__ = ["guarantee_lost", "run_methods", "run_summary", "save_figures", "states_inside_body"]
 
@@ -36,26 +37,28 @@ def states_inside_body(scn: Scenario, rec: RunRecord) -> int:
     return int(np.sum(inside(scn.shape, r_A)))
 
 
-def run_summary(scn: Scenario, rec: RunRecord) -> dict[str, Any]:
-    """Scalar results of one run (JSON-ready; :func:`tubempc.metrics.run_metrics`) with the number of
-    states inside the body (``states_inside_body``)."""
-    return {**metrics.run_metrics(rec, scn.config.mpc.dt, scn.xf), "states_inside_body": states_inside_body(scn, rec)}
+def run_summary(scn: Scenario, rec: RunRecord) -> RunMetrics:
+    """Scalar results of one run (:func:`tubempc.metrics.run_metrics`) with the number of states inside
+    the body (``states_inside_body``)."""
+    return dataclasses.replace(
+        metrics.run_metrics(rec, scn.config.mpc.dt, scn.xf), states_inside_body=states_inside_body(scn, rec)
+    )
 
 
-def guarantee_lost(result: dict[str, Any]) -> list[str]:
+def guarantee_lost(result: RunMetrics | CampaignMethodResult) -> list[str]:
     """What a run's result (its summary or a campaign's per-method record) says was lost: steps outside
     the tube, fallback steps, states inside the body (empty: every guarantee kept). The exit status 4
     of every command means a non-empty list for some run."""
     reasons = []
-    if result.get("steps_outside_tube", 0):
-        reasons.append(f"{result['steps_outside_tube']} steps outside the tube")
-    fallbacks = result.get("fallback_steps")
-    if fallbacks is None:  # a campaign's record keeps the statuses
-        fallbacks = sum(n for s, n in result.get("statuses", {}).items() if s.startswith("fallback"))
+    if result.steps_outside_tube:
+        reasons.append(f"{result.steps_outside_tube} steps outside the tube")
+    fallbacks = result.fallback_steps
+    if fallbacks is None:  # not recorded: count the statuses
+        fallbacks = sum(n for s, n in result.statuses.items() if s.startswith("fallback"))
     if fallbacks:
         reasons.append(f"{fallbacks} fallback steps")
-    if result.get("states_inside_body", 0):
-        reasons.append(f"{result['states_inside_body']} states inside the body")
+    if result.states_inside_body:
+        reasons.append(f"{result.states_inside_body} states inside the body")
     return reasons
 
 
@@ -122,7 +125,7 @@ def run_methods(
     progress: bool = True,
     cache_dir: Path | None = None,
     make_figures: bool = True,
-) -> dict[str, Any]:
+) -> RunSummary:
     """Runs the methods, writes the results and returns the summary.
 
     ``shape`` (a path) replaces the configuration's shape and needs ``shape_unit`` ("m" or "km"). The
@@ -136,37 +139,40 @@ def run_methods(
     cfg = pin_config(cfg, out)
     scn = build_scenario(cfg, cache_dir=cache_dir)
     scn.config.save(out / "config.toml")
-    summary: dict[str, Any] = {
-        "tubempc_version": __version__,
-        "config_hash": scn.config.hash(),
-        "seed": seed,
-        "shape": scn.shape_source,
-        "shape_file": shape_record(scn.config),
-        "n_faces": len(scn.shape.faces),
-        "machine": machine_info(),
-        "reference": {
-            "cost": scn.reference.cost,
-            "iterations": scn.reference.iterations,
-            "converged": scn.reference.converged,
-            "last_subproblem": scn.reference.last_subproblem,
-            "max_defect": scn.reference.max_defect,
-            "solve_time_s": scn.reference.solve_time_s,
-        },
-        "methods": {},
-    }
+    reference = ReferenceSummary(
+        cost=scn.reference.cost,
+        iterations=scn.reference.iterations,
+        converged=scn.reference.converged,
+        last_subproblem=scn.reference.last_subproblem,
+        max_defect=scn.reference.max_defect,
+        solve_time_s=scn.reference.solve_time_s,
+    )
     records: dict[str, RunRecord] = {}
+    results: dict[str, RunMetrics] = {}
     for m in methods:
         rec = simulate(scn, m, seed, progress=progress)
         records[m] = rec
-        summary["methods"][m] = run_summary(scn, rec)
-        save_record(out / f"{m}.h5", rec, config=scn.config.to_dict(), metadata=summary["methods"][m])
+        results[m] = run_summary(scn, rec)
+        save_record(out / f"{m}.h5", rec, config=scn.config.to_dict(), metadata=results[m].to_json())
+    comparison = None
     if {"tbmpc", "ffa"} <= set(records):
-        jp_t, jp_f = summary["methods"]["tbmpc"]["J_p"], summary["methods"]["ffa"]["J_p"]
-        summary["comparison"] = {"J_p_reduction_percent": 100.0 * (1.0 - jp_f / jp_t)}
-    (out / "summary.json").write_text(json.dumps(summary, indent=1, sort_keys=True))
+        comparison = Comparison(J_p_reduction_percent=100.0 * (1.0 - results["ffa"].J_p / results["tbmpc"].J_p))
+    summary = RunSummary(
+        tubempc_version=__version__,
+        config_hash=scn.config.hash(),
+        seed=seed,
+        shape=scn.shape_source,
+        shape_file=shape_record(scn.config),
+        n_faces=len(scn.shape.faces),
+        machine=machine_info(),
+        reference=reference,
+        methods=results,
+        comparison=comparison,
+    )
+    write_summary(out / "summary.json", summary)
     if make_figures:
         failed = save_figures(scn, records, out)
         if failed:
-            summary["figure_errors"] = failed
-            (out / "summary.json").write_text(json.dumps(summary, indent=1, sort_keys=True))
+            summary = dataclasses.replace(summary, figure_errors=failed)
+            write_summary(out / "summary.json", summary)
     return summary

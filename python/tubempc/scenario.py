@@ -4,11 +4,13 @@ Data flow of the package: configuration (:mod:`tubempc.config`) -> scenario (thi
 shape, boundary states, reference, MPC settings, tube designers, identifiers, TBMPC's initial tube)
 -> closed loop (:mod:`tubempc.closed_loop`) -> run record (:mod:`tubempc.results`) -> metrics
 (:mod:`tubempc.metrics`) -> report (:mod:`tubempc.report`). Every mapping from a configuration
-option to a C++ setting lives here, once.
+option to a C++ setting lives here, once; a scenario hands the closed loop what it takes from the
+configuration once (:attr:`Scenario.loop`).
 """
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from dataclasses import dataclass, field
@@ -19,17 +21,18 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from .config import Config
-from .disturbances import AdditiveDisturbance
+from .config import Config, DisturbanceSection, TubeSection
+from .disturbances import ActuatorMismatch, AdditiveDisturbance
 from .dynamics import ProximityModel
 from .identification import ForgettingFactorIdentifier
+from .landing_site import Site, inside, ray_cast, site_from_lat_lon, site_from_vector, terminal_state
 from .reference import ReferenceSettings, ReferenceTrajectory, load_or_generate_reference
 from .shapes import Shape, bennu_like_shape, load_shape
-from .site import Site, inside, ray_cast, site_from_lat_lon, site_from_vector, terminal_state
 from .tube import TubeDesigner
 
 __all__ = [
     "METHODS",
+    "LoopSetup",
     "Scenario",
     "ScenarioError",
     "build_scenario",
@@ -39,10 +42,7 @@ __all__ = [
     "landing_site",
     "memory_weight",
     "model_params",
-    "model_structure",
     "mpc_settings",
-    "plant_disturbance",
-    "propagator_options",
     "propagator_settings",
     "scenario_shape",
     "tube_designers",
@@ -102,6 +102,49 @@ class Scenario:
     def n_steps(self) -> int:
         """Number of control steps T = t_f / dt."""
         return int(self.reference.u.shape[0])
+
+    @functools.cached_property
+    def loop(self) -> LoopSetup:
+        """Everything the closed loop takes from the configuration, built once for the scenario."""
+        cfg = self.config
+        designers = tube_designers(cfg)
+        return LoopSetup(
+            mpc_settings=mpc_settings(self),
+            designer_specs=(designers[0].spec, designers[1].spec),
+            propagator=propagator_settings(cfg),
+            disturbance=cfg.disturbance,
+            tube=cfg.tube,
+            n_steps=self.n_steps,
+        )
+
+
+@dataclass(frozen=True)
+class LoopSetup:
+    """What a closed-loop run (:func:`tubempc.closed_loop.simulate`) takes from the configuration,
+    handed over once by the scenario (:attr:`Scenario.loop`): the MPC's settings, the LMI tube
+    designers' arguments, the truth propagator's options, the tube policy's section, and the plant's
+    disturbance and actuator errors, drawn per run from its seed."""
+
+    mpc_settings: Any  # _core.mpc.Settings (the controller copies it)
+    designer_specs: tuple[dict[str, Any], dict[str, Any]]  # TubeDesigner arguments: translation, rotation
+    propagator: Any  # _core.dynamics.PropagatorSettings of the truth
+    disturbance: DisturbanceSection
+    tube: TubeSection
+    n_steps: int
+
+    def designers(self) -> tuple[TubeDesigner, TubeDesigner]:
+        """A run's own tube designers (a designer keeps its last design, so runs do not share them)."""
+        return TubeDesigner(**self.designer_specs[0]), TubeDesigner(**self.designer_specs[1])
+
+    def plant_disturbance(self, seed: int) -> AdditiveDisturbance:
+        """The simulated additive disturbance of a run with seed ``seed`` (``[disturbance]``)."""
+        d = self.disturbance
+        return AdditiveDisturbance(d.S_p, d.S_r, seed=seed, growth_p=d.growth_p, growth_r=d.growth_r, n_steps=self.n_steps)
+
+    def actuators(self, seed: int) -> ActuatorMismatch:
+        """The actuator errors of a run with seed ``seed`` (drawn from ``seed + 1``)."""
+        d = self.disturbance
+        return ActuatorMismatch(seed + 1, d.scale_error_p, d.misalignment_p, d.scale_error_r, d.misalignment_r)
 
 
 def model_params(cfg: Config, srp_scale: float = 1.0, site: Site | None = None) -> dict[str, Any]:
@@ -420,7 +463,7 @@ def build_scenario(
     return Scenario(cfg, shape, shape_src, model, truth, x0, xf, ref, site)
 
 
-def model_structure(scn: Scenario) -> tuple[Array, Array, Array]:
+def _model_structure(scn: Scenario) -> tuple[Array, Array, Array]:
     """Nonzero patterns of the model's A (12, 12), B (12, 6) and G (2, 12) over the reference."""
     ref, dt = scn.reference, scn.config.mpc.dt
     Ad, Bd, _ = scn.model.discretize(0.0, ref.x[:-1], ref.u, dt)
@@ -439,7 +482,7 @@ def mpc_settings(scn: Scenario) -> Any:
     cfg = scn.config
     m = cfg.mpc
     st = _core.mpc.Settings()
-    st.A_structure, st.B_structure, st.G_structure = model_structure(scn)
+    st.A_structure, st.B_structure, st.G_structure = _model_structure(scn)
     st.horizon = m.horizon
     st.dt = m.dt
     st.Q = np.diag(np.concatenate([m.Q_p, m.Q_r]))
@@ -453,16 +496,9 @@ def mpc_settings(scn: Scenario) -> Any:
     return st
 
 
-def propagator_options(cfg: Config) -> dict[str, Any]:
-    """Keyword arguments of :meth:`tubempc.dynamics.ProximityModel.propagate` for the truth."""
-    sim = cfg.simulation
-    if sim.integrator == "rk4":
-        return {"method": "rk4", "substeps": sim.substeps}
-    return {"method": "dopri5", "rtol": sim.rtol}
-
-
 def propagator_settings(cfg: Config) -> Any:
-    """The same truth propagator as ``_core.dynamics.PropagatorSettings`` (for scenario files)."""
+    """The truth propagator (``_core.dynamics.PropagatorSettings``) of the closed loop and of scenario
+    files (``[simulation]``; the core's defaults for the rest)."""
     sim = cfg.simulation
     prop = _core.dynamics.PropagatorSettings()
     if sim.integrator == "rk4":
@@ -516,12 +552,6 @@ def memory_weight(lam: float) -> float:
     weight of a prior worth one full memory (``identification.prior_memory`` = 1)."""
     q = math.exp(lam - 1.0)
     return q / (1.0 - q)
-
-
-def plant_disturbance(scn: Scenario, seed: int) -> AdditiveDisturbance:
-    """The simulated additive disturbance of a run with seed ``seed`` (``[disturbance]``)."""
-    d = scn.config.disturbance
-    return AdditiveDisturbance(d.S_p, d.S_r, seed=seed, growth_p=d.growth_p, growth_r=d.growth_r, n_steps=scn.n_steps)
 
 
 def initial_tube(scn: Scenario) -> tuple[Array, Array]:

@@ -14,9 +14,9 @@ from collections.abc import Mapping
 import numpy as np
 import numpy.typing as npt
 
+from .landing_site import cone_grid
 from .results import RunRecord
 from .scenario import Scenario, landing_geometry
-from .site import cone_grid
 
 __all__ = ["mission_view_html"]
 

@@ -4,7 +4,7 @@ Every inline code span (`...`) of those pages, and every `tubempc ...` command l
 code blocks, is classified by its form; a span of a known form must name something that exists:
 
 - a file path (`cpp/include/tubempc/mpc/tube_mpc.hpp`, `docs/benchmarks/*.json`,
-  `tubempc/io/scenario.hpp`, `tests/py/test_mpc.py::test_name`): the file (or glob) exists in the
+  `tubempc/io/scenario.hpp`, `tests/py/core/test_mpc.py::test_name`): the file (or glob) exists in the
   repository (an include path under cpp/include, a package path under python/), and a `::test`
   suffix names a function of that file;
 - a Python name (`tubempc.scenario.build_scenario`, `tubempc._core.io.read_scenario`): it imports and
@@ -398,7 +398,7 @@ EXISTING = [
     "TubeMPC",
     "RunRecord.applied",
     "TUBEMPC_INSTALL_PIQP",
-    "tests/py/test_mpc.py::test_shrinking_phase_qps_have_clarabels_optimum",
+    "tests/py/core/test_mpc.py::test_shrinking_phase_qps_have_clarabels_optimum",
     "model.kinematics",
 ]
 REMOVED = [
@@ -415,7 +415,7 @@ REMOVED = [
     "NoSuchClass",
     "RunRecord.no_such_field",
     "TUBEMPC_NO_SUCH_OPTION",
-    "tests/py/test_mpc.py::test_no_such_test",
+    "tests/py/core/test_mpc.py::test_no_such_test",
     "model.no_such_record",
 ]
 

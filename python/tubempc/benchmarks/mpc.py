@@ -256,7 +256,7 @@ def bennu_plant(
     TBMPC tube and truth (tubempc.scenario; the configured propagator and disturbance with ``seed``):
     the arguments of :func:`run_mission`. ``dense`` drops the block structure of the QP matrices."""
     from ..config import load_config
-    from ..scenario import build_scenario, initial_tube, mpc_settings, plant_disturbance, propagator_options
+    from ..scenario import build_scenario, initial_tube, mpc_settings
 
     cfg = load_config()
     scn = build_scenario(cfg)
@@ -268,11 +268,11 @@ def bennu_plant(
     ref = scn.reference
     reference = mpc.Reference(ref.x[: steps + 1].T.copy(), ref.u[:steps].T.copy(), 0.0)
     K, Pe = initial_tube(scn)
-    dist = plant_disturbance(scn, seed)
-    propagate_kw = propagator_options(cfg)
+    dist = scn.loop.plant_disturbance(seed)
+    propagator = scn.loop.propagator
 
     def truth(k: int, x: Arr, u: Arr) -> Arr:
-        prop = scn.truth.propagate(k * cfg.mpc.dt, scn.truth.state_to_truth(x), u, cfg.mpc.dt, **propagate_kw)
+        prop = scn.truth.propagate(k * cfg.mpc.dt, scn.truth.state_to_truth(x), u, cfg.mpc.dt, settings=propagator)
         w_p, w_r = dist.sample(k)
         return np.asarray(
             scn.truth.truth_to_state(np.asarray(prop.state), ref.x[k + 1, 6:9]) + np.concatenate([w_p, w_r]),

@@ -11,25 +11,27 @@ import pytest
 from tubempc.analysis import montecarlo, sweep
 from tubempc.config import load_config
 from tubempc.report import write_report
+from tubempc.summaries import load_summary
 
 
 def test_montecarlo_summary_resume_and_report(tmp_path: Path) -> None:
     cfg = load_config()
     out = tmp_path / "mc"
     s1 = montecarlo(cfg, 3, out, master_seed=5, workers=1, progress=False, max_steps=4)
-    assert s1["runs"] == 3 and s1["executed_now"] == 3 and not s1["failed_runs"]
+    assert s1.runs == 3 and s1.executed_now == 3 and not s1.failed_runs
+    assert load_summary(out / "summary.json") == s1  # the file reads back to the summary returned
     for m in ("tbmpc", "ffa"):
-        row = s1["methods"][m]
+        row = s1.methods[m]
         runs = [json.loads((out / "runs" / f"run_{i:05d}.json").read_text())["result"][m] for i in range(3)]
         jp = np.array([r["J_p"] for r in runs])
-        assert row["J_p"]["mean"] == pytest.approx(jp.mean())
-        assert row["J_p"]["3sigma"] == pytest.approx(3 * jp.std(ddof=1))
-        assert row["runs_outside_tube"] == sum(max(r["max_tube_excursion"].values()) > 1 for r in runs)
+        assert row.J_p.mean == pytest.approx(jp.mean())
+        assert row.J_p.three_sigma == pytest.approx(3 * jp.std(ddof=1))
+        assert row.runs_outside_tube == sum(max(r["max_tube_excursion"].values()) > 1 for r in runs)
     # the three runs differ (their seeds differ) and a rerun does nothing and changes nothing
     assert len({json.dumps(json.loads((out / "runs" / f"run_{i:05d}.json").read_text())["result"]) for i in range(3)}) == 3
     before = {p.name: p.read_bytes() for p in (out / "runs").glob("run_*.json")}
     s2 = montecarlo(cfg, 3, out, master_seed=5, workers=1, progress=False, max_steps=4)
-    assert s2["executed_now"] == 0 and s2["methods"] == s1["methods"]
+    assert s2.executed_now == 0 and s2.methods == s1.methods
     assert {p.name: p.read_bytes() for p in (out / "runs").glob("run_*.json")} == before
     html, md = write_report(out)
     text = md.read_text()

@@ -4,6 +4,7 @@ result, a neutral disturbance for own missions."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 import warnings
@@ -17,6 +18,7 @@ from tubempc import _core
 from tubempc.bodies import ellipsoid_shape
 from tubempc.config import ConfigError, load_config
 from tubempc.dynamics import ProximityModel
+from tubempc.landing_site import inside, ray_cast
 from tubempc.scenario import (
     PAPER_TARGET_MAX_DEPTH,
     ScenarioError,
@@ -27,9 +29,8 @@ from tubempc.scenario import (
     scenario_shape,
 )
 from tubempc.shapes import bennu_like_shape, load_shape, save_shape
-from tubempc.site import inside, ray_cast
 
-RADAR_MODEL = Path(__file__).resolve().parents[3] / "shared" / "data" / "101955bennu.tab"
+RADAR_MODEL = Path(__file__).resolve().parents[4] / "shared" / "data" / "101955bennu.tab"
 
 
 def _write(tmp_path: Path, text: str, name: str = "mission.toml") -> Path:
@@ -158,27 +159,41 @@ def test_every_run_counts_its_states_inside_the_body(tmp_path: Path) -> None:
     scn = build_scenario(load_config(), cache_dir=tmp_path)
     rec = simulate(scn, "tbmpc", seed=0, max_steps=4)
     s = run_summary(scn, rec)
-    assert s["states_inside_body"] == 0
+    assert s.states_inside_body == 0
     rec.x = rec.x.copy()
     rec.x[2, :3] = 0.0  # the centre of the body
     rec.x[3, :3] = np.asarray(scn.model.C_AL(3 * scn.config.mpc.dt)).T @ np.array([0.0, 0.0, 200.0])
     s = run_summary(scn, rec)
-    assert s["states_inside_body"] == 2
-    assert "2 states inside the body" in guarantee_lost({**s, "steps_outside_tube": 0, "fallback_steps": 0})
+    assert s.states_inside_body == 2
+    assert "2 states inside the body" in guarantee_lost(dataclasses.replace(s, steps_outside_tube=0, fallback_steps=0))
 
 
 # --- 4. one meaning per exit status -------------------------------------------------------------------
 
 
 def _fake_montecarlo(lost: int, failed: list[int]) -> Any:
-    def fake(*_: Any, **__: Any) -> dict[str, Any]:
-        row = {
-            "J_p": {"mean": 1.0, "3sigma": 0.0},
-            "J_r": {"mean": 1.0, "3sigma": 0.0},
-            "runs_outside_tube": lost,
-            "runs_guarantee_lost": lost,
-        }
-        return {"runs": 3, "executed_now": 3, "failed_runs": failed, "wall_time_s": 1.0, "methods": {"tbmpc": row}}
+    from tubempc.summaries import MeanSpread, MonteCarloMethodSummary, MonteCarloSummary
+
+    def fake(*_: Any, **__: Any) -> MonteCarloSummary:
+        row = MonteCarloMethodSummary(
+            J_p=MeanSpread(mean=1.0, three_sigma=0.0),
+            J_r=MeanSpread(mean=1.0, three_sigma=0.0),
+            runs_outside_tube=lost,
+            max_tube_excursion=2.0 if lost else 0.5,
+            runs_with_cone_violation=0,
+            terminal_position_error_max_m=0.1,
+            runs_inside_body=0,
+            runs_guarantee_lost=lost,
+        )
+        return MonteCarloSummary(
+            runs=3,
+            executed_now=3,
+            failed_runs=failed,
+            wall_time_s=1.0,
+            methods={"tbmpc": row},
+            master_seed=0,
+            config_hash="",
+        )
 
     return fake
 
@@ -209,8 +224,8 @@ def test_a_campaign_counts_the_runs_that_lost_a_guarantee(tmp_path: Path) -> Non
 
     rough = load_config().with_overrides({"disturbance.S_r_attitude": {"value": [4e-4] * 3, "unit": "rad^2"}})
     s = montecarlo(rough, 1, tmp_path / "mc", workers=1, progress=False, max_steps=6, methods=("tbmpc",))
-    row = s["methods"]["tbmpc"]
-    assert row["runs_outside_tube"] == 1 and row["runs_guarantee_lost"] == 1 and row["runs_inside_body"] == 0
+    row = s.methods["tbmpc"]
+    assert row.runs_outside_tube == 1 and row.runs_guarantee_lost == 1 and row.runs_inside_body == 0
 
 
 def test_a_reflight_checks_arrays_and_configuration_and_has_its_own_status(tmp_path: Path) -> None:
@@ -261,7 +276,8 @@ def test_a_run_folder_with_its_own_shape_re_flies_and_re_reports_elsewhere(tmp_p
     cfg = load_config(_own_mission(tmp_path))
     out = tmp_path / "results" / "run"
     summary = run_methods(cfg, ["tbmpc"], 0, out, progress=False, make_figures=False, cache_dir=out / "cache")
-    assert summary["shape_file"]["sha256"] and (out / summary["shape_file"]["file"]).exists()
+    assert summary.shape_file is not None
+    assert summary.shape_file["sha256"] and (out / summary.shape_file["file"]).exists()
     moved = tmp_path / "elsewhere" / "copy"
     shutil.copytree(out, moved)
     shutil.rmtree(tmp_path / "mission")  # the original shape is gone

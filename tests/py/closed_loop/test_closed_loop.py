@@ -96,7 +96,7 @@ def test_ffa_flies_certified_tubes_with_and_without_background_designs(scenario)
 
 def test_summary_and_results_file(scenario, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     res = simulate(scenario, "ffa", seed=4, max_steps=3)
-    s = run_summary(scenario, res)
+    s = run_summary(scenario, res).to_json()
     assert set(s) >= {
         "J_p",
         "J_r",

@@ -13,9 +13,9 @@ from tubempc import _core, so3
 from tubempc.bodies import contact_binary_shape, ellipsoid_shape
 from tubempc.config import SCENARIOS, Config, ConfigError, load_config
 from tubempc.dynamics import ProximityModel
+from tubempc.landing_site import Site, inside, ray_cast, site_from_lat_lon, terminal_state
 from tubempc.scenario import ScenarioError, boundary_states, build_scenario, landing_site, model_params, scenario_shape
 from tubempc.shapes import bennu_like_shape, save_shape
-from tubempc.site import Site, inside, ray_cast, site_from_lat_lon, terminal_state
 
 HERE = Path(__file__).parent
 
@@ -223,4 +223,4 @@ def test_every_packaged_scenario_exports_campaigns_and_flies_in_cpp(name: str, t
         assert r.returncode == 0, r.stdout + r.stderr
         assert "statuses: solved 300" in r.stdout
     summary = montecarlo(cfg, 2, tmp_path / "mc", workers=1, progress=False, max_steps=3)
-    assert summary["runs"] == 2 and not summary["failed_runs"]
+    assert summary.runs == 2 and not summary.failed_runs

@@ -9,7 +9,7 @@ import pytest
 
 from tubempc import Shape, ShapeError, ShapeRepair, bennu_like_shape, load_shape, save_icq, save_shape
 
-SHARED_DATA = Path(__file__).parents[2].parent / "shared" / "data"
+SHARED_DATA = Path(__file__).parents[3].parent / "shared" / "data"
 RADAR = SHARED_DATA / "101955bennu.tab"
 
 # Unit cube [0, 1]^3 (vertex k has coordinates of its bits), outward faces (0-based).

@@ -169,8 +169,8 @@ def test_cpp_example_flies_the_python_run(exported: tuple[Path, Scenario], tmp_p
     cpp = json.loads(out.read_text())["methods"][method]
     m = run_metrics(rec, scn.config.mpc.dt, scn.xf)
     np.testing.assert_allclose(cpp["final_state"], rec.x[-1], rtol=0, atol=1e-9)
-    assert cpp["J_p"] == pytest.approx(m["J_p"], rel=1e-9) and cpp["J_r"] == pytest.approx(m["J_r"], rel=1e-9)
-    assert cpp["steps_outside_tube"] == m["steps_outside_tube"] and cpp["allocations_controller"] == 0
+    assert cpp["J_p"] == pytest.approx(m.J_p, rel=1e-9) and cpp["J_r"] == pytest.approx(m.J_r, rel=1e-9)
+    assert cpp["steps_outside_tube"] == m.steps_outside_tube and cpp["allocations_controller"] == 0
     assert sum(cpp["tube_statuses"].values()) == scn.n_steps
 
 

@@ -57,9 +57,17 @@ def test_claims_are_computed_from_the_results_and_a_failing_claim_reads_no(tmp_p
     assert 'docs/decisions.md ("Readings of the paper"' in md.read_text() and "README.md (" not in md.read_text()
 
 
+#: A sweep written by ``tubempc sweep`` (before summaries named their kind and format: format 0).
+SWEEP = Path(__file__).resolve().parents[3] / "docs" / "benchmarks" / "sweep_bennu-paper.json"
+
+
 def test_sweep_claims_follow_the_sweep_rows(tmp_path: Path) -> None:
+    written = json.loads(SWEEP.read_text())
+    template = next(r for r in written["rows"].values() if "lambda_p" in r)
+
     def row(lam: float, jp: float, tube: float, feasible: bool, outside: int = 0) -> dict[str, object]:
         return {
+            **template,
             "lambda_p": lam,
             "J_p": jp,
             "mean_tube_half_width_x_m": tube,
@@ -76,7 +84,7 @@ def test_sweep_claims_follow_the_sweep_rows(tmp_path: Path) -> None:
         "c": row(0.97, 1.15, 0.25, True),
         "d": row(0.98, 1.2, 0.3, True),
     }
-    (tmp_path / "sweep.json").write_text(json.dumps({"rows": rows}))
+    (tmp_path / "sweep.json").write_text(json.dumps({**written, "rows": rows}))
     claims = {c.claim.split(" (")[0]: c for c in paper_claims(None, tmp_path)}
     assert claims["J_p grows with lambda"].verdict == "yes" and claims["The tube grows with lambda"].verdict == "yes"
     assert claims[limit].verdict == "yes" and "LMI infeasible at lambda_p 0.9" in claims[limit].measured
@@ -85,16 +93,16 @@ def test_sweep_claims_follow_the_sweep_rows(tmp_path: Path) -> None:
     rows["d"]["J_p"] = 1.05  # no longer growing
     rows["a"]["tube_design_failures"] = 0  # feasible and held below 0.95: the paper's limit not seen
     rows["a"]["tube_uncertified_steps"] = 4  # (steps on the last certified tube are reported, not a failure)
-    (tmp_path / "sweep.json").write_text(json.dumps({"rows": rows}))
+    (tmp_path / "sweep.json").write_text(json.dumps({**written, "rows": rows}))
     claims = {c.claim.split(" (")[0]: c for c in paper_claims(None, tmp_path)}
     assert claims["J_p grows with lambda"].verdict == "no"
     assert claims[limit].verdict == "no" and "LMI feasible at every step" in claims[limit].measured
     assert "steps on the last certified tube at lambda_p 0.9 (4)" in claims[limit].measured
     rows["a"]["steps_outside_tube"] = 3  # feasible but left: the tube fails below the limit
-    (tmp_path / "sweep.json").write_text(json.dumps({"rows": rows}))
+    (tmp_path / "sweep.json").write_text(json.dumps({**written, "rows": rows}))
     claims = {c.claim.split(" (")[0]: c for c in paper_claims(None, tmp_path)}
     assert claims[limit].verdict == "yes" and "tube left at lambda_p 0.9 (3 steps)" in claims[limit].measured
     rows["c"]["steps_outside_tube"] = 1  # a lambda at or above 0.95 fails: no
-    (tmp_path / "sweep.json").write_text(json.dumps({"rows": rows}))
+    (tmp_path / "sweep.json").write_text(json.dumps({**written, "rows": rows}))
     claims = {c.claim.split(" (")[0]: c for c in paper_claims(None, tmp_path)}
     assert claims[limit].verdict == "no" and "holds for every lambda_p >= 0.98" in claims[limit].measured

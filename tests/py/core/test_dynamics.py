@@ -190,6 +190,20 @@ def test_propagation_api() -> None:
         model.propagate(0.0, s0, u, 2.0, "euler")
     with pytest.raises(ZeroDivisionError):
         model.propagate(0.0, s0, u, 2.0, disturbance=lambda t, s: 1 / 0)
+    # the scenario's one description of the truth integrator gives the keyword call's numbers, to the bit
+    from tubempc.config import load_config
+    from tubempc.scenario import propagator_settings
+
+    for integrator, keywords in (("rk4", {"substeps": 3}), ("dopri5", {"rtol": 1e-9})):
+        cfg = load_config().with_overrides(
+            {"simulation.integrator": integrator, **{f"simulation.{k}": v for k, v in keywords.items()}}
+        )
+        by_settings = model.propagate(0.0, s0, u, 2.0, settings=propagator_settings(cfg))
+        by_keywords = model.propagate(0.0, s0, u, 2.0, integrator, **keywords)
+        assert by_settings.state.tobytes() == by_keywords.state.tobytes()
+    settings = propagator_settings(load_config().with_overrides({"simulation.integrator": "rk4", "simulation.substeps": 1}))
+    one_step = model.propagate(0.0, s0, u, 2.0, settings=settings)
+    assert one_step.state.tobytes() != model.propagate(0.0, s0, u, 2.0, "rk4", substeps=2).state.tobytes()
 
 
 def test_truth_state_conversion_and_unwrap() -> None:

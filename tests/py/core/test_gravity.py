@@ -13,7 +13,7 @@ from tubempc import GRAVITATIONAL_CONSTANT, PolyhedronGravity, bennu_like_shape,
 
 pg = pytest.importorskip("polyhedral_gravity")
 
-SHARED_DATA = Path(__file__).parents[2].parent / "shared" / "data"
+SHARED_DATA = Path(__file__).parents[3].parent / "shared" / "data"
 RADAR = SHARED_DATA / "101955bennu.tab"
 RHO = 1260.0
 

@@ -1,0 +1,110 @@
+"""The commands of ``tubempc`` (:mod:`tubempc.cli`), one plug-in each, as the benchmarks are.
+
+Each module of this package is one command (module ``make_body`` is ``tubempc make-body``) and defines
+``DESCRIPTION: str`` (its line in ``tubempc -h``), ``add_arguments(parser: argparse.ArgumentParser) ->
+None`` and ``run(args: argparse.Namespace) -> int`` (the exit status). A command imports what it flies
+with only when it runs (the command line starts at once). This module holds what the commands share:
+the exit statuses (:mod:`tubempc.cli`'s docstring says what each means) and the option types.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+from types import ModuleType
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ..config import Config
+
+__all__ = [
+    "EXIT_FAILED_RUNS",
+    "EXIT_GUARANTEE_LOST",
+    "EXIT_INPUT",
+    "EXIT_INTERNAL",
+    "EXIT_INTERRUPTED",
+    "EXIT_OK",
+    "EXIT_REFLIGHT_DIFFERS",
+    "EXIT_USAGE",
+    "available",
+    "config_from_args",
+    "guarantee_status",
+    "load",
+    "parse_floats",
+    "parse_ints",
+    "parse_seed",
+    "scenario_arguments",
+]
+
+EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INPUT = 0, 1, 2, 3
+EXIT_GUARANTEE_LOST, EXIT_FAILED_RUNS, EXIT_REFLIGHT_DIFFERS, EXIT_INTERRUPTED = 4, 5, 6, 130
+
+
+def available() -> list[str]:
+    """The commands' names (``make-body`` for module ``make_body``)."""
+    return sorted(m.name.replace("_", "-") for m in pkgutil.iter_modules(__path__) if not m.name.startswith("_"))
+
+
+def load(name: str) -> ModuleType:
+    """Imports the module of command ``name``."""
+    return importlib.import_module(f"{__name__}.{name.replace('-', '_')}")
+
+
+def config_from_args(args: argparse.Namespace) -> Config:
+    """The configuration of --config FILE or --scenario NAME (default: the paper's), with --shape-unit."""
+    from ..config import load_config
+
+    cfg = load_config(getattr(args, "config", None), scenario=getattr(args, "scenario", None))
+    if getattr(args, "shape_unit", None) and getattr(args, "shape", None) is None:
+        cfg = cfg.with_overrides({"asteroid.shape_unit": args.shape_unit})
+    return cfg
+
+
+def scenario_arguments(p: argparse.ArgumentParser) -> None:
+    """--config, --scenario and --shape-unit."""
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--config", help="scenario TOML (fields left out are the paper scenario's)")
+    group.add_argument("--scenario", help="a packaged scenario by name (see 'tubempc scenarios'; default: bennu-paper)")
+    p.add_argument(
+        "--shape-unit",
+        choices=["km", "m"],
+        help="unit of the coordinates of --shape (required with it), else of the config's shape file",
+    )
+
+
+def guarantee_status(lost: dict[str, list[str]]) -> int:
+    """EXIT_GUARANTEE_LOST (said on stderr) if any run lost a guarantee, else EXIT_OK."""
+    if not lost:
+        return EXIT_OK
+    what = "; ".join(f"{name}: {', '.join(reasons)}" for name, reasons in lost.items())
+    print(f"robustness guarantee lost by {what}: exit status {EXIT_GUARANTEE_LOST}", file=sys.stderr)
+    return EXIT_GUARANTEE_LOST
+
+
+def parse_floats(text: str) -> list[float]:
+    """Comma-separated numbers."""
+    try:
+        return [float(v) for v in text.split(",") if v.strip()]
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from exc
+
+
+def parse_seed(text: str) -> int:
+    """A non-negative integer."""
+    try:
+        value = int(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}") from exc
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {value}")
+    return value
+
+
+def parse_ints(text: str) -> list[int]:
+    """Comma-separated integers."""
+    try:
+        return [int(v) for v in text.split(",") if v.strip()]
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected comma-separated integers, got {text!r}") from exc
