@@ -3,7 +3,8 @@
 benchmark (``bench NAME``) and report the build (``info``, ``--version``). Every command is a plug-in
 of :mod:`tubempc.commands` (one module each, as the benchmarks are).
 
-Exit status (also in the README):
+Exit status (also in the README)::
+
   0  done; every run kept its robustness guarantee
   1  internal error (a bug: rerun with --debug and report the traceback)
   2  usage error (a bad option or value)
