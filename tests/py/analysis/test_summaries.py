@@ -1,6 +1,7 @@
-"""The typed summaries (tubempc.summaries): files written before they named their kind and format
-(format 0, here the committed docs/benchmarks results) read as such, field for field, and still report
-and re-fly; a file of another kind, a newer format or a missing or mistyped field is refused by name."""
+"""The typed summaries (tubempc.summaries): the committed docs/benchmarks results name their kind and
+format; the same files as they were written before the summaries were typed (format 0: without `kind`
+and `format_version`) read as such, field for field, and still report and re-fly; a file of another
+kind, a newer format or a missing or mistyped field is refused by name."""
 
 from __future__ import annotations
 
@@ -24,19 +25,30 @@ from tubempc.summaries import (
 
 BENCHMARKS = Path(__file__).resolve().parents[3] / "docs" / "benchmarks"
 KINDS = {"run": RunSummary, "sweep": SweepSummary, "montecarlo": MonteCarloSummary}
-LEGACY = sorted(p for p in BENCHMARKS.glob("*.json") if p.name.split("_")[0] in KINDS)
+COMMITTED = sorted(p for p in BENCHMARKS.glob("*.json") if p.name.split("_")[0] in KINDS)
 
 
-def test_the_committed_results_are_format_0_files_of_every_kind() -> None:
-    assert {p.name.split("_")[0] for p in LEGACY} == set(KINDS)
-    for p in LEGACY:
-        assert "format_version" not in json.loads(p.read_text()), p
+def as_format_0(source: Path, target: Path) -> dict[str, object]:
+    """Writes `source` to `target` as it was written before the summaries named kind and format."""
+    data = json.loads(source.read_text())
+    data.pop("kind", None)
+    data.pop("format_version", None)
+    target.write_text(json.dumps(data))
+    return dict(data)
 
 
-@pytest.mark.parametrize("path", LEGACY, ids=lambda p: p.stem)
-def test_a_version_less_file_reads_as_format_0_and_keeps_every_field(path: Path) -> None:
-    data = json.loads(path.read_text())
-    s = load_summary(path)
+def test_the_committed_results_name_their_kind_and_format() -> None:
+    assert {p.name.split("_")[0] for p in COMMITTED} == set(KINDS)
+    for p in COMMITTED:
+        data = json.loads(p.read_text())
+        assert (data["kind"], data["format_version"]) == (p.name.split("_")[0], FORMAT_VERSION), p
+        assert isinstance(load_summary(p), KINDS[data["kind"]])
+
+
+@pytest.mark.parametrize("path", COMMITTED, ids=lambda p: p.stem)
+def test_a_version_less_file_reads_as_format_0_and_keeps_every_field(path: Path, tmp_path: Path) -> None:
+    data = as_format_0(path, tmp_path / path.name)
+    s = load_summary(tmp_path / path.name)
     assert isinstance(s, KINDS[path.name.split("_")[0]]) and s.format_version == 0
     # written again: the same fields with the same values (floats to the bit), plus kind and format
     assert summary_json(s) == {**data, "kind": s.KIND, "format_version": FORMAT_VERSION}
@@ -76,11 +88,11 @@ def test_a_results_folder_of_format_0_files_still_reports(tmp_path: Path) -> Non
     from tubempc.claims import paper_claims
     from tubempc.report import write_report
 
-    shutil.copy(BENCHMARKS / "run_bennu-paper.json", tmp_path / "summary.json")
+    as_format_0(BENCHMARKS / "run_bennu-paper.json", tmp_path / "summary.json")
     (tmp_path / "sweep").mkdir()
-    shutil.copy(BENCHMARKS / "sweep_bennu-paper.json", tmp_path / "sweep" / "sweep.json")
+    as_format_0(BENCHMARKS / "sweep_bennu-paper.json", tmp_path / "sweep" / "sweep.json")
     (tmp_path / "montecarlo").mkdir()
-    shutil.copy(BENCHMARKS / "montecarlo_bennu-paper.json", tmp_path / "montecarlo" / "summary.json")
+    as_format_0(BENCHMARKS / "montecarlo_bennu-paper.json", tmp_path / "montecarlo" / "summary.json")
     _, md = write_report(tmp_path)
     text = md.read_text()
     run = json.loads((tmp_path / "summary.json").read_text())
