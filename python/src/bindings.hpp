@@ -2,8 +2,49 @@
 #pragma once
 
 #include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "tubempc/core/fields.hpp"
 
 namespace tubempc::python {
+
+// Binds an option enum from its name table (core::EnumNames): its values, `to_string()` (the name in
+// configuration and scenario files), `from_string(name)` (ValueError naming the known names) and
+// `names()` (the file names, in declaration order).
+template <typename E>
+pybind11::enum_<E> bind_option_enum(pybind11::module_& m, const char* name, const char* doc = "") {
+  pybind11::enum_<E> e(m, name, doc);
+  for (const auto& entry : core::EnumNames<E>::values) e.value(entry.identifier, entry.value);
+  e.def("to_string", [](E v) { return std::string(core::enum_name(v)); });
+  e.def_static("from_string", [](const std::string& text) {
+    E v{};
+    if (!core::enum_from_name(text, v))
+      throw std::invalid_argument("unknown value '" + text + "' (known: " + core::enum_names_list<E>() + ")");
+    return v;
+  });
+  e.def_static("names", [] {
+    std::vector<std::string> out;
+    for (const auto& entry : core::EnumNames<E>::values) out.emplace_back(entry.name);
+    return out;
+  });
+  return e;
+}
+
+// Binds the fields of a settings struct listed by `for_each_field` as read-write attributes, and
+// `field_names()` (their names, in the table's order).
+template <typename S, typename ForEach>
+void bind_fields(pybind11::class_<S>& cls, ForEach for_each_field) {
+  std::vector<std::string> names;
+  for_each_field([&](const core::FieldInfo& f, auto member) {
+    cls.def_readwrite(f.name, member);
+    names.emplace_back(f.name);
+  });
+  cls.def_static("field_names", [names] { return names; });
+}
 
 void bind_core(pybind11::module_& m);
 void bind_so3(pybind11::module_& m);

@@ -27,6 +27,8 @@ import pint
 import tomli_w
 from numpy.typing import NDArray
 
+from . import _core
+
 FloatArray = NDArray[np.float64]
 
 _UREG: Any = pint.UnitRegistry()
@@ -169,10 +171,10 @@ class Mpc:
     R_p: FloatArray = field(metadata=_num((3,), _POS))
     R_r: FloatArray = field(metadata=_num((3,), _POS))
     kinematics: str = field(metadata=_opt("first_order", "exact"))
-    input_cost: str = field(metadata=_opt("absolute", "deviation"))
-    linearization: str = field(metadata=_opt("reuse", "every_iteration"))
-    qp_solver: str = field(metadata=_opt("active_set", "piqp"))
-    scp_mode: str = field(metadata=_opt("converge", "real_time"))
+    input_cost: str = field(metadata=_opt(*_core.mpc.InputCost.names()))
+    linearization: str = field(metadata=_opt(*_core.mpc.Linearization.names()))
+    qp_solver: str = field(metadata=_opt(*_core.mpc.QpSolver.names()))
+    scp_mode: str = field(metadata=_opt(*_core.mpc.ScpMode.names()))
 
     @property
     def n_steps(self) -> int:

@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -25,8 +26,9 @@ using core::text::format_double;
 
 constexpr const char* kMagic = "tubempc-scenario";
 
-// Text <-> enum of the options: the names written in the file (the first for each value, the same as
-// the configuration's and to_string's), then the names of format version 1, still read.
+// Text <-> enum of the options without a core::EnumNames table: the names written in the file (the
+// first for each value, the same as the configuration's and to_string's), then the names of format
+// version 1, still read. Options with a table (mpc::Settings') are read and written through it.
 template <typename E>
 using Options = std::initializer_list<std::pair<const char*, E>>;
 const Options<dynamics::Kinematics> kKinematics = {{"first_order", dynamics::Kinematics::FirstOrder},
@@ -34,22 +36,11 @@ const Options<dynamics::Kinematics> kKinematics = {{"first_order", dynamics::Kin
                                                    {"paper", dynamics::Kinematics::FirstOrder}};
 const Options<dynamics::Integrator> kIntegrators = {{"rk4", dynamics::Integrator::RK4},
                                                     {"dopri5", dynamics::Integrator::DOPRI5}};
-const Options<mpc::InputCost> kInputCosts = {{"absolute", mpc::InputCost::Absolute},
-                                             {"deviation", mpc::InputCost::Deviation},
-                                             {"paper", mpc::InputCost::Absolute},
-                                             {"from_reference", mpc::InputCost::Deviation}};
-const Options<mpc::InitialCondition> kInitialConditions = {
-    {"whitened_box", mpc::InitialCondition::WhitenedBox}, {"exact", mpc::InitialCondition::Exact}};
-const Options<mpc::QpSolver> kQpSolvers = {{"piqp", mpc::QpSolver::Piqp},
-                                           {"active_set", mpc::QpSolver::ActiveSet}};
+// Version 1's other names of the input costs (read in every version) and its mpc.backend.
+const Options<mpc::InputCost> kInputCostsV1 = {{"paper", mpc::InputCost::Absolute},
+                                               {"from_reference", mpc::InputCost::Deviation}};
 const Options<mpc::QpSolver> kBackendsV1 = {{"piqp", mpc::QpSolver::Piqp},
                                             {"active_set_piqp", mpc::QpSolver::ActiveSet}};
-const Options<mpc::Linearization> kLinearizations = {{"reuse", mpc::Linearization::Reuse},
-                                                     {"every_iteration", mpc::Linearization::EveryIteration}};
-const Options<mpc::ScpMode> kScpModes = {{"converge", mpc::ScpMode::Converge},
-                                         {"real_time", mpc::ScpMode::RealTime}};
-const Options<mpc::KktSolver> kKktSolvers = {{"sparse_ldlt", mpc::KktSolver::SparseLdlt},
-                                             {"sparse_multistage", mpc::KktSolver::SparseMultistage}};
 
 template <typename E>
 const char* option_name(const Options<E>& options, E value) {
@@ -58,6 +49,32 @@ const char* option_name(const Options<E>& options, E value) {
   }
   throw std::invalid_argument("write_scenario: option value " + std::to_string(static_cast<int>(value)) +
                               " has no name in the scenario format");
+}
+
+// The file name of an option with a core::EnumNames table.
+template <typename E>
+const char* option_name(E value) {
+  if (!core::is_named(value)) {
+    throw std::invalid_argument("write_scenario: option value " + std::to_string(static_cast<int>(value)) +
+                                " has no name in the scenario format");
+  }
+  return core::enum_name(value);
+}
+
+// Size of a symbolic dimension in the scenario's model: 12 states, 6 inputs, 2 state constraints
+// (glide slope and line of sight).
+Eigen::Index scenario_size(core::Dim d) {
+  switch (d) {
+    case core::Dim::Nx:
+      return dynamics::kNx;
+    case core::Dim::Nu:
+      return dynamics::kNu;
+    case core::Dim::Nc:
+      return 2;
+    case core::Dim::One:
+      break;
+  }
+  return 1;
 }
 
 // One record as read: a text value, or a matrix, with the line of each value row (text: of the value).
@@ -265,6 +282,24 @@ class Reader {
     fail(r->row_lines[0], name + ": unknown value '" + r->text.substr(0, 40) + "' (known: " + known + ")");
   }
 
+  // An option with a core::EnumNames table, also read under the names of `others` (older versions').
+  template <typename E>
+  void option(const std::string& name, E& out, bool required, const Options<E>& others = {}) {
+    Record* r = find(name, required);
+    if (r == nullptr) return;
+    if (!r->is_text) fail(r->line, name + ": expected a text record ('" + name + " text')");
+    if (core::enum_from_name(r->text, out)) return;
+    std::string known = core::enum_names_list<E>();
+    for (const auto& [text, value] : others) {
+      if (r->text == text) {
+        out = value;
+        return;
+      }
+      known += ", '" + std::string(text) + "'";
+    }
+    fail(r->row_lines[0], name + ": unknown value '" + r->text.substr(0, 40) + "' (known: " + known + ")");
+  }
+
   // Runs a validate() of the core and reports its message against the file.
   template <typename F>
   void validated(const std::string& what, F&& check) const {
@@ -314,6 +349,56 @@ void read_body(Reader& r, const std::string& prefix, BodyModel& body) {
 const Options<control::MeasuredInput> kMeasuredInputs = {
     {"residual", control::MeasuredInput::Residual},
     {"reference_deviation", control::MeasuredInput::ReferenceDeviation}};
+
+// The records `prefix<name>` of the fields of a struct described by for_each_field (core::FieldInfo).
+template <typename S>
+struct FieldReader {
+  Reader& r;
+  S& s;
+  std::string prefix;
+
+  template <typename T>
+  void operator()(const core::FieldInfo& f, T S::*member) const {
+    const std::string name = prefix + f.name;
+    T& value = s.*member;
+    if constexpr (std::is_same_v<T, int>) {
+      r.integer(name, value, !f.optional);
+    } else if constexpr (std::is_same_v<T, bool>) {
+      r.flag(name, value, !f.optional);
+    } else if constexpr (std::is_same_v<T, double>) {
+      if (f.optional) {
+        r.optional_scalar(name, value, f.allow_infinite);
+      } else {
+        value = r.scalar(name);
+      }
+    } else if constexpr (std::is_same_v<T, mpc::InputCost>) {
+      r.option(name, value, !f.optional, kInputCostsV1);
+    } else if constexpr (std::is_enum_v<T>) {
+      r.option(name, value, !f.optional);
+    } else {  // an Eigen matrix or vector; an optional one may be empty (0 x 0)
+      if (Record* rec =
+              r.numeric(name, scenario_size(f.rows), scenario_size(f.cols), !f.optional, f.optional))
+        value = rec->values;
+    }
+  }
+};
+
+void read_mpc(Reader& r, mpc::Settings& st) {
+  const FieldReader<mpc::Settings> read{r, st, "mpc."};
+  mpc::for_each_field([&](const core::FieldInfo& f, auto member) {
+    const std::string_view name = f.name;
+    // version 1: mpc.backend and the 0/1 flag mpc.reuse_linearization instead
+    if (r.version() == 1 && (name == "qp_solver" || name == "linearization")) return;
+    read(f, member);
+  });
+  if (r.version() == 1) {
+    r.option("mpc.backend", kBackendsV1, st.qp_solver, false);
+    bool reuse = true;
+    r.flag("mpc.reuse_linearization", reuse, false);
+    st.linearization = reuse ? mpc::Linearization::Reuse : mpc::Linearization::EveryIteration;
+  }
+  r.validated("mpc.* (mpc::Settings)", [&] { st.validate(dynamics::kNx, dynamics::kNu); });
+}
 
 void read_identifier(Reader& r, const std::string& prefix, control::IdentifierSettings& id) {
   id.lambda = r.scalar(prefix + "lambda");
@@ -391,6 +476,29 @@ class Writer {
 
  private:
   std::ostream& out_;
+};
+
+// The records `prefix<name>` of the fields of a struct described by for_each_field (core::FieldInfo).
+template <typename S>
+struct FieldWriter {
+  Writer& w;
+  const S& s;
+  std::string prefix;
+
+  template <typename T>
+  void operator()(const core::FieldInfo& f, T S::*member) const {
+    const std::string name = prefix + f.name;
+    const T& value = s.*member;
+    if constexpr (std::is_same_v<T, bool>) {
+      w.scalar(name, value ? 1.0 : 0.0);
+    } else if constexpr (std::is_arithmetic_v<T>) {
+      w.scalar(name, value);
+    } else if constexpr (std::is_enum_v<T>) {
+      w.text(name, option_name(value));
+    } else {
+      w.matrix(name, value);
+    }
+  }
 };
 
 void write_body(Writer& w, const std::string& prefix, const BodyModel& body) {
@@ -480,47 +588,7 @@ Scenario read_scenario(const std::string& path) {
   ps.initial_step = r.scalar("propagator.initial_step");
   r.validated("propagator.* (PropagatorSettings)", [&] { ps.validate(); });
 
-  mpc::Settings& st = s.settings;
-  r.integer("mpc.horizon", st.horizon);
-  st.dt = r.scalar("mpc.dt");
-  st.Q = r.matrix("mpc.Q", dynamics::kNx, dynamics::kNx);
-  st.R = r.matrix("mpc.R", dynamics::kNu, dynamics::kNu);
-  st.u_max = r.matrix("mpc.u_max", dynamics::kNu, 1);
-  r.option("mpc.input_cost", kInputCosts, st.input_cost);
-  st.scp_eps = r.scalar("mpc.scp_eps");
-  r.option("mpc.initial_condition", kInitialConditions, st.initial_condition, false);
-  r.integer("mpc.scp_max_iterations", st.scp_max_iterations, false);
-  r.optional_scalar("mpc.trust_region", st.trust_region, true);
-  r.optional_scalar("mpc.qp_eps_abs", st.qp_eps_abs);
-  r.optional_scalar("mpc.qp_eps_rel", st.qp_eps_rel);
-  r.integer("mpc.qp_max_iterations", st.qp_max_iterations, false);
-  r.optional_scalar("mpc.qp_inaccurate_tol", st.qp_inaccurate_tol);
-  r.optional_scalar("mpc.time_limit", st.time_limit, true);
-  r.flag("mpc.soft_state_constraints", st.soft_state_constraints, false);
-  r.flag("mpc.soft_terminal", st.soft_terminal, false);
-  r.optional_scalar("mpc.soft_penalty", st.soft_penalty);
-  r.optional_scalar("mpc.riccati_tol", st.riccati_tol);
-  r.integer("mpc.riccati_max_iterations", st.riccati_max_iterations, false);
-  r.option("mpc.kkt_solver", kKktSolvers, st.kkt_solver, false);
-  if (r.version() == 1) {  // version 1: mpc.backend and the 0/1 flag mpc.reuse_linearization
-    r.option("mpc.backend", kBackendsV1, st.qp_solver, false);
-    bool reuse = true;
-    r.flag("mpc.reuse_linearization", reuse, false);
-    st.linearization = reuse ? mpc::Linearization::Reuse : mpc::Linearization::EveryIteration;
-  } else {
-    r.option("mpc.qp_solver", kQpSolvers, st.qp_solver, false);
-    r.option("mpc.linearization", kLinearizations, st.linearization, false);
-  }
-  r.option("mpc.scp_mode", kScpModes, st.scp_mode, false);
-  r.integer("mpc.active_set_max_iterations", st.active_set_max_iterations, false);
-  r.flag("mpc.qp_scale_cost", st.qp_scale_cost, false);
-  r.integer("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations, false);
-  r.optional_scalar("mpc.qp_reg_lower_limit", st.qp_reg_lower_limit);
-  r.optional_scalar("mpc.qp_retry_reg_lower_limit", st.qp_retry_reg_lower_limit);
-  r.optional_matrix("mpc.A_structure", dynamics::kNx, dynamics::kNx, st.A_structure);
-  r.optional_matrix("mpc.B_structure", dynamics::kNx, dynamics::kNu, st.B_structure);
-  r.optional_matrix("mpc.G_structure", 2, dynamics::kNx, st.G_structure);
-  r.validated("mpc.* (mpc::Settings)", [&] { st.validate(dynamics::kNx, dynamics::kNu); });
+  read_mpc(r, s.settings);
 
   s.reference.t0 = r.scalar("reference.t0");
   s.reference.z = r.matrix("reference.z", -1, dynamics::kNx).transpose();
@@ -586,38 +654,7 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   w.scalar("propagator.atol", ps.atol);
   w.scalar("propagator.max_steps", ps.max_steps);
   w.scalar("propagator.initial_step", ps.initial_step);
-  w.scalar("mpc.horizon", st.horizon);
-  w.scalar("mpc.dt", st.dt);
-  w.matrix("mpc.Q", st.Q);
-  w.matrix("mpc.R", st.R);
-  w.matrix("mpc.u_max", st.u_max);
-  w.text("mpc.input_cost", option_name(kInputCosts, st.input_cost));
-  w.scalar("mpc.scp_eps", st.scp_eps);
-  w.text("mpc.initial_condition", option_name(kInitialConditions, st.initial_condition));
-  w.scalar("mpc.scp_max_iterations", st.scp_max_iterations);
-  w.scalar("mpc.trust_region", st.trust_region);
-  w.scalar("mpc.qp_eps_abs", st.qp_eps_abs);
-  w.scalar("mpc.qp_eps_rel", st.qp_eps_rel);
-  w.scalar("mpc.qp_max_iterations", st.qp_max_iterations);
-  w.scalar("mpc.qp_inaccurate_tol", st.qp_inaccurate_tol);
-  w.scalar("mpc.time_limit", st.time_limit);
-  w.scalar("mpc.soft_state_constraints", st.soft_state_constraints ? 1.0 : 0.0);
-  w.scalar("mpc.soft_terminal", st.soft_terminal ? 1.0 : 0.0);
-  w.scalar("mpc.soft_penalty", st.soft_penalty);
-  w.scalar("mpc.riccati_tol", st.riccati_tol);
-  w.scalar("mpc.riccati_max_iterations", st.riccati_max_iterations);
-  w.text("mpc.kkt_solver", option_name(kKktSolvers, st.kkt_solver));
-  w.text("mpc.qp_solver", option_name(kQpSolvers, st.qp_solver));
-  w.scalar("mpc.active_set_max_iterations", st.active_set_max_iterations);
-  w.scalar("mpc.qp_scale_cost", st.qp_scale_cost ? 1.0 : 0.0);
-  w.text("mpc.linearization", option_name(kLinearizations, st.linearization));
-  w.text("mpc.scp_mode", option_name(kScpModes, st.scp_mode));
-  w.scalar("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations);
-  w.scalar("mpc.qp_reg_lower_limit", st.qp_reg_lower_limit);
-  w.scalar("mpc.qp_retry_reg_lower_limit", st.qp_retry_reg_lower_limit);
-  w.matrix("mpc.A_structure", st.A_structure);
-  w.matrix("mpc.B_structure", st.B_structure);
-  w.matrix("mpc.G_structure", st.G_structure);
+  mpc::for_each_field(FieldWriter<mpc::Settings>{w, st, "mpc."});
   w.scalar("reference.t0", s.reference.t0);
   w.matrix("reference.z", s.reference.z.transpose());
   w.matrix("reference.u", s.reference.u.transpose());
