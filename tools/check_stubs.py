@@ -35,6 +35,18 @@ def _body_names(body: list[ast.stmt]) -> set[str]:
     return names
 
 
+def _classes(tree: ast.Module, stub_dir: Path) -> dict[str, ast.ClassDef]:
+    """The stub's classes, and those it imports from a sibling stub (`from ._mpc import _OptionNames`)."""
+    out: dict[str, ast.ClassDef] = {}
+    for node in tree.body:
+        if isinstance(node, ast.ImportFrom) and node.level == 1 and node.module is not None:
+            other = ast.parse((stub_dir / f"{node.module}.pyi").read_text())
+            imported = {a.name for a in node.names}
+            out.update({n.name: n for n in other.body if isinstance(n, ast.ClassDef) and n.name in imported})
+    out.update({n.name: n for n in tree.body if isinstance(n, ast.ClassDef)})
+    return out
+
+
 def _class_members(cls: ast.ClassDef, classes: dict[str, ast.ClassDef]) -> set[str]:
     names = _body_names(cls.body)
     for base in cls.bases:
@@ -43,15 +55,16 @@ def _class_members(cls: ast.ClassDef, classes: dict[str, ast.ClassDef]) -> set[s
     return names
 
 
-def differences(module: types.ModuleType, stub_source: str, label: str) -> list[str]:
+def differences(module: types.ModuleType, stub_source: str, label: str, stub_dir: Path = STUBS) -> list[str]:
     """The names bound in `module` and not declared in the stub, and the other way round."""
     tree = ast.parse(stub_source)
-    classes = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef)}
+    classes = _classes(tree, stub_dir)
+    local = {n.name for n in tree.body if isinstance(n, ast.ClassDef)}
     declared = {n for n in _body_names(tree.body) if _public(n) and n != "__all__"}
     bound = {n for n in dir(module) if _public(n) and not isinstance(getattr(module, n), types.ModuleType)}
     out = [f"{label}: {n} is bound but not in the stub" for n in sorted(bound - declared)]
     out += [f"{label}: {n} is in the stub but not bound" for n in sorted(declared - bound)]
-    for name in sorted(bound & declared & classes.keys()):
+    for name in sorted(bound & declared & local):
         cls = getattr(module, name)
         if not isinstance(cls, type):
             continue
@@ -77,7 +90,7 @@ def main(stub_dir: Path) -> int:
         if not stub.exists():
             problems.append(f"_core.{area}: no stub {stub}")
             continue
-        problems += differences(getattr(_core, area), stub.read_text(), stub.name)
+        problems += differences(getattr(_core, area), stub.read_text(), stub.name, stub_dir)
     for p in problems:
         print(p, file=sys.stderr)
     if not problems:

@@ -12,6 +12,14 @@
 
 namespace tubempc::python {
 
+// Binds an enum with `__str__` from its `to_string` (values added by the caller).
+template <typename E>
+pybind11::enum_<E> bind_named_enum(pybind11::module_& s, const char* name, const char* doc) {
+  pybind11::enum_<E> e(s, name, doc);
+  e.def("__str__", [](E v) { return std::string(to_string(v)); });
+  return e;
+}
+
 // Binds an option enum from its name table (core::EnumNames): its values, `to_string()` (the name in
 // configuration and scenario files), `from_string(name)` (ValueError naming the known names) and
 // `names()` (the file names, in declaration order).

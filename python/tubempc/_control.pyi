@@ -5,7 +5,7 @@ import enum
 import numpy as np
 import numpy.typing as npt
 
-from ._mpc import LinearizedModel, Reference, Settings, StepResult, Tube, TubeMPC
+from ._mpc import LinearizedModel, Reference, Settings, StepResult, Tube, TubeMPC, _OptionNames
 
 _Vec = npt.ArrayLike
 _Arr = npt.NDArray[np.float64]
@@ -16,7 +16,7 @@ class Method(enum.Enum):
     Tbmpc = ...
     Ffa = ...
 
-class MeasuredInput(enum.Enum):
+class MeasuredInput(_OptionNames, enum.Enum):
     Residual = ...
     ReferenceDeviation = ...
 

@@ -170,7 +170,7 @@ class Mpc:
     Q_r: FloatArray = field(metadata=_num((6,), _NONNEG))
     R_p: FloatArray = field(metadata=_num((3,), _POS))
     R_r: FloatArray = field(metadata=_num((3,), _POS))
-    kinematics: str = field(metadata=_opt("first_order", "exact"))
+    kinematics: str = field(metadata=_opt(*_core.dynamics.Kinematics.names()))
     input_cost: str = field(metadata=_opt(*_core.mpc.InputCost.names()))
     linearization: str = field(metadata=_opt(*_core.mpc.Linearization.names()))
     qp_solver: str = field(metadata=_opt(*_core.mpc.QpSolver.names()))
@@ -231,7 +231,7 @@ class Identification:
 
     lambda_p: float = field(metadata=_num(check=_UNIT_INTERVAL))
     lambda_r: float = field(metadata=_num(check=_UNIT_INTERVAL))
-    measured_input: str = field(metadata=_opt("residual", "reference_deviation"))
+    measured_input: str = field(metadata=_opt(*_core.control.MeasuredInput.names()))
     prior_memory: float = field(metadata=_num(check=_NONNEG))
     pw_scale: float = field(metadata=_num(check=_POS))
     eig_floor: float = field(metadata=_num(check=_POS))
@@ -331,7 +331,7 @@ class Simulation:
     unconverged_reference: a reference whose SCP did not converge is an "error" (default) or, with
     "warn", flown with a warning and recorded as such."""
 
-    integrator: str = field(metadata=_opt("rk4", "dopri5"))
+    integrator: str = field(metadata=_opt(*_core.dynamics.Integrator.names()))
     substeps: int = field(metadata=_int(check=_GE1))
     rtol: float = field(metadata=_num(check=_POS))
     density_scale: float = field(metadata=_num(check=_POS))

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from tubempc import LinearizedModel, LtiModel, TubeMPC, mpc, solve_qp
+from tubempc import LinearizedModel, LtiModel, TubeMPC, _core, mpc, solve_qp
 
 
 class DoubleIntegrator(LinearizedModel):
@@ -260,7 +260,18 @@ def test_shrinking_phase_qps_have_clarabels_optimum() -> None:
 
 
 @pytest.mark.parametrize(
-    "enum", [mpc.InitialCondition, mpc.InputCost, mpc.QpSolver, mpc.Linearization, mpc.ScpMode, mpc.KktSolver]
+    "enum",
+    [
+        mpc.InitialCondition,
+        mpc.InputCost,
+        mpc.QpSolver,
+        mpc.Linearization,
+        mpc.ScpMode,
+        mpc.KktSolver,
+        _core.dynamics.Kinematics,
+        _core.dynamics.Integrator,
+        _core.control.MeasuredInput,
+    ],
 )
 def test_option_enums_map_their_file_names_both_ways(enum: type[mpc.QpSolver]) -> None:
     members = list(enum.__members__.values())

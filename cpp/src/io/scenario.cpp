@@ -26,30 +26,16 @@ using core::text::format_double;
 
 constexpr const char* kMagic = "tubempc-scenario";
 
-// Text <-> enum of the options without a core::EnumNames table: the names written in the file (the
-// first for each value, the same as the configuration's and to_string's), then the names of format
-// version 1, still read. Options with a table (mpc::Settings') are read and written through it.
+// Options are read and written with their enum's names (core::EnumNames, the same as the
+// configuration's and to_string's); format version 1 also named some otherwise (below), still read.
 template <typename E>
 using Options = std::initializer_list<std::pair<const char*, E>>;
-const Options<dynamics::Kinematics> kKinematics = {{"first_order", dynamics::Kinematics::FirstOrder},
-                                                   {"exact", dynamics::Kinematics::Exact},
-                                                   {"paper", dynamics::Kinematics::FirstOrder}};
-const Options<dynamics::Integrator> kIntegrators = {{"rk4", dynamics::Integrator::RK4},
-                                                    {"dopri5", dynamics::Integrator::DOPRI5}};
-// Version 1's other names of the input costs (read in every version) and its mpc.backend.
+// Version 1's other names of the kinematics and input costs (read in every version) and its mpc.backend.
+const Options<dynamics::Kinematics> kKinematicsV1 = {{"paper", dynamics::Kinematics::FirstOrder}};
 const Options<mpc::InputCost> kInputCostsV1 = {{"paper", mpc::InputCost::Absolute},
                                                {"from_reference", mpc::InputCost::Deviation}};
 const Options<mpc::QpSolver> kBackendsV1 = {{"piqp", mpc::QpSolver::Piqp},
                                             {"active_set_piqp", mpc::QpSolver::ActiveSet}};
-
-template <typename E>
-const char* option_name(const Options<E>& options, E value) {
-  for (const auto& [name, v] : options) {
-    if (v == value) return name;
-  }
-  throw std::invalid_argument("write_scenario: option value " + std::to_string(static_cast<int>(value)) +
-                              " has no name in the scenario format");
-}
 
 // The file name of an option with a core::EnumNames table.
 template <typename E>
@@ -334,7 +320,7 @@ void read_body(Reader& r, const std::string& prefix, BodyModel& body) {
   p.inertia_B = r.matrix(prefix + "inertia_B", 3, 3);
   p.spin_rate = r.scalar(prefix + "spin_rate");
   p.spin_angle0 = r.scalar(prefix + "spin_angle0");
-  r.option(prefix + "kinematics", kKinematics, p.kinematics);
+  r.option(prefix + "kinematics", p.kinematics, true, kKinematicsV1);
   p.glide_slope_angle = r.scalar(prefix + "glide_slope_angle");
   p.los_angle = r.scalar(prefix + "los_angle");
   p.boresight_B = r.vector<3>(prefix + "boresight_B");
@@ -345,10 +331,6 @@ void read_body(Reader& r, const std::string& prefix, BodyModel& body) {
   body.shape_unit_scale = r.positive(prefix + "shape_unit_scale");
   r.validated(prefix + "* (ModelParams)", [&] { p.validate(); });
 }
-
-const Options<control::MeasuredInput> kMeasuredInputs = {
-    {"residual", control::MeasuredInput::Residual},
-    {"reference_deviation", control::MeasuredInput::ReferenceDeviation}};
 
 // The records `prefix<name>` of the fields of a struct described by for_each_field (core::FieldInfo).
 template <typename S>
@@ -510,7 +492,7 @@ void write_body(Writer& w, const std::string& prefix, const BodyModel& body) {
   w.matrix(prefix + "inertia_B", p.inertia_B);
   w.scalar(prefix + "spin_rate", p.spin_rate);
   w.scalar(prefix + "spin_angle0", p.spin_angle0);
-  w.text(prefix + "kinematics", option_name(kKinematics, p.kinematics));
+  w.text(prefix + "kinematics", option_name(p.kinematics));
   w.scalar(prefix + "glide_slope_angle", p.glide_slope_angle);
   w.scalar(prefix + "los_angle", p.los_angle);
   w.matrix(prefix + "boresight_B", p.boresight_B);
@@ -580,7 +562,7 @@ Scenario read_scenario(const std::string& path) {
   read_body(r, "truth.", s.truth);
 
   dynamics::PropagatorSettings& ps = s.propagator;
-  r.option("propagator.method", kIntegrators, ps.method);
+  r.option("propagator.method", ps.method, true);
   r.integer("propagator.substeps", ps.substeps);
   ps.rtol = r.scalar("propagator.rtol");
   ps.atol = r.scalar("propagator.atol");
@@ -603,7 +585,7 @@ Scenario read_scenario(const std::string& path) {
   } else {
     s.has_controller = true;
     control::ControllerSettings& c = s.controller;
-    r.option("controller.measured_input", kMeasuredInputs, c.measured_input);
+    r.option("controller.measured_input", c.measured_input, true);
     read_identifier(r, "identification_p.", c.identification_p);
     read_identifier(r, "identification_r.", c.identification_r);
     c.tube.redesign_margin = r.scalar("tube.redesign_margin");
@@ -648,7 +630,7 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   write_body(w, "model.", s.model);
   write_body(w, "truth.", s.truth);
   const dynamics::PropagatorSettings& ps = s.propagator;
-  w.text("propagator.method", option_name(kIntegrators, ps.method));
+  w.text("propagator.method", option_name(ps.method));
   w.scalar("propagator.substeps", ps.substeps);
   w.scalar("propagator.rtol", ps.rtol);
   w.scalar("propagator.atol", ps.atol);
@@ -659,7 +641,7 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   w.matrix("reference.z", s.reference.z.transpose());
   w.matrix("reference.u", s.reference.u.transpose());
   const control::ControllerSettings& c = s.controller;
-  w.text("controller.measured_input", option_name(kMeasuredInputs, c.measured_input));
+  w.text("controller.measured_input", option_name(c.measured_input));
   write_identifier(w, "identification_p.", c.identification_p);
   write_identifier(w, "identification_r.", c.identification_r);
   w.scalar("tube.redesign_margin", c.tube.redesign_margin);

@@ -1,4 +1,4 @@
-// The field table of mpc::Settings and the name tables of its option enums (core/fields.hpp).
+// The field table of mpc::Settings and the name tables of the option enums (core/fields.hpp).
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -6,6 +6,8 @@
 #include <string>
 #include <type_traits>
 
+#include "tubempc/control/controller.hpp"
+#include "tubempc/dynamics/propagator.hpp"
 #include "tubempc/mpc/settings.hpp"
 
 using namespace tubempc;
@@ -44,6 +46,9 @@ TEST(SettingsFields, EnumTablesAreCompleteAndInvertible) {
   expect_complete_table<mpc::Linearization>(2);
   expect_complete_table<mpc::ScpMode>(2);
   expect_complete_table<mpc::KktSolver>(2);
+  expect_complete_table<dynamics::Kinematics>(2);
+  expect_complete_table<dynamics::Integrator>(2);
+  expect_complete_table<control::MeasuredInput>(2);
 }
 
 // The names are the scenario and configuration files' format: files written before must still read.
@@ -56,6 +61,9 @@ TEST(SettingsFields, NamesAreTheFileFormatsAndToStringUsesThem) {
   EXPECT_STREQ(core::enum_name(mpc::InitialCondition::WhitenedBox), "whitened_box");
   EXPECT_STREQ(core::enum_name(mpc::KktSolver::SparseMultistage), "sparse_multistage");
   EXPECT_EQ(core::enum_names_list<mpc::QpSolver>(), "'piqp', 'active_set'");
+  EXPECT_STREQ(dynamics::to_string(dynamics::Kinematics::FirstOrder), "first_order");
+  EXPECT_STREQ(dynamics::to_string(dynamics::Integrator::DOPRI5), "dopri5");
+  EXPECT_STREQ(control::to_string(control::MeasuredInput::ReferenceDeviation), "reference_deviation");
 }
 
 // Each field once: distinct names and distinct members; matrices have a size, scalars none.
