@@ -200,10 +200,10 @@ struct EnumNames<mpc::KktSolver> {
 
 namespace tubempc::mpc {
 
-/// The fields of Settings, once: calls `visit(core::FieldInfo, &Settings::member)` for each member, in
-/// the order scenario files write them (`mpc.<name>`). Drives the scenario file's reading and writing
-/// (io/scenario.cpp) and the Python binding; adding a setting is one line here (docs/decisions.md
-/// "One field table").
+/// The fields of Settings, once: calls visit(info, pointer to the member) with a core::FieldInfo for
+/// each member, in the order scenario files write them (each as the record mpc.name). Drives the
+/// scenario file's reading and writing (io/scenario.cpp) and the Python binding; adding a setting is
+/// one line here (see "One field table" in docs/decisions.md).
 /// @param visit a callable taking (const core::FieldInfo&, member pointer).
 template <typename V>
 void for_each_field(V&& visit) {
