@@ -52,15 +52,11 @@ void bind_control(py::module_& m) {
       "Whether a tube status means certified for the step's linearisation and identified P_W");
   s.attr("LYAPUNOV_MARGIN") = kLyapunovMargin;
 
-  py::class_<IdentifierSettings>(s, "IdentifierSettings", "One subsystem's forgetting-factor identifier")
-      .def(py::init<>())
-      .def_readwrite("lambda_", &IdentifierSettings::lambda)
-      .def_readwrite("w0", &IdentifierSettings::w0)
-      .def_readwrite("S0", &IdentifierSettings::S0)
-      .def_readwrite("prior_weight", &IdentifierSettings::prior_weight)
-      .def_readwrite("eig_floor", &IdentifierSettings::eig_floor)
-      .def_readwrite("pw_scale", &IdentifierSettings::pw_scale)
-      .def("validate", &IdentifierSettings::validate, py::arg("what") = "identifier");
+  py::class_<IdentifierSettings> identifier(s, "IdentifierSettings",
+                                            "One subsystem's forgetting-factor identifier");
+  identifier.def(py::init<>());
+  bind_fields(identifier);
+  identifier.def("validate", &IdentifierSettings::validate, py::arg("what") = "identifier");
 
   py::class_<ForgettingFactorIdentifier>(s, "ForgettingFactorIdentifier",
                                          "Recursive mean and covariance of a subsystem's exogenous input")

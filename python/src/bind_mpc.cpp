@@ -104,7 +104,7 @@ void bind_mpc(py::module_& m) {
   py::class_<mpc::Settings> settings(s, "Settings",
                                      "Tube MPC settings (see tube_mpc.hpp); validate() names the bad field");
   settings.def(py::init<>());
-  bind_fields(settings, [](auto&& visit) { mpc::for_each_field(visit); });
+  bind_fields(settings);
   settings.def("validate", &mpc::Settings::validate, py::arg("nx"), py::arg("nu"));
 
   py::class_<mpc::Reference>(s, "Reference", "Mission reference: z (n_x x (T+1)), u (n_u x T), t0 (s)")

@@ -38,6 +38,8 @@ class Certification(enum.Enum):
 def certified(status: TubeStatus) -> bool: ...
 
 class IdentifierSettings:
+    @staticmethod
+    def field_names() -> list[str]: ...
     lambda_: float
     w0: _Arr
     S0: _Arr

@@ -142,7 +142,7 @@ def config_values() -> frozenset[str]:
 
 @functools.cache
 def scenario_records() -> frozenset[str]:
-    """The records scenario.hpp names, and `mpc.<field>` for each field of mpc::for_each_field."""
+    """The records scenario.hpp names, and `mpc.<field>` for each field of mpc::Settings::for_each_field."""
     from tubempc import _core
 
     text = _read(ROOT / "cpp" / "include" / "tubempc" / "io" / "scenario.hpp")

@@ -62,7 +62,7 @@ def test_scenario_file_holds_the_closed_loops_inputs_bit_for_bit(exported: tuple
     assert _same_bits(mesh.vertices, scn.shape.vertices) and np.array_equal(mesh.faces, scn.shape.faces)
 
     expected_settings = mpc_settings(scn)
-    # every field of mpc::for_each_field (the scenario file's mpc.* records), scp_mode included
+    # every field of mpc::Settings::for_each_field (the scenario file's mpc.* records), scp_mode included
     bound = {n for n in dir(_core.mpc.Settings) if isinstance(getattr(_core.mpc.Settings, n), property)}
     assert set(_core.mpc.Settings.field_names()) == bound
     for name in _core.mpc.Settings.field_names():

@@ -57,6 +57,8 @@ Eigen::Index scenario_size(core::Dim d) {
       return dynamics::kNu;
     case core::Dim::Nc:
       return 2;
+    case core::Dim::Nw:
+      return 6;
     case core::Dim::One:
       break;
   }
@@ -367,7 +369,7 @@ struct FieldReader {
 
 void read_mpc(Reader& r, mpc::Settings& st) {
   const FieldReader<mpc::Settings> read{r, st, "mpc."};
-  mpc::for_each_field([&](const core::FieldInfo& f, auto member) {
+  mpc::Settings::for_each_field([&](const core::FieldInfo& f, auto member) {
     const std::string_view name = f.name;
     // version 1: mpc.backend and the 0/1 flag mpc.reuse_linearization instead
     if (r.version() == 1 && (name == "qp_solver" || name == "linearization")) return;
@@ -380,15 +382,6 @@ void read_mpc(Reader& r, mpc::Settings& st) {
     st.linearization = reuse ? mpc::Linearization::Reuse : mpc::Linearization::EveryIteration;
   }
   r.validated("mpc.* (mpc::Settings)", [&] { st.validate(dynamics::kNx, dynamics::kNu); });
-}
-
-void read_identifier(Reader& r, const std::string& prefix, control::IdentifierSettings& id) {
-  id.lambda = r.scalar(prefix + "lambda");
-  id.w0 = r.vector<6>(prefix + "w0");
-  id.S0 = r.matrix(prefix + "S0", 6, 6);
-  id.prior_weight = r.scalar(prefix + "prior_weight");
-  id.eig_floor = r.scalar(prefix + "eig_floor");
-  id.pw_scale = r.scalar(prefix + "pw_scale");
 }
 
 void read_design(Reader& r, const std::string& prefix, control::SubsystemDesign& d) {
@@ -503,15 +496,6 @@ void write_body(Writer& w, const std::string& prefix, const BodyModel& body) {
   w.scalar(prefix + "shape_unit_scale", body.shape_unit_scale);
 }
 
-void write_identifier(Writer& w, const std::string& prefix, const control::IdentifierSettings& id) {
-  w.scalar(prefix + "lambda", id.lambda);
-  w.matrix(prefix + "w0", id.w0);
-  w.matrix(prefix + "S0", id.S0);
-  w.scalar(prefix + "prior_weight", id.prior_weight);
-  w.scalar(prefix + "eig_floor", id.eig_floor);
-  w.scalar(prefix + "pw_scale", id.pw_scale);
-}
-
 void write_design(Writer& w, const std::string& prefix, const control::SubsystemDesign& d) {
   w.matrix(prefix + "K", d.K);
   w.scalar(prefix + "alpha", d.alpha);
@@ -586,8 +570,9 @@ Scenario read_scenario(const std::string& path) {
     s.has_controller = true;
     control::ControllerSettings& c = s.controller;
     r.option("controller.measured_input", c.measured_input, true);
-    read_identifier(r, "identification_p.", c.identification_p);
-    read_identifier(r, "identification_r.", c.identification_r);
+    using Identifier = control::IdentifierSettings;
+    Identifier::for_each_field(FieldReader<Identifier>{r, c.identification_p, "identification_p."});
+    Identifier::for_each_field(FieldReader<Identifier>{r, c.identification_r, "identification_r."});
     c.tube.redesign_margin = r.scalar("tube.redesign_margin");
     r.integer("tube.alpha_search_period", c.tube.alpha_search_period);
     r.validated("identification_*, tube.* (ControllerSettings)", [&] { c.validate(); });
@@ -636,14 +621,15 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   w.scalar("propagator.atol", ps.atol);
   w.scalar("propagator.max_steps", ps.max_steps);
   w.scalar("propagator.initial_step", ps.initial_step);
-  mpc::for_each_field(FieldWriter<mpc::Settings>{w, st, "mpc."});
+  mpc::Settings::for_each_field(FieldWriter<mpc::Settings>{w, st, "mpc."});
   w.scalar("reference.t0", s.reference.t0);
   w.matrix("reference.z", s.reference.z.transpose());
   w.matrix("reference.u", s.reference.u.transpose());
   const control::ControllerSettings& c = s.controller;
   w.text("controller.measured_input", option_name(c.measured_input));
-  write_identifier(w, "identification_p.", c.identification_p);
-  write_identifier(w, "identification_r.", c.identification_r);
+  using Identifier = control::IdentifierSettings;
+  Identifier::for_each_field(FieldWriter<Identifier>{w, c.identification_p, "identification_p."});
+  Identifier::for_each_field(FieldWriter<Identifier>{w, c.identification_r, "identification_r."});
   w.scalar("tube.redesign_margin", c.tube.redesign_margin);
   w.scalar("tube.alpha_search_period", c.tube.alpha_search_period);
   write_design(w, "designs.tbmpc_p.", s.tbmpc_designs.initial_p);

@@ -66,13 +66,16 @@ TEST(SettingsFields, NamesAreTheFileFormatsAndToStringUsesThem) {
   EXPECT_STREQ(control::to_string(control::MeasuredInput::ReferenceDeviation), "reference_deviation");
 }
 
+namespace {
+
 // Each field once: distinct names and distinct members; matrices have a size, scalars none.
-TEST(SettingsFields, EveryFieldIsListedOnceWithItsMember) {
-  mpc::Settings s;
+template <typename S>
+std::set<std::string> expect_fields_listed_once() {
+  S s;
   std::set<std::string> names;
   std::set<std::uintptr_t> addresses;
   int n = 0;
-  mpc::for_each_field([&](const core::FieldInfo& f, auto member) {
+  S::for_each_field([&](const core::FieldInfo& f, auto member) {
     ++n;
     names.insert(f.name);
     addresses.insert(reinterpret_cast<std::uintptr_t>(&(s.*member)));
@@ -83,6 +86,14 @@ TEST(SettingsFields, EveryFieldIsListedOnceWithItsMember) {
   });
   EXPECT_EQ(static_cast<int>(names.size()), n);
   EXPECT_EQ(static_cast<int>(addresses.size()), n);
+  return names;
+}
+
+}  // namespace
+
+TEST(SettingsFields, EveryFieldIsListedOnceWithItsMember) {
+  const std::set<std::string> names = expect_fields_listed_once<mpc::Settings>();
   for (const char* required : {"horizon", "dt", "Q", "R", "u_max", "input_cost", "scp_eps"})
     EXPECT_EQ(names.count(required), 1u) << required;
+  EXPECT_EQ(expect_fields_listed_once<control::IdentifierSettings>().size(), 6u);
 }

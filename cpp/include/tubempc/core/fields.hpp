@@ -3,7 +3,7 @@
 /// file, the Python binding and to_string/from_string are driven (docs/decisions.md "One field table").
 ///
 /// An option enum E has its names in a specialisation of EnumNames<E> (next to the enum); a settings
-/// struct lists its members once in a `for_each_field(visitor)` that calls `visitor(FieldInfo, member
+/// struct lists its members once in a static `for_each_field(visitor)` that calls `visitor(FieldInfo, member
 /// pointer)` per member. The kind of a field is its member's C++ type (int, double, bool, a named
 /// enum, Eigen::MatrixXd or Eigen::VectorXd); its default is the struct's in-class initialiser.
 #pragma once
@@ -82,6 +82,7 @@ enum class Dim {
   Nx,   ///< n_x, the state size
   Nu,   ///< n_u, the input size
   Nc,   ///< n_c, the number of state constraints
+  Nw,   ///< n_w, a subsystem's state size (6: the identifiers' inputs)
 };
 
 /// Description of one field of a settings struct.

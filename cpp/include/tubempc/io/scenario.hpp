@@ -39,17 +39,14 @@
 ///   | `truth.*` | | the same records for the simulated plant (the truth model) |
 ///   | `propagator.method` | text | `rk4` or `dopri5` |
 ///   | `propagator.substeps`, `.rtol`, `.atol`, `.max_steps`, `.initial_step` | 1 1 each | dynamics::PropagatorSettings (s for initial_step) |
-///   | `mpc.<field>` | | every field of mpc::Settings, as mpc::for_each_field lists them (name, size in n_x, n_u and n_c = 2, unit, optional, may be `inf`): integers and flags (0 or 1) are 1 x 1, options are text with the names of their core::EnumNames table; an optional matrix may be `0 0` |
+///   | `mpc.<field>` | | every field of mpc::Settings, as mpc::Settings::for_each_field lists them (name, size in n_x, n_u and n_c = 2, unit, optional, may be `inf`): integers and flags (0 or 1) are 1 x 1, options are text with the names of their core::EnumNames table; an optional matrix may be `0 0` |
 ///   | `reference.t0` | 1 1 | time of node 0 (s) |
 ///   | `reference.z` | T+1 12 | reference states zbar_0..zbar_T, one node per row |
 ///   | `reference.u` | T 6 | reference inputs u_ref_0..u_ref_{T-1}, one node per row |
 ///   | `tube.K` | 6 12 | TBMPC's ancillary gain (versions 1-2 only; version 3: from `designs.tbmpc_*`) |
 ///   | `tube.Pe` | 12 12 | TBMPC's tube shape (versions 1-2 only) |
 ///   | `controller.measured_input` | text | `residual` or `reference_deviation` (control::MeasuredInput) |
-///   | `identification_p.lambda`, `identification_r.lambda` | 1 1 | forgetting factors |
-///   | `identification_p.w0`, `identification_r.w0` | 6 1 | prior means (subsystem state units) |
-///   | `identification_p.S0`, `identification_r.S0` | 6 6 | prior covariances |
-///   | `identification_p.prior_weight`, `.eig_floor`, `.pw_scale` (and `_r`) | 1 1 each | control::IdentifierSettings |
+///   | `identification_p.<field>`, `identification_r.<field>` | | every field of control::IdentifierSettings (translational, rotational), as its for_each_field lists them (sizes in n_w = 6) |
 ///   | `tube.redesign_margin` | 1 1 | control::TubePolicySettings::redesign_margin |
 ///   | `tube.alpha_search_period` | 1 1 | integer, steps |
 ///   | `designs.<m>_<s>.K`, `.alpha`, `.P_W`, `.Pe` | 3 6, 1 1, 6 6, 6 6 | initial LMI design of method `<m>` (`tbmpc`, `ffa`) and subsystem `<s>` (`p`, `r`) |

@@ -1,7 +1,7 @@
 /// @file settings.hpp
 /// Settings of the tube MPC (TubeMPC, tube_mpc.hpp): the option enums and Settings, with in-class
 /// defaults and validate(). Each enum's text form (to_string) is its name in scenario files; the
-/// names are in one table per enum (core::EnumNames) and the fields in one list (for_each_field).
+/// names are in one table per enum (core::EnumNames) and the fields in one list (Settings::for_each_field).
 #pragma once
 
 #include <Eigen/Dense>
@@ -143,6 +143,14 @@ struct Settings {
 
   /// Throws std::invalid_argument naming the offending field; n_x, n_u are the plant's sizes.
   void validate(int nx, int nu) const;
+
+  /// The fields, once: calls visit(info, pointer to the member) with a core::FieldInfo for each member,
+  /// in the order scenario files write them (each as the record mpc.name). Drives the scenario file's
+  /// reading and writing (io/scenario.cpp) and the Python binding; adding a setting is one line there
+  /// (see "One field table" in docs/decisions.md).
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
 };
 
 }  // namespace tubempc::mpc
@@ -200,13 +208,9 @@ struct EnumNames<mpc::KktSolver> {
 
 namespace tubempc::mpc {
 
-/// The fields of Settings, once: calls visit(info, pointer to the member) with a core::FieldInfo for
-/// each member, in the order scenario files write them (each as the record mpc.name). Drives the
-/// scenario file's reading and writing (io/scenario.cpp) and the Python binding; adding a setting is
-/// one line here (see "One field table" in docs/decisions.md).
-/// @param visit a callable taking (const core::FieldInfo&, member pointer).
+// The table of Settings::for_each_field.
 template <typename V>
-void for_each_field(V&& visit) {
+void Settings::for_each_field(V&& visit) {
   using core::Dim;
   using core::FieldInfo;
   constexpr bool req = false, opt = true, inf = true, finite = false;
