@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The lint of the test command: fails on any finding. tools/format.sh applies the formatters.
 #   ruff check and ruff format --check (pyproject.toml), mypy --strict (pyproject.toml),
-#   clang-format --dry-run -Werror (.clang-format) on the C++ sources, headers, bindings, tests and examples.
+#   clang-format --dry-run -Werror (.clang-format) on the C++ sources, headers, bindings, tests and examples,
+#   and tools/check_stubs.py: the stubs python/tubempc/_*.pyi declare what the built tubempc._core binds.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=${VENV_BIN:-.venv/bin}
@@ -10,4 +11,5 @@ BIN=${VENV_BIN:-.venv/bin}
 "$BIN/mypy"
 git ls-files 'cpp/*.hpp' 'cpp/*.cpp' 'python/src/*.hpp' 'python/src/*.cpp' 'tests/cpp/*.hpp' 'tests/cpp/*.cpp' \
   'examples/*.cpp' | xargs clang-format --dry-run -Werror
+"$BIN/python" tools/check_stubs.py
 echo "lint passed"

@@ -16,13 +16,6 @@ namespace {
 
 using namespace tubempc::actuators;
 
-template <typename E>
-py::enum_<E> bind_named_enum(py::module_& s, const char* name, const char* doc) {
-  py::enum_<E> e(s, name, doc);
-  e.def("__str__", [](E v) { return std::string(to_string(v)); });
-  return e;
-}
-
 }  // namespace
 
 void bind_actuators(py::module_& m) {

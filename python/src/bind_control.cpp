@@ -22,13 +22,6 @@ struct StepCopy : ControlStep {
   mpc::StepResult mpc_result;
 };
 
-template <typename E>
-py::enum_<E> bind_named_enum(py::module_& s, const char* name, const char* doc) {
-  py::enum_<E> e(s, name, doc);
-  e.def("__str__", [](E v) { return std::string(to_string(v)); });
-  return e;
-}
-
 }  // namespace
 
 void bind_control(py::module_& m) {
@@ -39,9 +32,8 @@ void bind_control(py::module_& m) {
   bind_named_enum<Method>(s, "Method", "TBMPC (fixed tube) or TBMPC-FFA (identified tube)")
       .value("Tbmpc", Method::Tbmpc)
       .value("Ffa", Method::Ffa);
-  bind_named_enum<MeasuredInput>(s, "MeasuredInput", "The identification's measured exogenous input")
-      .value("Residual", MeasuredInput::Residual)
-      .value("ReferenceDeviation", MeasuredInput::ReferenceDeviation);
+  bind_option_enum<MeasuredInput>(s, "MeasuredInput", "The identification's measured exogenous input")
+      .def("__str__", [](MeasuredInput v) { return std::string(to_string(v)); });
   bind_named_enum<TubeStatus>(s, "TubeStatus", "How a step's tube came about")
       .value("Fixed", TubeStatus::Fixed)
       .value("Initial", TubeStatus::Initial)
@@ -60,15 +52,11 @@ void bind_control(py::module_& m) {
       "Whether a tube status means certified for the step's linearisation and identified P_W");
   s.attr("LYAPUNOV_MARGIN") = kLyapunovMargin;
 
-  py::class_<IdentifierSettings>(s, "IdentifierSettings", "One subsystem's forgetting-factor identifier")
-      .def(py::init<>())
-      .def_readwrite("lambda_", &IdentifierSettings::lambda)
-      .def_readwrite("w0", &IdentifierSettings::w0)
-      .def_readwrite("S0", &IdentifierSettings::S0)
-      .def_readwrite("prior_weight", &IdentifierSettings::prior_weight)
-      .def_readwrite("eig_floor", &IdentifierSettings::eig_floor)
-      .def_readwrite("pw_scale", &IdentifierSettings::pw_scale)
-      .def("validate", &IdentifierSettings::validate, py::arg("what") = "identifier");
+  py::class_<IdentifierSettings> identifier(s, "IdentifierSettings",
+                                            "One subsystem's forgetting-factor identifier");
+  identifier.def(py::init<>());
+  bind_fields(identifier);
+  identifier.def("validate", &IdentifierSettings::validate, py::arg("what") = "identifier");
 
   py::class_<ForgettingFactorIdentifier>(s, "ForgettingFactorIdentifier",
                                          "Recursive mean and covariance of a subsystem's exogenous input")

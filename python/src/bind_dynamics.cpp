@@ -163,12 +163,11 @@ py::dict time_kernels(const std::shared_ptr<ProximityModel>& self, double t0, do
 void bind_dynamics(py::module_& m) {
   auto d = m.def_submodule("dynamics", "6-DOF proximity dynamics in the orbital frame L (docs/model.md)");
 
-  py::enum_<dynamics::Kinematics>(d, "Kinematics", "Rotation-vector kinematics of the model state")
-      .value("FirstOrder", dynamics::Kinematics::FirstOrder, "phi' = omega_BL_B")
-      .value("Exact", dynamics::Kinematics::Exact, "phi' = Jr(phi)^-1 omega_BL_B");
-  py::enum_<dynamics::Integrator>(d, "Integrator")
-      .value("RK4", dynamics::Integrator::RK4)
-      .value("DOPRI5", dynamics::Integrator::DOPRI5);
+  bind_option_enum<dynamics::Kinematics>(
+      d, "Kinematics",
+      "Rotation-vector kinematics of the model state: FirstOrder phi' = omega_BL_B, Exact phi' = "
+      "Jr(phi)^-1 omega_BL_B");
+  bind_option_enum<dynamics::Integrator>(d, "Integrator");
   py::enum_<dynamics::PropagationStatus>(d, "PropagationStatus")
       .value("Success", dynamics::PropagationStatus::Success)
       .value("MaxStepsReached", dynamics::PropagationStatus::MaxStepsReached)

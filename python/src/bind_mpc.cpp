@@ -94,61 +94,18 @@ void bind_mpc(py::module_& m) {
       .value("EmptyTightening", mpc::Status::EmptyTightening)
       .value("ModelStructure", mpc::Status::ModelStructure)
       .def("__str__", [](mpc::Status st) { return mpc::to_string(st); });
-  py::enum_<mpc::InitialCondition>(s, "InitialCondition")
-      .value("WhitenedBox", mpc::InitialCondition::WhitenedBox)
-      .value("Exact", mpc::InitialCondition::Exact);
-  py::enum_<mpc::InputCost>(s, "InputCost")
-      .value("Absolute", mpc::InputCost::Absolute)
-      .value("Deviation", mpc::InputCost::Deviation);
-  py::enum_<mpc::QpSolver>(s, "QpSolver")
-      .value("Piqp", mpc::QpSolver::Piqp)
-      .value("ActiveSet", mpc::QpSolver::ActiveSet);
-  py::enum_<mpc::Linearization>(s, "Linearization")
-      .value("Reuse", mpc::Linearization::Reuse)
-      .value("EveryIteration", mpc::Linearization::EveryIteration);
-  py::enum_<mpc::ScpMode>(s, "ScpMode")
-      .value("Converge", mpc::ScpMode::Converge)
-      .value("RealTime", mpc::ScpMode::RealTime);
-  py::enum_<mpc::KktSolver>(s, "KktSolver")
-      .value("SparseLdlt", mpc::KktSolver::SparseLdlt)
-      .value("SparseMultistage", mpc::KktSolver::SparseMultistage);
+  bind_option_enum<mpc::InitialCondition>(s, "InitialCondition");
+  bind_option_enum<mpc::InputCost>(s, "InputCost");
+  bind_option_enum<mpc::QpSolver>(s, "QpSolver");
+  bind_option_enum<mpc::Linearization>(s, "Linearization");
+  bind_option_enum<mpc::ScpMode>(s, "ScpMode");
+  bind_option_enum<mpc::KktSolver>(s, "KktSolver");
 
-  py::class_<mpc::Settings>(s, "Settings",
-                            "Tube MPC settings (see tube_mpc.hpp); validate() names the bad field")
-      .def(py::init<>())
-      .def_readwrite("horizon", &mpc::Settings::horizon)
-      .def_readwrite("dt", &mpc::Settings::dt)
-      .def_readwrite("Q", &mpc::Settings::Q)
-      .def_readwrite("R", &mpc::Settings::R)
-      .def_readwrite("u_max", &mpc::Settings::u_max)
-      .def_readwrite("input_cost", &mpc::Settings::input_cost)
-      .def_readwrite("initial_condition", &mpc::Settings::initial_condition)
-      .def_readwrite("scp_eps", &mpc::Settings::scp_eps)
-      .def_readwrite("scp_max_iterations", &mpc::Settings::scp_max_iterations)
-      .def_readwrite("trust_region", &mpc::Settings::trust_region)
-      .def_readwrite("qp_eps_abs", &mpc::Settings::qp_eps_abs)
-      .def_readwrite("qp_eps_rel", &mpc::Settings::qp_eps_rel)
-      .def_readwrite("qp_max_iterations", &mpc::Settings::qp_max_iterations)
-      .def_readwrite("qp_inaccurate_tol", &mpc::Settings::qp_inaccurate_tol)
-      .def_readwrite("time_limit", &mpc::Settings::time_limit)
-      .def_readwrite("soft_state_constraints", &mpc::Settings::soft_state_constraints)
-      .def_readwrite("soft_terminal", &mpc::Settings::soft_terminal)
-      .def_readwrite("soft_penalty", &mpc::Settings::soft_penalty)
-      .def_readwrite("riccati_tol", &mpc::Settings::riccati_tol)
-      .def_readwrite("riccati_max_iterations", &mpc::Settings::riccati_max_iterations)
-      .def_readwrite("qp_solver", &mpc::Settings::qp_solver)
-      .def_readwrite("kkt_solver", &mpc::Settings::kkt_solver)
-      .def_readwrite("qp_scale_cost", &mpc::Settings::qp_scale_cost)
-      .def_readwrite("linearization", &mpc::Settings::linearization)
-      .def_readwrite("scp_mode", &mpc::Settings::scp_mode)
-      .def_readwrite("active_set_max_iterations", &mpc::Settings::active_set_max_iterations)
-      .def_readwrite("qp_preconditioner_iterations", &mpc::Settings::qp_preconditioner_iterations)
-      .def_readwrite("qp_reg_lower_limit", &mpc::Settings::qp_reg_lower_limit)
-      .def_readwrite("qp_retry_reg_lower_limit", &mpc::Settings::qp_retry_reg_lower_limit)
-      .def_readwrite("A_structure", &mpc::Settings::A_structure)
-      .def_readwrite("B_structure", &mpc::Settings::B_structure)
-      .def_readwrite("G_structure", &mpc::Settings::G_structure)
-      .def("validate", &mpc::Settings::validate, py::arg("nx"), py::arg("nu"));
+  py::class_<mpc::Settings> settings(s, "Settings",
+                                     "Tube MPC settings (see tube_mpc.hpp); validate() names the bad field");
+  settings.def(py::init<>());
+  bind_fields(settings);
+  settings.def("validate", &mpc::Settings::validate, py::arg("nx"), py::arg("nu"));
 
   py::class_<mpc::Reference>(s, "Reference", "Mission reference: z (n_x x (T+1)), u (n_u x T), t0 (s)")
       .def(py::init([](Eigen::MatrixXd z, Eigen::MatrixXd u, double t0) {

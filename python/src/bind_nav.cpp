@@ -23,13 +23,6 @@ namespace {
 using namespace tubempc::nav;
 using Rows3 = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
-template <typename E>
-py::enum_<E> bind_named_enum(py::module_& s, const char* name, const char* doc) {
-  py::enum_<E> e(s, name, doc);
-  e.def("__str__", [](E v) { return std::string(to_string(v)); });
-  return e;
-}
-
 // Ray casts of many rays with the GIL released: distances (inf for a miss) and faces (-1).
 py::tuple cast_batch(const RayCaster& caster, const Eigen::Ref<const Rows3>& origins_A,
                      const Eigen::Ref<const Rows3>& directions_A, double max_distance, bool brute_force) {

@@ -2,8 +2,61 @@
 #pragma once
 
 #include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "tubempc/core/fields.hpp"
 
 namespace tubempc::python {
+
+// Binds an enum with `__str__` from its `to_string` (values added by the caller).
+template <typename E>
+pybind11::enum_<E> bind_named_enum(pybind11::module_& s, const char* name, const char* doc) {
+  pybind11::enum_<E> e(s, name, doc);
+  e.def("__str__", [](E v) { return std::string(to_string(v)); });
+  return e;
+}
+
+// Binds an option enum from its name table (core::EnumNames): its values, `to_string()` (the name in
+// configuration and scenario files), `from_string(name)` (ValueError naming the known names) and
+// `names()` (the file names, in declaration order).
+template <typename E>
+pybind11::enum_<E> bind_option_enum(pybind11::module_& m, const char* name, const char* doc = "") {
+  pybind11::enum_<E> e(m, name, doc);
+  for (const auto& entry : core::EnumNames<E>::values) e.value(entry.identifier, entry.value);
+  e.def("to_string", [](E v) { return std::string(core::enum_name(v)); });
+  e.def_static("from_string", [](const std::string& text) {
+    E v{};
+    if (!core::enum_from_name(text, v))
+      throw std::invalid_argument("unknown value '" + text + "' (known: " + core::enum_names_list<E>() + ")");
+    return v;
+  });
+  e.def_static("names", [] {
+    std::vector<std::string> out;
+    for (const auto& entry : core::EnumNames<E>::values) out.emplace_back(entry.name);
+    return out;
+  });
+  return e;
+}
+
+// Binds the fields of a settings struct listed by its `S::for_each_field` as read-write attributes (a
+// name that is a Python keyword gets a trailing underscore: `lambda_`), and `field_names()` (the
+// attributes' names, in the table's order).
+template <typename S>
+void bind_fields(pybind11::class_<S>& cls) {
+  const pybind11::object is_keyword = pybind11::module_::import("keyword").attr("iskeyword");
+  std::vector<std::string> names;
+  S::for_each_field([&](const core::FieldInfo& f, auto member) {
+    std::string name = f.name;
+    if (is_keyword(name).template cast<bool>()) name += "_";
+    cls.def_readwrite(name.c_str(), member);
+    names.push_back(name);
+  });
+  cls.def_static("field_names", [names] { return names; });
+}
 
 void bind_core(pybind11::module_& m);
 void bind_so3(pybind11::module_& m);

@@ -5,7 +5,7 @@ import enum
 import numpy as np
 import numpy.typing as npt
 
-from ._mpc import LinearizedModel, Reference, Settings, StepResult, Tube, TubeMPC
+from ._mpc import LinearizedModel, Reference, Settings, StepResult, Tube, TubeMPC, _OptionNames
 
 _Vec = npt.ArrayLike
 _Arr = npt.NDArray[np.float64]
@@ -16,7 +16,7 @@ class Method(enum.Enum):
     Tbmpc = ...
     Ffa = ...
 
-class MeasuredInput(enum.Enum):
+class MeasuredInput(_OptionNames, enum.Enum):
     Residual = ...
     ReferenceDeviation = ...
 
@@ -38,6 +38,8 @@ class Certification(enum.Enum):
 def certified(status: TubeStatus) -> bool: ...
 
 class IdentifierSettings:
+    @staticmethod
+    def field_names() -> list[str]: ...
     lambda_: float
     w0: _Arr
     S0: _Arr

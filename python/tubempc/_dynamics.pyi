@@ -7,14 +7,16 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from ._mpc import _OptionNames
+
 _Vec = npt.ArrayLike
 _Arr = npt.NDArray[np.float64]
 
-class Kinematics(enum.Enum):
+class Kinematics(_OptionNames, enum.Enum):
     FirstOrder = 0
     Exact = 1
 
-class Integrator(enum.Enum):
+class Integrator(_OptionNames, enum.Enum):
     RK4 = 0
     DOPRI5 = 1
 

@@ -27,6 +27,8 @@ import pint
 import tomli_w
 from numpy.typing import NDArray
 
+from . import _core
+
 FloatArray = NDArray[np.float64]
 
 _UREG: Any = pint.UnitRegistry()
@@ -168,11 +170,11 @@ class MpcSection:
     Q_r: FloatArray = field(metadata=_num((6,), _NONNEG))
     R_p: FloatArray = field(metadata=_num((3,), _POS))
     R_r: FloatArray = field(metadata=_num((3,), _POS))
-    kinematics: str = field(metadata=_opt("first_order", "exact"))
-    input_cost: str = field(metadata=_opt("absolute", "deviation"))
-    linearization: str = field(metadata=_opt("reuse", "every_iteration"))
-    qp_solver: str = field(metadata=_opt("active_set", "piqp"))
-    scp_mode: str = field(metadata=_opt("converge", "real_time"))
+    kinematics: str = field(metadata=_opt(*_core.dynamics.Kinematics.names()))
+    input_cost: str = field(metadata=_opt(*_core.mpc.InputCost.names()))
+    linearization: str = field(metadata=_opt(*_core.mpc.Linearization.names()))
+    qp_solver: str = field(metadata=_opt(*_core.mpc.QpSolver.names()))
+    scp_mode: str = field(metadata=_opt(*_core.mpc.ScpMode.names()))
 
     @property
     def n_steps(self) -> int:
@@ -229,7 +231,7 @@ class IdentificationSection:
 
     lambda_p: float = field(metadata=_num(check=_UNIT_INTERVAL))
     lambda_r: float = field(metadata=_num(check=_UNIT_INTERVAL))
-    measured_input: str = field(metadata=_opt("residual", "reference_deviation"))
+    measured_input: str = field(metadata=_opt(*_core.control.MeasuredInput.names()))
     prior_memory: float = field(metadata=_num(check=_NONNEG))
     pw_scale: float = field(metadata=_num(check=_POS))
     eig_floor: float = field(metadata=_num(check=_POS))
@@ -329,7 +331,7 @@ class SimulationSection:
     unconverged_reference: a reference whose SCP did not converge is an "error" (default) or, with
     "warn", flown with a warning and recorded as such."""
 
-    integrator: str = field(metadata=_opt("rk4", "dopri5"))
+    integrator: str = field(metadata=_opt(*_core.dynamics.Integrator.names()))
     substeps: int = field(metadata=_int(check=_GE1))
     rtol: float = field(metadata=_num(check=_POS))
     density_scale: float = field(metadata=_num(check=_POS))

@@ -59,7 +59,6 @@ __all__ = [
 _Arr = npt.NDArray[np.float64]
 Disturbance = npt.ArrayLike | Callable[[float, _Arr], npt.ArrayLike] | None
 
-_KINEMATICS = {"first_order": Kinematics.FirstOrder, "exact": Kinematics.Exact}
 _SCALARS = (
     "mu_sun",
     "orbit_radius",
@@ -89,8 +88,8 @@ def model_params(config: ModelParams | Mapping[str, Any] | None = None) -> Model
             if key == "kinematics":
                 if isinstance(value, Kinematics):
                     p.kinematics = value
-                elif str(value).lower() in _KINEMATICS:
-                    p.kinematics = _KINEMATICS[str(value).lower()]
+                elif str(value).lower() in Kinematics.names():
+                    p.kinematics = Kinematics.from_string(str(value).lower())
                 else:
                     raise ValueError(f"kinematics must be 'first_order' or 'exact', got {value!r}")
             elif key == "inertia_B":
@@ -118,7 +117,7 @@ def params_to_config(p: ModelParams) -> dict[str, Any]:
     out: dict[str, Any] = {k: float(getattr(p, k)) for k in _SCALARS}
     out["srp_enabled"] = bool(p.srp_enabled)
     out["inertia_B"] = np.asarray(p.inertia_B).tolist()
-    out["kinematics"] = "exact" if p.kinematics == Kinematics.Exact else "first_order"
+    out["kinematics"] = p.kinematics.to_string()
     for key in _VECTORS:
         out[key] = np.asarray(getattr(p, key)).tolist()
     return out

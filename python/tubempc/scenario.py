@@ -50,11 +50,6 @@ __all__ = [
 
 Array = npt.NDArray[np.float64]
 METHODS = ("tbmpc", "ffa")
-# Configuration option -> C++ enum: the same names in the TOML, the C++ to_string and scenario files.
-_INPUT_COSTS = {"absolute": _core.mpc.InputCost.Absolute, "deviation": _core.mpc.InputCost.Deviation}
-_SCP_MODES = {"converge": _core.mpc.ScpMode.Converge, "real_time": _core.mpc.ScpMode.RealTime}
-_LINEARIZATIONS = {"reuse": _core.mpc.Linearization.Reuse, "every_iteration": _core.mpc.Linearization.EveryIteration}
-_QP_SOLVERS = {"active_set": _core.mpc.QpSolver.ActiveSet, "piqp": _core.mpc.QpSolver.Piqp}
 P_STATES, R_STATES = slice(0, 6), slice(6, 12)  # translational x_p = [r_L, v_L], rotational x_r = [phi, omega_BL_B]
 P_INPUTS, R_INPUTS = slice(0, 3), slice(3, 6)  # u_p (m/s^2, L), T (N m, B)
 
@@ -489,10 +484,11 @@ def mpc_settings(scn: Scenario) -> Any:
     st.R = np.diag(np.concatenate([m.R_p, m.R_r]))
     st.u_max = np.r_[[cfg.spacecraft.u_max] * 3, [cfg.spacecraft.T_max] * 3]
     st.scp_eps = m.scp_eps
-    st.input_cost = _INPUT_COSTS[m.input_cost]
-    st.linearization = _LINEARIZATIONS[m.linearization]
-    st.qp_solver = _QP_SOLVERS[m.qp_solver]
-    st.scp_mode = _SCP_MODES[m.scp_mode]
+    # configuration options are the C++ enums' names (their from_string, as in scenario files)
+    st.input_cost = _core.mpc.InputCost.from_string(m.input_cost)
+    st.linearization = _core.mpc.Linearization.from_string(m.linearization)
+    st.qp_solver = _core.mpc.QpSolver.from_string(m.qp_solver)
+    st.scp_mode = _core.mpc.ScpMode.from_string(m.scp_mode)
     return st
 
 

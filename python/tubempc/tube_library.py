@@ -38,11 +38,6 @@ __all__ = [
 
 Array = npt.NDArray[np.float64]
 
-_MEASURED_INPUTS = {
-    "residual": _core.control.MeasuredInput.Residual,
-    "reference_deviation": _core.control.MeasuredInput.ReferenceDeviation,
-}
-
 
 def library_scales(lo: float, hi: float, ratio: float) -> list[float]:
     """The ladder c = ratio^j, j integer, with lo <= c <= hi (ascending)."""
@@ -159,7 +154,7 @@ def controller_settings(
     ident, t = cfg.identification, cfg.tube
     s = _core.control.ControllerSettings()
     s.method = _core.control.Method.Tbmpc if method == "tbmpc" else _core.control.Method.Ffa
-    s.measured_input = _MEASURED_INPUTS[ident.measured_input]
+    s.measured_input = _core.control.MeasuredInput.from_string(ident.measured_input)
     common = (ident.prior_memory, ident.eig_floor, ident.pw_scale)
     s.identification_p = _identifier_settings(lambda_p or ident.lambda_p, ident.w0_p, ident.S0_p, *common)
     s.identification_r = _identifier_settings(lambda_r or ident.lambda_r, ident.w0_r, ident.S0_r, *common)

@@ -135,15 +135,19 @@ def config_values() -> frozenset[str]:
     text = _read(ROOT / "python" / "tubempc" / "config.py")
     for path in (ROOT / "python" / "tubempc" / "data").rglob("*.toml"):
         text += _read(path)
-    for path in (ROOT / "cpp" / "src").rglob("*.cpp"):
+    for path in [*(ROOT / "cpp" / "src").rglob("*.cpp"), *(ROOT / "cpp" / "include").rglob("*.hpp")]:
         text += _read(path)
     return frozenset(re.findall(r"\"([^\"\n]*)\"", text))
 
 
 @functools.cache
 def scenario_records() -> frozenset[str]:
+    """The records scenario.hpp names, and `mpc.<field>` for each field of mpc::Settings::for_each_field."""
+    from tubempc import _core
+
     text = _read(ROOT / "cpp" / "include" / "tubempc" / "io" / "scenario.hpp")
-    return frozenset(re.findall(r"`((?:model|truth|propagator|mpc|reference|tube|mission)\.[a-z_A-Z0-9]+)`", text))
+    named = re.findall(r"`((?:model|truth|propagator|mpc|reference|tube|mission)\.[a-z_A-Z0-9]+)`", text)
+    return frozenset([*named, *(f"mpc.{f}" for f in _core.mpc.Settings.field_names())])
 
 
 @functools.cache

@@ -22,9 +22,7 @@ constexpr int kNu = 6;
 
 const char* to_string(Method m) { return m == Method::Tbmpc ? "tbmpc" : "ffa"; }
 
-const char* to_string(MeasuredInput m) {
-  return m == MeasuredInput::Residual ? "residual" : "reference_deviation";
-}
+const char* to_string(MeasuredInput m) { return core::enum_name(m); }
 
 void ControllerSettings::validate() const {
   identification_p.validate("identification_p");

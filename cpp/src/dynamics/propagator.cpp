@@ -153,15 +153,7 @@ PropagationResult dopri5(const Rhs& f, double t0, TruthState y, double dt, const
 
 }  // namespace
 
-const char* to_string(Integrator m) {
-  switch (m) {
-    case Integrator::RK4:
-      return "rk4";
-    case Integrator::DOPRI5:
-      return "dopri5";
-  }
-  return "unknown";
-}
+const char* to_string(Integrator m) { return core::enum_name(m); }
 
 const char* to_string(PropagationStatus s) {
   switch (s) {

@@ -41,15 +41,7 @@ Eigen::Vector3d hill_tidal(double n, const Eigen::Vector3d& r) {
 
 }  // namespace
 
-const char* to_string(Kinematics k) {
-  switch (k) {
-    case Kinematics::FirstOrder:
-      return "first_order";
-    case Kinematics::Exact:
-      return "exact";
-  }
-  return "unknown";
-}
+const char* to_string(Kinematics k) { return core::enum_name(k); }
 
 const char* to_string(DiscretizationStatus s) {
   switch (s) {

@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -25,39 +26,43 @@ using core::text::format_double;
 
 constexpr const char* kMagic = "tubempc-scenario";
 
-// Text <-> enum of the options: the names written in the file (the first for each value, the same as
-// the configuration's and to_string's), then the names of format version 1, still read.
+// Options are read and written with their enum's names (core::EnumNames, the same as the
+// configuration's and to_string's); format version 1 also named some otherwise (below), still read.
 template <typename E>
 using Options = std::initializer_list<std::pair<const char*, E>>;
-const Options<dynamics::Kinematics> kKinematics = {{"first_order", dynamics::Kinematics::FirstOrder},
-                                                   {"exact", dynamics::Kinematics::Exact},
-                                                   {"paper", dynamics::Kinematics::FirstOrder}};
-const Options<dynamics::Integrator> kIntegrators = {{"rk4", dynamics::Integrator::RK4},
-                                                    {"dopri5", dynamics::Integrator::DOPRI5}};
-const Options<mpc::InputCost> kInputCosts = {{"absolute", mpc::InputCost::Absolute},
-                                             {"deviation", mpc::InputCost::Deviation},
-                                             {"paper", mpc::InputCost::Absolute},
-                                             {"from_reference", mpc::InputCost::Deviation}};
-const Options<mpc::InitialCondition> kInitialConditions = {
-    {"whitened_box", mpc::InitialCondition::WhitenedBox}, {"exact", mpc::InitialCondition::Exact}};
-const Options<mpc::QpSolver> kQpSolvers = {{"piqp", mpc::QpSolver::Piqp},
-                                           {"active_set", mpc::QpSolver::ActiveSet}};
+// Version 1's other names of the kinematics and input costs (read in every version) and its mpc.backend.
+const Options<dynamics::Kinematics> kKinematicsV1 = {{"paper", dynamics::Kinematics::FirstOrder}};
+const Options<mpc::InputCost> kInputCostsV1 = {{"paper", mpc::InputCost::Absolute},
+                                               {"from_reference", mpc::InputCost::Deviation}};
 const Options<mpc::QpSolver> kBackendsV1 = {{"piqp", mpc::QpSolver::Piqp},
                                             {"active_set_piqp", mpc::QpSolver::ActiveSet}};
-const Options<mpc::Linearization> kLinearizations = {{"reuse", mpc::Linearization::Reuse},
-                                                     {"every_iteration", mpc::Linearization::EveryIteration}};
-const Options<mpc::ScpMode> kScpModes = {{"converge", mpc::ScpMode::Converge},
-                                         {"real_time", mpc::ScpMode::RealTime}};
-const Options<mpc::KktSolver> kKktSolvers = {{"sparse_ldlt", mpc::KktSolver::SparseLdlt},
-                                             {"sparse_multistage", mpc::KktSolver::SparseMultistage}};
 
+// The file name of an option with a core::EnumNames table.
 template <typename E>
-const char* option_name(const Options<E>& options, E value) {
-  for (const auto& [name, v] : options) {
-    if (v == value) return name;
+const char* option_name(E value) {
+  if (!core::is_named(value)) {
+    throw std::invalid_argument("write_scenario: option value " + std::to_string(static_cast<int>(value)) +
+                                " has no name in the scenario format");
   }
-  throw std::invalid_argument("write_scenario: option value " + std::to_string(static_cast<int>(value)) +
-                              " has no name in the scenario format");
+  return core::enum_name(value);
+}
+
+// Size of a symbolic dimension in the scenario's model: 12 states, 6 inputs, 2 state constraints
+// (glide slope and line of sight).
+Eigen::Index scenario_size(core::Dim d) {
+  switch (d) {
+    case core::Dim::Nx:
+      return dynamics::kNx;
+    case core::Dim::Nu:
+      return dynamics::kNu;
+    case core::Dim::Nc:
+      return 2;
+    case core::Dim::Nw:
+      return 6;
+    case core::Dim::One:
+      break;
+  }
+  return 1;
 }
 
 // One record as read: a text value, or a matrix, with the line of each value row (text: of the value).
@@ -265,6 +270,24 @@ class Reader {
     fail(r->row_lines[0], name + ": unknown value '" + r->text.substr(0, 40) + "' (known: " + known + ")");
   }
 
+  // An option with a core::EnumNames table, also read under the names of `others` (older versions').
+  template <typename E>
+  void option(const std::string& name, E& out, bool required, const Options<E>& others = {}) {
+    Record* r = find(name, required);
+    if (r == nullptr) return;
+    if (!r->is_text) fail(r->line, name + ": expected a text record ('" + name + " text')");
+    if (core::enum_from_name(r->text, out)) return;
+    std::string known = core::enum_names_list<E>();
+    for (const auto& [text, value] : others) {
+      if (r->text == text) {
+        out = value;
+        return;
+      }
+      known += ", '" + std::string(text) + "'";
+    }
+    fail(r->row_lines[0], name + ": unknown value '" + r->text.substr(0, 40) + "' (known: " + known + ")");
+  }
+
   // Runs a validate() of the core and reports its message against the file.
   template <typename F>
   void validated(const std::string& what, F&& check) const {
@@ -299,7 +322,7 @@ void read_body(Reader& r, const std::string& prefix, BodyModel& body) {
   p.inertia_B = r.matrix(prefix + "inertia_B", 3, 3);
   p.spin_rate = r.scalar(prefix + "spin_rate");
   p.spin_angle0 = r.scalar(prefix + "spin_angle0");
-  r.option(prefix + "kinematics", kKinematics, p.kinematics);
+  r.option(prefix + "kinematics", p.kinematics, true, kKinematicsV1);
   p.glide_slope_angle = r.scalar(prefix + "glide_slope_angle");
   p.los_angle = r.scalar(prefix + "los_angle");
   p.boresight_B = r.vector<3>(prefix + "boresight_B");
@@ -311,17 +334,54 @@ void read_body(Reader& r, const std::string& prefix, BodyModel& body) {
   r.validated(prefix + "* (ModelParams)", [&] { p.validate(); });
 }
 
-const Options<control::MeasuredInput> kMeasuredInputs = {
-    {"residual", control::MeasuredInput::Residual},
-    {"reference_deviation", control::MeasuredInput::ReferenceDeviation}};
+// The records `prefix<name>` of the fields of a struct described by for_each_field (core::FieldInfo).
+template <typename S>
+struct FieldReader {
+  Reader& r;
+  S& s;
+  std::string prefix;
 
-void read_identifier(Reader& r, const std::string& prefix, control::IdentifierSettings& id) {
-  id.lambda = r.scalar(prefix + "lambda");
-  id.w0 = r.vector<6>(prefix + "w0");
-  id.S0 = r.matrix(prefix + "S0", 6, 6);
-  id.prior_weight = r.scalar(prefix + "prior_weight");
-  id.eig_floor = r.scalar(prefix + "eig_floor");
-  id.pw_scale = r.scalar(prefix + "pw_scale");
+  template <typename T>
+  void operator()(const core::FieldInfo& f, T S::*member) const {
+    const std::string name = prefix + f.name;
+    T& value = s.*member;
+    if constexpr (std::is_same_v<T, int>) {
+      r.integer(name, value, !f.optional);
+    } else if constexpr (std::is_same_v<T, bool>) {
+      r.flag(name, value, !f.optional);
+    } else if constexpr (std::is_same_v<T, double>) {
+      if (f.optional) {
+        r.optional_scalar(name, value, f.allow_infinite);
+      } else {
+        value = r.scalar(name);
+      }
+    } else if constexpr (std::is_same_v<T, mpc::InputCost>) {
+      r.option(name, value, !f.optional, kInputCostsV1);
+    } else if constexpr (std::is_enum_v<T>) {
+      r.option(name, value, !f.optional);
+    } else {  // an Eigen matrix or vector; an optional one may be empty (0 x 0)
+      if (Record* rec =
+              r.numeric(name, scenario_size(f.rows), scenario_size(f.cols), !f.optional, f.optional))
+        value = rec->values;
+    }
+  }
+};
+
+void read_mpc(Reader& r, mpc::Settings& st) {
+  const FieldReader<mpc::Settings> read{r, st, "mpc."};
+  mpc::Settings::for_each_field([&](const core::FieldInfo& f, auto member) {
+    const std::string_view name = f.name;
+    // version 1: mpc.backend and the 0/1 flag mpc.reuse_linearization instead
+    if (r.version() == 1 && (name == "qp_solver" || name == "linearization")) return;
+    read(f, member);
+  });
+  if (r.version() == 1) {
+    r.option("mpc.backend", kBackendsV1, st.qp_solver, false);
+    bool reuse = true;
+    r.flag("mpc.reuse_linearization", reuse, false);
+    st.linearization = reuse ? mpc::Linearization::Reuse : mpc::Linearization::EveryIteration;
+  }
+  r.validated("mpc.* (mpc::Settings)", [&] { st.validate(dynamics::kNx, dynamics::kNu); });
 }
 
 void read_design(Reader& r, const std::string& prefix, control::SubsystemDesign& d) {
@@ -393,6 +453,29 @@ class Writer {
   std::ostream& out_;
 };
 
+// The records `prefix<name>` of the fields of a struct described by for_each_field (core::FieldInfo).
+template <typename S>
+struct FieldWriter {
+  Writer& w;
+  const S& s;
+  std::string prefix;
+
+  template <typename T>
+  void operator()(const core::FieldInfo& f, T S::*member) const {
+    const std::string name = prefix + f.name;
+    const T& value = s.*member;
+    if constexpr (std::is_same_v<T, bool>) {
+      w.scalar(name, value ? 1.0 : 0.0);
+    } else if constexpr (std::is_arithmetic_v<T>) {
+      w.scalar(name, value);
+    } else if constexpr (std::is_enum_v<T>) {
+      w.text(name, option_name(value));
+    } else {
+      w.matrix(name, value);
+    }
+  }
+};
+
 void write_body(Writer& w, const std::string& prefix, const BodyModel& body) {
   const dynamics::ModelParams& p = body.params;
   w.scalar(prefix + "mu_sun", p.mu_sun);
@@ -402,7 +485,7 @@ void write_body(Writer& w, const std::string& prefix, const BodyModel& body) {
   w.matrix(prefix + "inertia_B", p.inertia_B);
   w.scalar(prefix + "spin_rate", p.spin_rate);
   w.scalar(prefix + "spin_angle0", p.spin_angle0);
-  w.text(prefix + "kinematics", option_name(kKinematics, p.kinematics));
+  w.text(prefix + "kinematics", option_name(p.kinematics));
   w.scalar(prefix + "glide_slope_angle", p.glide_slope_angle);
   w.scalar(prefix + "los_angle", p.los_angle);
   w.matrix(prefix + "boresight_B", p.boresight_B);
@@ -411,15 +494,6 @@ void write_body(Writer& w, const std::string& prefix, const BodyModel& body) {
   w.scalar(prefix + "density", body.density);
   w.text(prefix + "shape", body.shape);
   w.scalar(prefix + "shape_unit_scale", body.shape_unit_scale);
-}
-
-void write_identifier(Writer& w, const std::string& prefix, const control::IdentifierSettings& id) {
-  w.scalar(prefix + "lambda", id.lambda);
-  w.matrix(prefix + "w0", id.w0);
-  w.matrix(prefix + "S0", id.S0);
-  w.scalar(prefix + "prior_weight", id.prior_weight);
-  w.scalar(prefix + "eig_floor", id.eig_floor);
-  w.scalar(prefix + "pw_scale", id.pw_scale);
 }
 
 void write_design(Writer& w, const std::string& prefix, const control::SubsystemDesign& d) {
@@ -472,7 +546,7 @@ Scenario read_scenario(const std::string& path) {
   read_body(r, "truth.", s.truth);
 
   dynamics::PropagatorSettings& ps = s.propagator;
-  r.option("propagator.method", kIntegrators, ps.method);
+  r.option("propagator.method", ps.method, true);
   r.integer("propagator.substeps", ps.substeps);
   ps.rtol = r.scalar("propagator.rtol");
   ps.atol = r.scalar("propagator.atol");
@@ -480,47 +554,7 @@ Scenario read_scenario(const std::string& path) {
   ps.initial_step = r.scalar("propagator.initial_step");
   r.validated("propagator.* (PropagatorSettings)", [&] { ps.validate(); });
 
-  mpc::Settings& st = s.settings;
-  r.integer("mpc.horizon", st.horizon);
-  st.dt = r.scalar("mpc.dt");
-  st.Q = r.matrix("mpc.Q", dynamics::kNx, dynamics::kNx);
-  st.R = r.matrix("mpc.R", dynamics::kNu, dynamics::kNu);
-  st.u_max = r.matrix("mpc.u_max", dynamics::kNu, 1);
-  r.option("mpc.input_cost", kInputCosts, st.input_cost);
-  st.scp_eps = r.scalar("mpc.scp_eps");
-  r.option("mpc.initial_condition", kInitialConditions, st.initial_condition, false);
-  r.integer("mpc.scp_max_iterations", st.scp_max_iterations, false);
-  r.optional_scalar("mpc.trust_region", st.trust_region, true);
-  r.optional_scalar("mpc.qp_eps_abs", st.qp_eps_abs);
-  r.optional_scalar("mpc.qp_eps_rel", st.qp_eps_rel);
-  r.integer("mpc.qp_max_iterations", st.qp_max_iterations, false);
-  r.optional_scalar("mpc.qp_inaccurate_tol", st.qp_inaccurate_tol);
-  r.optional_scalar("mpc.time_limit", st.time_limit, true);
-  r.flag("mpc.soft_state_constraints", st.soft_state_constraints, false);
-  r.flag("mpc.soft_terminal", st.soft_terminal, false);
-  r.optional_scalar("mpc.soft_penalty", st.soft_penalty);
-  r.optional_scalar("mpc.riccati_tol", st.riccati_tol);
-  r.integer("mpc.riccati_max_iterations", st.riccati_max_iterations, false);
-  r.option("mpc.kkt_solver", kKktSolvers, st.kkt_solver, false);
-  if (r.version() == 1) {  // version 1: mpc.backend and the 0/1 flag mpc.reuse_linearization
-    r.option("mpc.backend", kBackendsV1, st.qp_solver, false);
-    bool reuse = true;
-    r.flag("mpc.reuse_linearization", reuse, false);
-    st.linearization = reuse ? mpc::Linearization::Reuse : mpc::Linearization::EveryIteration;
-  } else {
-    r.option("mpc.qp_solver", kQpSolvers, st.qp_solver, false);
-    r.option("mpc.linearization", kLinearizations, st.linearization, false);
-  }
-  r.option("mpc.scp_mode", kScpModes, st.scp_mode, false);
-  r.integer("mpc.active_set_max_iterations", st.active_set_max_iterations, false);
-  r.flag("mpc.qp_scale_cost", st.qp_scale_cost, false);
-  r.integer("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations, false);
-  r.optional_scalar("mpc.qp_reg_lower_limit", st.qp_reg_lower_limit);
-  r.optional_scalar("mpc.qp_retry_reg_lower_limit", st.qp_retry_reg_lower_limit);
-  r.optional_matrix("mpc.A_structure", dynamics::kNx, dynamics::kNx, st.A_structure);
-  r.optional_matrix("mpc.B_structure", dynamics::kNx, dynamics::kNu, st.B_structure);
-  r.optional_matrix("mpc.G_structure", 2, dynamics::kNx, st.G_structure);
-  r.validated("mpc.* (mpc::Settings)", [&] { st.validate(dynamics::kNx, dynamics::kNu); });
+  read_mpc(r, s.settings);
 
   s.reference.t0 = r.scalar("reference.t0");
   s.reference.z = r.matrix("reference.z", -1, dynamics::kNx).transpose();
@@ -535,9 +569,10 @@ Scenario read_scenario(const std::string& path) {
   } else {
     s.has_controller = true;
     control::ControllerSettings& c = s.controller;
-    r.option("controller.measured_input", kMeasuredInputs, c.measured_input);
-    read_identifier(r, "identification_p.", c.identification_p);
-    read_identifier(r, "identification_r.", c.identification_r);
+    r.option("controller.measured_input", c.measured_input, true);
+    using Identifier = control::IdentifierSettings;
+    Identifier::for_each_field(FieldReader<Identifier>{r, c.identification_p, "identification_p."});
+    Identifier::for_each_field(FieldReader<Identifier>{r, c.identification_r, "identification_r."});
     c.tube.redesign_margin = r.scalar("tube.redesign_margin");
     r.integer("tube.alpha_search_period", c.tube.alpha_search_period);
     r.validated("identification_*, tube.* (ControllerSettings)", [&] { c.validate(); });
@@ -580,51 +615,21 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   write_body(w, "model.", s.model);
   write_body(w, "truth.", s.truth);
   const dynamics::PropagatorSettings& ps = s.propagator;
-  w.text("propagator.method", option_name(kIntegrators, ps.method));
+  w.text("propagator.method", option_name(ps.method));
   w.scalar("propagator.substeps", ps.substeps);
   w.scalar("propagator.rtol", ps.rtol);
   w.scalar("propagator.atol", ps.atol);
   w.scalar("propagator.max_steps", ps.max_steps);
   w.scalar("propagator.initial_step", ps.initial_step);
-  w.scalar("mpc.horizon", st.horizon);
-  w.scalar("mpc.dt", st.dt);
-  w.matrix("mpc.Q", st.Q);
-  w.matrix("mpc.R", st.R);
-  w.matrix("mpc.u_max", st.u_max);
-  w.text("mpc.input_cost", option_name(kInputCosts, st.input_cost));
-  w.scalar("mpc.scp_eps", st.scp_eps);
-  w.text("mpc.initial_condition", option_name(kInitialConditions, st.initial_condition));
-  w.scalar("mpc.scp_max_iterations", st.scp_max_iterations);
-  w.scalar("mpc.trust_region", st.trust_region);
-  w.scalar("mpc.qp_eps_abs", st.qp_eps_abs);
-  w.scalar("mpc.qp_eps_rel", st.qp_eps_rel);
-  w.scalar("mpc.qp_max_iterations", st.qp_max_iterations);
-  w.scalar("mpc.qp_inaccurate_tol", st.qp_inaccurate_tol);
-  w.scalar("mpc.time_limit", st.time_limit);
-  w.scalar("mpc.soft_state_constraints", st.soft_state_constraints ? 1.0 : 0.0);
-  w.scalar("mpc.soft_terminal", st.soft_terminal ? 1.0 : 0.0);
-  w.scalar("mpc.soft_penalty", st.soft_penalty);
-  w.scalar("mpc.riccati_tol", st.riccati_tol);
-  w.scalar("mpc.riccati_max_iterations", st.riccati_max_iterations);
-  w.text("mpc.kkt_solver", option_name(kKktSolvers, st.kkt_solver));
-  w.text("mpc.qp_solver", option_name(kQpSolvers, st.qp_solver));
-  w.scalar("mpc.active_set_max_iterations", st.active_set_max_iterations);
-  w.scalar("mpc.qp_scale_cost", st.qp_scale_cost ? 1.0 : 0.0);
-  w.text("mpc.linearization", option_name(kLinearizations, st.linearization));
-  w.text("mpc.scp_mode", option_name(kScpModes, st.scp_mode));
-  w.scalar("mpc.qp_preconditioner_iterations", st.qp_preconditioner_iterations);
-  w.scalar("mpc.qp_reg_lower_limit", st.qp_reg_lower_limit);
-  w.scalar("mpc.qp_retry_reg_lower_limit", st.qp_retry_reg_lower_limit);
-  w.matrix("mpc.A_structure", st.A_structure);
-  w.matrix("mpc.B_structure", st.B_structure);
-  w.matrix("mpc.G_structure", st.G_structure);
+  mpc::Settings::for_each_field(FieldWriter<mpc::Settings>{w, st, "mpc."});
   w.scalar("reference.t0", s.reference.t0);
   w.matrix("reference.z", s.reference.z.transpose());
   w.matrix("reference.u", s.reference.u.transpose());
   const control::ControllerSettings& c = s.controller;
-  w.text("controller.measured_input", option_name(kMeasuredInputs, c.measured_input));
-  write_identifier(w, "identification_p.", c.identification_p);
-  write_identifier(w, "identification_r.", c.identification_r);
+  w.text("controller.measured_input", option_name(c.measured_input));
+  using Identifier = control::IdentifierSettings;
+  Identifier::for_each_field(FieldWriter<Identifier>{w, c.identification_p, "identification_p."});
+  Identifier::for_each_field(FieldWriter<Identifier>{w, c.identification_r, "identification_r."});
   w.scalar("tube.redesign_margin", c.tube.redesign_margin);
   w.scalar("tube.alpha_search_period", c.tube.alpha_search_period);
   write_design(w, "designs.tbmpc_p.", s.tbmpc_designs.initial_p);

@@ -22,10 +22,10 @@ void check_square_symmetric(const Eigen::MatrixXd& M, int n, const char* field) 
 
 }  // namespace
 
-const char* to_string(InputCost c) { return c == InputCost::Absolute ? "absolute" : "deviation"; }
-const char* to_string(QpSolver q) { return q == QpSolver::Piqp ? "piqp" : "active_set"; }
-const char* to_string(Linearization l) { return l == Linearization::Reuse ? "reuse" : "every_iteration"; }
-const char* to_string(ScpMode m) { return m == ScpMode::Converge ? "converge" : "real_time"; }
+const char* to_string(InputCost c) { return core::enum_name(c); }
+const char* to_string(QpSolver q) { return core::enum_name(q); }
+const char* to_string(Linearization l) { return core::enum_name(l); }
+const char* to_string(ScpMode m) { return core::enum_name(m); }
 
 void Settings::validate(int nx, int nu) const {
   auto fail = [](const std::string& field, const std::string& what) {
@@ -63,11 +63,9 @@ void Settings::validate(int nx, int nu) const {
   if (G_structure.size() != 0 && G_structure.cols() != nx) fail("G_structure", "must be empty or n_c x n_x");
   if (riccati_max_iterations < 1) fail("riccati_max_iterations", "must be >= 1");
   if (active_set_max_iterations < 1) fail("active_set_max_iterations", "must be >= 1");
-  if (qp_solver != QpSolver::Piqp && qp_solver != QpSolver::ActiveSet)
-    fail("qp_solver", "is not a known QP solver");
-  if (linearization != Linearization::Reuse && linearization != Linearization::EveryIteration)
-    fail("linearization", "is not a known policy");
-  if (scp_mode != ScpMode::Converge && scp_mode != ScpMode::RealTime) fail("scp_mode", "is not a known mode");
+  if (!core::is_named(qp_solver)) fail("qp_solver", "is not a known QP solver");
+  if (!core::is_named(linearization)) fail("linearization", "is not a known policy");
+  if (!core::is_named(scp_mode)) fail("scp_mode", "is not a known mode");
   if (scp_mode == ScpMode::RealTime && linearization != Linearization::Reuse)
     fail("scp_mode", "real_time needs linearization = reuse (its next step re-linearises the moved nodes)");
   if (qp_preconditioner_iterations < 0) fail("qp_preconditioner_iterations", "must be >= 0");

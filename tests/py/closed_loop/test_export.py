@@ -62,39 +62,10 @@ def test_scenario_file_holds_the_closed_loops_inputs_bit_for_bit(exported: tuple
     assert _same_bits(mesh.vertices, scn.shape.vertices) and np.array_equal(mesh.faces, scn.shape.faces)
 
     expected_settings = mpc_settings(scn)
-    for name in (
-        "horizon",
-        "dt",
-        "Q",
-        "R",
-        "u_max",
-        "scp_eps",
-        "input_cost",
-        "initial_condition",
-        "scp_max_iterations",
-        "trust_region",
-        "qp_eps_abs",
-        "qp_eps_rel",
-        "qp_max_iterations",
-        "qp_inaccurate_tol",
-        "time_limit",
-        "soft_state_constraints",
-        "soft_terminal",
-        "soft_penalty",
-        "riccati_tol",
-        "riccati_max_iterations",
-        "kkt_solver",
-        "qp_scale_cost",
-        "linearization",
-        "qp_preconditioner_iterations",
-        "qp_reg_lower_limit",
-        "qp_solver",
-        "active_set_max_iterations",
-        "qp_retry_reg_lower_limit",
-        "A_structure",
-        "B_structure",
-        "G_structure",
-    ):
+    # every field of mpc::Settings::for_each_field (the scenario file's mpc.* records), scp_mode included
+    bound = {n for n in dir(_core.mpc.Settings) if isinstance(getattr(_core.mpc.Settings, n), property)}
+    assert set(_core.mpc.Settings.field_names()) == bound
+    for name in _core.mpc.Settings.field_names():
         a, b = getattr(s.settings, name), getattr(expected_settings, name)
         enums = (
             _core.mpc.InputCost,
@@ -102,6 +73,7 @@ def test_scenario_file_holds_the_closed_loops_inputs_bit_for_bit(exported: tuple
             _core.mpc.KktSolver,
             _core.mpc.QpSolver,
             _core.mpc.Linearization,
+            _core.mpc.ScpMode,
         )
         assert (a == b) if isinstance(a, (bool, int, *enums)) else _same_bits(a, b), name
     assert s.propagator.method == _core.dynamics.Integrator.RK4

@@ -121,3 +121,12 @@ def test_statuses_name_their_certification() -> None:
     certified = {str(s) for s in ctl.TubeStatus.__members__.values() if ctl.certified(s)}
     assert certified == {"initial", "lyapunov", "lyapunov_no_margin", "library", "library_no_margin"}
     assert str(ctl.TubeStatus.Uncertified) == "uncertified" and str(ctl.Method.Ffa) == "ffa"
+
+
+@pytest.mark.parametrize("cls", [_core.mpc.Settings, _core.control.IdentifierSettings])
+def test_field_tables_bind_every_attribute_once(cls: type) -> None:
+    names = cls.field_names()
+    assert len(names) == len(set(names))
+    assert set(names) == {n for n in dir(cls) if isinstance(getattr(cls, n), property)}
+    if cls is _core.control.IdentifierSettings:
+        assert "lambda_" in names  # the C++ field `lambda`, a Python keyword

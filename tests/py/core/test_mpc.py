@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from tubempc import LinearizedModel, LtiModel, TubeMPC, mpc, solve_qp
+from tubempc import LinearizedModel, LtiModel, TubeMPC, _core, mpc, solve_qp
 
 
 class DoubleIntegrator(LinearizedModel):
@@ -257,3 +257,26 @@ def test_shrinking_phase_qps_have_clarabels_optimum() -> None:
         assert clarabel.status == "optimal"
         worst = max(worst, abs(objective - clarabel.objective) / max(1.0, abs(clarabel.objective)))
     assert worst < 1e-6
+
+
+@pytest.mark.parametrize(
+    "enum",
+    [
+        mpc.InitialCondition,
+        mpc.InputCost,
+        mpc.QpSolver,
+        mpc.Linearization,
+        mpc.ScpMode,
+        mpc.KktSolver,
+        _core.dynamics.Kinematics,
+        _core.dynamics.Integrator,
+        _core.control.MeasuredInput,
+    ],
+)
+def test_option_enums_map_their_file_names_both_ways(enum: type[mpc.QpSolver]) -> None:
+    members = list(enum.__members__.values())
+    assert len(enum.names()) == len(members) == len(set(enum.names()))
+    for value in members:
+        assert enum.from_string(value.to_string()) == value
+    with pytest.raises(ValueError, match="unknown value 'nope' \\(known: '"):
+        enum.from_string("nope")

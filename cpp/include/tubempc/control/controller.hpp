@@ -181,3 +181,16 @@ class Controller {
 };
 
 }  // namespace tubempc::control
+
+namespace tubempc::core {
+
+/// Names of control::MeasuredInput.
+template <>
+struct EnumNames<control::MeasuredInput> {
+  /// The values, their identifiers and file names.
+  static constexpr std::array<EnumName<control::MeasuredInput>, 2> values{
+      {{control::MeasuredInput::Residual, "Residual", "residual"},
+       {control::MeasuredInput::ReferenceDeviation, "ReferenceDeviation", "reference_deviation"}}};
+};
+
+}  // namespace tubempc::core

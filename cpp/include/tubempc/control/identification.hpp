@@ -15,6 +15,8 @@
 
 #include <Eigen/Dense>
 
+#include "tubempc/core/fields.hpp"
+
 namespace tubempc::control {
 
 /// A subsystem's state (6: position and velocity, or attitude and rate).
@@ -34,6 +36,21 @@ struct IdentifierSettings {
   /// Throws std::invalid_argument naming the field (`what` is prefixed to it, e.g. "identification_p").
   /// @param what name of the subsystem's settings in the message.
   void validate(const char* what = "identifier") const;
+
+  /// The fields, once (core::FieldInfo; scenario records identification_p.name and _r): calls
+  /// visit(info, pointer to the member) for each member.
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit) {
+    using core::Dim;
+    using core::FieldInfo;
+    visit(FieldInfo{"lambda", "", false, false}, &IdentifierSettings::lambda);
+    visit(FieldInfo{"w0", "subsystem state units", false, false, Dim::Nw, Dim::One}, &IdentifierSettings::w0);
+    visit(FieldInfo{"S0", "", false, false, Dim::Nw, Dim::Nw}, &IdentifierSettings::S0);
+    visit(FieldInfo{"prior_weight", "", false, false}, &IdentifierSettings::prior_weight);
+    visit(FieldInfo{"eig_floor", "", false, false}, &IdentifierSettings::eig_floor);
+    visit(FieldInfo{"pw_scale", "", false, false}, &IdentifierSettings::pw_scale);
+  }
 };
 
 /// The recursive estimate of one subsystem's exogenous input; allocation-free after construction.

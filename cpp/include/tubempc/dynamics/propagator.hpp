@@ -94,3 +94,15 @@ PropagationResult propagate(const ProximityModel& model, double t0, const TruthS
                             const PropagatorSettings& settings = {});
 
 }  // namespace tubempc::dynamics
+
+namespace tubempc::core {
+
+/// Names of dynamics::Integrator.
+template <>
+struct EnumNames<dynamics::Integrator> {
+  /// The values, their identifiers and file names.
+  static constexpr std::array<EnumName<dynamics::Integrator>, 2> values{
+      {{dynamics::Integrator::RK4, "RK4", "rk4"}, {dynamics::Integrator::DOPRI5, "DOPRI5", "dopri5"}}};
+};
+
+}  // namespace tubempc::core

@@ -26,8 +26,10 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <array>
 #include <memory>
 
+#include "tubempc/core/fields.hpp"
 #include "tubempc/gravity/gravity_model.hpp"
 #include "tubempc/math/so3.hpp"
 
@@ -282,3 +284,16 @@ StateVector truth_to_state(const TruthState& s, const Eigen::Vector3d& phi_ref =
 TruthState state_to_truth(const StateVector& x);
 
 }  // namespace tubempc::dynamics
+
+namespace tubempc::core {
+
+/// Names of dynamics::Kinematics.
+template <>
+struct EnumNames<dynamics::Kinematics> {
+  /// The values, their identifiers and file names.
+  static constexpr std::array<EnumName<dynamics::Kinematics>, 2> values{
+      {{dynamics::Kinematics::FirstOrder, "FirstOrder", "first_order"},
+       {dynamics::Kinematics::Exact, "Exact", "exact"}}};
+};
+
+}  // namespace tubempc::core

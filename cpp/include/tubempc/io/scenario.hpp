@@ -39,32 +39,14 @@
 ///   | `truth.*` | | the same records for the simulated plant (the truth model) |
 ///   | `propagator.method` | text | `rk4` or `dopri5` |
 ///   | `propagator.substeps`, `.rtol`, `.atol`, `.max_steps`, `.initial_step` | 1 1 each | dynamics::PropagatorSettings (s for initial_step) |
-///   | `mpc.horizon` | 1 1 | N |
-///   | `mpc.dt` | 1 1 | control period (s) |
-///   | `mpc.Q`, `mpc.R` | 12 12, 6 6 | stage weights |
-///   | `mpc.u_max` | 6 1 | input bounds (m/s^2, N m) |
-///   | `mpc.input_cost` | text | `absolute` or `deviation` |
-///   | `mpc.scp_eps` | 1 1 | SCP threshold (state units) |
-///   | `mpc.initial_condition` (opt.) | text | `whitened_box` or `exact` |
-///   | `mpc.scp_max_iterations`, `mpc.qp_max_iterations`, `mpc.riccati_max_iterations`, `mpc.qp_preconditioner_iterations`, `mpc.active_set_max_iterations` (opt.) | 1 1 | integers |
-///   | `mpc.trust_region` (opt., may be `inf`), `mpc.time_limit` (opt., s, may be `inf`) | 1 1 | |
-///   | `mpc.qp_eps_abs`, `mpc.qp_eps_rel`, `mpc.qp_inaccurate_tol`, `mpc.soft_penalty`, `mpc.riccati_tol`, `mpc.qp_reg_lower_limit`, `mpc.qp_retry_reg_lower_limit` (opt.) | 1 1 | |
-///   | `mpc.soft_state_constraints`, `mpc.soft_terminal`, `mpc.qp_scale_cost` (opt.) | 1 1 | 0 or 1 |
-///   | `mpc.linearization` (opt.) | text | `reuse` or `every_iteration` |
-///   | `mpc.scp_mode` (opt.) | text | `converge` or `real_time` |
-///   | `mpc.kkt_solver` (opt.) | text | `sparse_ldlt` or `sparse_multistage` |
-///   | `mpc.qp_solver` (opt.) | text | `active_set` or `piqp` |
-///   | `mpc.A_structure`, `mpc.B_structure`, `mpc.G_structure` (opt.) | 12 12, 12 6, 2 12 (or 0 0) | model structures |
+///   | `mpc.<field>` | | every field of mpc::Settings, as mpc::Settings::for_each_field lists them (name, size in n_x, n_u and n_c = 2, unit, optional, may be `inf`): integers and flags (0 or 1) are 1 x 1, options are text with the names of their core::EnumNames table; an optional matrix may be `0 0` |
 ///   | `reference.t0` | 1 1 | time of node 0 (s) |
 ///   | `reference.z` | T+1 12 | reference states zbar_0..zbar_T, one node per row |
 ///   | `reference.u` | T 6 | reference inputs u_ref_0..u_ref_{T-1}, one node per row |
 ///   | `tube.K` | 6 12 | TBMPC's ancillary gain (versions 1-2 only; version 3: from `designs.tbmpc_*`) |
 ///   | `tube.Pe` | 12 12 | TBMPC's tube shape (versions 1-2 only) |
 ///   | `controller.measured_input` | text | `residual` or `reference_deviation` (control::MeasuredInput) |
-///   | `identification_p.lambda`, `identification_r.lambda` | 1 1 | forgetting factors |
-///   | `identification_p.w0`, `identification_r.w0` | 6 1 | prior means (subsystem state units) |
-///   | `identification_p.S0`, `identification_r.S0` | 6 6 | prior covariances |
-///   | `identification_p.prior_weight`, `.eig_floor`, `.pw_scale` (and `_r`) | 1 1 each | control::IdentifierSettings |
+///   | `identification_p.<field>`, `identification_r.<field>` | | every field of control::IdentifierSettings (translational, rotational), as its for_each_field lists them (sizes in n_w = 6) |
 ///   | `tube.redesign_margin` | 1 1 | control::TubePolicySettings::redesign_margin |
 ///   | `tube.alpha_search_period` | 1 1 | integer, steps |
 ///   | `designs.<m>_<s>.K`, `.alpha`, `.P_W`, `.Pe` | 3 6, 1 1, 6 6, 6 6 | initial LMI design of method `<m>` (`tbmpc`, `ffa`) and subsystem `<s>` (`p`, `r`) |

@@ -1,10 +1,14 @@
 /// @file settings.hpp
 /// Settings of the tube MPC (TubeMPC, tube_mpc.hpp): the option enums and Settings, with in-class
-/// defaults and validate(). Each enum's text form (to_string) is its name in scenario files.
+/// defaults and validate(). Each enum's text form (to_string) is its name in scenario files; the
+/// names are in one table per enum (core::EnumNames) and the fields in one list (Settings::for_each_field).
 #pragma once
 
 #include <Eigen/Dense>
+#include <array>
 #include <limits>
+
+#include "tubempc/core/fields.hpp"
 
 namespace tubempc::mpc {
 
@@ -139,6 +143,109 @@ struct Settings {
 
   /// Throws std::invalid_argument naming the offending field; n_x, n_u are the plant's sizes.
   void validate(int nx, int nu) const;
+
+  /// The fields, once: calls visit(info, pointer to the member) with a core::FieldInfo for each member,
+  /// in the order scenario files write them (each as the record mpc.name). Drives the scenario file's
+  /// reading and writing (io/scenario.cpp) and the Python binding; adding a setting is one line there
+  /// (see "One field table" in docs/decisions.md).
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
 };
+
+}  // namespace tubempc::mpc
+
+namespace tubempc::core {
+
+/// Names of mpc::InitialCondition.
+template <>
+struct EnumNames<mpc::InitialCondition> {
+  /// The values, their identifiers and file names.
+  static constexpr std::array<EnumName<mpc::InitialCondition>, 2> values{
+      {{mpc::InitialCondition::WhitenedBox, "WhitenedBox", "whitened_box"},
+       {mpc::InitialCondition::Exact, "Exact", "exact"}}};
+};
+/// Names of mpc::InputCost.
+template <>
+struct EnumNames<mpc::InputCost> {
+  /// The values, their identifiers and file names.
+  static constexpr std::array<EnumName<mpc::InputCost>, 2> values{
+      {{mpc::InputCost::Absolute, "Absolute", "absolute"},
+       {mpc::InputCost::Deviation, "Deviation", "deviation"}}};
+};
+/// Names of mpc::QpSolver.
+template <>
+struct EnumNames<mpc::QpSolver> {
+  /// The values, their identifiers and file names.
+  static constexpr std::array<EnumName<mpc::QpSolver>, 2> values{
+      {{mpc::QpSolver::Piqp, "Piqp", "piqp"}, {mpc::QpSolver::ActiveSet, "ActiveSet", "active_set"}}};
+};
+/// Names of mpc::Linearization.
+template <>
+struct EnumNames<mpc::Linearization> {
+  /// The values, their identifiers and file names.
+  static constexpr std::array<EnumName<mpc::Linearization>, 2> values{
+      {{mpc::Linearization::Reuse, "Reuse", "reuse"},
+       {mpc::Linearization::EveryIteration, "EveryIteration", "every_iteration"}}};
+};
+/// Names of mpc::ScpMode.
+template <>
+struct EnumNames<mpc::ScpMode> {
+  /// The values, their identifiers and file names.
+  static constexpr std::array<EnumName<mpc::ScpMode>, 2> values{
+      {{mpc::ScpMode::Converge, "Converge", "converge"}, {mpc::ScpMode::RealTime, "RealTime", "real_time"}}};
+};
+/// Names of mpc::KktSolver.
+template <>
+struct EnumNames<mpc::KktSolver> {
+  /// The values, their identifiers and file names.
+  static constexpr std::array<EnumName<mpc::KktSolver>, 2> values{
+      {{mpc::KktSolver::SparseLdlt, "SparseLdlt", "sparse_ldlt"},
+       {mpc::KktSolver::SparseMultistage, "SparseMultistage", "sparse_multistage"}}};
+};
+
+}  // namespace tubempc::core
+
+namespace tubempc::mpc {
+
+// The table of Settings::for_each_field.
+template <typename V>
+void Settings::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  constexpr bool req = false, opt = true, inf = true, finite = false;
+  visit(FieldInfo{"horizon", "", req, finite}, &Settings::horizon);
+  visit(FieldInfo{"dt", "s", req, finite}, &Settings::dt);
+  visit(FieldInfo{"Q", "", req, finite, Dim::Nx, Dim::Nx}, &Settings::Q);
+  visit(FieldInfo{"R", "", req, finite, Dim::Nu, Dim::Nu}, &Settings::R);
+  visit(FieldInfo{"u_max", "input units", req, finite, Dim::Nu, Dim::One}, &Settings::u_max);
+  visit(FieldInfo{"input_cost", "", req, finite}, &Settings::input_cost);
+  visit(FieldInfo{"scp_eps", "state units", req, finite}, &Settings::scp_eps);
+  visit(FieldInfo{"initial_condition", "", opt, finite}, &Settings::initial_condition);
+  visit(FieldInfo{"scp_max_iterations", "", opt, finite}, &Settings::scp_max_iterations);
+  visit(FieldInfo{"trust_region", "state units", opt, inf}, &Settings::trust_region);
+  visit(FieldInfo{"qp_eps_abs", "", opt, finite}, &Settings::qp_eps_abs);
+  visit(FieldInfo{"qp_eps_rel", "", opt, finite}, &Settings::qp_eps_rel);
+  visit(FieldInfo{"qp_max_iterations", "", opt, finite}, &Settings::qp_max_iterations);
+  visit(FieldInfo{"qp_inaccurate_tol", "", opt, finite}, &Settings::qp_inaccurate_tol);
+  visit(FieldInfo{"time_limit", "s", opt, inf}, &Settings::time_limit);
+  visit(FieldInfo{"soft_state_constraints", "", opt, finite}, &Settings::soft_state_constraints);
+  visit(FieldInfo{"soft_terminal", "", opt, finite}, &Settings::soft_terminal);
+  visit(FieldInfo{"soft_penalty", "", opt, finite}, &Settings::soft_penalty);
+  visit(FieldInfo{"riccati_tol", "", opt, finite}, &Settings::riccati_tol);
+  visit(FieldInfo{"riccati_max_iterations", "", opt, finite}, &Settings::riccati_max_iterations);
+  visit(FieldInfo{"kkt_solver", "", opt, finite}, &Settings::kkt_solver);
+  visit(FieldInfo{"qp_solver", "", opt, finite}, &Settings::qp_solver);
+  visit(FieldInfo{"active_set_max_iterations", "", opt, finite}, &Settings::active_set_max_iterations);
+  visit(FieldInfo{"qp_scale_cost", "", opt, finite}, &Settings::qp_scale_cost);
+  visit(FieldInfo{"linearization", "", opt, finite}, &Settings::linearization);
+  visit(FieldInfo{"scp_mode", "", opt, finite}, &Settings::scp_mode);
+  visit(FieldInfo{"qp_preconditioner_iterations", "", opt, finite}, &Settings::qp_preconditioner_iterations);
+  visit(FieldInfo{"qp_reg_lower_limit", "", opt, finite}, &Settings::qp_reg_lower_limit);
+  visit(FieldInfo{"qp_retry_reg_lower_limit", "", opt, finite}, &Settings::qp_retry_reg_lower_limit);
+  visit(FieldInfo{"A_structure", "", opt, finite, Dim::Nx, Dim::Nx}, &Settings::A_structure);
+  visit(FieldInfo{"B_structure", "", opt, finite, Dim::Nx, Dim::Nu}, &Settings::B_structure);
+  visit(FieldInfo{"G_structure", "", opt, finite, Dim::Nc, Dim::Nx}, &Settings::G_structure);
+}
 
 }  // namespace tubempc::mpc

@@ -1,0 +1,98 @@
+/// @file fields.hpp
+/// One description per settings struct and one name table per option enum, from which the scenario
+/// file, the Python binding and to_string/from_string are driven (docs/decisions.md "One field table").
+///
+/// An option enum E has its names in a specialisation of EnumNames<E> (next to the enum); a settings
+/// struct lists its members once in a static `for_each_field(visitor)` that calls `visitor(FieldInfo, member
+/// pointer)` per member. The kind of a field is its member's C++ type (int, double, bool, a named
+/// enum, Eigen::MatrixXd or Eigen::VectorXd); its default is the struct's in-class initialiser.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <string>
+#include <string_view>
+
+namespace tubempc::core {
+
+/// One value of an option enum and its two names.
+template <typename E>
+struct EnumName {
+  E value;                 ///< the enumerator
+  const char* identifier;  ///< the enumerator's identifier (C++ and Python, e.g. "ActiveSet")
+  const char* name;        ///< its name in configuration and scenario files (e.g. "active_set")
+};
+
+/// Name table of an option enum E: each specialisation holds `static constexpr std::array<EnumName<E>, n>
+/// values`, one entry per enumerator, in declaration order.
+template <typename E>
+struct EnumNames;
+
+/// The file name of an enum value.
+/// @param value the value.
+/// @return its name in EnumNames<E>, or "unknown" for a value outside the table.
+template <typename E>
+constexpr const char* enum_name(E value) {
+  for (const auto& entry : EnumNames<E>::values) {
+    if (entry.value == value) return entry.name;
+  }
+  return "unknown";
+}
+
+/// Whether a value is one of the enum's named values (a cast integer may not be).
+/// @param value the value.
+/// @return true if EnumNames<E> lists it.
+template <typename E>
+constexpr bool is_named(E value) {
+  for (const auto& entry : EnumNames<E>::values) {
+    if (entry.value == value) return true;
+  }
+  return false;
+}
+
+/// The enum value of a file name.
+/// @param name the name (e.g. "active_set").
+/// @param[out] value set to the value if the name is known.
+/// @return whether the name is known.
+template <typename E>
+bool enum_from_name(std::string_view name, E& value) {
+  for (const auto& entry : EnumNames<E>::values) {
+    if (name == entry.name) {
+      value = entry.value;
+      return true;
+    }
+  }
+  return false;
+}
+
+/// The known names of an enum, quoted and comma-separated (for error messages).
+/// @return e.g. "'piqp', 'active_set'".
+template <typename E>
+std::string enum_names_list() {
+  std::string out;
+  for (const auto& entry : EnumNames<E>::values)
+    out += (out.empty() ? "'" : ", '") + std::string(entry.name) + "'";
+  return out;
+}
+
+/// Symbolic size of a matrix field's dimension, resolved by the user of the table (n_x, n_u, n_c are
+/// the plant's state, input and constraint counts).
+enum class Dim {
+  One,  ///< 1
+  Nx,   ///< n_x, the state size
+  Nu,   ///< n_u, the input size
+  Nc,   ///< n_c, the number of state constraints
+  Nw,   ///< n_w, a subsystem's state size (6: the identifiers' inputs)
+};
+
+/// Description of one field of a settings struct.
+struct FieldInfo {
+  const char* name;     ///< member and record name (scenario files prefix it, e.g. "mpc.")
+  const char* unit;     ///< SI unit ("" if dimensionless, an integer, a flag or an option)
+  bool optional;        ///< whether a scenario file may omit it (then it keeps its default)
+  bool allow_infinite;  ///< whether +-inf is a valid value (doubles only)
+  Dim rows = Dim::One;  ///< rows of a matrix field (One for scalars)
+  Dim cols = Dim::One;  ///< columns of a matrix field (One for scalars and vectors)
+};
+
+}  // namespace tubempc::core

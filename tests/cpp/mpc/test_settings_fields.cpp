@@ -1,0 +1,99 @@
+// The field table of mpc::Settings and the name tables of the option enums (core/fields.hpp).
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <set>
+#include <string>
+#include <type_traits>
+
+#include "tubempc/control/controller.hpp"
+#include "tubempc/dynamics/propagator.hpp"
+#include "tubempc/mpc/settings.hpp"
+
+using namespace tubempc;
+
+namespace {
+
+// Every enumerator 0..n-1 has exactly one entry; names and identifiers are distinct; the name maps back.
+template <typename E>
+void expect_complete_table(std::size_t enumerators) {
+  const auto& values = core::EnumNames<E>::values;
+  ASSERT_EQ(values.size(), enumerators);
+  std::set<std::string> names, identifiers;
+  for (std::size_t i = 0; i < enumerators; ++i) {
+    const E v = static_cast<E>(i);
+    EXPECT_TRUE(core::is_named(v)) << i;
+    E back{};
+    ASSERT_TRUE(core::enum_from_name(core::enum_name(v), back)) << core::enum_name(v);
+    EXPECT_EQ(back, v);
+    names.insert(core::enum_name(v));
+    identifiers.insert(values[i].identifier);
+  }
+  EXPECT_EQ(names.size(), enumerators);
+  EXPECT_EQ(identifiers.size(), enumerators);
+  EXPECT_FALSE(core::is_named(static_cast<E>(enumerators)));
+  EXPECT_STREQ(core::enum_name(static_cast<E>(enumerators)), "unknown");
+  E untouched = static_cast<E>(0);
+  EXPECT_FALSE(core::enum_from_name("no_such_name", untouched));
+}
+
+}  // namespace
+
+TEST(SettingsFields, EnumTablesAreCompleteAndInvertible) {
+  expect_complete_table<mpc::InitialCondition>(2);
+  expect_complete_table<mpc::InputCost>(2);
+  expect_complete_table<mpc::QpSolver>(2);
+  expect_complete_table<mpc::Linearization>(2);
+  expect_complete_table<mpc::ScpMode>(2);
+  expect_complete_table<mpc::KktSolver>(2);
+  expect_complete_table<dynamics::Kinematics>(2);
+  expect_complete_table<dynamics::Integrator>(2);
+  expect_complete_table<control::MeasuredInput>(2);
+}
+
+// The names are the scenario and configuration files' format: files written before must still read.
+TEST(SettingsFields, NamesAreTheFileFormatsAndToStringUsesThem) {
+  EXPECT_STREQ(mpc::to_string(mpc::QpSolver::ActiveSet), "active_set");
+  EXPECT_STREQ(mpc::to_string(mpc::QpSolver::Piqp), "piqp");
+  EXPECT_STREQ(mpc::to_string(mpc::Linearization::EveryIteration), "every_iteration");
+  EXPECT_STREQ(mpc::to_string(mpc::ScpMode::RealTime), "real_time");
+  EXPECT_STREQ(mpc::to_string(mpc::InputCost::Deviation), "deviation");
+  EXPECT_STREQ(core::enum_name(mpc::InitialCondition::WhitenedBox), "whitened_box");
+  EXPECT_STREQ(core::enum_name(mpc::KktSolver::SparseMultistage), "sparse_multistage");
+  EXPECT_EQ(core::enum_names_list<mpc::QpSolver>(), "'piqp', 'active_set'");
+  EXPECT_STREQ(dynamics::to_string(dynamics::Kinematics::FirstOrder), "first_order");
+  EXPECT_STREQ(dynamics::to_string(dynamics::Integrator::DOPRI5), "dopri5");
+  EXPECT_STREQ(control::to_string(control::MeasuredInput::ReferenceDeviation), "reference_deviation");
+}
+
+namespace {
+
+// Each field once: distinct names and distinct members; matrices have a size, scalars none.
+template <typename S>
+std::set<std::string> expect_fields_listed_once() {
+  S s;
+  std::set<std::string> names;
+  std::set<std::uintptr_t> addresses;
+  int n = 0;
+  S::for_each_field([&](const core::FieldInfo& f, auto member) {
+    ++n;
+    names.insert(f.name);
+    addresses.insert(reinterpret_cast<std::uintptr_t>(&(s.*member)));
+    using T = std::decay_t<decltype(s.*member)>;
+    const bool matrix = !std::is_arithmetic_v<T> && !std::is_enum_v<T>;
+    EXPECT_EQ(matrix, f.rows != core::Dim::One) << f.name;
+    if (!std::is_same_v<T, double>) EXPECT_FALSE(f.allow_infinite) << f.name;
+  });
+  EXPECT_EQ(static_cast<int>(names.size()), n);
+  EXPECT_EQ(static_cast<int>(addresses.size()), n);
+  return names;
+}
+
+}  // namespace
+
+TEST(SettingsFields, EveryFieldIsListedOnceWithItsMember) {
+  const std::set<std::string> names = expect_fields_listed_once<mpc::Settings>();
+  for (const char* required : {"horizon", "dt", "Q", "R", "u_max", "input_cost", "scp_eps"})
+    EXPECT_EQ(names.count(required), 1u) << required;
+  EXPECT_EQ(expect_fields_listed_once<control::IdentifierSettings>().size(), 6u);
+}
