@@ -92,6 +92,7 @@ _SIGN = (lambda v: v in (-1, 1), "+1 or -1")
 _GE1 = (lambda v: v >= 1, ">= 1")
 _INCREASING_POS = (lambda v: bool(0.0 < v[0] < v[1]), "two increasing values > 0")
 _NONZERO = (lambda v: float(np.linalg.norm(v)) > 0.0, "non-zero")
+_TOUCHDOWN_SPEED = (lambda v: 0.0 <= v <= 1.0, "in [0, 1] m/s")
 _SPD = (
     lambda v: bool(np.allclose(v, np.asarray(v).T) and np.linalg.eigvalsh(v).min() > 0.0),
     "symmetric positive definite",
@@ -195,7 +196,9 @@ class BoundarySection:
     (phi_f, wf) or "boresight_down" (boresight along the inward normal, turning with the body;
     the attitude nearest phi_f). initial: "given" (r0, v0, phi0, w0) or "hover" (with a site:
     hovering hover_altitude above the site's surface point along its normal at t = 0, turning
-    with the body, boresight down, the attitude nearest phi0)."""
+    with the body, boresight down, the attitude nearest phi0). touchdown_speed (m/s, in [0, 1],
+    default 0; needs terminal = "site" when > 0): the terminal velocity is the site's plus this speed
+    along the inward normal, relative to the rotating surface (a touch-and-go contact)."""
 
     r0: FloatArray = field(metadata=_q("m", "length", (3,)))
     v0: FloatArray = field(metadata=_q("m/s", "velocity", (3,)))
@@ -214,6 +217,7 @@ class BoundarySection:
     terminal_attitude: str = field(metadata=_opt("given", "boresight_down"))
     initial: str = field(metadata=_opt("given", "hover"))
     hover_altitude: float = field(metadata=_q("m", "length", check=_POS))
+    touchdown_speed: float = field(metadata=_q("m/s", "velocity", check=_TOUCHDOWN_SPEED))
 
 
 @dataclass(frozen=True, eq=False)
@@ -700,6 +704,8 @@ def _check_consistency(c: Config) -> None:
         )
     if c.boundary.initial == "hover" and c.boundary.terminal != "site":
         raise ConfigError(f'{c.source}: boundary.initial: "hover" needs boundary.terminal = "site"')
+    if c.boundary.touchdown_speed > 0.0 and c.boundary.terminal != "site":
+        raise ConfigError(f'{c.source}: boundary.touchdown_speed: a touchdown speed needs boundary.terminal = "site"')
     if c.mpc.scp_mode == "real_time" and c.mpc.linearization != "reuse":
         raise ConfigError(f'{c.source}: mpc.scp_mode: "real_time" needs mpc.linearization = "reuse"')
     if c.mpc.horizon > c.mpc.n_steps:
@@ -718,6 +724,10 @@ SCENARIOS: dict[str, tuple[str, str]] = {
     "bennu-equator": (
         "scenarios/bennu_equator.toml",
         "a site near Bennu's equator, approached from hovering 500 m above it; the cone turns with Bennu",
+    ),
+    "bennu-tag": (
+        "scenarios/bennu_tag.toml",
+        "touch-and-go at 56 deg N (as OSIRIS-REx's Nightingale) from hovering 125 m above, contact at 0.1 m/s",
     ),
     "itokawa-like": (
         "scenarios/itokawa_like.toml",

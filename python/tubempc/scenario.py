@@ -281,7 +281,8 @@ def boundary_states(
     """x0 and x_f (12,) of the configuration. ``boundary.terminal = "altitude"`` moves r_f along its
     direction to ``terminal_altitude`` above the surface point on that ray (the outermost one, with the
     body as it is at t_f; ``model`` gives its rotation); ``"site"`` puts x_f at the site's
-    target at t_f, at rest relative to the surface (``model`` gives the body's rotation)."""
+    target at t_f, at rest relative to the surface (``model`` gives the body's rotation) or, with
+    ``boundary.touchdown_speed``, moving that fast along the inward normal relative to it."""
     b = cfg.boundary
     x0 = np.concatenate([b.r0, b.v0, b.phi0, b.w0])
     if b.initial == "hover":
@@ -317,6 +318,8 @@ def boundary_states(
     xf = terminal_state(site.target_A, site.normal_A, model.C_AL(t_f), rate, cfg.spacecraft.boresight_B, b.phi_f)
     if b.terminal_attitude == "given":
         xf[6:9], xf[9:12] = b.phi_f, b.wf
+    if b.touchdown_speed > 0.0:  # contact speed along the inward normal, relative to the turning surface
+        xf[3:6] -= b.touchdown_speed * (np.asarray(model.C_AL(t_f)).T @ site.normal_A)
     return x0, xf
 
 
