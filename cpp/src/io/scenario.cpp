@@ -545,14 +545,9 @@ Scenario read_scenario(const std::string& path) {
   read_body(r, "model.", s.model);
   read_body(r, "truth.", s.truth);
 
-  dynamics::PropagatorSettings& ps = s.propagator;
-  r.option("propagator.method", ps.method, true);
-  r.integer("propagator.substeps", ps.substeps);
-  ps.rtol = r.scalar("propagator.rtol");
-  ps.atol = r.scalar("propagator.atol");
-  r.integer("propagator.max_steps", ps.max_steps);
-  ps.initial_step = r.scalar("propagator.initial_step");
-  r.validated("propagator.* (PropagatorSettings)", [&] { ps.validate(); });
+  using Propagator = dynamics::PropagatorSettings;
+  Propagator::for_each_field(FieldReader<Propagator>{r, s.propagator, "propagator."});
+  r.validated("propagator.* (PropagatorSettings)", [&] { s.propagator.validate(); });
 
   read_mpc(r, s.settings);
 
@@ -614,13 +609,8 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   Writer w(out);
   write_body(w, "model.", s.model);
   write_body(w, "truth.", s.truth);
-  const dynamics::PropagatorSettings& ps = s.propagator;
-  w.text("propagator.method", option_name(ps.method));
-  w.scalar("propagator.substeps", ps.substeps);
-  w.scalar("propagator.rtol", ps.rtol);
-  w.scalar("propagator.atol", ps.atol);
-  w.scalar("propagator.max_steps", ps.max_steps);
-  w.scalar("propagator.initial_step", ps.initial_step);
+  using Propagator = dynamics::PropagatorSettings;
+  Propagator::for_each_field(FieldWriter<Propagator>{w, s.propagator, "propagator."});
   mpc::Settings::for_each_field(FieldWriter<mpc::Settings>{w, st, "mpc."});
   w.scalar("reference.t0", s.reference.t0);
   w.matrix("reference.z", s.reference.z.transpose());
