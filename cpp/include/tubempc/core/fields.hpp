@@ -94,6 +94,7 @@ struct FieldInfo {
   Dim rows = Dim::One;   ///< rows of a matrix field (One for scalars)
   Dim cols = Dim::One;   ///< columns of a matrix field (One for scalars and vectors)
   const char* doc = "";  ///< the Python attribute's docstring ("" for none)
+  bool in_file = true;   ///< whether scenario files have the record (false: a run-time or Python-only field)
 };
 
 }  // namespace tubempc::core
