@@ -105,13 +105,11 @@ void bind_control(py::module_& m) {
   s.def("cover_ratio", &cover_ratio, py::arg("P"), py::arg("P_cover"),
         "lambda_max(P_cover^-1 P): <= 1 iff the ellipsoid of P lies in that of P_cover");
 
-  py::class_<TubePolicySettings>(s, "TubePolicySettings", "The tube update policy's settings")
-      .def(py::init<>())
-      .def_readwrite("adaptive", &TubePolicySettings::adaptive)
-      .def_readwrite("redesign_margin", &TubePolicySettings::redesign_margin)
-      .def_readwrite("alpha_search_period", &TubePolicySettings::alpha_search_period)
-      .def_readwrite("background_designs", &TubePolicySettings::background_designs)
-      .def("validate", &TubePolicySettings::validate);
+  py::class_<TubePolicySettings> tube_policy_settings(s, "TubePolicySettings",
+                                                      "The tube update policy's settings");
+  tube_policy_settings.def(py::init<>());
+  bind_fields(tube_policy_settings);
+  tube_policy_settings.def("validate", &TubePolicySettings::validate);
 
   py::class_<TubePolicy>(s, "TubePolicy", "One subsystem's tube, step by step (no SDP inside)")
       .def(py::init<const TubePolicySettings&, double, const SubsystemDesign&, std::vector<SubsystemDesign>,

@@ -196,17 +196,12 @@ void bind_dynamics(py::module_& m) {
       .def("validate", &dynamics::ModelParams::validate, "ValueError naming the first bad field.")
       .def("mean_motion", &dynamics::ModelParams::mean_motion, "n = sqrt(mu_sun / R^3) (rad/s)");
 
-  py::class_<dynamics::PropagatorSettings>(d, "PropagatorSettings",
-                                           "Truth propagator settings (RK4 substeps or adaptive DOPRI5)")
-      .def(py::init<>())
-      .def_readwrite("method", &dynamics::PropagatorSettings::method)
-      .def_readwrite("substeps", &dynamics::PropagatorSettings::substeps, "RK4 steps per call, >= 1")
-      .def_readwrite("rtol", &dynamics::PropagatorSettings::rtol, "DOPRI5 relative tolerance")
-      .def_readwrite("atol", &dynamics::PropagatorSettings::atol, "DOPRI5 absolute tolerance (state units)")
-      .def_readwrite("max_steps", &dynamics::PropagatorSettings::max_steps, "DOPRI5 step budget")
-      .def_readwrite("initial_step", &dynamics::PropagatorSettings::initial_step,
-                     "DOPRI5 first step (s); 0: automatic")
-      .def("validate", &dynamics::PropagatorSettings::validate, "ValueError naming the first bad field.");
+  py::class_<dynamics::PropagatorSettings> propagator_settings(
+      d, "PropagatorSettings", "Truth propagator settings (RK4 substeps or adaptive DOPRI5)");
+  propagator_settings.def(py::init<>());
+  bind_fields(propagator_settings);
+  propagator_settings.def("validate", &dynamics::PropagatorSettings::validate,
+                          "ValueError naming the first bad field.");
 
   py::class_<dynamics::PropagationResult>(d, "PropagationResult")
       .def_property_readonly("status", [](const dynamics::PropagationResult& r) { return r.status; })

@@ -42,9 +42,9 @@ pybind11::enum_<E> bind_option_enum(pybind11::module_& m, const char* name, cons
   return e;
 }
 
-// Binds the fields of a settings struct listed by its `S::for_each_field` as read-write attributes (a
-// name that is a Python keyword gets a trailing underscore: `lambda_`), and `field_names()` (the
-// attributes' names, in the table's order).
+// Binds the fields of a settings struct listed by its `S::for_each_field` as read-write attributes
+// with the table's docstrings (a name that is a Python keyword gets a trailing underscore: `lambda_`),
+// and `field_names()` (the attributes' names, in the table's order).
 template <typename S>
 void bind_fields(pybind11::class_<S>& cls) {
   const pybind11::object is_keyword = pybind11::module_::import("keyword").attr("iskeyword");
@@ -52,7 +52,11 @@ void bind_fields(pybind11::class_<S>& cls) {
   S::for_each_field([&](const core::FieldInfo& f, auto member) {
     std::string name = f.name;
     if (is_keyword(name).template cast<bool>()) name += "_";
-    cls.def_readwrite(name.c_str(), member);
+    if (*f.doc != '\0') {
+      cls.def_readwrite(name.c_str(), member, f.doc);
+    } else {
+      cls.def_readwrite(name.c_str(), member);
+    }
     names.push_back(name);
   });
   cls.def_static("field_names", [names] { return names; });

@@ -343,6 +343,7 @@ struct FieldReader {
 
   template <typename T>
   void operator()(const core::FieldInfo& f, T S::*member) const {
+    if (!f.in_file) return;
     const std::string name = prefix + f.name;
     T& value = s.*member;
     if constexpr (std::is_same_v<T, int>) {
@@ -462,6 +463,7 @@ struct FieldWriter {
 
   template <typename T>
   void operator()(const core::FieldInfo& f, T S::*member) const {
+    if (!f.in_file) return;
     const std::string name = prefix + f.name;
     const T& value = s.*member;
     if constexpr (std::is_same_v<T, bool>) {
@@ -545,14 +547,9 @@ Scenario read_scenario(const std::string& path) {
   read_body(r, "model.", s.model);
   read_body(r, "truth.", s.truth);
 
-  dynamics::PropagatorSettings& ps = s.propagator;
-  r.option("propagator.method", ps.method, true);
-  r.integer("propagator.substeps", ps.substeps);
-  ps.rtol = r.scalar("propagator.rtol");
-  ps.atol = r.scalar("propagator.atol");
-  r.integer("propagator.max_steps", ps.max_steps);
-  ps.initial_step = r.scalar("propagator.initial_step");
-  r.validated("propagator.* (PropagatorSettings)", [&] { ps.validate(); });
+  using Propagator = dynamics::PropagatorSettings;
+  Propagator::for_each_field(FieldReader<Propagator>{r, s.propagator, "propagator."});
+  r.validated("propagator.* (PropagatorSettings)", [&] { s.propagator.validate(); });
 
   read_mpc(r, s.settings);
 
@@ -573,8 +570,8 @@ Scenario read_scenario(const std::string& path) {
     using Identifier = control::IdentifierSettings;
     Identifier::for_each_field(FieldReader<Identifier>{r, c.identification_p, "identification_p."});
     Identifier::for_each_field(FieldReader<Identifier>{r, c.identification_r, "identification_r."});
-    c.tube.redesign_margin = r.scalar("tube.redesign_margin");
-    r.integer("tube.alpha_search_period", c.tube.alpha_search_period);
+    using Tube = control::TubePolicySettings;
+    Tube::for_each_field(FieldReader<Tube>{r, c.tube, "tube."});
     r.validated("identification_*, tube.* (ControllerSettings)", [&] { c.validate(); });
     read_design(r, "designs.tbmpc_p.", s.tbmpc_designs.initial_p);
     read_design(r, "designs.tbmpc_r.", s.tbmpc_designs.initial_r);
@@ -614,13 +611,8 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   Writer w(out);
   write_body(w, "model.", s.model);
   write_body(w, "truth.", s.truth);
-  const dynamics::PropagatorSettings& ps = s.propagator;
-  w.text("propagator.method", option_name(ps.method));
-  w.scalar("propagator.substeps", ps.substeps);
-  w.scalar("propagator.rtol", ps.rtol);
-  w.scalar("propagator.atol", ps.atol);
-  w.scalar("propagator.max_steps", ps.max_steps);
-  w.scalar("propagator.initial_step", ps.initial_step);
+  using Propagator = dynamics::PropagatorSettings;
+  Propagator::for_each_field(FieldWriter<Propagator>{w, s.propagator, "propagator."});
   mpc::Settings::for_each_field(FieldWriter<mpc::Settings>{w, st, "mpc."});
   w.scalar("reference.t0", s.reference.t0);
   w.matrix("reference.z", s.reference.z.transpose());
@@ -630,8 +622,8 @@ void write_scenario(const std::string& path, const Scenario& s, const std::strin
   using Identifier = control::IdentifierSettings;
   Identifier::for_each_field(FieldWriter<Identifier>{w, c.identification_p, "identification_p."});
   Identifier::for_each_field(FieldWriter<Identifier>{w, c.identification_r, "identification_r."});
-  w.scalar("tube.redesign_margin", c.tube.redesign_margin);
-  w.scalar("tube.alpha_search_period", c.tube.alpha_search_period);
+  using Tube = control::TubePolicySettings;
+  Tube::for_each_field(FieldWriter<Tube>{w, c.tube, "tube."});
   write_design(w, "designs.tbmpc_p.", s.tbmpc_designs.initial_p);
   write_design(w, "designs.tbmpc_r.", s.tbmpc_designs.initial_r);
   write_design(w, "designs.ffa_p.", s.ffa_designs.initial_p);

@@ -123,7 +123,15 @@ def test_statuses_name_their_certification() -> None:
     assert str(ctl.TubeStatus.Uncertified) == "uncertified" and str(ctl.Method.Ffa) == "ffa"
 
 
-@pytest.mark.parametrize("cls", [_core.mpc.Settings, _core.control.IdentifierSettings])
+@pytest.mark.parametrize(
+    "cls",
+    [
+        _core.mpc.Settings,
+        _core.control.IdentifierSettings,
+        _core.dynamics.PropagatorSettings,
+        _core.control.TubePolicySettings,
+    ],
+)
 def test_field_tables_bind_every_attribute_once(cls: type) -> None:
     names = cls.field_names()
     assert len(names) == len(set(names))

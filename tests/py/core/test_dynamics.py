@@ -232,3 +232,13 @@ def test_constraints_at_the_paper_boundary_states() -> None:
     assert g_y > 0  # the literal +y_B boresight is violated at the terminal attitude
     with pytest.raises(ValueError, match="apex"):
         tubempc.glide_slope_constraint(np.zeros(12))
+
+
+def test_propagator_settings_field_table() -> None:
+    s = tubempc._core.dynamics.PropagatorSettings
+    assert s.field_names() == ["method", "substeps", "rtol", "atol", "max_steps", "initial_step"]
+    assert s.substeps.__doc__ == "RK4 steps per call, >= 1"
+    assert s.initial_step.__doc__ == "DOPRI5 first step (s); 0: automatic"
+    p = s()
+    p.substeps = 7
+    assert p.substeps == 7

@@ -112,6 +112,13 @@ struct TubePolicySettings {
   bool background_designs = false;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
+
+  /// Calls visit(core::FieldInfo, member pointer) once per field: the scenario file's tube records
+  /// (redesign_margin, alpha_search_period; adaptive and background_designs are set by the run) and the
+  /// Python attributes ("One field table", docs/decisions.md).
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
 };
 
 /// How a step's tube came about (one per subsystem).
@@ -188,5 +195,23 @@ class TubePolicy {
   SubsystemTube trial_;
   int library_step_ = -1;  // step of the last design taken from the library
 };
+
+}  // namespace tubempc::control
+
+namespace tubempc::control {
+
+// The table of TubePolicySettings::for_each_field.
+template <typename V>
+void TubePolicySettings::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  using S = TubePolicySettings;
+  constexpr bool req = false, finite = false, in_file = true, not_in_file = false;
+  constexpr Dim one = Dim::One;
+  visit(FieldInfo{"adaptive", "", req, finite, one, one, "", not_in_file}, &S::adaptive);
+  visit(FieldInfo{"redesign_margin", "", req, finite, one, one, "", in_file}, &S::redesign_margin);
+  visit(FieldInfo{"alpha_search_period", "", req, finite, one, one, "", in_file}, &S::alpha_search_period);
+  visit(FieldInfo{"background_designs", "", req, finite, one, one, "", not_in_file}, &S::background_designs);
+}
 
 }  // namespace tubempc::control

@@ -87,12 +87,14 @@ enum class Dim {
 
 /// Description of one field of a settings struct.
 struct FieldInfo {
-  const char* name;     ///< member and record name (scenario files prefix it, e.g. "mpc.")
-  const char* unit;     ///< SI unit ("" if dimensionless, an integer, a flag or an option)
-  bool optional;        ///< whether a scenario file may omit it (then it keeps its default)
-  bool allow_infinite;  ///< whether +-inf is a valid value (doubles only)
-  Dim rows = Dim::One;  ///< rows of a matrix field (One for scalars)
-  Dim cols = Dim::One;  ///< columns of a matrix field (One for scalars and vectors)
+  const char* name;      ///< member and record name (scenario files prefix it, e.g. "mpc.")
+  const char* unit;      ///< SI unit ("" if dimensionless, an integer, a flag or an option)
+  bool optional;         ///< whether a scenario file may omit it (then it keeps its default)
+  bool allow_infinite;   ///< whether +-inf is a valid value (doubles only)
+  Dim rows = Dim::One;   ///< rows of a matrix field (One for scalars)
+  Dim cols = Dim::One;   ///< columns of a matrix field (One for scalars and vectors)
+  const char* doc = "";  ///< the Python attribute's docstring ("" for none)
+  bool in_file = true;   ///< whether scenario files have the record (false: a run-time or Python-only field)
 };
 
 }  // namespace tubempc::core

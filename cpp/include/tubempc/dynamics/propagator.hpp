@@ -8,6 +8,7 @@
 #include <Eigen/Dense>
 #include <functional>
 
+#include "tubempc/core/fields.hpp"
 #include "tubempc/dynamics/proximity_model.hpp"
 
 namespace tubempc::dynamics {
@@ -53,6 +54,12 @@ struct PropagatorSettings {
   /// Checks the ranges given above.
   /// @throws std::invalid_argument naming the first bad field.
   void validate() const;
+
+  /// Calls visit(core::FieldInfo, member pointer) once per field, in scenario-file order: the
+  /// scenario file's propagator records and the Python attributes ("One field table", docs/decisions.md).
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
 };
 
 /// Outcome of propagate().
@@ -106,3 +113,25 @@ struct EnumNames<dynamics::Integrator> {
 };
 
 }  // namespace tubempc::core
+
+namespace tubempc::dynamics {
+
+// The table of PropagatorSettings::for_each_field.
+template <typename V>
+void PropagatorSettings::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  using S = PropagatorSettings;
+  constexpr bool req = false, finite = false;
+  constexpr Dim one = Dim::One;
+  visit(FieldInfo{"method", "", req, finite, one, one, ""}, &S::method);
+  visit(FieldInfo{"substeps", "", req, finite, one, one, "RK4 steps per call, >= 1"}, &S::substeps);
+  visit(FieldInfo{"rtol", "", req, finite, one, one, "DOPRI5 relative tolerance"}, &S::rtol);
+  visit(FieldInfo{"atol", "state units", req, finite, one, one, "DOPRI5 absolute tolerance (state units)"},
+        &S::atol);
+  visit(FieldInfo{"max_steps", "", req, finite, one, one, "DOPRI5 step budget"}, &S::max_steps);
+  visit(FieldInfo{"initial_step", "s", req, finite, one, one, "DOPRI5 first step (s); 0: automatic"},
+        &S::initial_step);
+}
+
+}  // namespace tubempc::dynamics
