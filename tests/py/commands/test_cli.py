@@ -105,11 +105,14 @@ def test_ctrl_c_stops_the_run_with_130_and_no_leak_report(tmp_path: Path) -> Non
     import signal
     import time
 
+    # A test run started in the background of a shell without job control inherits SIGINT ignored, and
+    # Python then installs no handler for it: the child gets the default disposition back, as a terminal's has.
     proc = subprocess.Popen(
         [sys.executable, "-m", "tubempc", "run", "--out", str(tmp_path / "o"), "--quiet", "--no-figures", "--method", "ffa"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     try:
         deadline = time.monotonic() + 120
