@@ -548,6 +548,15 @@ class RecordingPendulum final : public LinearizedModel {
   Pendulum inner_;
 };
 
+// The re-linearisation tests' reference: a 30-step swing from theta = 0 to 1 rad, starting at t0 = 0.3 s.
+Reference swing_reference() {
+  Eigen::VectorXd x0 = Eigen::VectorXd::Zero(2), xf(2);
+  xf << 1.0, 0.0;
+  Reference ref = straight_reference(x0, xf, 30, 1);
+  ref.t0 = 0.3;
+  return ref;
+}
+
 }  // namespace
 
 // A step after a converged step calls the model in its first SCP iteration only at the node it appends
@@ -562,12 +571,9 @@ TEST(TubeMPC, ReusedLinearizationHoldsEachNodesModelData) {
   Settings s_fresh = s;
   s_fresh.linearization = Linearization::EveryIteration;
   TubeMPC mpc(model, s), fresh(fresh_model, s_fresh);
-  const int T = 30;
-  Eigen::VectorXd x0(2), xf(2);
-  x0 << 0.0, 0.0;
-  xf << 1.0, 0.0;
-  Reference ref = straight_reference(x0, xf, T, 1);
-  ref.t0 = 0.3;
+  const Reference ref = swing_reference();
+  const int T = static_cast<int>(ref.u.cols());
+  const Eigen::VectorXd x0 = ref.z.col(0);
   setup_pendulum(mpc, ref);
   setup_pendulum(fresh, ref);
   const Tube tube = small_tube(2, 1, 1e-8);
@@ -632,12 +638,9 @@ TEST(TubeMPC, RealTimeIterationRelinearizesTheNodesTheLastQpMoved) {
   const Settings s_converge = s;
   s.scp_mode = ScpMode::RealTime;
   TubeMPC mpc(model, s), reference_mpc(converged_model, s_converge);
-  const int T = 30;
-  Eigen::VectorXd x0(2), xf(2);
-  x0 << 0.0, 0.0;
-  xf << 1.0, 0.0;
-  Reference ref = straight_reference(x0, xf, T, 1);
-  ref.t0 = 0.3;
+  const Reference ref = swing_reference();
+  const int T = static_cast<int>(ref.u.cols());
+  const Eigen::VectorXd x0 = ref.z.col(0);
   setup_pendulum(mpc, ref);
   setup_pendulum(reference_mpc, ref);
   const Tube tube = small_tube(2, 1, 1e-8);
