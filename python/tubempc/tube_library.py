@@ -108,7 +108,7 @@ def controller_designs(scn: Scenario, method: str) -> Any:
     key = f"designs:{method}"
     if key not in scn.tube_designs:
         t = scn.config.tube
-        designers = tube_designers(scn.config)
+        designers = tube_designers(scn.config, scn.input_bounds)
         nodes = _node0(scn)
         priors = _prior_P_W(scn)
         d = _core.control.ControllerDesigns()

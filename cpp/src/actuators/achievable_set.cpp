@@ -220,4 +220,15 @@ ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const 
   return e;
 }
 
+Eigen::Matrix<double, 6, 6> disturbance_with_actuation_error(const Eigen::Matrix<double, 6, 6>& P_W,
+                                                             const Eigen::Matrix<double, 6, 3>& B,
+                                                             const Eigen::Matrix3d& E) {
+  const Eigen::Matrix<double, 6, 6> P_E = B * E * B.transpose();
+  const double a = std::sqrt(std::max(P_W.trace(), 0.0)), b = std::sqrt(std::max(P_E.trace(), 0.0));
+  if (!(b > 0.0)) return P_W;
+  const double beta = b / (a + b);
+  Eigen::Matrix<double, 6, 6> P = P_W / (1.0 - beta) + P_E / beta;
+  return 0.5 * (P + P.transpose());
+}
+
 }  // namespace tubempc::actuators

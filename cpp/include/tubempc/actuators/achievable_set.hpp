@@ -117,4 +117,18 @@ ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const 
                                           const Vector6& command_half_width_B, double t = 0.0,
                                           bool tolerate_one_failure = true);
 
+/// The disturbance set of a subsystem's tube design with the actuation error added (docs/model.md M38): an
+/// ellipsoid {w : w^T P^-1 w <= 1} containing W (+) B E, the Minkowski sum of W = {w : w^T P_W^-1 w <= 1} and
+/// the image under B of the input error set E = {e : e^T E^-1 e <= 1}, with
+/// P = P_W / (1 - beta) + B E B^T / beta, beta = sqrt(tr B E B^T) / (sqrt(tr P_W) + sqrt(tr B E B^T)) (the
+/// family contains the sum for every beta in (0, 1); this beta minimises the trace). E = 0 returns P_W.
+/// Allocation-free.
+/// @param P_W the disturbance set's shape (6 x 6, symmetric positive definite; state units squared).
+/// @param B the subsystem's discrete input matrix (6 x 3; state units per input unit).
+/// @param E the input error set's shape (3 x 3, symmetric positive semidefinite; input units squared).
+/// @return the shape P.
+Eigen::Matrix<double, 6, 6> disturbance_with_actuation_error(const Eigen::Matrix<double, 6, 6>& P_W,
+                                                             const Eigen::Matrix<double, 6, 3>& B,
+                                                             const Eigen::Matrix3d& E);
+
 }  // namespace tubempc::actuators
