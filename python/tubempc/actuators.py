@@ -278,9 +278,9 @@ class ScenarioActuation:
     (docs/model.md "Actuators in the closed loop", M37-M38).
 
     ``box``: the inner box of the achievable wrench with any one thruster failed off (shape (1 N, 1 N m)
-    per axis); ``error``: the certified box of the actuation error for commands in that box, with any one
-    thruster failed; ``u_max``, ``T_max``: the MPC's input bounds, the box's at every attitude, capped by
-    spacecraft.u_max and T_max.
+    per axis); ``u_max``, ``T_max``: the MPC's input bounds, the box's at every attitude, capped by
+    spacecraft.u_max and T_max; ``error``: the certified box of the actuation error for the wrenches those
+    bounds command (inside the box), with any one thruster failed.
     """
 
     source: str
@@ -297,9 +297,17 @@ class ScenarioActuation:
         return _act.ActuationSystem(truth, self.suite.wheels, actuation_settings(self.suite))
 
     def error_shapes(self) -> tuple[FloatArray, FloatArray]:
-        """The certified actuation-error ellipsoids in input units: u_p's ((m/s^2)^2, at every attitude) and
-        the torque's ((N m)^2)."""
-        return np.asarray(self.error.shape_p), np.asarray(self.error.shape_T)
+        """The certified sets of the commanded minus the delivered input (M38), {e : e^T E^-1 e <= 1}: u_p's
+        ((m/s^2)^2, the ball at every attitude) and T's ((N m)^2, around the box). They add to the error box of
+        :func:`tubempc._core.actuators.actuation_error_bound` (allocated minus delivered) the allocation's
+        remainder tolerance over the achievable box, |r_i| <= tol (max_l W_r,l a_l + 1) / W_r,i."""
+        alloc = self.suite.allocation
+        W_r = np.asarray(alloc.residual_weight)
+        half = np.asarray(self.box.half_width_B)
+        remainder = alloc.remainder_tolerance * (float(np.max(W_r * half)) + 1.0) / W_r
+        wrench = np.asarray(self.error.wrench_B) + remainder
+        radius_p = float(np.linalg.norm(wrench[:3])) / self.suite.mass
+        return radius_p**2 * np.eye(3), 3.0 * np.diag(wrench[3:] ** 2)
 
     def describe(self) -> dict[str, Any]:
         """JSON-ready summary for a run's record."""
@@ -329,13 +337,14 @@ def scenario_actuation(
     box = _act.achievable_box(suite.cluster, suite.wheels, suite.allocation, suite.mass, settings)
     if box.empty or not np.all(np.asarray(box.input_half_width) > 0.0):
         raise ActuatorConfigError(f"{source}: the actuators cannot deliver every direction with one thruster failed")
-    error = _act.actuation_error_bound(
-        suite.cluster, suite.modulator(), suite.mass, suite.wheels, suite.allocation, box.half_width_B, 0.0, True
-    )
     half = np.asarray(box.input_half_width)
-    return ScenarioActuation(
-        source, suite, box, error, min(u_max, float(half[:3].min())), min(T_max, float(half[3:].min()))
+    u_max, T_max = min(u_max, float(half[:3].min())), min(T_max, float(half[3:].min()))
+    # The wrenches the MPC can command: |u_p,i| <= u_max in L is a force within sqrt(3) m u_max in B.
+    command = np.minimum(np.r_[[math.sqrt(3.0) * suite.mass * u_max] * 3, [T_max] * 3], box.half_width_B)
+    error = _act.actuation_error_bound(
+        suite.cluster, suite.modulator(), suite.mass, suite.wheels, suite.allocation, command, 0.0, True
     )
+    return ScenarioActuation(source, suite, box, error, u_max, T_max)
 
 
 def actuate(system: _act.ActuationSystem, t: float, u: FloatArray, state: FloatArray) -> tuple[FloatArray, Any]:

@@ -136,6 +136,7 @@ def _record_actuation(rec: RunRecord, k: int, plant: _Plant, dt: float) -> None:
         return
     rec.delta_v[k], rec.propellant[k], rec.pulses[k] = st.delta_v, st.propellant, st.pulses
     rec.wheel_momentum[k] = np.asarray(plant.actuation.wheels.axes_B) @ np.asarray(st.wheel_momentum)
+    rec.time_actuation[k] = st.step_time
     rec.actuation_statuses.append(str(st.status))
 
 

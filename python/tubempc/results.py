@@ -85,6 +85,7 @@ class RunRecord:
     propellant: Array = _array(("T",), "kg", "propellant of the period (0 for ideal actuators)")
     pulses: Array = _array(("T",), "1", "thruster firings of the period")
     wheel_momentum: Array = _array(("T", 3), "N m s", "the wheels' total momentum in B after the period")
+    time_actuation: Array = _array(("T",), "s", "wall time of the actuation call (allocation, modulation, wheels)")
     statuses: list[str] = field(default_factory=list)  # MPC step status per step
     failures: list[str] = field(default_factory=list)  # cause of each fallback ("solved": none)
     tube_statuses: list[str] = field(default_factory=list)  # per tube update: "<translation>/<rotation>"
@@ -193,6 +194,7 @@ _ACTUATION_ARRAYS: dict[str, tuple[int, ...]] = {
     "propellant": (),
     "pulses": (),
     "wheel_momentum": (3,),
+    "time_actuation": (),
 }
 
 

@@ -224,8 +224,11 @@ Eigen::Matrix<double, 6, 6> disturbance_with_actuation_error(const Eigen::Matrix
                                                              const Eigen::Matrix<double, 6, 3>& B,
                                                              const Eigen::Matrix3d& E) {
   const Eigen::Matrix<double, 6, 6> P_E = B * E * B.transpose();
-  const double a = std::sqrt(std::max(P_W.trace(), 0.0)), b = std::sqrt(std::max(P_E.trace(), 0.0));
-  if (!(b > 0.0)) return P_W;
+  // Traces in the coordinates that make diag(P_W) = 1 (the state components have different units).
+  double b2 = 0.0;
+  for (int i = 0; i < 6; ++i) b2 += P_W(i, i) > 0.0 ? P_E(i, i) / P_W(i, i) : 0.0;
+  const double a = std::sqrt(6.0), b = std::sqrt(b2);
+  if (!(b > 0.0) || !std::isfinite(b)) return P_W;
   const double beta = b / (a + b);
   Eigen::Matrix<double, 6, 6> P = P_W / (1.0 - beta) + P_E / beta;
   return 0.5 * (P + P.transpose());
