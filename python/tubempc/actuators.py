@@ -112,6 +112,8 @@ class ActuatorSuite:
     wheels: _act.ReactionWheels
     modulation: _act.ModulationSettings
     allocation: _act.AllocationSettings
+    path: Path | None = None  # the file read
+    random_faults: bool = False  # whether a fault's thruster or time was drawn (from the seed)
 
     def allocator(self) -> _act.Allocator:
         """A new allocator for these actuators."""
@@ -191,17 +193,22 @@ def load_actuators(source: str | Path, period: float, *, seed: int = 0) -> Actua
     specs = [_thruster(t, defaults, f"{where}.thrusters[{i}]") for i, t in enumerate(units)]
 
     rng = np.random.default_rng(seed)
+    random_faults = False
     for i, f in enumerate(raw.get("faults", [])):
         w = f"{where}.faults[{i}]"
         j = f.get("thruster")
+        if j == "random":
+            j = int(rng.integers(len(specs)))
+            random_faults = True
         if isinstance(j, bool) or not isinstance(j, int) or not 0 <= j < len(specs):
-            raise ActuatorConfigError(f"{w}.thruster: expected an index in [0, {len(specs)}), got {j!r}")
+            raise ActuatorConfigError(f'{w}.thruster: expected an index in [0, {len(specs)}) or "random", got {j!r}')
         try:
             specs[j].fault = _act.fault_kind_from_string(str(f.get("kind")))
         except ValueError as exc:
             raise ActuatorConfigError(f"{w}.kind: {exc}") from exc
         t = f.get("time")
         if t == "random":
+            random_faults = True
             lo, hi = _vector(f.get("window"), "s", f"{w}.window", (2,))
             if not lo <= hi:
                 raise ActuatorConfigError(f"{w}.window: expected start <= end")
@@ -245,7 +252,9 @@ def load_actuators(source: str | Path, period: float, *, seed: int = 0) -> Actua
         _act.PulseModulator(cluster, modulation)  # every minimum on-time fits in the period
     except ValueError as exc:
         raise ActuatorConfigError(f"{where}: {exc}") from exc
-    return ActuatorSuite(str(raw.get("name", path.stem)), mass, cluster, wheel_set, modulation, allocation)
+    return ActuatorSuite(
+        str(raw.get("name", path.stem)), mass, cluster, wheel_set, modulation, allocation, path, random_faults
+    )
 
 
 def sample_truth_errors(cluster: _act.ThrusterCluster, rng: np.random.Generator) -> _act.ThrusterCluster:
@@ -292,8 +301,11 @@ class ScenarioActuation:
 
     def system(self, seed: int) -> _act.ActuationSystem:
         """A run's actuation system: the preset's thrusters with truth errors drawn within their bounds
-        from ``numpy.random.default_rng(seed)`` and the preset's faults."""
-        truth = sample_truth_errors(self.suite.cluster, np.random.default_rng(seed))
+        from ``numpy.random.default_rng(seed)`` and the preset's faults (random ones drawn from ``seed``)."""
+        suite = self.suite
+        if suite.random_faults and suite.path is not None:
+            suite = load_actuators(suite.path, suite.modulation.period, seed=seed)
+        truth = sample_truth_errors(suite.cluster, np.random.default_rng(seed))
         return _act.ActuationSystem(truth, self.suite.wheels, actuation_settings(self.suite))
 
     def error_shapes(self) -> tuple[FloatArray, FloatArray]:

@@ -15,14 +15,9 @@ from tubempc.config import ConfigError, load_config
 from tubempc.scenario import ScenarioError, Scenario, build_scenario
 
 # A spacecraft the short hover-and-descend mission below can fly with a certified tube: the OSIRIS-REx-like
-# layout with 22 N thrusters, a 2 ms minimum on-time and small error bounds (the preset itself cannot fly these
-# missions: docs/decisions.md "Actuators in the closed loop").
-_EDITS = {
-    'max_thrust = "1 lbf"': 'max_thrust = "22 N"',
-    'min_on_time = "20 ms"': 'min_on_time = "2 ms"',
-    "scale_error_bound = 0.05": "scale_error_bound = 0.002",
-    'misalignment_bound = "0.5 deg"': 'misalignment_bound = "0.05 deg"',
-}
+# layout with sized thrusters (the preset itself cannot fly these missions: docs/decisions.md "Actuators in the
+# closed loop").
+SIZED = Path(__file__).resolve().parents[3] / "examples" / "actuators" / "sized_thrusters.toml"
 _OVERRIDES: dict[str, Any] = {
     "boundary.hover_altitude": "15 m",
     "spacecraft.T_max": "10 N*m",
@@ -34,12 +29,8 @@ _OVERRIDES: dict[str, Any] = {
 
 
 def _preset(folder: Path, faults: str = "") -> Path:
-    text = (A.PRESET_DIR / "osiris_rex_like.toml").read_text()
-    for old, new in _EDITS.items():
-        assert old in text
-        text = text.replace(old, new)
     path = folder / "sized.toml"
-    path.write_text(text + faults)
+    path.write_text(SIZED.read_text() + faults)
     return path
 
 
