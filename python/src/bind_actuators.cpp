@@ -246,7 +246,8 @@ void bind_actuators(py::module_& m) {
         py::arg("command_half_width_B"), py::arg("t") = 0.0, py::arg("tolerate_one_failure") = true,
         "The actuation-error box for commands inside a wrench box (the allocation's thrust norm bounded)");
   s.def("disturbance_with_actuation_error", &disturbance_with_actuation_error, py::arg("P_W"), py::arg("B"),
-        py::arg("E"), "P of an ellipsoid containing W (+) B E (trace-minimal member of the outer family; M38)");
+        py::arg("E"),
+        "P of an ellipsoid containing W (+) B E (trace-minimal member of the outer family; M38)");
 
   bind_named_enum<ActuationStatus>(s, "ActuationStatus", "Outcome of a period's actuation")
       .value("Ok", ActuationStatus::Ok)
@@ -296,8 +297,8 @@ void bind_actuators(py::module_& m) {
 
   py::class_<ActuationSystem>(s, "ActuationSystem",
                               "Thrusters, wheels, allocation and modulation as one call per control period")
-      .def(py::init<const ThrusterCluster&, const ReactionWheels&, const ActuationSettings&>(), py::arg("cluster"),
-           py::arg("wheels"), py::arg("settings"))
+      .def(py::init<const ThrusterCluster&, const ReactionWheels&, const ActuationSettings&>(),
+           py::arg("cluster"), py::arg("wheels"), py::arg("settings"))
       .def(
           "step",
           [](ActuationSystem& self, double t, const Vector6& u, const Eigen::Matrix3d& C_BL) {
@@ -318,7 +319,8 @@ void bind_actuators(py::module_& m) {
             return std::make_tuple(A, b, lo, hi);
           },
           "(A, b, lower, upper) of the last allocation: min ||A x - b||^2, lower <= x <= upper")
-      .def_property_readonly("remainder", [](const ActuationSystem& self) { return self.modulator().remainder(); })
+      .def_property_readonly("remainder",
+                             [](const ActuationSystem& self) { return self.modulator().remainder(); })
       .def_property_readonly("settings", &ActuationSystem::settings);
 }
 

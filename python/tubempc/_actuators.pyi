@@ -258,7 +258,6 @@ def actuation_error_bound(
     t: float = 0.0,
     tolerate_one_failure: bool = True,
 ) -> ActuationErrorBound: ...
-
 def disturbance_with_actuation_error(P_W: _Vec, B: _Vec, E: _Vec) -> _Arr: ...
 
 class ActuationStatus(enum.Enum):

@@ -121,7 +121,9 @@ def _new_record(scn: Scenario, method: str, seed: int) -> RunRecord:
 def _new_plant(scn: Scenario, seed: int) -> _Plant:
     loop = scn.loop
     system = None if loop.actuation is None else loop.actuation.system(seed + 1)
-    plant = _Plant(scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, scn.model.state_to_truth(scn.x0))
+    plant = _Plant(
+        scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, scn.model.state_to_truth(scn.x0)
+    )
     plant.actuation = system
     return plant
 
@@ -137,6 +139,8 @@ def _record_actuation(rec: RunRecord, k: int, plant: _Plant, dt: float) -> None:
     rec.delta_v[k], rec.propellant[k], rec.pulses[k] = st.delta_v, st.propellant, st.pulses
     rec.wheel_momentum[k] = np.asarray(plant.actuation.wheels.axes_B) @ np.asarray(st.wheel_momentum)
     rec.time_actuation[k] = st.step_time
+    on_time = np.asarray(st.on_time)
+    rec.thruster_on_time[k, : on_time.size] = on_time
     rec.actuation_statuses.append(str(st.status))
 
 
@@ -239,7 +243,9 @@ def _applied(scn: Scenario, plant: _Plant, rec: RunRecord, max_steps: int | None
         "seed": rec.seed,
         "max_steps": max_steps,
         "disturbance": plant.disturbance.describe(),
-        "actuators": plant.actuators.describe() if plant.actuation is None else actuation_summary(plant.actuation, scn.loop.actuation),
+        "actuators": plant.actuators.describe()
+        if plant.actuation is None
+        else actuation_summary(plant.actuation, scn.loop.actuation),
         "truth": {
             "density_scale": sim.density_scale,
             "srp_scale": sim.srp_scale,

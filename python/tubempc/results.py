@@ -27,6 +27,8 @@ from . import __version__
 __all__ = ["RunRecord", "load_record", "load_result", "save_record", "save_result"]
 
 Array = npt.NDArray[np.float64]
+#: Columns of RunRecord.thruster_on_time (actuators::kMaxThrusters).
+MAX_THRUSTERS = 32
 _STATE = "[m, m/s, rad, rad/s]"  # x = [r_L, v_L, phi, omega_BL_B]
 _INPUT = "[m/s^2 (L), N m (B)]"  # u = [u_p, T]
 
@@ -86,6 +88,9 @@ class RunRecord:
     pulses: Array = _array(("T",), "1", "thruster firings of the period")
     wheel_momentum: Array = _array(("T", 3), "N m s", "the wheels' total momentum in B after the period")
     time_actuation: Array = _array(("T",), "s", "wall time of the actuation call (allocation, modulation, wheels)")
+    thruster_on_time: Array = _array(
+        ("T", MAX_THRUSTERS), "s", "on-time of each thruster in the period (its first n columns; 0 if ideal)"
+    )
     statuses: list[str] = field(default_factory=list)  # MPC step status per step
     failures: list[str] = field(default_factory=list)  # cause of each fallback ("solved": none)
     tube_statuses: list[str] = field(default_factory=list)  # per tube update: "<translation>/<rotation>"
@@ -195,6 +200,7 @@ _ACTUATION_ARRAYS: dict[str, tuple[int, ...]] = {
     "pulses": (),
     "wheel_momentum": (3,),
     "time_actuation": (),
+    "thruster_on_time": (MAX_THRUSTERS,),
 }
 
 

@@ -79,7 +79,7 @@ def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dic
         ("fig05_states_rotation.png", lambda: figures.states(records, figures.ROTATION)),
         ("fig06_errors_translation.png", lambda: figures.errors(records, figures.TRANSLATION)),
         ("fig07_errors_rotation.png", lambda: figures.errors(records, figures.ROTATION)),
-        ("fig08_controls.png", lambda: figures.controls(records, c.spacecraft.u_max, c.spacecraft.T_max)),
+        ("fig08_controls.png", lambda: figures.controls(records, *scn.input_bounds)),
         (
             "fig09_disturbances_translation.png",
             lambda: figures.disturbances(records, c.identification.pw_scale, prior, figures.TRANSLATION),
@@ -92,6 +92,9 @@ def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dic
         ("fig13_constraints.png", lambda: figures.constraints(records)),
     ]
 
+    if scn.actuation is not None:
+        n_thrusters = len(scn.actuation.suite.cluster)
+        jobs.append(("fig15_actuation.png", lambda: figures.actuation(records, n_thrusters)))
     if "tbmpc" in records:
         jobs.append(
             ("fig11_exceedances.png", lambda: figures.exceedances(records["tbmpc"], prior, c.identification.pw_scale))

@@ -28,11 +28,13 @@ std::string to_string(ActuationStatus status) {
 }
 
 void ActuationSettings::validate() const {
-  if (!(std::isfinite(mass) && mass > 0.0)) throw std::invalid_argument("actuation.mass: must be finite and > 0 (kg)");
+  if (!(std::isfinite(mass) && mass > 0.0))
+    throw std::invalid_argument("actuation.mass: must be finite and > 0 (kg)");
   modulation.validate();
   allocation.validate();
   if (allocation.period != modulation.period)
-    throw std::invalid_argument("actuation.allocation.period: must equal modulation.period (the control period, s)");
+    throw std::invalid_argument(
+        "actuation.allocation.period: must equal modulation.period (the control period, s)");
 }
 
 namespace {
@@ -127,8 +129,8 @@ const ActuationStep& ActuationSystem::step(double t, const Vector6& u, const Eig
     ++totals_.not_delivered;
   const int m = wheels_.size();
   for (int j = 0; j < m; ++j)
-    totals_.max_wheel_momentum_fraction = std::max(totals_.max_wheel_momentum_fraction,
-                                                   std::abs(out_.wheel_momentum(j)) / wheels_.max_momentum()(j));
+    totals_.max_wheel_momentum_fraction = std::max(
+        totals_.max_wheel_momentum_fraction, std::abs(out_.wheel_momentum(j)) / wheels_.max_momentum()(j));
   out_.step_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out_;
 }

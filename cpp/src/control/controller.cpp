@@ -1,11 +1,11 @@
 #include "tubempc/control/controller.hpp"
 
-#include "tubempc/actuators/achievable_set.hpp"
-
 #include <chrono>
 #include <stdexcept>
 #include <string>
 #include <utility>
+
+#include "tubempc/actuators/achievable_set.hpp"
 
 namespace tubempc::control {
 
@@ -35,7 +35,8 @@ void ControllerSettings::validate() const {
     const char* name = s == 0 ? "actuation_error[0]" : "actuation_error[1]";
     if (!E.allFinite() || !E.isApprox(E.transpose(), 1e-12) ||
         Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(E).eigenvalues().minCoeff() < -1e-12 * E.norm())
-      throw std::invalid_argument(std::string(name) + ": must be finite, symmetric and positive semidefinite");
+      throw std::invalid_argument(std::string(name) +
+                                  ": must be finite, symmetric and positive semidefinite");
   }
 }
 

@@ -12,7 +12,7 @@ import pytest
 from tubempc import actuators as A
 from tubempc.closed_loop import simulate
 from tubempc.config import ConfigError, load_config
-from tubempc.scenario import ScenarioError, Scenario, build_scenario
+from tubempc.scenario import Scenario, ScenarioError, build_scenario
 
 # A spacecraft the short hover-and-descend mission below can fly with a certified tube: the OSIRIS-REx-like
 # layout with sized thrusters (the preset itself cannot fly these missions: docs/decisions.md "Actuators in the

@@ -315,14 +315,18 @@ def test_system_call_allocates_like_scipy_and_fires_what_it_allocated(suite: A.A
         Amat, b, lo, hi = sys_.last_problem()
         fixed = lo == hi
         free = ~fixed
-        ref = lsq_linear(Amat[:, free], b - Amat[:, fixed] @ lo[fixed], bounds=(lo[free], hi[free]), method="bvls", tol=1e-14)
+        ref = lsq_linear(
+            Amat[:, free], b - Amat[:, fixed] @ lo[fixed], bounds=(lo[free], hi[free]), method="bvls", tol=1e-14
+        )
         x_ref = lo.copy()
         x_ref[free] = ref.x
         np.testing.assert_allclose(st.thrust, x_ref[: len(truth)], atol=1e-6 * (1.0 + np.abs(hi).max()))
         np.testing.assert_allclose(st.commanded_B, act.wrench_from_input(u, C_BL, suite.mass), rtol=1e-14, atol=1e-14)
         delivered = D_true @ (F * np.asarray(st.on_time) / PERIOD) + np.r_[np.zeros(3), G @ np.asarray(st.wheel_torque)]
         np.testing.assert_allclose(st.delivered_B, delivered, rtol=1e-12, atol=1e-12)
-        np.testing.assert_allclose(st.u_delivered, act.input_from_wrench(delivered, C_BL, suite.mass), rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(
+            st.u_delivered, act.input_from_wrench(delivered, C_BL, suite.mass), rtol=1e-12, atol=1e-15
+        )
     assert {act.ActuationStatus.Ok, act.ActuationStatus.Saturated} <= statuses
 
 

@@ -37,7 +37,7 @@ enum class ActuationStatus {
   Ok,              ///< Allocated within tolerance with every thruster healthy.
   ThrusterFailed,  ///< Allocated within tolerance around at least one failed thruster.
   Saturated,       ///< The command's magnitude could not be allocated: the least-squares best was fired.
-  Infeasible,  ///< The command's direction cannot be produced (e.g. every thruster failed): best fired.
+  Infeasible,      ///< The command's direction cannot be produced (e.g. every thruster failed): best fired.
   MaxIterations,   ///< The allocation's iteration cap was reached: a feasible, possibly suboptimal firing.
   InvalidCommand,  ///< A non-finite command or attitude: no thrust (stuck-on thrusters still fire), no wheel torque.
 };
@@ -50,7 +50,7 @@ std::string to_string(ActuationStatus status);
 struct ActuationStep {
   ActuationStatus status = ActuationStatus::Ok;  ///< Outcome.
   AllocationInfo allocation;                     ///< The allocation's counters.
-  Vector6 u_commanded = Vector6::Zero();  ///< The command [u_p (m/s^2, L); T (N m, B)] as received.
+  Vector6 u_commanded = Vector6::Zero();         ///< The command [u_p (m/s^2, L); T (N m, B)] as received.
   /// The input delivered over the period (period average), [u_p (m/s^2, L); T (N m, B)]; always finite.
   Vector6 u_delivered = Vector6::Zero();
   Vector6 commanded_B = Vector6::Zero();  ///< The commanded wrench (M32; N, N m).
@@ -65,22 +65,22 @@ struct ActuationStep {
   Eigen::VectorXd impulse;         ///< Impulse of each thruster, truth (N s, n).
   Eigen::VectorXd wheel_torque;    ///< Wheel torques applied on the spacecraft (N m, m).
   Eigen::VectorXd wheel_momentum;  ///< Wheel momenta after the period (N m s, m).
-  double impulse_total = 0.0;  ///< Sum of the thrusters' impulse magnitudes in the period (N s).
-  double delta_v = 0.0;        ///< impulse_total / mass: the period's thruster delta-v (m/s).
-  double propellant = 0.0;     ///< Propellant spent in the period (kg).
-  int pulses = 0;              ///< Thrusters fired in the period.
-  int failed_thrusters = 0;    ///< Thrusters failed (off or stuck on) at the period's start.
-  double step_time = 0.0;      ///< Wall-clock time of the call (s).
+  double impulse_total = 0.0;      ///< Sum of the thrusters' impulse magnitudes in the period (N s).
+  double delta_v = 0.0;            ///< impulse_total / mass: the period's thruster delta-v (m/s).
+  double propellant = 0.0;         ///< Propellant spent in the period (kg).
+  int pulses = 0;                  ///< Thrusters fired in the period.
+  int failed_thrusters = 0;        ///< Thrusters failed (off or stuck on) at the period's start.
+  double step_time = 0.0;          ///< Wall-clock time of the call (s).
 };
 
 /// Totals of a mission since construction or the last reset.
 struct ActuationTotals {
-  double impulse = 0.0;     ///< Sum of thruster impulse magnitudes (N s).
-  double delta_v = 0.0;     ///< impulse / mass (m/s).
-  double propellant = 0.0;  ///< Propellant (kg).
-  long pulses = 0;          ///< Thruster firings.
-  int steps = 0;            ///< Periods actuated.
-  int not_delivered = 0;    ///< Periods with status Saturated, Infeasible or InvalidCommand.
+  double impulse = 0.0;                      ///< Sum of thruster impulse magnitudes (N s).
+  double delta_v = 0.0;                      ///< impulse / mass (m/s).
+  double propellant = 0.0;                   ///< Propellant (kg).
+  long pulses = 0;                           ///< Thruster firings.
+  int steps = 0;                             ///< Periods actuated.
+  int not_delivered = 0;                     ///< Periods with status Saturated, Infeasible or InvalidCommand.
   double max_wheel_momentum_fraction = 0.0;  ///< Largest |h_j| / h_max_j reached.
 };
 
@@ -91,7 +91,8 @@ class ActuationSystem {
   /// @param cluster the thrusters as the truth has them (nominal geometry, truth errors, faults).
   /// @param wheels the wheels (their momentum is the initial one).
   /// @param settings the settings (validated).
-  ActuationSystem(const ThrusterCluster& cluster, const ReactionWheels& wheels, const ActuationSettings& settings);
+  ActuationSystem(const ThrusterCluster& cluster, const ReactionWheels& wheels,
+                  const ActuationSettings& settings);
 
   /// Actuates one period. Allocation-free; a non-finite command or attitude gives InvalidCommand.
   /// @param t the period's start time (s; faults are read at it).
