@@ -47,7 +47,8 @@ def run_summary(scn: Scenario, rec: RunRecord) -> RunMetrics:
 
 def guarantee_lost(result: RunMetrics | CampaignMethodResult) -> list[str]:
     """What a run's result (its summary or a campaign's per-method record) says was lost: steps outside
-    the tube, fallback steps, states inside the body (empty: every guarantee kept). The exit status 4
+    the tube, fallback steps, states inside the body, steps the actuators did not deliver (empty: every
+    guarantee kept). The exit status 4
     of every command means a non-empty list for some run."""
     reasons = []
     if result.steps_outside_tube:
@@ -59,6 +60,8 @@ def guarantee_lost(result: RunMetrics | CampaignMethodResult) -> list[str]:
         reasons.append(f"{fallbacks} fallback steps")
     if result.states_inside_body:
         reasons.append(f"{result.states_inside_body} states inside the body")
+    if result.actuation is not None and result.actuation.not_delivered_steps:
+        reasons.append(f"{result.actuation.not_delivered_steps} steps the actuators did not deliver")
     return reasons
 
 

@@ -23,6 +23,7 @@ from typing import Any, ClassVar, TypeVar
 
 __all__ = [
     "FORMAT_VERSION",
+    "ActuationSummary",
     "CampaignMethodResult",
     "CampaignRunResult",
     "Comparison",
@@ -204,6 +205,22 @@ class EnvelopeFit(_Json):
 
 
 @dataclass(frozen=True, kw_only=True)
+class ActuationSummary(_Json):
+    """A run's actuators (docs/model.md M37; absent for ideal actuators): the thrusters' delta-v (sum of
+    impulses / m, m/s), the net delta-v delivered (sum |u_p| dt, m/s), propellant (kg), pulses, the wheels'
+    largest total momentum (N m s), the steps per actuation status and the steps the actuators did not
+    deliver (saturated, infeasible or an invalid command)."""
+
+    thruster_delta_v: float
+    net_delta_v: float
+    propellant: float
+    pulses: int
+    max_wheel_momentum: float
+    statuses: dict[str, int]
+    not_delivered_steps: int
+
+
+@dataclass(frozen=True, kw_only=True)
 class RunMetrics(_Json):
     """Every scalar result of one closed-loop run (:func:`tubempc.metrics.run_metrics`; a run's
     summary adds ``states_inside_body``, :func:`tubempc.runner.run_summary`)."""
@@ -230,6 +247,7 @@ class RunMetrics(_Json):
     run_time_s: float
     seed: int
     states_inside_body: int | None = field(default=None, metadata=_OMIT)  # None: not counted
+    actuation: ActuationSummary | None = field(default=None, metadata=_OMIT)  # None: ideal actuators
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -327,6 +345,7 @@ class CampaignMethodResult(_Json):
     constraint_violations: ConstraintViolations
     statuses: dict[str, int]
     states_inside_body: int | None = field(default=None, metadata=_OMIT)
+    actuation: ActuationSummary | None = field(default=None, metadata=_OMIT)
     run_time_s: float
 
     @classmethod

@@ -3,6 +3,7 @@ errors, and short runs flying a thruster-and-wheel spacecraft inside their certi
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +13,8 @@ import pytest
 from tubempc import actuators as A
 from tubempc.closed_loop import simulate
 from tubempc.config import ConfigError, load_config
+from tubempc.metrics import run_metrics
+from tubempc.runner import guarantee_lost
 from tubempc.scenario import Scenario, ScenarioError, build_scenario
 
 # A spacecraft the short hover-and-descend mission below can fly with a certified tube: the OSIRIS-REx-like
@@ -86,6 +89,13 @@ def test_short_run_with_thrusters_and_wheels_stays_in_its_certified_tube(tmp_pat
     acc = rec.applied["actuators"]
     assert acc["propellant"] == pytest.approx(rec.propellant.sum())
     assert acc["pulses"] == int(rec.pulses.sum())
+    summary = run_metrics(rec, scn.config.mpc.dt, scn.xf)
+    assert summary.actuation is not None
+    assert summary.actuation.statuses == {"ok": 30} and summary.actuation.not_delivered_steps == 0
+    assert summary.actuation.thruster_delta_v >= summary.actuation.net_delta_v > 0.0
+    assert guarantee_lost(summary) == []
+    lost = dataclasses.replace(summary, actuation=dataclasses.replace(summary.actuation, not_delivered_steps=3))
+    assert guarantee_lost(lost) == ["3 steps the actuators did not deliver"]
 
 
 def test_a_failed_thruster_is_reported_and_flown_around(tmp_path: Path, cache: Path) -> None:
