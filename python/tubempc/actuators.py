@@ -368,7 +368,7 @@ def actuate(system: _act.ActuationSystem, t: float, u: FloatArray, state: FloatA
     return np.asarray(st.u_delivered, dtype=np.float64), st
 
 
-def actuation_summary(system: _act.ActuationSystem, setup: ScenarioActuation | None) -> dict[str, Any]:
+def describe_actuation(system: _act.ActuationSystem, setup: ScenarioActuation | None) -> dict[str, Any]:
     """A run's actuation totals and the truth's thruster errors and faults (JSON-ready, for ``applied``)."""
     tot = system.totals
     cluster = system.cluster

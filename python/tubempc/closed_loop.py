@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from .actuators import actuate, actuation_summary
+from .actuators import actuate, describe_actuation
 from .disturbances import ActuatorMismatch, AdditiveDisturbance
 from .metrics import tube_excursion
 from .results import RunRecord
@@ -121,11 +121,8 @@ def _new_record(scn: Scenario, method: str, seed: int) -> RunRecord:
 def _new_plant(scn: Scenario, seed: int) -> _Plant:
     loop = scn.loop
     system = None if loop.actuation is None else loop.actuation.system(seed + 1)
-    plant = _Plant(
-        scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, scn.model.state_to_truth(scn.x0)
-    )
-    plant.actuation = system
-    return plant
+    truth0 = scn.model.state_to_truth(scn.x0)
+    return _Plant(scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, truth0, system)
 
 
 def _record_actuation(rec: RunRecord, k: int, plant: _Plant, dt: float) -> None:
@@ -245,7 +242,7 @@ def _applied(scn: Scenario, plant: _Plant, rec: RunRecord, max_steps: int | None
         "disturbance": plant.disturbance.describe(),
         "actuators": plant.actuators.describe()
         if plant.actuation is None
-        else actuation_summary(plant.actuation, scn.loop.actuation),
+        else describe_actuation(plant.actuation, scn.loop.actuation),
         "truth": {
             "density_scale": sim.density_scale,
             "srp_scale": sim.srp_scale,

@@ -15,7 +15,8 @@ from tubempc.closed_loop import simulate
 from tubempc.config import ConfigError, load_config
 from tubempc.metrics import run_metrics
 from tubempc.runner import guarantee_lost
-from tubempc.scenario import Scenario, ScenarioError, build_scenario
+from tubempc.scenario import Scenario, ScenarioError, build_scenario, mpc_settings
+from tubempc.tube_library import _prior_P_W, controller_settings
 
 # A spacecraft the short hover-and-descend mission below can fly with a certified tube: the OSIRIS-REx-like
 # layout with sized thrusters (the preset itself cannot fly these missions: docs/decisions.md "Actuators in the
@@ -58,6 +59,28 @@ def test_default_is_ideal_and_a_bad_actuator_field_is_named(tmp_path: Path, cach
         build_scenario(cfg.with_overrides({"spacecraft.actuators": str(bad)}), cache_dir=cache)
     with pytest.raises(ConfigError, match=r"disturbance\.scale_error_p: must be 0 with spacecraft\.actuators"):
         cfg.with_overrides({"spacecraft.actuators": "osiris_rex_like", "disturbance.scale_error_p": 0.01})
+
+
+def test_ideal_actuators_leave_every_input_of_the_default_run_as_it_was(cache: Path) -> None:
+    """With "ideal", the bounds, the designs' priors, the controller's error sets and the plant's input are the
+    configured ones to the bit (the whole default run is compared with the previous version in
+    docs/decisions.md "Actuators in the closed loop")."""
+    scn = build_scenario(load_config(), cache_dir=cache)
+    s = scn.config.spacecraft
+    assert scn.actuation is None and scn.loop.actuation is None
+    assert scn.input_bounds == (s.u_max, s.T_max)
+    assert np.array_equal(np.asarray(mpc_settings(scn).u_max), np.r_[[s.u_max] * 3, [s.T_max] * 3])
+    ident = scn.config.identification
+    P_p, P_r = _prior_P_W(scn)
+    assert np.array_equal(P_p, ident.pw_scale * np.asarray(ident.S0_p))
+    assert np.array_equal(P_r, ident.pw_scale * np.asarray(ident.S0_r))
+    assert all(not np.asarray(E).any() for E in controller_settings(scn, "ffa").actuation_error)
+    rec = simulate(scn, "ffa", 3, max_steps=3, design_worker="none")
+    mismatch = scn.loop.actuators(3)
+    for u, u_del in zip(rec.u, rec.u_delivered, strict=True):
+        assert np.array_equal(u_del, np.r_[mismatch.apply_acceleration(u[:3]), mismatch.apply_torque(u[3:])])
+    assert rec.actuation_statuses == ["ideal"] * 3 and not rec.propellant.any()
+    assert run_metrics(rec, scn.config.mpc.dt, scn.xf).actuation is None
 
 
 def test_the_paper_mission_is_beyond_the_osiris_rex_like_thrusters(cache: Path) -> None:
