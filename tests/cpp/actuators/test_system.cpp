@@ -3,9 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 #include <vector>
 
 #include "actuator_fixtures.hpp"
+#include "tubempc/actuators/achievable_set.hpp"
 #include "tubempc/actuators/system.hpp"
 
 using namespace tubempc::actuators;
@@ -143,4 +145,44 @@ TEST(ActuationSystem, SettingsNameTheField) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("allocation.period"), std::string::npos);
   }
+}
+
+TEST(DisturbanceWithActuationError, ContainsTheSumAndIsNoLargerThanTheTraceChoice) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> n(0.0, 1.0);
+  using Matrix6 = Eigen::Matrix<double, 6, 6>;
+  for (int trial = 0; trial < 20; ++trial) {
+    Matrix6 L;
+    for (int i = 0; i < 36; ++i) L(i) = n(rng) * (i % 6 < 3 ? 1.0 : 0.01);
+    const Matrix6 P_W = L * L.transpose() + 1e-8 * Matrix6::Identity();
+    Eigen::Matrix<double, 6, 3> B;
+    for (int i = 0; i < 18; ++i) B(i) = n(rng);
+    Eigen::Matrix3d M;
+    for (int i = 0; i < 9; ++i) M(i) = 1e-2 * n(rng);
+    const Eigen::Matrix3d E = M * M.transpose();
+    const Matrix6 P = disturbance_with_actuation_error(P_W, B, E);
+    // w + B e on the boundaries of both sets lies in the result.
+    const Eigen::LLT<Matrix6> W_factor(P_W);
+    const Eigen::LLT<Eigen::Matrix3d> E_factor(E);
+    for (int s = 0; s < 200; ++s) {
+      Eigen::Matrix<double, 6, 1> a;
+      Eigen::Vector3d b;
+      for (int i = 0; i < 6; ++i) a(i) = n(rng);
+      for (int i = 0; i < 3; ++i) b(i) = n(rng);
+      const Eigen::Matrix<double, 6, 1> w = W_factor.matrixL() * a.normalized();
+      const Eigen::Vector3d e = E_factor.matrixL() * b.normalized();
+      const Eigen::Matrix<double, 6, 1> sum = w + B * e;
+      EXPECT_LE(sum.dot(P.llt().solve(sum)), 1.0 + 1e-9);
+    }
+    // No larger in volume than the trace-minimal member in diag(P_W) units (the search's start).
+    const Matrix6 P_E = B * E * B.transpose();
+    double b2 = 0.0;
+    for (int i = 0; i < 6; ++i) b2 += P_E(i, i) / P_W(i, i);
+    const double beta = std::sqrt(b2) / (std::sqrt(6.0) + std::sqrt(b2));
+    const Matrix6 P0 = P_W / (1.0 - beta) + P_E / beta;
+    EXPECT_LE(std::log(P.determinant()), std::log(P0.determinant()) + 1e-9);
+  }
+  EXPECT_EQ(disturbance_with_actuation_error(Eigen::Matrix<double, 6, 6>::Identity(),
+                                             Eigen::Matrix<double, 6, 3>::Ones(), Eigen::Matrix3d::Zero()),
+            (Eigen::Matrix<double, 6, 6>::Identity()));
 }
