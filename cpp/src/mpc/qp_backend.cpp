@@ -63,6 +63,12 @@ ActiveSetBackend::ActiveSetBackend(const QpProblem& qp, const QpLayout& layout, 
   as.eps_abs = s.qp_eps_abs;
   as.eps_rel = s.qp_eps_rel;
   active_set_.setup(qp.P, qp.A, qp.G, layout.boundable(s), as);
+  if (layout.off_t >= 0) {  // the soft-terminal rows |dz_N| <= t are exact L1 penalty pairs
+    Eigen::Array<bool, Eigen::Dynamic, 1> penalty =
+        Eigen::Array<bool, Eigen::Dynamic, 1>::Constant(layout.n_in, false);
+    penalty.segment(layout.terminal_row(), 2 * layout.nx).setConstant(true);
+    active_set_.set_penalty_rows(penalty);
+  }
   set_.setZero(layout.n_in + layout.n_var);
   prev_ = set_;
   shift_ = layout.shift_map(layout);
