@@ -17,15 +17,11 @@ void bind_io(py::module_& m) {
   auto s = m.def_submodule("io", "Scenario files (format 'tubempc-scenario 3'; see tubempc/io/scenario.hpp)");
   s.attr("FORMAT_VERSION") = io::kScenarioFormatVersion;
 
-  py::class_<io::BodyModel>(s, "BodyModel",
-                            "One 6-DOF model of a scenario: dynamics constants, density, shape file")
-      .def(py::init<>())
-      .def_readwrite("params", &io::BodyModel::params, "dynamics.ModelParams (SI)")
-      .def_readwrite("density", &io::BodyModel::density, "asteroid density (kg/m^3)")
-      .def_readwrite("shape", &io::BodyModel::shape,
-                     "shape file as written (relative to Scenario.directory or absolute)")
-      .def_readwrite("shape_unit_scale", &io::BodyModel::shape_unit_scale,
-                     "metres per unit of the shape file");
+  py::class_<io::BodyModel> body(s, "BodyModel",
+                                 "One 6-DOF model of a scenario: dynamics constants, density, shape file");
+  body.def(py::init<>()).def_readwrite("params", &io::BodyModel::params, "dynamics.ModelParams (SI)");
+  bind_fields(body);
+  body.def("validate", &io::BodyModel::validate, "ValueError naming the first bad field.");
 
   py::class_<io::Scenario>(s, "Scenario", "Contents of a scenario file (see tubempc/io/scenario.hpp)")
       .def(py::init<>())

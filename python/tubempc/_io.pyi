@@ -19,6 +19,9 @@ class BodyModel:
     shape: str
     shape_unit_scale: float
     def __init__(self) -> None: ...
+    @staticmethod
+    def field_names() -> list[str]: ...
+    def validate(self) -> None: ...
 
 class Scenario:
     directory: str

@@ -33,12 +33,15 @@ Scenario sample(int T) {
   s.model.params.kinematics = tubempc::dynamics::Kinematics::Exact;
   s.model.params.spin_angle0 = 0.1;
   s.model.params.inertia_B(0, 1) = s.model.params.inertia_B(1, 0) = 1.0 / 3.0;
+  s.model.params.glide_slope_apex_A = Eigen::Vector3d(1.0 / 3.0, -2.0, 0.1);  // not the defaults
+  s.model.params.glide_slope_axis_A = Eigen::Vector3d(0.1, 0.2, 1.0 / 3.0);
   s.model.density = 1260.0;
   s.model.shape = "shape.obj";
   s.truth = s.model;
   s.truth.density = 1260.0 * 1.1;
   s.truth.params.beta_srp *= 0.9;
   s.truth.params.srp_enabled = false;
+  s.truth.params.kinematics = tubempc::dynamics::Kinematics::FirstOrder;  // version 1 calls it "paper"
   s.truth.shape = "/abs/truth shape.tab";
   s.truth.shape_unit_scale = 1000.0;
   s.propagator.substeps = 8;
@@ -187,6 +190,8 @@ TEST_F(ScenarioFile, RoundTripIsBitExact) {
     EXPECT_EQ(x->params.glide_slope_angle, y->params.glide_slope_angle);
     EXPECT_EQ(x->params.los_angle, y->params.los_angle);
     expect_same_bits(x->params.boresight_B, y->params.boresight_B, "boresight_B");
+    expect_same_bits(x->params.glide_slope_apex_A, y->params.glide_slope_apex_A, "glide_slope_apex_A");
+    expect_same_bits(x->params.glide_slope_axis_A, y->params.glide_slope_axis_A, "glide_slope_axis_A");
     EXPECT_EQ(x->density, y->density);
     EXPECT_EQ(x->shape, y->shape);
     EXPECT_EQ(x->shape_unit_scale, y->shape_unit_scale);
@@ -277,18 +282,21 @@ TEST_F(ScenarioFile, RoundTripIsBitExact) {
 
 TEST_F(ScenarioFile, OptionalRecordsTakeDefaults) {
   std::string text = text_;
-  for (const char* name :
-       {"mpc.trust_region 1 1\ninf\n", "mpc.kkt_solver text\nsparse_ldlt\n", "mpc.G_structure 2 12\n"}) {
+  for (const char* name : {"mpc.trust_region 1 1\ninf\n", "mpc.kkt_solver text\nsparse_ldlt\n",
+                           "mpc.G_structure 2 12\n", "model.glide_slope_apex_A 3 1\n"}) {
     const std::size_t at = text.find(name);
     ASSERT_NE(at, std::string::npos) << name;
     std::size_t end = at + std::string(name).size();
     if (std::string(name) == "mpc.G_structure 2 12\n") end = text.find("reference.t0", at);
+    if (std::string(name) == "model.glide_slope_apex_A 3 1\n")
+      end = text.find("model.glide_slope_axis_A", at);
     text.erase(at, end - at);
   }
   std::ofstream(path_, std::ios::binary) << text;
   const Scenario s = read_scenario(path_);
   EXPECT_EQ(s.settings.trust_region, tubempc::mpc::Settings{}.trust_region);
   EXPECT_EQ(s.settings.G_structure.size(), 0);
+  EXPECT_EQ(s.model.params.glide_slope_apex_A, tubempc::dynamics::ModelParams{}.glide_slope_apex_A);
 }
 
 // A version-1 file (the option names before the one-name-per-option change) reads to the same scenario.
@@ -310,11 +318,10 @@ TEST_F(ScenarioFile, VersionOneFilesAreRead) {
   tube << "tube.Pe 12 12\n"
        << fresh.tube.Pe.format(Eigen::IOFormat(17, Eigen::DontAlignCols, " ", "\n")) << "\n";
   text.replace(c0, c1 - c0, tube.str());
-  const std::string kin = std::string("model.kinematics text\n") + to_string(fresh.model.params.kinematics);
-  if (fresh.model.params.kinematics == tubempc::dynamics::Kinematics::FirstOrder)
-    replace(kin, "model.kinematics text\npaper");
-  if (fresh.truth.params.kinematics == tubempc::dynamics::Kinematics::FirstOrder)
-    replace("truth.kinematics text\nfirst_order", "truth.kinematics text\npaper");
+  // the truth's first-order kinematics under version 1's name (the model's stays "exact")
+  ASSERT_EQ(fresh.truth.params.kinematics, tubempc::dynamics::Kinematics::FirstOrder);
+  ASSERT_EQ(fresh.model.params.kinematics, tubempc::dynamics::Kinematics::Exact);
+  replace("truth.kinematics text\nfirst_order", "truth.kinematics text\npaper");
   replace(std::string("mpc.input_cost text\n") + tubempc::mpc::to_string(fresh.settings.input_cost),
           fresh.settings.input_cost == tubempc::mpc::InputCost::Absolute
               ? "mpc.input_cost text\npaper"
@@ -372,8 +379,14 @@ TEST_F(ScenarioFile, ErrorsNameFileLineAndRecord) {
   expect_error("model.inertia_B 3 3\n2750 0.33333333333333331 0",
                "model.inertia_B 3 3\n2750 0.33333333333333331", inertia + 1,
                "model.inertia_B: row 0: expected 3 values, got 2");
-  expect_error("model.density 1 1\n1260", "model.density 1 1\n0", line_of("model.density 1 1") + 1,
-               "model.density: must be > 0");
+  expect_error("model.density 1 1\n1260", "model.density 1 1\n0", 0,
+               "model.* (BodyModel): BodyModel.density: must be finite and > 0, got 0");
+  // a fixed-size optional record may be left out, not written empty
+  const long axis = line_of("model.glide_slope_axis_A 3 1");
+  expect_error("model.glide_slope_axis_A 3 1\n" + line_at(axis + 1) + "\n" + line_at(axis + 2) + "\n" +
+                   line_at(axis + 3) + "\n",
+               "model.glide_slope_axis_A 0 0\n", axis,
+               "model.glide_slope_axis_A: expected size 3 x 1, got 0 x 0");
   const long sub = line_of("propagator.substeps 1 1");
   expect_error("propagator.substeps 1 1\n8", "propagator.substeps 1 1\n8.5", sub + 1,
                "propagator.substeps: expected an integer, got 8.5");

@@ -20,22 +20,8 @@
 ///
 ///   | record | size | meaning |
 ///   | --- | --- | --- |
-///   | `model.mu_sun` | 1 1 | Sun's gravitational parameter (m^3/s^2) |
-///   | `model.orbit_radius` | 1 1 | heliocentric distance R (m) |
-///   | `model.beta_srp` | 1 1 | SRP constant (m^3/s^2) |
-///   | `model.srp_enabled` | 1 1 | 0 or 1 |
-///   | `model.inertia_B` | 3 3 | spacecraft inertia in B (kg m^2) |
-///   | `model.spin_rate` | 1 1 | asteroid spin rate omega_A (rad/s, signed, about z_L) |
-///   | `model.spin_angle0` | 1 1 | theta_0 (rad) |
-///   | `model.kinematics` | text | `first_order` or `exact` |
-///   | `model.glide_slope_angle` | 1 1 | phi_gs (rad) |
-///   | `model.los_angle` | 1 1 | theta_LOS (rad) |
-///   | `model.boresight_B` | 3 1 | boresight in B |
-///   | `model.glide_slope_apex_A` | 3 1 | optional (default 0): glide-slope cone apex in A (m) |
-///   | `model.glide_slope_axis_A` | 3 1 | optional (default z_A): glide-slope cone axis in A |
-///   | `model.density` | 1 1 | asteroid density (kg/m^3) |
-///   | `model.shape` | text | shape file (gravity/shape_io.hpp), relative to the scenario's folder or absolute |
-///   | `model.shape_unit_scale` | 1 1 | metres per unit of the shape file |
+///   | `model.<field>` | | every field of dynamics::ModelParams, as its for_each_field lists them (name, size, unit, optional): `model.kinematics` is text (`first_order` or `exact`; version 1: `paper`), `srp_enabled` a flag, `inertia_B` 3 3, the vectors 3 1 (the optional `glide_slope_apex_A`, `glide_slope_axis_A` may be left out, not written empty) |
+///   | `model.density`, `.shape`, `.shape_unit_scale` | 1 1, text, 1 1 | the fields of io::BodyModel, as its for_each_field lists them: asteroid density (kg/m^3), shape file (gravity/shape_io.hpp, relative to the scenario's folder or absolute), metres per unit of the shape file |
 ///   | `truth.*` | | the same records for the simulated plant (the truth model) |
 ///   | `propagator.method` | text | `rk4` or `dopri5` |
 ///   | `propagator.substeps`, `.rtol`, `.atol`, `.max_steps`, `.initial_step` | 1 1 each | dynamics::PropagatorSettings (s for initial_step) |
@@ -95,6 +81,29 @@ struct BodyModel {
   double density{1260.0};        ///< asteroid density (kg/m^3), finite and > 0
   std::string shape;             ///< shape file as written: relative to Scenario::directory, or absolute
   double shape_unit_scale{1.0};  ///< metres per unit of the shape file, finite and > 0
+
+  /// Checks density and shape_unit_scale (finite, > 0) and that shape is not empty.
+  /// @throws std::invalid_argument naming the first bad field (`BodyModel.<field>`).
+  void validate() const;
+
+  /// The fields besides `params` (whose own table is dynamics::ModelParams::for_each_field), once:
+  /// calls visit(info, pointer to the member) per member, in the order scenario files write them
+  /// (after the ModelParams records). Drives the scenario file and the Python binding.
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit) {
+    using core::FieldInfo;
+    using B = BodyModel;
+    visit(FieldInfo{"density", "kg/m^3", false, false, core::Dim::One, core::Dim::One,
+                    "asteroid density (kg/m^3)"},
+          &B::density);
+    visit(FieldInfo{"shape", "", false, false, core::Dim::One, core::Dim::One,
+                    "shape file as written (relative to Scenario.directory or absolute)"},
+          &B::shape);
+    visit(FieldInfo{"shape_unit_scale", "", false, false, core::Dim::One, core::Dim::One,
+                    "metres per unit of the shape file"},
+          &B::shape_unit_scale);
+  }
 };
 
 /// Contents of a scenario file (see the file comment for the format).
