@@ -168,11 +168,7 @@ void bind_dynamics(py::module_& m) {
       "Rotation-vector kinematics of the model state: FirstOrder phi' = omega_BL_B, Exact phi' = "
       "Jr(phi)^-1 omega_BL_B");
   bind_option_enum<dynamics::Integrator>(d, "Integrator");
-  py::enum_<dynamics::PropagationStatus>(d, "PropagationStatus")
-      .value("Success", dynamics::PropagationStatus::Success)
-      .value("MaxStepsReached", dynamics::PropagationStatus::MaxStepsReached)
-      .value("StepTooSmall", dynamics::PropagationStatus::StepTooSmall)
-      .value("NonFinite", dynamics::PropagationStatus::NonFinite);
+  bind_named_enum<dynamics::PropagationStatus>(d, "PropagationStatus", "Outcome of a propagation");
 
   py::class_<dynamics::ModelParams> model_params(d, "ModelParams",
                                                  "Model constants (SI); defaults: the paper's scenario");

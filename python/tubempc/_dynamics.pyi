@@ -20,7 +20,7 @@ class Integrator(_OptionNames, enum.Enum):
     RK4 = 0
     DOPRI5 = 1
 
-class PropagationStatus(enum.Enum):
+class PropagationStatus(_OptionNames, enum.Enum):
     Success = 0
     MaxStepsReached = 1
     StepTooSmall = 2

@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar, TypeVar
 
+from . import _core
+
 __all__ = [
     "FORMAT_VERSION",
     "CampaignMethodResult",
@@ -41,6 +43,7 @@ __all__ = [
     "Summary",
     "SweepRow",
     "SweepSummary",
+    "fallback_steps",
     "load_summary",
     "parse_summary",
     "read_summary",
@@ -53,6 +56,13 @@ __all__ = [
 FORMAT_VERSION = 1
 
 _T = TypeVar("_T")
+
+
+def fallback_steps(statuses: Mapping[str, int]) -> int:
+    """Steps whose MPC status (a name of ``_core.mpc.Status``, with its count) is a fallback
+    (``_core.mpc.is_fallback``)."""
+    mpc = _core.mpc
+    return sum(n for s, n in statuses.items() if mpc.is_fallback(mpc.Status.from_string(s)))
 
 
 #: Metadata of a field that may be absent: None, and then left out of the JSON (never written as null).
@@ -337,7 +347,7 @@ class CampaignMethodResult(_Json):
     @property
     def fallback_steps(self) -> int:
         """Steps whose status is a fallback."""
-        return sum(n for s, n in self.statuses.items() if s.startswith("fallback"))
+        return fallback_steps(self.statuses)
 
 
 @dataclass(frozen=True)

@@ -153,7 +153,7 @@ def controller_settings(
     cfg = scn.config
     ident, t = cfg.identification, cfg.tube
     s = _core.control.ControllerSettings()
-    s.method = _core.control.Method.Tbmpc if method == "tbmpc" else _core.control.Method.Ffa
+    s.method = _core.control.Method.from_string(method)
     s.measured_input = _core.control.MeasuredInput.from_string(ident.measured_input)
     common = (ident.prior_memory, ident.eig_floor, ident.pw_scale)
     s.identification_p = _identifier_settings(lambda_p or ident.lambda_p, ident.w0_p, ident.S0_p, *common)

@@ -303,6 +303,15 @@ struct EnumNames<dynamics::Kinematics> {
       {{dynamics::Kinematics::FirstOrder, "FirstOrder", "first_order"},
        {dynamics::Kinematics::Exact, "Exact", "exact"}}};
 };
+/// Names of dynamics::DiscretizationStatus.
+template <>
+struct EnumNames<dynamics::DiscretizationStatus> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<dynamics::DiscretizationStatus>, 3> values{
+      {{dynamics::DiscretizationStatus::Ok, "Ok", "ok"},
+       {dynamics::DiscretizationStatus::NonFiniteInput, "NonFiniteInput", "non_finite_input"},
+       {dynamics::DiscretizationStatus::NonFiniteResult, "NonFiniteResult", "non_finite_result"}}};
+};
 
 }  // namespace tubempc::core
 
