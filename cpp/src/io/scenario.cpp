@@ -522,16 +522,16 @@ void BodyModel::validate() const {
   if (shape.empty()) throw std::invalid_argument("BodyModel.shape: must not be empty");
 }
 
-std::string Scenario::resolve(const std::string& path) const {
+std::string ScenarioFile::resolve(const std::string& path) const {
   const std::filesystem::path p(path);
   if (directory.empty() || p.is_absolute()) return path;
   return (std::filesystem::path(directory) / p).string();
 }
 
-Scenario read_scenario(const std::string& path) {
+ScenarioFile read_scenario(const std::string& path) {
   Reader r(path);
   r.parse();
-  Scenario s;
+  ScenarioFile s;
   s.directory = std::filesystem::path(path).parent_path().string();
   read_body(r, "model.", s.model);
   read_body(r, "truth.", s.truth);
@@ -576,7 +576,7 @@ Scenario read_scenario(const std::string& path) {
   return s;
 }
 
-void write_scenario(const std::string& path, const Scenario& s, const std::string& comment) {
+void write_scenario(const std::string& path, const ScenarioFile& s, const std::string& comment) {
   const mpc::Settings& st = s.settings;
   require_size("settings.Q", st.Q, dynamics::kNx, dynamics::kNx);
   require_size("settings.R", st.R, dynamics::kNu, dynamics::kNu);

@@ -12,7 +12,7 @@
 #include "tubempc/io/scenario.hpp"
 
 using tubempc::io::read_scenario;
-using tubempc::io::Scenario;
+using tubempc::io::ScenarioFile;
 using tubempc::io::write_scenario;
 
 namespace {
@@ -28,8 +28,8 @@ Eigen::MatrixXd filled(Eigen::Index rows, Eigen::Index cols, double seed, double
 }
 
 // A scenario whose every value is distinct and not exactly representable in few digits.
-Scenario sample(int T) {
-  Scenario s;
+ScenarioFile sample(int T) {
+  ScenarioFile s;
   s.model.params.kinematics = tubempc::dynamics::Kinematics::Exact;
   s.model.params.spin_angle0 = 0.1;
   s.model.params.inertia_B(0, 1) = s.model.params.inertia_B(1, 0) = 1.0 / 3.0;
@@ -107,7 +107,7 @@ void expect_same_bits(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, const 
   }
 }
 
-class ScenarioFile : public ::testing::Test {
+class ScenarioFileTest : public ::testing::Test {
  protected:
   void SetUp() override {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
@@ -171,9 +171,9 @@ class ScenarioFile : public ::testing::Test {
 
 }  // namespace
 
-TEST_F(ScenarioFile, RoundTripIsBitExact) {
-  const Scenario a = sample(3);
-  const Scenario b = read_scenario(path_);
+TEST_F(ScenarioFileTest, RoundTripIsBitExact) {
+  const ScenarioFile a = sample(3);
+  const ScenarioFile b = read_scenario(path_);
   EXPECT_EQ(b.directory, dir_.string());
   EXPECT_EQ(b.mission_steps(), 3);
   for (const auto& [x, y, name] :
@@ -280,7 +280,7 @@ TEST_F(ScenarioFile, RoundTripIsBitExact) {
   EXPECT_EQ(text.str(), text_);
 }
 
-TEST_F(ScenarioFile, OptionalRecordsTakeDefaults) {
+TEST_F(ScenarioFileTest, OptionalRecordsTakeDefaults) {
   std::string text = text_;
   for (const char* name : {"mpc.trust_region 1 1\ninf\n", "mpc.kkt_solver text\nsparse_ldlt\n",
                            "mpc.G_structure 2 12\n", "model.glide_slope_apex_A 3 1\n"}) {
@@ -293,14 +293,14 @@ TEST_F(ScenarioFile, OptionalRecordsTakeDefaults) {
     text.erase(at, end - at);
   }
   std::ofstream(path_, std::ios::binary) << text;
-  const Scenario s = read_scenario(path_);
+  const ScenarioFile s = read_scenario(path_);
   EXPECT_EQ(s.settings.trust_region, tubempc::mpc::Settings{}.trust_region);
   EXPECT_EQ(s.settings.G_structure.size(), 0);
   EXPECT_EQ(s.model.params.glide_slope_apex_A, tubempc::dynamics::ModelParams{}.glide_slope_apex_A);
 }
 
 // A version-1 file (the option names before the one-name-per-option change) reads to the same scenario.
-TEST_F(ScenarioFile, VersionOneFilesAreRead) {
+TEST_F(ScenarioFileTest, VersionOneFilesAreRead) {
   std::string text = text_;
   const auto replace = [&text](const std::string& from, const std::string& to) {
     const std::size_t at = text.find(from);
@@ -308,7 +308,7 @@ TEST_F(ScenarioFile, VersionOneFilesAreRead) {
     text.replace(at, from.size(), to);
   };
   replace("tubempc-scenario 3", "tubempc-scenario 1");
-  const Scenario fresh = read_scenario(path_);
+  const ScenarioFile fresh = read_scenario(path_);
   // versions 1 and 2 carry TBMPC's tube instead of the controller
   const std::size_t c0 = text.find("controller.measured_input"), c1 = text.find("mission.x0");
   ASSERT_NE(c0, std::string::npos);
@@ -335,7 +335,7 @@ TEST_F(ScenarioFile, VersionOneFilesAreRead) {
               : "mpc.reuse_linearization 1 1\n0");
   const std::string path = (dir_ / "v1.txt").string();
   std::ofstream(path, std::ios::binary) << text;
-  const Scenario old = read_scenario(path);
+  const ScenarioFile old = read_scenario(path);
   EXPECT_EQ(old.model.params.kinematics, fresh.model.params.kinematics);
   EXPECT_EQ(old.truth.params.kinematics, fresh.truth.params.kinematics);
   EXPECT_EQ(old.settings.input_cost, fresh.settings.input_cost);
@@ -348,7 +348,7 @@ TEST_F(ScenarioFile, VersionOneFilesAreRead) {
   EXPECT_THROW(read_scenario(path), std::invalid_argument);
 }
 
-TEST_F(ScenarioFile, ErrorsNameFileLineAndRecord) {
+TEST_F(ScenarioFileTest, ErrorsNameFileLineAndRecord) {
   expect_error("tubempc-scenario 3", "tubempc-scenario 4", 1, "format version 4 is not supported");
   expect_error("tubempc-scenario 3", "tubempc 3", 1, "not a tubempc scenario file");
   const long mu = line_of("model.mu_sun 1 1");
@@ -423,7 +423,7 @@ TEST(ScenarioFileErrors, MissingFileAndEmptyFile) {
   } catch (const std::invalid_argument& e) {
     EXPECT_EQ(std::string(e.what()).rfind(missing + ": cannot open the file", 0), 0u) << e.what();
   }
-  Scenario s;  // default: no weights, no reference
+  ScenarioFile s;  // default: no weights, no reference
   EXPECT_THROW(write_scenario((fs::temp_directory_path() / "tubempc_never.txt").string(), s),
                std::invalid_argument);
 }

@@ -44,7 +44,7 @@
 ///   is required; unknown names are errors (a later version adds names and bumps the number).
 ///   Version 3 adds the whole controller (control::Controller: identification, tube policy, designs and
 ///   libraries) and drops `tube.K`/`tube.Pe` (TBMPC's tube is `designs.tbmpc_*`). Version 2 files carry
-///   TBMPC's tube only: Scenario::has_controller is false for them.
+///   TBMPC's tube only: ScenarioFile::has_controller is false for them.
 ///   Version 1 files are read too: they name the options `paper` (kinematics `first_order`, input
 ///   cost `absolute`) and `from_reference` (`deviation`), and carry `mpc.backend` (`active_set_piqp`
 ///   or `piqp`) and the flag `mpc.reuse_linearization` instead of `mpc.qp_solver` and `mpc.linearization`.
@@ -79,7 +79,7 @@ inline constexpr int kScenarioFormatVersion = 3;
 struct BodyModel {
   dynamics::ModelParams params;  ///< dynamics constants (SI; see dynamics::ModelParams)
   double density{1260.0};        ///< asteroid density (kg/m^3), finite and > 0
-  std::string shape;             ///< shape file as written: relative to Scenario::directory, or absolute
+  std::string shape;             ///< shape file as written: relative to ScenarioFile::directory, or absolute
   double shape_unit_scale{1.0};  ///< metres per unit of the shape file, finite and > 0
 
   /// Checks density and shape_unit_scale (finite, > 0) and that shape is not empty.
@@ -98,7 +98,7 @@ struct BodyModel {
                     "asteroid density (kg/m^3)"},
           &B::density);
     visit(FieldInfo{"shape", "", false, false, core::Dim::One, core::Dim::One,
-                    "shape file as written (relative to Scenario.directory or absolute)"},
+                    "shape file as written (relative to ScenarioFile.directory or absolute)"},
           &B::shape);
     visit(FieldInfo{"shape_unit_scale", "", false, false, core::Dim::One, core::Dim::One,
                     "metres per unit of the shape file"},
@@ -107,7 +107,7 @@ struct BodyModel {
 };
 
 /// Contents of a scenario file (see the file comment for the format).
-struct Scenario {
+struct ScenarioFile {
   /// Folder of the file read (relative shape paths are relative to it); empty if not read from a file.
   std::string directory;
   BodyModel model;                          ///< the controller's model (records `model.*`)
@@ -142,7 +142,7 @@ struct Scenario {
 ///         `<path>: <record>: <what>` for a missing record, an unreadable file, or values rejected by
 ///         ModelParams::validate, PropagatorSettings::validate, mpc::Settings::validate or the
 ///         size checks of the reference, the tube and the states.
-Scenario read_scenario(const std::string& path);
+ScenarioFile read_scenario(const std::string& path);
 
 /// Writes a scenario file (format version 3) with every record, optional ones included.
 /// @param path     file to create or overwrite.
@@ -151,6 +151,6 @@ Scenario read_scenario(const std::string& path);
 /// @throws std::invalid_argument if the contents have the wrong sizes for the format (12 states,
 ///         6 inputs) or carry no controller (has_controller false); std::runtime_error naming the path
 ///         when the file cannot be written.
-void write_scenario(const std::string& path, const Scenario& scenario, const std::string& comment = "");
+void write_scenario(const std::string& path, const ScenarioFile& scenario, const std::string& comment = "");
 
 }  // namespace tubempc::io
