@@ -33,6 +33,7 @@ __all__ = [
     "EnvelopeFit",
     "GroupErrors",
     "MeanSpread",
+    "MethodResult",
     "MonteCarloMethodSummary",
     "MonteCarloSummary",
     "ReferenceSummary",
@@ -214,9 +215,10 @@ class EnvelopeFit(_Json):
 
 
 @dataclass(frozen=True, kw_only=True)
-class RunMetrics(_Json):
-    """Every scalar result of one closed-loop run (:func:`tubempc.metrics.run_metrics`; a run's
-    summary adds ``states_inside_body``, :func:`tubempc.runner.run_summary`)."""
+class MethodResult(_Json):
+    """The results of one method's closed-loop run that every summary keeps (a run's
+    :class:`RunMetrics`, a Monte Carlo run's :class:`CampaignMethodResult`); run_time_s is the
+    machine's."""
 
     J_p: float
     J_r: float
@@ -225,21 +227,28 @@ class RunMetrics(_Json):
     rms_error: GroupErrors
     max_tube_excursion: SubsystemValues
     steps_outside_tube: int
-    fallback_steps: int | None = field(default=None, metadata=_OMIT)  # None: not recorded (count the "fallback*" statuses)
     constraint_violations: ConstraintViolations
+    statuses: dict[str, int]
+    states_inside_body: int | None = field(default=None, metadata=_OMIT)  # None: not counted
+    run_time_s: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunMetrics(MethodResult):
+    """Every scalar result of one closed-loop run (:func:`tubempc.metrics.run_metrics`; a run's
+    summary adds ``states_inside_body``, :func:`tubempc.runner.run_summary`)."""
+
+    fallback_steps: int | None = field(default=None, metadata=_OMIT)  # None: not recorded (count the "fallback*" statuses)
     step_time: dict[str, StepTime]
     scp_iterations_mean: float
     model_evaluations_mean: float
     active_set_qp_fraction: float
     velocity_convergence_fit: EnvelopeFit
-    statuses: dict[str, int]
     tube_statuses: dict[str, int] = field(default_factory=dict)
     tube_design_failures: int
     tube_uncertified_steps: int
     tube_feasible_every_step: bool
-    run_time_s: float
     seed: int
-    states_inside_body: int | None = field(default=None, metadata=_OMIT)  # None: not counted
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -324,20 +333,8 @@ class SweepSummary(_Json):
 
 
 @dataclass(frozen=True, kw_only=True)
-class CampaignMethodResult(_Json):
-    """What a Monte Carlo run keeps per method (runs/run_<i>.json; run_time_s is the machine's)."""
-
-    J_p: float
-    J_r: float
-    control_effort: ControlEffort
-    terminal_error: GroupErrors
-    rms_error: GroupErrors
-    max_tube_excursion: SubsystemValues
-    steps_outside_tube: int
-    constraint_violations: ConstraintViolations
-    statuses: dict[str, int]
-    states_inside_body: int | None = field(default=None, metadata=_OMIT)
-    run_time_s: float
+class CampaignMethodResult(MethodResult):
+    """What a Monte Carlo run keeps per method (runs/run_<i>.json): the fields of :class:`MethodResult`."""
 
     @classmethod
     def of(cls, metrics: RunMetrics) -> CampaignMethodResult:
