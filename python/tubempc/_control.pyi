@@ -91,14 +91,14 @@ def lyapunov_tube(
 def cover_ratio(P: _Vec, P_cover: _Vec) -> float: ...
 
 class TubePolicySettings:
-    adaptive: bool
-    redesign_margin: float
-    alpha_search_period: int
-    background_designs: bool
     def __init__(self) -> None: ...
     def validate(self) -> None: ...
     @staticmethod
     def field_names() -> list[str]: ...
+    adaptive: bool
+    redesign_margin: float
+    alpha_search_period: int
+    background_designs: bool
 
 class TubePolicy:
     def __init__(

@@ -15,12 +15,12 @@ FORMAT_VERSION: int
 
 class BodyModel:
     params: ModelParams
-    density: float
-    shape: str
-    shape_unit_scale: float
     def __init__(self) -> None: ...
     @staticmethod
     def field_names() -> list[str]: ...
+    density: float
+    shape: str
+    shape_unit_scale: float
     def validate(self) -> None: ...
 
 class ScenarioFile:

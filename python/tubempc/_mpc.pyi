@@ -67,8 +67,8 @@ class Settings:
     R: _Arr
     u_max: _Arr
     input_cost: InputCost
-    initial_condition: InitialCondition
     scp_eps: float
+    initial_condition: InitialCondition
     scp_max_iterations: int
     trust_region: float
     qp_eps_abs: float
@@ -81,12 +81,12 @@ class Settings:
     soft_penalty: float
     riccati_tol: float
     riccati_max_iterations: int
-    qp_solver: QpSolver
     kkt_solver: KktSolver
+    qp_solver: QpSolver
+    active_set_max_iterations: int
     qp_scale_cost: bool
     linearization: Linearization
     scp_mode: ScpMode
-    active_set_max_iterations: int
     qp_preconditioner_iterations: int
     qp_reg_lower_limit: float
     qp_retry_reg_lower_limit: float
