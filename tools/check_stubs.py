@@ -114,9 +114,7 @@ def with_generated_fields(module: types.ModuleType, stub_source: str) -> str:
         names = list(bound.field_names())
         default = bound()
         generated = [f"    {n}: {_stub_type(getattr(default, n))}\n" for n in names]
-        anchor = next(
-            (f for f in cls.body if isinstance(f, ast.FunctionDef) and f.name == "field_names"), None
-        )
+        anchor = next((f for f in cls.body if isinstance(f, ast.FunctionDef) and f.name == "field_names"), None)
         if anchor is None or anchor.end_lineno is None:
             raise ValueError(f"stub class {cls.name} has field_names() bound but no 'def field_names()'")
         old = [
