@@ -4,12 +4,13 @@ their generated part.
 For each submodule tubempc._core.<area>: every public function and class the module has is in the
 stub and every one the stub declares is in the module; the same for each class's public members
 (a stub class also has the members of the stub classes it derives from). The attributes of a class
-bound from a C++ field table (``bind_fields``: it has ``field_names()``) are generated, not kept by
-hand: one line ``name: type`` per field, in the table's order, right after the stub's
-``def field_names()``, the type that of the field's default (``bool``, ``int``, ``float``, ``str``,
-``_Arr`` for a matrix, the enum's class). Run by tools/lint.sh after the module is built; exit status
-1 with the differences (docs/decisions.md "One field table"); ``--write`` rewrites the generated
-lines instead.
+bound from a C++ field table (``bind_fields``: it has ``field_names()``) and the members of an enum
+bound from a C++ name table (``bind_option_enum``, ``bind_named_enum``: it has ``names()``) are
+generated, not kept by hand: one line ``name: type`` per field, in the table's order, right after the
+stub's ``def field_names()``, the type that of the field's default (``bool``, ``int``, ``float``,
+``str``, ``_Arr`` for a matrix, the enum's class); one line ``Identifier = ...`` per enumerator.
+Run by tools/lint.sh after the module is built; exit status 1 with the differences (docs/decisions.md
+"One field table"); ``--write`` rewrites the generated lines instead.
 Usage: python tools/check_stubs.py [--write] [stub directory]
 """
 
@@ -102,8 +103,10 @@ def _stub_type(value: Any) -> str:
 
 
 def with_generated_fields(module: types.ModuleType, stub_source: str) -> str:
-    """The stub with the field lines of each field-table class (one with ``field_names()``) generated
-    from the module: the old ones removed, the table's put right after ``def field_names()``."""
+    """The stub with the lines a C++ table decides generated from the module: the field lines of each
+    field-table class (one with ``field_names()``), put right after ``def field_names()``, and the members
+    of each enum bound from a name table (one with ``names()``), ``Identifier = ...`` in the table's
+    order where its members were; the old lines removed."""
     lines = stub_source.splitlines(keepends=True)
     tree = ast.parse(stub_source)
     edits: list[tuple[int, int, list[str]]] = []  # (first line, end line) of a block to replace, 0-based
@@ -124,6 +127,18 @@ def with_generated_fields(module: types.ModuleType, stub_source: str) -> str:
         ]
         edits += [(i, i + 1, []) for i in old]
         edits.append((anchor.end_lineno, anchor.end_lineno, generated))
+    for cls in (n for n in tree.body if isinstance(n, ast.ClassDef)):
+        bound = getattr(module, cls.name, None)
+        if not isinstance(bound, type) or not hasattr(bound, "names") or not hasattr(bound, "__members__"):
+            continue  # not an enum bound from a C++ name table
+        members = [
+            node.lineno - 1
+            for node in cls.body
+            if isinstance(node, ast.Assign) and all(isinstance(t, ast.Name) for t in node.targets)
+        ]
+        at = members[0] if members else cls.body[0].lineno - 1
+        edits += [(i, i + 1, []) for i in members]
+        edits.append((at, at, [f"    {name} = ...\n" for name in bound.__members__]))
     for start, end, new in sorted(edits, key=lambda e: (e[0], e[1]), reverse=True):
         lines[start:end] = new
     return "".join(lines)
@@ -147,7 +162,7 @@ def main(stub_dir: Path, write: bool = False) -> int:
                 print(f"wrote the field lines of {stub}")
             else:
                 problems.append(
-                    f"{stub.name}: field lines differ from the C++ field tables (python tools/check_stubs.py --write)"
+                    f"{stub.name}: field or enum lines differ from the C++ tables (python tools/check_stubs.py --write)"
                 )
         problems += differences(module, generated if write else text, stub.name, stub_dir)
     for p in problems:
