@@ -259,12 +259,12 @@ class ProximityModel:
         if settings is not None:
             integrator, substeps, rtol, atol = settings.method, settings.substeps, settings.rtol, settings.atol
             max_steps, initial_step = settings.max_steps, settings.initial_step
-        elif method.lower() == "rk4":
-            integrator = _dyn.Integrator.RK4
-        elif method.lower() in ("dopri", "dopri5"):
-            integrator = _dyn.Integrator.DOPRI5
         else:
-            raise ValueError(f"method must be 'rk4' or 'dopri', got {method!r}")
+            name = "dopri5" if method.lower() == "dopri" else method.lower()  # "dopri": dopri5's older name
+            if name not in _dyn.Integrator.names():
+                known = ", ".join(repr(n) for n in [*_dyn.Integrator.names(), "dopri"])
+                raise ValueError(f"method must be one of {known}, got {method!r}")
+            integrator = _dyn.Integrator.from_string(name)
         constant = np.zeros(6)
         callback = None
         if callable(disturbance):

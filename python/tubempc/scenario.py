@@ -500,10 +500,11 @@ def propagator_settings(cfg: Config) -> Any:
     files (``[simulation]``; the core's defaults for the rest)."""
     sim = cfg.simulation
     prop = _core.dynamics.PropagatorSettings()
-    if sim.integrator == "rk4":
-        prop.method, prop.substeps = _core.dynamics.Integrator.RK4, sim.substeps
+    prop.method = _core.dynamics.Integrator.from_string(sim.integrator)
+    if prop.method == _core.dynamics.Integrator.RK4:
+        prop.substeps = sim.substeps
     else:
-        prop.method, prop.rtol = _core.dynamics.Integrator.DOPRI5, sim.rtol
+        prop.rtol = sim.rtol
     return prop
 
 
