@@ -10,21 +10,7 @@
 
 namespace tubempc::mpc {
 
-std::string to_string(ActiveSetQp::Status status) {
-  switch (status) {
-    case ActiveSetQp::Status::Solved:
-      return "solved";
-    case ActiveSetQp::Status::MaxIterations:
-      return "max_iterations";
-    case ActiveSetQp::Status::Inaccurate:
-      return "inaccurate";
-    case ActiveSetQp::Status::Singular:
-      return "singular";
-    case ActiveSetQp::Status::InvalidData:
-      return "invalid_data";
-  }
-  return "unknown";
-}
+std::string to_string(ActiveSetQp::Status status) { return core::enum_name(status); }
 
 void ActiveSetQp::Settings::validate() const {
   auto fail = [](const char* field, const char* what) {

@@ -9,6 +9,7 @@
 #include "tubempc/control/controller.hpp"
 #include "tubempc/dynamics/propagator.hpp"
 #include "tubempc/io/scenario.hpp"
+#include "tubempc/mpc/active_set_qp.hpp"
 #include "tubempc/mpc/results.hpp"
 #include "tubempc/mpc/settings.hpp"
 
@@ -55,6 +56,7 @@ TEST(SettingsFields, EnumTablesAreCompleteAndInvertible) {
 
 TEST(SettingsFields, StatusTablesAreCompleteAndInvertible) {
   expect_complete_table<mpc::Status>(11);
+  expect_complete_table<mpc::ActiveSetQp::Status>(5);
   expect_complete_table<dynamics::DiscretizationStatus>(3);
   expect_complete_table<dynamics::PropagationStatus>(4);
   expect_complete_table<control::Method>(2);

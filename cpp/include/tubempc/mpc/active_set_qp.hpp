@@ -31,8 +31,10 @@
 
 #include <Eigen/Dense>
 #include <Eigen/SparseCore>
+#include <array>
 #include <string>
 
+#include "tubempc/core/fields.hpp"
 #include "tubempc/mpc/partial_ldlt.hpp"
 
 namespace tubempc::mpc {
@@ -144,7 +146,23 @@ class ActiveSetQp {
   Info info_;
 };
 
-/// Name of an ActiveSetQp status ("solved", "max_iterations", ...).
+/// Name of an ActiveSetQp status ("solved", "max_iterations", ...; core::EnumNames<ActiveSetQp::Status>).
 std::string to_string(ActiveSetQp::Status status);
 
 }  // namespace tubempc::mpc
+
+namespace tubempc::core {
+
+/// Names of mpc::ActiveSetQp::Status.
+template <>
+struct EnumNames<mpc::ActiveSetQp::Status> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<mpc::ActiveSetQp::Status>, 5> values{
+      {{mpc::ActiveSetQp::Status::Solved, "Solved", "solved"},
+       {mpc::ActiveSetQp::Status::MaxIterations, "MaxIterations", "max_iterations"},
+       {mpc::ActiveSetQp::Status::Inaccurate, "Inaccurate", "inaccurate"},
+       {mpc::ActiveSetQp::Status::Singular, "Singular", "singular"},
+       {mpc::ActiveSetQp::Status::InvalidData, "InvalidData", "invalid_data"}}};
+};
+
+}  // namespace tubempc::core
