@@ -1,10 +1,17 @@
-"""Checks that the hand-kept stubs python/tubempc/_<area>.pyi declare the names tubempc._core binds.
+"""Checks that the stubs python/tubempc/_<area>.pyi declare the names tubempc._core binds, and writes
+their generated part.
 
 For each submodule tubempc._core.<area>: every public function and class the module has is in the
 stub and every one the stub declares is in the module; the same for each class's public members
-(a stub class also has the members of the stub classes it derives from). Run by tools/lint.sh after
-the module is built; exit status 1 with the differences (docs/decisions.md "One field table").
-Usage: python tools/check_stubs.py [stub directory]
+(a stub class also has the members of the stub classes it derives from). The attributes of a class
+bound from a C++ field table (``bind_fields``: it has ``field_names()``) and the members of an enum
+bound from a C++ name table (``bind_option_enum``, ``bind_named_enum``: it has ``names()``) are
+generated, not kept by hand: one line ``name: type`` per field, in the table's order, right after the
+stub's ``def field_names()``, the type that of the field's default (``bool``, ``int``, ``float``,
+``str``, ``_Arr`` for a matrix, the enum's class); one line ``Identifier = ...`` per enumerator.
+Run by tools/lint.sh after the module is built; exit status 1 with the differences (docs/decisions.md
+"One field table"); ``--write`` rewrites the generated lines instead.
+Usage: python tools/check_stubs.py [--write] [stub directory]
 """
 
 from __future__ import annotations
@@ -13,6 +20,9 @@ import ast
 import sys
 import types
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 STUBS = Path(__file__).resolve().parents[1] / "python" / "tubempc"
 # Members every pybind11 enum has and enum.Enum declares.
@@ -81,7 +91,60 @@ def differences(module: types.ModuleType, stub_source: str, label: str, stub_dir
     return out
 
 
-def main(stub_dir: Path) -> int:
+def _stub_type(value: Any) -> str:
+    """The stub annotation of a field from its default value."""
+    if isinstance(value, bool | int | float | str):
+        return type(value).__name__
+    if isinstance(value, np.ndarray):
+        return "_Arr"
+    if hasattr(type(value), "__members__"):  # a pybind11 enum
+        return type(value).__name__
+    raise TypeError(f"no stub type for a field of type {type(value).__name__}")
+
+
+def with_generated_fields(module: types.ModuleType, stub_source: str) -> str:
+    """The stub with the lines a C++ table decides generated from the module: the field lines of each
+    field-table class (one with ``field_names()``), put right after ``def field_names()``, and the members
+    of each enum bound from a name table (one with ``names()``), ``Identifier = ...`` in the table's
+    order where its members were; the old lines removed."""
+    lines = stub_source.splitlines(keepends=True)
+    tree = ast.parse(stub_source)
+    edits: list[tuple[int, int, list[str]]] = []  # (first line, end line) of a block to replace, 0-based
+    for cls in (n for n in tree.body if isinstance(n, ast.ClassDef)):
+        bound = getattr(module, cls.name, None)
+        if not isinstance(bound, type) or not hasattr(bound, "field_names"):
+            continue
+        names = list(bound.field_names())
+        default = bound()
+        generated = [f"    {n}: {_stub_type(getattr(default, n))}\n" for n in names]
+        anchor = next((f for f in cls.body if isinstance(f, ast.FunctionDef) and f.name == "field_names"), None)
+        if anchor is None or anchor.end_lineno is None:
+            raise ValueError(f"stub class {cls.name} has field_names() bound but no 'def field_names()'")
+        old = [
+            node.lineno - 1
+            for node in cls.body
+            if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and node.target.id in names
+        ]
+        edits += [(i, i + 1, []) for i in old]
+        edits.append((anchor.end_lineno, anchor.end_lineno, generated))
+    for cls in (n for n in tree.body if isinstance(n, ast.ClassDef)):
+        bound = getattr(module, cls.name, None)
+        if not isinstance(bound, type) or not hasattr(bound, "names") or not hasattr(bound, "__members__"):
+            continue  # not an enum bound from a C++ name table
+        members = [
+            node.lineno - 1
+            for node in cls.body
+            if isinstance(node, ast.Assign) and all(isinstance(t, ast.Name) for t in node.targets)
+        ]
+        at = members[0] if members else cls.body[0].lineno - 1
+        edits += [(i, i + 1, []) for i in members]
+        edits.append((at, at, [f"    {name} = ...\n" for name in bound.__members__]))
+    for start, end, new in sorted(edits, key=lambda e: (e[0], e[1]), reverse=True):
+        lines[start:end] = new
+    return "".join(lines)
+
+
+def main(stub_dir: Path, write: bool = False) -> int:
     from tubempc import _core
 
     problems: list[str] = []
@@ -90,7 +153,18 @@ def main(stub_dir: Path) -> int:
         if not stub.exists():
             problems.append(f"_core.{area}: no stub {stub}")
             continue
-        problems += differences(getattr(_core, area), stub.read_text(), stub.name, stub_dir)
+        module = getattr(_core, area)
+        text = stub.read_text()
+        generated = with_generated_fields(module, text)
+        if generated != text:
+            if write:
+                stub.write_text(generated)
+                print(f"wrote the field lines of {stub}")
+            else:
+                problems.append(
+                    f"{stub.name}: field or enum lines differ from the C++ tables (python tools/check_stubs.py --write)"
+                )
+        problems += differences(module, generated if write else text, stub.name, stub_dir)
     for p in problems:
         print(p, file=sys.stderr)
     if not problems:
@@ -99,4 +173,7 @@ def main(stub_dir: Path) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(Path(sys.argv[1]) if len(sys.argv) > 1 else STUBS))
+    args = sys.argv[1:]
+    write = "--write" in args
+    rest = [a for a in args if a != "--write"]
+    sys.exit(main(Path(rest[0]) if rest else STUBS, write))

@@ -29,24 +29,10 @@ void bind_control(py::module_& m) {
                            "The whole TBMPC / TBMPC-FFA control step: identification, certified tube update, "
                            "tube MPC (docs/model.md 'Closed loop'); SI units");
 
-  bind_named_enum<Method>(s, "Method", "TBMPC (fixed tube) or TBMPC-FFA (identified tube)")
-      .value("Tbmpc", Method::Tbmpc)
-      .value("Ffa", Method::Ffa);
-  bind_option_enum<MeasuredInput>(s, "MeasuredInput", "The identification's measured exogenous input")
-      .def("__str__", [](MeasuredInput v) { return std::string(to_string(v)); });
-  bind_named_enum<TubeStatus>(s, "TubeStatus", "How a step's tube came about")
-      .value("Fixed", TubeStatus::Fixed)
-      .value("Initial", TubeStatus::Initial)
-      .value("Lyapunov", TubeStatus::Lyapunov)
-      .value("LyapunovNoMargin", TubeStatus::LyapunovNoMargin)
-      .value("Library", TubeStatus::Library)
-      .value("LibraryNoMargin", TubeStatus::LibraryNoMargin)
-      .value("Uncertified", TubeStatus::Uncertified);
-  bind_named_enum<Certification>(s, "Certification", "Outcome of a Lyapunov certification")
-      .value("Certified", Certification::Certified)
-      .value("NotContractive", Certification::NotContractive)
-      .value("InvarianceViolated", Certification::InvarianceViolated)
-      .value("EmptyTightening", Certification::EmptyTightening);
+  bind_named_enum<Method>(s, "Method", "TBMPC (fixed tube) or TBMPC-FFA (identified tube)");
+  bind_named_enum<MeasuredInput>(s, "MeasuredInput", "The identification's measured exogenous input");
+  bind_named_enum<TubeStatus>(s, "TubeStatus", "How a step's tube came about");
+  bind_named_enum<Certification>(s, "Certification", "Outcome of a Lyapunov certification");
   s.def(
       "certified", [](TubeStatus st) { return certified(st); }, py::arg("status"),
       "Whether a tube status means certified for the step's linearisation and identified P_W");

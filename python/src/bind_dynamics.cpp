@@ -168,32 +168,13 @@ void bind_dynamics(py::module_& m) {
       "Rotation-vector kinematics of the model state: FirstOrder phi' = omega_BL_B, Exact phi' = "
       "Jr(phi)^-1 omega_BL_B");
   bind_option_enum<dynamics::Integrator>(d, "Integrator");
-  py::enum_<dynamics::PropagationStatus>(d, "PropagationStatus")
-      .value("Success", dynamics::PropagationStatus::Success)
-      .value("MaxStepsReached", dynamics::PropagationStatus::MaxStepsReached)
-      .value("StepTooSmall", dynamics::PropagationStatus::StepTooSmall)
-      .value("NonFinite", dynamics::PropagationStatus::NonFinite);
+  bind_named_enum<dynamics::PropagationStatus>(d, "PropagationStatus", "Outcome of a propagation");
 
-  py::class_<dynamics::ModelParams>(d, "ModelParams", "Model constants (SI); defaults: the paper's scenario")
-      .def(py::init<>())
-      .def_readwrite("mu_sun", &dynamics::ModelParams::mu_sun, "m^3/s^2")
-      .def_readwrite("orbit_radius", &dynamics::ModelParams::orbit_radius, "R (m)")
-      .def_readwrite("beta_srp", &dynamics::ModelParams::beta_srp,
-                     "m^3/s^2; SRP acceleration beta/R^2 along +x_L")
-      .def_readwrite("srp_enabled", &dynamics::ModelParams::srp_enabled)
-      .def_readwrite("inertia_B", &dynamics::ModelParams::inertia_B, "J (kg m^2), 3x3")
-      .def_readwrite("spin_rate", &dynamics::ModelParams::spin_rate,
-                     "omega_A (rad/s), inertial, about z_A = z_L")
-      .def_readwrite("spin_angle0", &dynamics::ModelParams::spin_angle0, "theta_0 (rad)")
-      .def_readwrite("kinematics", &dynamics::ModelParams::kinematics)
-      .def_readwrite("glide_slope_angle", &dynamics::ModelParams::glide_slope_angle, "phi_gs (rad)")
-      .def_readwrite("los_angle", &dynamics::ModelParams::los_angle, "theta_LOS (rad)")
-      .def_readwrite("boresight_B", &dynamics::ModelParams::boresight_B, "b_B in B")
-      .def_readwrite("glide_slope_apex_A", &dynamics::ModelParams::glide_slope_apex_A,
-                     "glide-slope cone apex in A (m); the cone turns with the body")
-      .def_readwrite("glide_slope_axis_A", &dynamics::ModelParams::glide_slope_axis_A,
-                     "glide-slope cone axis in A (normalised on use)")
-      .def("validate", &dynamics::ModelParams::validate, "ValueError naming the first bad field.")
+  py::class_<dynamics::ModelParams> model_params(d, "ModelParams",
+                                                 "Model constants (SI); defaults: the paper's scenario");
+  model_params.def(py::init<>());
+  bind_fields(model_params);
+  model_params.def("validate", &dynamics::ModelParams::validate, "ValueError naming the first bad field.")
       .def("mean_motion", &dynamics::ModelParams::mean_motion, "n = sqrt(mu_sun / R^3) (rad/s)");
 
   py::class_<dynamics::PropagatorSettings> propagator_settings(

@@ -17,34 +17,31 @@ void bind_io(py::module_& m) {
   auto s = m.def_submodule("io", "Scenario files (format 'tubempc-scenario 3'; see tubempc/io/scenario.hpp)");
   s.attr("FORMAT_VERSION") = io::kScenarioFormatVersion;
 
-  py::class_<io::BodyModel>(s, "BodyModel",
-                            "One 6-DOF model of a scenario: dynamics constants, density, shape file")
-      .def(py::init<>())
-      .def_readwrite("params", &io::BodyModel::params, "dynamics.ModelParams (SI)")
-      .def_readwrite("density", &io::BodyModel::density, "asteroid density (kg/m^3)")
-      .def_readwrite("shape", &io::BodyModel::shape,
-                     "shape file as written (relative to Scenario.directory or absolute)")
-      .def_readwrite("shape_unit_scale", &io::BodyModel::shape_unit_scale,
-                     "metres per unit of the shape file");
+  py::class_<io::BodyModel> body(s, "BodyModel",
+                                 "One 6-DOF model of a scenario: dynamics constants, density, shape file");
+  body.def(py::init<>()).def_readwrite("params", &io::BodyModel::params, "dynamics.ModelParams (SI)");
+  bind_fields(body);
+  body.def("validate", &io::BodyModel::validate, "ValueError naming the first bad field.");
 
-  py::class_<io::Scenario>(s, "Scenario", "Contents of a scenario file (see tubempc/io/scenario.hpp)")
+  py::class_<io::ScenarioFile>(s, "ScenarioFile", "Contents of a scenario file (see tubempc/io/scenario.hpp)")
       .def(py::init<>())
-      .def_readwrite("directory", &io::Scenario::directory, "folder of the file read")
-      .def_readwrite("model", &io::Scenario::model, "the controller's model (records model.*)")
-      .def_readwrite("truth", &io::Scenario::truth, "the simulated plant (records truth.*)")
-      .def_readwrite("propagator", &io::Scenario::propagator, "dynamics.PropagatorSettings of the truth")
-      .def_readwrite("settings", &io::Scenario::settings, "mpc.Settings")
-      .def_readwrite("reference", &io::Scenario::reference, "mpc.Reference: z (12, T+1), u (6, T), t0 (s)")
-      .def_readwrite("tube", &io::Scenario::tube, "TBMPC's mpc.Tube: K (6, 12), Pe (12, 12)")
-      .def_readwrite("has_controller", &io::Scenario::has_controller,
+      .def_readwrite("directory", &io::ScenarioFile::directory, "folder of the file read")
+      .def_readwrite("model", &io::ScenarioFile::model, "the controller's model (records model.*)")
+      .def_readwrite("truth", &io::ScenarioFile::truth, "the simulated plant (records truth.*)")
+      .def_readwrite("propagator", &io::ScenarioFile::propagator, "dynamics.PropagatorSettings of the truth")
+      .def_readwrite("settings", &io::ScenarioFile::settings, "mpc.Settings")
+      .def_readwrite("reference", &io::ScenarioFile::reference,
+                     "mpc.Reference: z (12, T+1), u (6, T), t0 (s)")
+      .def_readwrite("tube", &io::ScenarioFile::tube, "TBMPC's mpc.Tube: K (6, 12), Pe (12, 12)")
+      .def_readwrite("has_controller", &io::ScenarioFile::has_controller,
                      "whether the file carries the whole controller (version 3)")
-      .def_readwrite("controller", &io::Scenario::controller, "control.ControllerSettings (version 3)")
-      .def_readwrite("tbmpc_designs", &io::Scenario::tbmpc_designs, "control.ControllerDesigns of TBMPC")
-      .def_readwrite("ffa_designs", &io::Scenario::ffa_designs, "control.ControllerDesigns of TBMPC-FFA")
-      .def_readwrite("x0", &io::Scenario::x0, "initial state (12): m, m/s, rad, rad/s")
-      .def_readwrite("xf", &io::Scenario::xf, "target state (12)")
-      .def_property_readonly("mission_steps", &io::Scenario::mission_steps, "T (steps)")
-      .def("resolve", &io::Scenario::resolve, py::arg("path"),
+      .def_readwrite("controller", &io::ScenarioFile::controller, "control.ControllerSettings (version 3)")
+      .def_readwrite("tbmpc_designs", &io::ScenarioFile::tbmpc_designs, "control.ControllerDesigns of TBMPC")
+      .def_readwrite("ffa_designs", &io::ScenarioFile::ffa_designs, "control.ControllerDesigns of TBMPC-FFA")
+      .def_readwrite("x0", &io::ScenarioFile::x0, "initial state (12): m, m/s, rad, rad/s")
+      .def_readwrite("xf", &io::ScenarioFile::xf, "target state (12)")
+      .def_property_readonly("mission_steps", &io::ScenarioFile::mission_steps, "T (steps)")
+      .def("resolve", &io::ScenarioFile::resolve, py::arg("path"),
            "path relative to directory (unless absolute)");
 
   s.def("read_scenario", &io::read_scenario, py::arg("path"),

@@ -81,19 +81,10 @@ py::tuple constraints_tuple(const LinearizedModel& m, double t, const Eigen::Vec
 void bind_mpc(py::module_& m) {
   auto s = m.def_submodule("mpc", "Tube MPC nominal problem (docs/model.md 'Tube MPC'); SI units");
 
-  py::enum_<mpc::Status>(s, "Status", "Outcome of a step and cause of a fallback")
-      .value("Solved", mpc::Status::Solved)
-      .value("SolvedInaccurate", mpc::Status::SolvedInaccurate)
-      .value("MaxIterations", mpc::Status::MaxIterations)
-      .value("FallbackShiftedPlan", mpc::Status::FallbackShiftedPlan)
-      .value("FallbackSafeInput", mpc::Status::FallbackSafeInput)
-      .value("Infeasible", mpc::Status::Infeasible)
-      .value("NotSolved", mpc::Status::NotSolved)
-      .value("TimeLimit", mpc::Status::TimeLimit)
-      .value("NumericalError", mpc::Status::NumericalError)
-      .value("EmptyTightening", mpc::Status::EmptyTightening)
-      .value("ModelStructure", mpc::Status::ModelStructure)
-      .def("__str__", [](mpc::Status st) { return mpc::to_string(st); });
+  bind_named_enum<mpc::Status>(s, "Status", "Outcome of a step and cause of a fallback");
+  s.def(
+      "is_fallback", [](mpc::Status st) { return mpc::is_fallback(st); }, py::arg("status"),
+      "Whether a status is a fallback (FallbackShiftedPlan or FallbackSafeInput)");
   bind_option_enum<mpc::InitialCondition>(s, "InitialCondition");
   bind_option_enum<mpc::InputCost>(s, "InputCost");
   bind_option_enum<mpc::QpSolver>(s, "QpSolver");

@@ -6,19 +6,18 @@
 
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "tubempc/core/fields.hpp"
 
 namespace tubempc::python {
 
-// Binds an enum with `__str__` from its `to_string` (values added by the caller).
+// Whether an enum has a name table (core::EnumNames<E> is specialised).
+template <typename E, typename = void>
+struct has_enum_names : std::false_type {};
 template <typename E>
-pybind11::enum_<E> bind_named_enum(pybind11::module_& s, const char* name, const char* doc) {
-  pybind11::enum_<E> e(s, name, doc);
-  e.def("__str__", [](E v) { return std::string(to_string(v)); });
-  return e;
-}
+struct has_enum_names<E, std::void_t<decltype(core::EnumNames<E>::values)>> : std::true_type {};
 
 // Binds an option enum from its name table (core::EnumNames): its values, `to_string()` (the name in
 // configuration and scenario files), `from_string(name)` (ValueError naming the known names) and
@@ -40,6 +39,22 @@ pybind11::enum_<E> bind_option_enum(pybind11::module_& m, const char* name, cons
     return out;
   });
   return e;
+}
+
+// Binds a status enum (or any enum whose name is its `str()`): with a name table (core::EnumNames), as
+// bind_option_enum, and `__str__` is the name; an enum without one (the nav and actuators statuses, not
+// yet moved to tables) gets `__str__` from its `to_string` and the caller adds its values.
+template <typename E>
+pybind11::enum_<E> bind_named_enum(pybind11::module_& m, const char* name, const char* doc) {
+  if constexpr (has_enum_names<E>::value) {
+    pybind11::enum_<E> e = bind_option_enum<E>(m, name, doc);
+    e.def("__str__", [](E v) { return std::string(core::enum_name(v)); });
+    return e;
+  } else {
+    pybind11::enum_<E> e(m, name, doc);
+    e.def("__str__", [](E v) { return std::string(to_string(v)); });
+    return e;
+  }
 }
 
 // Binds the fields of a settings struct listed by its `S::for_each_field` as read-write attributes

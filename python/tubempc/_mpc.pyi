@@ -10,7 +10,16 @@ import scipy.sparse as sp
 _Vec = npt.ArrayLike
 _Arr = npt.NDArray[np.float64]
 
-class Status(enum.Enum):
+class _OptionNames:
+    """The names of an option or status enum bound from its C++ name table (core::EnumNames)."""
+
+    def to_string(self) -> str: ...
+    @classmethod
+    def from_string(cls, name: str) -> Self: ...
+    @staticmethod
+    def names() -> list[str]: ...
+
+class Status(_OptionNames, enum.Enum):
     Solved = ...
     SolvedInaccurate = ...
     MaxIterations = ...
@@ -23,14 +32,7 @@ class Status(enum.Enum):
     EmptyTightening = ...
     ModelStructure = ...
 
-class _OptionNames:
-    """The names of an option enum bound from its C++ name table (core::EnumNames)."""
-
-    def to_string(self) -> str: ...
-    @classmethod
-    def from_string(cls, name: str) -> Self: ...
-    @staticmethod
-    def names() -> list[str]: ...
+def is_fallback(status: Status) -> bool: ...
 
 class InitialCondition(_OptionNames, enum.Enum):
     WhitenedBox = ...
@@ -65,8 +67,8 @@ class Settings:
     R: _Arr
     u_max: _Arr
     input_cost: InputCost
-    initial_condition: InitialCondition
     scp_eps: float
+    initial_condition: InitialCondition
     scp_max_iterations: int
     trust_region: float
     qp_eps_abs: float
@@ -79,12 +81,12 @@ class Settings:
     soft_penalty: float
     riccati_tol: float
     riccati_max_iterations: int
-    qp_solver: QpSolver
     kkt_solver: KktSolver
+    qp_solver: QpSolver
+    active_set_max_iterations: int
     qp_scale_cost: bool
     linearization: Linearization
     scp_mode: ScpMode
-    active_set_max_iterations: int
     qp_preconditioner_iterations: int
     qp_reg_lower_limit: float
     qp_retry_reg_lower_limit: float

@@ -26,30 +26,9 @@ from collections.abc import Sequence
 from typing import Any
 
 from . import __version__, commands
-from .commands import (
-    EXIT_FAILED_RUNS,
-    EXIT_GUARANTEE_LOST,
-    EXIT_INPUT,
-    EXIT_INTERNAL,
-    EXIT_INTERRUPTED,
-    EXIT_OK,
-    EXIT_REFLIGHT_DIFFERS,
-    EXIT_USAGE,
-)
+from .commands import EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED
 
-__all__ = [
-    "EXIT_FAILED_RUNS",
-    "EXIT_GUARANTEE_LOST",
-    "EXIT_INPUT",
-    "EXIT_INTERNAL",
-    "EXIT_INTERRUPTED",
-    "EXIT_OK",
-    "EXIT_REFLIGHT_DIFFERS",
-    "EXIT_USAGE",
-    "build_parser",
-    "entry_point",
-    "main",
-]
+__all__ = ["build_parser", "entry_point", "main"]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -59,53 +59,45 @@ __all__ = [
 _Arr = npt.NDArray[np.float64]
 Disturbance = npt.ArrayLike | Callable[[float, _Arr], npt.ArrayLike] | None
 
-_SCALARS = (
-    "mu_sun",
-    "orbit_radius",
-    "beta_srp",
-    "spin_rate",
-    "spin_angle0",
-    "glide_slope_angle",
-    "los_angle",
-)
-_VECTORS = ("boresight_B", "glide_slope_apex_A", "glide_slope_axis_A")
-_FIELDS = (*_SCALARS, "srp_enabled", "inertia_B", "kinematics", *_VECTORS)
+#: The fields of ``ModelParams`` (its C++ table, ``dynamics::ModelParams::for_each_field``), in order.
+_FIELDS: tuple[str, ...] = tuple(ModelParams.field_names())
+#: Each field's default (its kind is the default's: float, bool, Kinematics or a float array).
+_DEFAULTS: dict[str, Any] = {k: getattr(ModelParams(), k) for k in _FIELDS}
 
 
 def model_params(config: ModelParams | Mapping[str, Any] | None = None) -> ModelParams:
     """A validated ``ModelParams`` from None (the paper's defaults), a ``ModelParams`` or a dict.
 
-    Dict keys are the field names (SI units, angles in rad); ``kinematics`` is ``"first_order"`` or
-    ``"exact"``; ``inertia_B`` a 3x3 matrix or its 3 principal moments. Unknown keys raise ValueError.
+    Dict keys are the field names (SI units, angles in rad); ``kinematics`` is one of
+    ``Kinematics.names()``; ``inertia_B`` a 3x3 matrix or its 3 principal moments. Unknown keys raise
+    ValueError.
     """
     if isinstance(config, ModelParams):
         p = config
     else:
         p = ModelParams()
         for key, value in (config or {}).items():
-            if key not in _FIELDS:
+            if key not in _DEFAULTS:
                 raise ValueError(f"unknown model parameter {key!r}; known: {', '.join(_FIELDS)}")
-            if key == "kinematics":
+            default = _DEFAULTS[key]
+            if isinstance(default, Kinematics):
                 if isinstance(value, Kinematics):
                     p.kinematics = value
                 elif str(value).lower() in Kinematics.names():
                     p.kinematics = Kinematics.from_string(str(value).lower())
                 else:
-                    raise ValueError(f"kinematics must be 'first_order' or 'exact', got {value!r}")
-            elif key == "inertia_B":
-                J = np.asarray(value, dtype=float)
-                if J.shape == (3,):
-                    J = np.diag(J)
-                if J.shape != (3, 3):
-                    raise ValueError(f"inertia_B must be 3x3 or 3 principal moments, got shape {J.shape}")
-                p.inertia_B = J
-            elif key in _VECTORS:
-                b = np.asarray(value, dtype=float)
-                if b.shape != (3,):
-                    raise ValueError(f"{key} must have 3 elements, got shape {b.shape}")
-                setattr(p, key, b)
-            elif key == "srp_enabled":
-                p.srp_enabled = bool(value)
+                    known = " or ".join(repr(n) for n in Kinematics.names())
+                    raise ValueError(f"kinematics must be {known}, got {value!r}")
+            elif isinstance(default, np.ndarray):
+                a = np.asarray(value, dtype=float)
+                if default.ndim == 2 and a.shape == (3,):  # a matrix (inertia_B) by its principal moments
+                    a = np.diag(a)
+                if a.shape != default.shape:
+                    what = "3x3 or 3 principal moments" if default.ndim == 2 else "3 elements"
+                    raise ValueError(f"{key} must have {what}, got shape {a.shape}")
+                setattr(p, key, a)
+            elif isinstance(default, bool):
+                setattr(p, key, bool(value))
             else:
                 setattr(p, key, float(value))
     p.validate()
@@ -113,13 +105,18 @@ def model_params(config: ModelParams | Mapping[str, Any] | None = None) -> Model
 
 
 def params_to_config(p: ModelParams) -> dict[str, Any]:
-    """Plain dict (JSON-friendly) of a ``ModelParams``; ``model_params`` inverts it."""
-    out: dict[str, Any] = {k: float(getattr(p, k)) for k in _SCALARS}
-    out["srp_enabled"] = bool(p.srp_enabled)
-    out["inertia_B"] = np.asarray(p.inertia_B).tolist()
-    out["kinematics"] = p.kinematics.to_string()
-    for key in _VECTORS:
-        out[key] = np.asarray(getattr(p, key)).tolist()
+    """Plain dict (JSON-friendly) of a ``ModelParams``, in the table's order; ``model_params`` inverts it."""
+    out: dict[str, Any] = {}
+    for key in _FIELDS:
+        value = getattr(p, key)
+        if isinstance(value, Kinematics):
+            out[key] = value.to_string()
+        elif isinstance(value, np.ndarray):
+            out[key] = value.tolist()
+        elif isinstance(value, bool):
+            out[key] = value
+        else:
+            out[key] = float(value)
     return out
 
 
@@ -262,12 +259,12 @@ class ProximityModel:
         if settings is not None:
             integrator, substeps, rtol, atol = settings.method, settings.substeps, settings.rtol, settings.atol
             max_steps, initial_step = settings.max_steps, settings.initial_step
-        elif method.lower() == "rk4":
-            integrator = _dyn.Integrator.RK4
-        elif method.lower() in ("dopri", "dopri5"):
-            integrator = _dyn.Integrator.DOPRI5
         else:
-            raise ValueError(f"method must be 'rk4' or 'dopri', got {method!r}")
+            name = "dopri5" if method.lower() == "dopri" else method.lower()  # "dopri": dopri5's older name
+            if name not in _dyn.Integrator.names():
+                known = ", ".join(repr(n) for n in [*_dyn.Integrator.names(), "dopri"])
+                raise ValueError(f"method must be one of {known}, got {method!r}")
+            integrator = _dyn.Integrator.from_string(name)
         constant = np.zeros(6)
         callback = None
         if callable(disturbance):

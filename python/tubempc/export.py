@@ -78,7 +78,7 @@ def export_scenario(cfg: Config, out_dir: str | Path, *, cache_dir: str | Path |
         save_shape(out / truth_file, truth_shape, unit="m")
     cfg.save(out / "config.toml")
 
-    s = _core.io.Scenario()
+    s = _core.io.ScenarioFile()
     s.model, s.truth = _body(scn.model, "shape.obj"), _body(scn.truth, truth_file)
     s.propagator = propagator_settings(cfg)
     s.settings = mpc_settings(scn)

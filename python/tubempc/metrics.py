@@ -35,6 +35,7 @@ from .summaries import (
     RunMetrics,
     StepTime,
     SubsystemValues,
+    fallback_steps,
 )
 
 if TYPE_CHECKING:
@@ -276,7 +277,7 @@ def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> RunMetrics:
             translation=float(rec.excursion[:, 0].max()), rotation=float(rec.excursion[:, 1].max())
         ),
         steps_outside_tube=steps_outside_tube(rec.excursion),
-        fallback_steps=int(sum(s.startswith("fallback") for s in rec.statuses)),
+        fallback_steps=fallback_steps(collections.Counter(rec.statuses)),
         constraint_violations=ConstraintViolations(
             glide_slope_steps=int(np.sum(g[:, 0] > 0)),
             los_steps=int(np.sum(g[:, 1] > 0)),

@@ -24,7 +24,15 @@ from .machine import machine_info
 from .pinning import pin_config, shape_record
 from .results import RunRecord, save_record
 from .scenario import Scenario, build_scenario, landing_geometry
-from .summaries import CampaignMethodResult, Comparison, ReferenceSummary, RunMetrics, RunSummary, write_summary
+from .summaries import (
+    CampaignMethodResult,
+    Comparison,
+    ReferenceSummary,
+    RunMetrics,
+    RunSummary,
+    fallback_steps,
+    write_summary,
+)
 
 __all__ = ["guarantee_lost", "run_methods", "run_summary", "save_figures", "states_inside_body"]
 
@@ -55,7 +63,7 @@ def guarantee_lost(result: RunMetrics | CampaignMethodResult) -> list[str]:
         reasons.append(f"{result.steps_outside_tube} steps outside the tube")
     fallbacks = result.fallback_steps
     if fallbacks is None:  # not recorded: count the statuses
-        fallbacks = sum(n for s, n in result.statuses.items() if s.startswith("fallback"))
+        fallbacks = fallback_steps(result.statuses)
     if fallbacks:
         reasons.append(f"{fallbacks} fallback steps")
     if result.states_inside_body:

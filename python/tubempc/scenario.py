@@ -51,7 +51,7 @@ __all__ = [
 ]
 
 Array = npt.NDArray[np.float64]
-METHODS = ("tbmpc", "ffa")
+METHODS: tuple[str, ...] = tuple(_core.control.Method.names())  # "tbmpc", "ffa" (control::Method's table)
 P_STATES, R_STATES = slice(0, 6), slice(6, 12)  # translational x_p = [r_L, v_L], rotational x_r = [phi, omega_BL_B]
 P_INPUTS, R_INPUTS = slice(0, 3), slice(3, 6)  # u_p (m/s^2, L), T (N m, B)
 
@@ -534,10 +534,11 @@ def propagator_settings(cfg: Config) -> Any:
     files (``[simulation]``; the core's defaults for the rest)."""
     sim = cfg.simulation
     prop = _core.dynamics.PropagatorSettings()
-    if sim.integrator == "rk4":
-        prop.method, prop.substeps = _core.dynamics.Integrator.RK4, sim.substeps
+    prop.method = _core.dynamics.Integrator.from_string(sim.integrator)
+    if prop.method == _core.dynamics.Integrator.RK4:
+        prop.substeps = sim.substeps
     else:
-        prop.method, prop.rtol = _core.dynamics.Integrator.DOPRI5, sim.rtol
+        prop.rtol = sim.rtol
     return prop
 
 

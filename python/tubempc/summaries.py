@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar, TypeVar
 
+from . import _core
+
 __all__ = [
     "FORMAT_VERSION",
     "ActuationSummary",
@@ -32,6 +34,7 @@ __all__ = [
     "EnvelopeFit",
     "GroupErrors",
     "MeanSpread",
+    "MethodResult",
     "MonteCarloMethodSummary",
     "MonteCarloSummary",
     "ReferenceSummary",
@@ -42,6 +45,7 @@ __all__ = [
     "Summary",
     "SweepRow",
     "SweepSummary",
+    "fallback_steps",
     "load_summary",
     "parse_summary",
     "read_summary",
@@ -54,6 +58,13 @@ __all__ = [
 FORMAT_VERSION = 1
 
 _T = TypeVar("_T")
+
+
+def fallback_steps(statuses: Mapping[str, int]) -> int:
+    """Steps whose MPC status (a name of ``_core.mpc.Status``, with its count) is a fallback
+    (``_core.mpc.is_fallback``)."""
+    mpc = _core.mpc
+    return sum(n for s, n in statuses.items() if mpc.is_fallback(mpc.Status.from_string(s)))
 
 
 #: Metadata of a field that may be absent: None, and then left out of the JSON (never written as null).
@@ -221,9 +232,10 @@ class ActuationSummary(_Json):
 
 
 @dataclass(frozen=True, kw_only=True)
-class RunMetrics(_Json):
-    """Every scalar result of one closed-loop run (:func:`tubempc.metrics.run_metrics`; a run's
-    summary adds ``states_inside_body``, :func:`tubempc.runner.run_summary`)."""
+class MethodResult(_Json):
+    """The results of one method's closed-loop run that every summary keeps (a run's
+    :class:`RunMetrics`, a Monte Carlo run's :class:`CampaignMethodResult`); run_time_s is the
+    machine's."""
 
     J_p: float
     J_r: float
@@ -232,22 +244,29 @@ class RunMetrics(_Json):
     rms_error: GroupErrors
     max_tube_excursion: SubsystemValues
     steps_outside_tube: int
-    fallback_steps: int | None = field(default=None, metadata=_OMIT)  # None: not recorded (count the "fallback*" statuses)
     constraint_violations: ConstraintViolations
+    statuses: dict[str, int]
+    states_inside_body: int | None = field(default=None, metadata=_OMIT)  # None: not counted
+    actuation: ActuationSummary | None = field(default=None, metadata=_OMIT)  # None: ideal actuators
+    run_time_s: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunMetrics(MethodResult):
+    """Every scalar result of one closed-loop run (:func:`tubempc.metrics.run_metrics`; a run's
+    summary adds ``states_inside_body``, :func:`tubempc.runner.run_summary`)."""
+
+    fallback_steps: int | None = field(default=None, metadata=_OMIT)  # None: not recorded (count the "fallback*" statuses)
     step_time: dict[str, StepTime]
     scp_iterations_mean: float
     model_evaluations_mean: float
     active_set_qp_fraction: float
     velocity_convergence_fit: EnvelopeFit
-    statuses: dict[str, int]
     tube_statuses: dict[str, int] = field(default_factory=dict)
     tube_design_failures: int
     tube_uncertified_steps: int
     tube_feasible_every_step: bool
-    run_time_s: float
     seed: int
-    states_inside_body: int | None = field(default=None, metadata=_OMIT)  # None: not counted
-    actuation: ActuationSummary | None = field(default=None, metadata=_OMIT)  # None: ideal actuators
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -332,21 +351,8 @@ class SweepSummary(_Json):
 
 
 @dataclass(frozen=True, kw_only=True)
-class CampaignMethodResult(_Json):
-    """What a Monte Carlo run keeps per method (runs/run_<i>.json; run_time_s is the machine's)."""
-
-    J_p: float
-    J_r: float
-    control_effort: ControlEffort
-    terminal_error: GroupErrors
-    rms_error: GroupErrors
-    max_tube_excursion: SubsystemValues
-    steps_outside_tube: int
-    constraint_violations: ConstraintViolations
-    statuses: dict[str, int]
-    states_inside_body: int | None = field(default=None, metadata=_OMIT)
-    actuation: ActuationSummary | None = field(default=None, metadata=_OMIT)
-    run_time_s: float
+class CampaignMethodResult(MethodResult):
+    """What a Monte Carlo run keeps per method (runs/run_<i>.json): the fields of :class:`MethodResult`."""
 
     @classmethod
     def of(cls, metrics: RunMetrics) -> CampaignMethodResult:
@@ -356,7 +362,7 @@ class CampaignMethodResult(_Json):
     @property
     def fallback_steps(self) -> int:
         """Steps whose status is a fallback."""
-        return sum(n for s, n in self.statuses.items() if s.startswith("fallback"))
+        return fallback_steps(self.statuses)
 
 
 @dataclass(frozen=True)

@@ -59,7 +59,7 @@ bmat: Callable[[list[list[Any]]], Expression] = _cp_bmat
 trace: Callable[[Any], Expression] = _cp_trace
 
 
-class TubeStatus(Enum):
+class DesignStatus(Enum):
     """Outcome of a tube design."""
 
     OPTIMAL = "optimal"
@@ -71,7 +71,7 @@ class TubeStatus(Enum):
 
 
 @dataclass(frozen=True)
-class TubeResult:
+class DesignResult:
     """Result of one tube design in the subsystem's SI units.
 
     K: feedback gain (n_u x n_x); Pe: tube shape matrix (n_x x n_x); both None when no
@@ -84,7 +84,7 @@ class TubeResult:
     Pe: FloatArray | None
     alpha: float
     objective: float
-    status: TubeStatus
+    status: DesignStatus
     lmi_residual: float
     solve_time_s: float
     n_solves: int
@@ -92,7 +92,7 @@ class TubeResult:
     @property
     def feasible(self) -> bool:
         """True when the result holds a usable tube."""
-        return self.status in (TubeStatus.OPTIMAL, TubeStatus.OPTIMAL_INACCURATE)
+        return self.status in (DesignStatus.OPTIMAL, DesignStatus.OPTIMAL_INACCURATE)
 
 
 @dataclass
@@ -100,7 +100,7 @@ class _Eval:
     """One SDP solve at fixed alpha, in scaled coordinates and normalised objective."""
 
     s: float  # logit(alpha)
-    status: TubeStatus
+    status: DesignStatus
     value: float = math.inf
     slope: float = math.nan  # df/ds
     Pe_s: FloatArray | None = None
@@ -108,14 +108,14 @@ class _Eval:
 
     @property
     def ok(self) -> bool:
-        return self.status in (TubeStatus.OPTIMAL, TubeStatus.OPTIMAL_INACCURATE)
+        return self.status in (DesignStatus.OPTIMAL, DesignStatus.OPTIMAL_INACCURATE)
 
 
 _STATUS = {
-    cp.OPTIMAL: TubeStatus.OPTIMAL,
-    cp.OPTIMAL_INACCURATE: TubeStatus.OPTIMAL_INACCURATE,
-    cp.INFEASIBLE: TubeStatus.INFEASIBLE,
-    cp.INFEASIBLE_INACCURATE: TubeStatus.INFEASIBLE,
+    cp.OPTIMAL: DesignStatus.OPTIMAL,
+    cp.OPTIMAL_INACCURATE: DesignStatus.OPTIMAL_INACCURATE,
+    cp.INFEASIBLE: DesignStatus.INFEASIBLE,
+    cp.INFEASIBLE_INACCURATE: DesignStatus.INFEASIBLE,
 }
 
 
@@ -269,7 +269,7 @@ class TubeDesigner:
         self._PWa.value = self._PW_s / (1.0 - alpha)
         try:
             with warnings.catch_warnings():
-                # An inaccurate solution is reported through TubeStatus.OPTIMAL_INACCURATE.
+                # An inaccurate solution is reported through DesignStatus.OPTIMAL_INACCURATE.
                 warnings.filterwarnings("ignore", "Solution may be inaccurate", UserWarning)
                 solve: Callable[..., object] = self.problem.solve
                 # No warm start: Clarabel would reuse the previous solve's data and a design would
@@ -277,9 +277,9 @@ class TubeDesigner:
                 # (tube_policy.py) would differ from the same design here.
                 solve(solver=self.solver, **{"warm_start": False, **self.solver_options})
         except cp.error.SolverError:
-            return _Eval(s, TubeStatus.SOLVER_ERROR)
-        status = _STATUS.get(self.problem.status, TubeStatus.SOLVER_ERROR)
-        if status not in (TubeStatus.OPTIMAL, TubeStatus.OPTIMAL_INACCURATE):
+            return _Eval(s, DesignStatus.SOLVER_ERROR)
+        status = _STATUS.get(self.problem.status, DesignStatus.SOLVER_ERROR)
+        if status not in (DesignStatus.OPTIMAL, DesignStatus.OPTIMAL_INACCURATE):
             return _Eval(s, status)
         Pe_s = _sym(np.asarray(self._Pe.value))
         lam = np.asarray(self._inv_con.dual_value)
@@ -294,7 +294,7 @@ class TubeDesigner:
         B: ArrayLike,
         P_W: ArrayLike,
         alpha_prev: float | None = None,
-    ) -> TubeResult:
+    ) -> DesignResult:
         """Design the tube for x+ = A x + B u + w, w^T P_W^-1 w <= 1 (subsystem SI units).
 
         With alpha_prev, the search starts at alpha_prev, probes a bracket of half-width
@@ -312,7 +312,7 @@ class TubeDesigner:
             best = self._cold_search(search)
         return self._result(A_, B_, PW, d, c, best, search.n, t0)
 
-    def design_fixed_alpha(self, A: ArrayLike, B: ArrayLike, P_W: ArrayLike, alpha: float) -> TubeResult:
+    def design_fixed_alpha(self, A: ArrayLike, B: ArrayLike, P_W: ArrayLike, alpha: float) -> DesignResult:
         """Design the tube with alpha fixed (one solve); same units and status as `design`."""
         if not 0.0 < alpha < 1.0:
             raise ValueError(f"alpha must lie in (0, 1), got {alpha}")
@@ -351,15 +351,15 @@ class TubeDesigner:
     def _cold_search(self, search: _Search) -> _Eval:
         grid = [search(_logit(a)) for a in self.alpha_grid]
         if not any(e.ok for e in grid):
-            errors = [e for e in grid if e.status is TubeStatus.SOLVER_ERROR]
+            errors = [e for e in grid if e.status is DesignStatus.SOLVER_ERROR]
             return errors[0] if len(errors) == len(grid) else grid[0]
         i = min(range(len(grid)), key=lambda j: grid[j].value)
         b = grid[i]
         lo, hi = self.s_bounds
         if b.slope > 0.0:
-            other = grid[i - 1] if i > 0 else _Eval(lo, TubeStatus.INFEASIBLE)
+            other = grid[i - 1] if i > 0 else _Eval(lo, DesignStatus.INFEASIBLE)
         else:
-            other = grid[i + 1] if i + 1 < len(grid) else _Eval(hi, TubeStatus.INFEASIBLE)
+            other = grid[i + 1] if i + 1 < len(grid) else _Eval(hi, DesignStatus.INFEASIBLE)
         return self._refine(b, other, search)
 
     def _refine(self, b: _Eval, e: _Eval, search: _Search) -> _Eval:
@@ -407,17 +407,17 @@ class TubeDesigner:
         best: _Eval,
         n_solves: int,
         t0: float,
-    ) -> TubeResult:
+    ) -> DesignResult:
         alpha = _expit(best.s)
         if best.Pe_s is None or best.Y_s is None:
             elapsed = time.perf_counter() - t0
-            return TubeResult(None, None, alpha, math.inf, best.status, math.nan, elapsed, n_solves)
+            return DesignResult(None, None, alpha, math.inf, best.status, math.nan, elapsed, n_solves)
         K_s = np.linalg.solve(best.Pe_s, best.Y_s.T).T
         K = self.u_max * K_s / d[None, :]
         Pe, resid, certified = certify_design(A, B, K, _sym(best.Pe_s * np.outer(d, d)), P_W, alpha, self.u_max)
-        status = best.status if certified else TubeStatus.INVALID
+        status = best.status if certified else DesignStatus.INVALID
         elapsed = time.perf_counter() - t0
-        return TubeResult(K, Pe, alpha, best.value * c, status, resid, elapsed, n_solves)
+        return DesignResult(K, Pe, alpha, best.value * c, status, resid, elapsed, n_solves)
 
 
 class _Search:
@@ -497,8 +497,8 @@ LYAPUNOV_MARGIN = 1e-9
 
 
 def lyapunov_tube(
-    A: ArrayLike, B: ArrayLike, tube: TubeResult, P_W: ArrayLike, u_max: float
-) -> tuple[TubeResult | None, str]:
+    A: ArrayLike, B: ArrayLike, tube: DesignResult, P_W: ArrayLike, u_max: float
+) -> tuple[DesignResult | None, str]:
     """The certified per-step tube update (a microsecond alternative to an LMI design).
 
     For the gain K and alpha of ``tube`` (an LMI design), the smallest ellipsoid robustly invariant
@@ -527,12 +527,12 @@ def lyapunov_tube(
     margin = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", K_, Pe, K_), 0.0))
     if np.any(margin >= u_max):
         return None, f"empty input tightening (feedback {margin.max():.4g} >= u_max {u_max:.4g})"
-    return TubeResult(
+    return DesignResult(
         K=K_,
         Pe=Pe,
         alpha=a,
         objective=float("nan"),
-        status=TubeStatus.LYAPUNOV,
+        status=DesignStatus.LYAPUNOV,
         lmi_residual=residual,
         solve_time_s=time.perf_counter() - t0,
         n_solves=0,

@@ -26,7 +26,7 @@ import numpy.typing as npt
 
 from . import _core
 from .scenario import P_INPUTS, P_STATES, R_INPUTS, R_STATES, Scenario, memory_weight, tube_designers
-from .tube import TubeDesigner, TubeResult
+from .tube import DesignResult, TubeDesigner
 
 __all__ = [
     "controller_designs",
@@ -45,8 +45,8 @@ def library_scales(lo: float, hi: float, ratio: float) -> list[float]:
     return [float(ratio**j) for j in range(j0, j1 + 1)]
 
 
-def subsystem_design(res: TubeResult, P_W: Array) -> Any:
-    """A feasible :class:`tubempc.tube.TubeResult` designed for ``P_W`` as a ``_core.control.SubsystemDesign``."""
+def subsystem_design(res: DesignResult, P_W: Array) -> Any:
+    """A feasible :class:`tubempc.tube.DesignResult` designed for ``P_W`` as a ``_core.control.SubsystemDesign``."""
     if not res.feasible or res.K is None or res.Pe is None:
         raise ValueError(f"an infeasible design ({res.status.name}) cannot be flown")
     return _core.control.SubsystemDesign(res.K, res.alpha, P_W, res.Pe)
@@ -162,7 +162,7 @@ def controller_settings(
     cfg = scn.config
     ident, t = cfg.identification, cfg.tube
     s = _core.control.ControllerSettings()
-    s.method = _core.control.Method.Tbmpc if method == "tbmpc" else _core.control.Method.Ffa
+    s.method = _core.control.Method.from_string(method)
     s.measured_input = _core.control.MeasuredInput.from_string(ident.measured_input)
     common = (ident.prior_memory, ident.eig_floor, ident.pw_scale)
     s.identification_p = _identifier_settings(lambda_p or ident.lambda_p, ident.w0_p, ident.S0_p, *common)

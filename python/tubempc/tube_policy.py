@@ -34,7 +34,7 @@ from typing import IO, Any
 import numpy as np
 import numpy.typing as npt
 
-from .tube import TubeDesigner, TubeResult
+from .tube import DesignResult, TubeDesigner
 
 __all__ = ["DESIGN_WORKERS", "BackgroundDesigns", "shutdown_design_worker"]
 
@@ -200,7 +200,7 @@ class BackgroundDesigns:
         self.adoptions: list[int] = []  # steps before which a design was offered
         self.design_failures: list[str] = []  # "<step started>:<subsystem>:<status>"
         self.last_wait_s = 0.0
-        self._pending: tuple[int, list[cf.Future[TubeResult]], list[_DesignArgs]] | None = None
+        self._pending: tuple[int, list[cf.Future[DesignResult]], list[_DesignArgs]] | None = None
         self._pool = cf.ThreadPoolExecutor(max_workers=max(1, min(len(self.designers), int(threads))))
         self._keys = [pickle.dumps(d.spec) for d in self.designers]
         if worker == "process":
@@ -241,7 +241,7 @@ class BackgroundDesigns:
         if not due:
             return
         t0 = time.perf_counter()
-        results: list[TubeResult | None] = []
+        results: list[DesignResult | None] = []
         for i, future in enumerate(futures):
             try:
                 results.append(future.result())  # waits only for a due design not yet done
@@ -277,13 +277,13 @@ class BackgroundDesigns:
         ]
         self._pending = (k, [self._submit(i, *job) for i, job in enumerate(jobs)], jobs)
 
-    def _submit(self, i: int, A: Array, B: Array, P_W: Array, alpha_prev: float | None) -> cf.Future[TubeResult]:
+    def _submit(self, i: int, A: Array, B: Array, P_W: Array, alpha_prev: float | None) -> cf.Future[DesignResult]:
         des = self.designers[i]
         if self.worker == "process":
             return _design_process().submit(self._keys[i], A, B, P_W, alpha_prev)
         if self.worker == "thread":
             return self._pool.submit(des.design, A, B, P_W, alpha_prev)
-        future: cf.Future[TubeResult] = cf.Future()
+        future: cf.Future[DesignResult] = cf.Future()
         future.set_result(des.design(A, B, P_W, alpha_prev))
         return future
 

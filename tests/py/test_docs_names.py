@@ -142,12 +142,16 @@ def config_values() -> frozenset[str]:
 
 @functools.cache
 def scenario_records() -> frozenset[str]:
-    """The records scenario.hpp names, and `mpc.<field>` for each field of mpc::Settings::for_each_field."""
+    """The records scenario.hpp names, `mpc.<field>` for each field of mpc::Settings::for_each_field and
+    `model.<field>`, `truth.<field>` for each of dynamics::ModelParams' and io::BodyModel's."""
     from tubempc import _core
 
     text = _read(ROOT / "cpp" / "include" / "tubempc" / "io" / "scenario.hpp")
     named = re.findall(r"`((?:model|truth|propagator|mpc|reference|tube|mission)\.[a-z_A-Z0-9]+)`", text)
-    return frozenset([*named, *(f"mpc.{f}" for f in _core.mpc.Settings.field_names())])
+    body = [*_core.dynamics.ModelParams.field_names(), *_core.io.BodyModel.field_names()]
+    tables = [f"mpc.{f}" for f in _core.mpc.Settings.field_names()]
+    tables += [f"{m}.{f}" for m in ("model", "truth") for f in body]
+    return frozenset([*named, *tables])
 
 
 @functools.cache

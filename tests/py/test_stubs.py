@@ -36,3 +36,25 @@ def test_the_check_reports_a_missing_and_an_extra_member() -> None:
         "_mpc.pyi: ScpMode is bound but not in the stub",
         "_mpc.pyi: ScpModes is in the stub but not bound",
     ]
+
+
+def test_field_and_enum_lines_are_generated_from_the_tables(tmp_path: Path) -> None:
+    check = _checker()
+    stub = (ROOT / "python" / "tubempc" / "_mpc.pyi").read_text()
+    assert check.with_generated_fields(_core.mpc, stub) == stub
+    # a field line dropped, or of the wrong type, is written back as the table says
+    for edited in (
+        stub.replace("    scp_mode: ScpMode\n", "", 1),
+        stub.replace("    horizon: int\n", "    horizon: float\n", 1),
+        stub.replace("    RealTime = ...\n", "", 1),  # an enum member, from its name table
+    ):
+        assert edited != stub
+        assert check.with_generated_fields(_core.mpc, edited) == stub
+    # the lint fails on such a stub; --write repairs it
+    for f in (ROOT / "python" / "tubempc").glob("_*.pyi"):
+        (tmp_path / f.name).write_text(f.read_text())
+    (tmp_path / "_mpc.pyi").write_text(stub.replace("    horizon: int\n", "", 1))
+    assert check.main(tmp_path) == 1
+    assert check.main(tmp_path, write=True) == 0
+    assert (tmp_path / "_mpc.pyi").read_text() == stub
+    assert check.main(tmp_path) == 0

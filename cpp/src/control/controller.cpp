@@ -22,7 +22,7 @@ constexpr int kNu = 6;
 
 }  // namespace
 
-const char* to_string(Method m) { return m == Method::Tbmpc ? "tbmpc" : "ffa"; }
+const char* to_string(Method m) { return core::enum_name(m); }
 
 const char* to_string(MeasuredInput m) { return core::enum_name(m); }
 

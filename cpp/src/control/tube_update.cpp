@@ -18,39 +18,9 @@ bool positive_definite(const SubMatrix& M) {
 
 }  // namespace
 
-const char* to_string(Certification c) {
-  switch (c) {
-    case Certification::Certified:
-      return "certified";
-    case Certification::NotContractive:
-      return "not_contractive";
-    case Certification::InvarianceViolated:
-      return "invariance_violated";
-    case Certification::EmptyTightening:
-      return "empty_tightening";
-  }
-  return "unknown";
-}
+const char* to_string(Certification c) { return core::enum_name(c); }
 
-const char* to_string(TubeStatus s) {
-  switch (s) {
-    case TubeStatus::Fixed:
-      return "fixed";
-    case TubeStatus::Initial:
-      return "initial";
-    case TubeStatus::Lyapunov:
-      return "lyapunov";
-    case TubeStatus::LyapunovNoMargin:
-      return "lyapunov_no_margin";
-    case TubeStatus::Library:
-      return "library";
-    case TubeStatus::LibraryNoMargin:
-      return "library_no_margin";
-    case TubeStatus::Uncertified:
-      return "uncertified";
-  }
-  return "unknown";
-}
+const char* to_string(TubeStatus s) { return core::enum_name(s); }
 
 bool certified(TubeStatus s) {
   return s == TubeStatus::Initial || s == TubeStatus::Lyapunov || s == TubeStatus::LyapunovNoMargin ||

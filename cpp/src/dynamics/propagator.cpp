@@ -155,19 +155,7 @@ PropagationResult dopri5(const Rhs& f, double t0, TruthState y, double dt, const
 
 const char* to_string(Integrator m) { return core::enum_name(m); }
 
-const char* to_string(PropagationStatus s) {
-  switch (s) {
-    case PropagationStatus::Success:
-      return "success";
-    case PropagationStatus::MaxStepsReached:
-      return "max_steps_reached";
-    case PropagationStatus::StepTooSmall:
-      return "step_too_small";
-    case PropagationStatus::NonFinite:
-      return "non_finite";
-  }
-  return "unknown";
-}
+const char* to_string(PropagationStatus s) { return core::enum_name(s); }
 
 void PropagatorSettings::validate() const {
   if (method != Integrator::RK4 && method != Integrator::DOPRI5) {

@@ -43,17 +43,7 @@ Eigen::Vector3d hill_tidal(double n, const Eigen::Vector3d& r) {
 
 const char* to_string(Kinematics k) { return core::enum_name(k); }
 
-const char* to_string(DiscretizationStatus s) {
-  switch (s) {
-    case DiscretizationStatus::Ok:
-      return "ok";
-    case DiscretizationStatus::NonFiniteInput:
-      return "non_finite_input";
-    case DiscretizationStatus::NonFiniteResult:
-      return "non_finite_result";
-  }
-  return "unknown";
-}
+const char* to_string(DiscretizationStatus s) { return core::enum_name(s); }
 
 void ModelParams::validate() const {
   require(std::isfinite(mu_sun) && mu_sun >= 0.0, "mu_sun", "finite and >= 0 (m^3/s^2)", mu_sun);

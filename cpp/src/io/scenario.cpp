@@ -34,6 +34,18 @@ using Options = std::initializer_list<std::pair<const char*, E>>;
 const Options<dynamics::Kinematics> kKinematicsV1 = {{"paper", dynamics::Kinematics::FirstOrder}};
 const Options<mpc::InputCost> kInputCostsV1 = {{"paper", mpc::InputCost::Absolute},
                                                {"from_reference", mpc::InputCost::Deviation}};
+
+// The older names an option enum is also read under (none but for the two above).
+template <typename E>
+Options<E> older_names() {
+  if constexpr (std::is_same_v<E, dynamics::Kinematics>) {
+    return kKinematicsV1;
+  } else if constexpr (std::is_same_v<E, mpc::InputCost>) {
+    return kInputCostsV1;
+  } else {
+    return {};
+  }
+}
 const Options<mpc::QpSolver> kBackendsV1 = {{"piqp", mpc::QpSolver::Piqp},
                                             {"active_set_piqp", mpc::QpSolver::ActiveSet}};
 
@@ -59,6 +71,8 @@ Eigen::Index scenario_size(core::Dim d) {
       return 2;
     case core::Dim::Nw:
       return 6;
+    case core::Dim::Three:
+      return 3;
     case core::Dim::One:
       break;
   }
@@ -213,21 +227,10 @@ class Reader {
     return numeric(name, N, 1)->values;
   }
 
-  template <int N>
-  void optional_vector(const std::string& name, Eigen::Matrix<double, N, 1>& out) {
-    if (Record* r = numeric(name, N, 1, false)) out = r->values;
-  }
-
   double scalar(const std::string& name) { return numeric(name, 1, 1)->values(0, 0); }
 
   void optional_scalar(const std::string& name, double& out, bool allow_infinite = false) {
     if (Record* r = numeric(name, 1, 1, false, false, allow_infinite)) out = r->values(0, 0);
-  }
-
-  double positive(const std::string& name) {
-    const double v = scalar(name);
-    if (!(v > 0.0)) fail(records_[name].row_lines[0], name + ": must be > 0, got " + format_double(v));
-    return v;
   }
 
   void integer(const std::string& name, int& out, bool required = true) {
@@ -313,27 +316,6 @@ class Reader {
   std::map<std::string, Record> records_;
 };
 
-void read_body(Reader& r, const std::string& prefix, BodyModel& body) {
-  dynamics::ModelParams& p = body.params;
-  p.mu_sun = r.scalar(prefix + "mu_sun");
-  p.orbit_radius = r.scalar(prefix + "orbit_radius");
-  p.beta_srp = r.scalar(prefix + "beta_srp");
-  r.flag(prefix + "srp_enabled", p.srp_enabled);
-  p.inertia_B = r.matrix(prefix + "inertia_B", 3, 3);
-  p.spin_rate = r.scalar(prefix + "spin_rate");
-  p.spin_angle0 = r.scalar(prefix + "spin_angle0");
-  r.option(prefix + "kinematics", p.kinematics, true, kKinematicsV1);
-  p.glide_slope_angle = r.scalar(prefix + "glide_slope_angle");
-  p.los_angle = r.scalar(prefix + "los_angle");
-  p.boresight_B = r.vector<3>(prefix + "boresight_B");
-  r.optional_vector(prefix + "glide_slope_apex_A", p.glide_slope_apex_A);
-  r.optional_vector(prefix + "glide_slope_axis_A", p.glide_slope_axis_A);
-  body.density = r.positive(prefix + "density");
-  body.shape = r.text(prefix + "shape");
-  body.shape_unit_scale = r.positive(prefix + "shape_unit_scale");
-  r.validated(prefix + "* (ModelParams)", [&] { p.validate(); });
-}
-
 // The records `prefix<name>` of the fields of a struct described by for_each_field (core::FieldInfo).
 template <typename S>
 struct FieldReader {
@@ -356,17 +338,26 @@ struct FieldReader {
       } else {
         value = r.scalar(name);
       }
-    } else if constexpr (std::is_same_v<T, mpc::InputCost>) {
-      r.option(name, value, !f.optional, kInputCostsV1);
+    } else if constexpr (std::is_same_v<T, std::string>) {
+      value = r.text(name);
     } else if constexpr (std::is_enum_v<T>) {
-      r.option(name, value, !f.optional);
-    } else {  // an Eigen matrix or vector; an optional one may be empty (0 x 0)
-      if (Record* rec =
-              r.numeric(name, scenario_size(f.rows), scenario_size(f.cols), !f.optional, f.optional))
+      r.option(name, value, !f.optional, older_names<T>());
+    } else {  // an Eigen matrix or vector; an optional dynamic-size one may be empty (0 x 0)
+      constexpr bool fixed = T::SizeAtCompileTime != Eigen::Dynamic;
+      if (Record* rec = r.numeric(name, scenario_size(f.rows), scenario_size(f.cols), !f.optional,
+                                  f.optional && !fixed))
         value = rec->values;
     }
   }
 };
+
+// The records `prefix<name>` of one BodyModel (its ModelParams, then its own fields), validated.
+void read_body(Reader& r, const std::string& prefix, BodyModel& body) {
+  dynamics::ModelParams::for_each_field(FieldReader<dynamics::ModelParams>{r, body.params, prefix});
+  BodyModel::for_each_field(FieldReader<BodyModel>{r, body, prefix});
+  r.validated(prefix + "* (ModelParams)", [&] { body.params.validate(); });
+  r.validated(prefix + "* (BodyModel)", [&] { body.validate(); });
+}
 
 void read_mpc(Reader& r, mpc::Settings& st) {
   const FieldReader<mpc::Settings> read{r, st, "mpc."};
@@ -472,6 +463,8 @@ struct FieldWriter {
       w.scalar(name, value);
     } else if constexpr (std::is_enum_v<T>) {
       w.text(name, option_name(value));
+    } else if constexpr (std::is_same_v<T, std::string>) {
+      w.text(name, value);
     } else {
       w.matrix(name, value);
     }
@@ -479,23 +472,8 @@ struct FieldWriter {
 };
 
 void write_body(Writer& w, const std::string& prefix, const BodyModel& body) {
-  const dynamics::ModelParams& p = body.params;
-  w.scalar(prefix + "mu_sun", p.mu_sun);
-  w.scalar(prefix + "orbit_radius", p.orbit_radius);
-  w.scalar(prefix + "beta_srp", p.beta_srp);
-  w.scalar(prefix + "srp_enabled", p.srp_enabled ? 1.0 : 0.0);
-  w.matrix(prefix + "inertia_B", p.inertia_B);
-  w.scalar(prefix + "spin_rate", p.spin_rate);
-  w.scalar(prefix + "spin_angle0", p.spin_angle0);
-  w.text(prefix + "kinematics", option_name(p.kinematics));
-  w.scalar(prefix + "glide_slope_angle", p.glide_slope_angle);
-  w.scalar(prefix + "los_angle", p.los_angle);
-  w.matrix(prefix + "boresight_B", p.boresight_B);
-  w.matrix(prefix + "glide_slope_apex_A", p.glide_slope_apex_A);
-  w.matrix(prefix + "glide_slope_axis_A", p.glide_slope_axis_A);
-  w.scalar(prefix + "density", body.density);
-  w.text(prefix + "shape", body.shape);
-  w.scalar(prefix + "shape_unit_scale", body.shape_unit_scale);
+  dynamics::ModelParams::for_each_field(FieldWriter<dynamics::ModelParams>{w, body.params, prefix});
+  BodyModel::for_each_field(FieldWriter<BodyModel>{w, body, prefix});
 }
 
 void write_design(Writer& w, const std::string& prefix, const control::SubsystemDesign& d) {
@@ -533,16 +511,27 @@ void require_size(const char* name, const Eigen::MatrixXd& m, Eigen::Index rows,
 
 }  // namespace
 
-std::string Scenario::resolve(const std::string& path) const {
+void BodyModel::validate() const {
+  const auto positive = [](double v, const char* field) {
+    if (!(std::isfinite(v) && v > 0.0))
+      throw std::invalid_argument(std::string("BodyModel.") + field + ": must be finite and > 0, got " +
+                                  format_double(v));
+  };
+  positive(density, "density");
+  positive(shape_unit_scale, "shape_unit_scale");
+  if (shape.empty()) throw std::invalid_argument("BodyModel.shape: must not be empty");
+}
+
+std::string ScenarioFile::resolve(const std::string& path) const {
   const std::filesystem::path p(path);
   if (directory.empty() || p.is_absolute()) return path;
   return (std::filesystem::path(directory) / p).string();
 }
 
-Scenario read_scenario(const std::string& path) {
+ScenarioFile read_scenario(const std::string& path) {
   Reader r(path);
   r.parse();
-  Scenario s;
+  ScenarioFile s;
   s.directory = std::filesystem::path(path).parent_path().string();
   read_body(r, "model.", s.model);
   read_body(r, "truth.", s.truth);
@@ -587,7 +576,7 @@ Scenario read_scenario(const std::string& path) {
   return s;
 }
 
-void write_scenario(const std::string& path, const Scenario& s, const std::string& comment) {
+void write_scenario(const std::string& path, const ScenarioFile& s, const std::string& comment) {
   const mpc::Settings& st = s.settings;
   require_size("settings.Q", st.Q, dynamics::kNx, dynamics::kNx);
   require_size("settings.R", st.R, dynamics::kNu, dynamics::kNu);

@@ -10,21 +10,7 @@
 
 namespace tubempc::mpc {
 
-std::string to_string(ActiveSetQp::Status status) {
-  switch (status) {
-    case ActiveSetQp::Status::Solved:
-      return "solved";
-    case ActiveSetQp::Status::MaxIterations:
-      return "max_iterations";
-    case ActiveSetQp::Status::Inaccurate:
-      return "inaccurate";
-    case ActiveSetQp::Status::Singular:
-      return "singular";
-    case ActiveSetQp::Status::InvalidData:
-      return "invalid_data";
-  }
-  return "unknown";
-}
+std::string to_string(ActiveSetQp::Status status) { return core::enum_name(status); }
 
 void ActiveSetQp::Settings::validate() const {
   auto fail = [](const char* field, const char* what) {
@@ -63,6 +49,7 @@ void ActiveSetQp::setup(const SpMat& P_upper, const SpMat& A, const SpMat& G,
       bound_row_(j) = k++;
     }
   const int nk = n + m_ + p_ + nb;
+  penalty_row_.setConstant(p_, false);
 
   // Natural-order pattern (upper triangle): P, the diagonal, A^T, G^T and the bound rows.
   std::vector<Eigen::Triplet<double, int>> trip;
@@ -207,6 +194,13 @@ void ActiveSetQp::residual() {
       res_p_(r) -= Kx[e] * sol_p_(c);
       if (r != c) res_p_(c) -= Kx[e] * sol_p_(r);
     }
+}
+
+void ActiveSetQp::set_penalty_rows(const Eigen::Array<bool, Eigen::Dynamic, 1>& rows) {
+  if (rows.size() != 0 && rows.size() != p_)
+    throw std::invalid_argument("ActiveSetQp::set_penalty_rows: rows must have p entries (or none)");
+  penalty_row_.setConstant(p_, false);
+  if (rows.size() != 0) penalty_row_ = rows;
 }
 
 ActiveSetQp::Status ActiveSetQp::solve(const SpMat& P_upper, const Eigen::VectorXd& q, const SpMat& A,
@@ -366,9 +360,15 @@ ActiveSetQp::Status ActiveSetQp::solve(const SpMat& P_upper, const Eigen::Vector
       const bool full = info_.iterations <= kFullUpdates;
       int drop_row = -1, drop_to = 0, add_row = -1, add_to = 0;
       double worst_drop = 0.0, worst_add = 0.0;
+      // Penalty rows stay while another row has a wrong sign (set_penalty_rows).
+      bool keep_penalty_rows = false;
+      for (int i = 0; i < p + n && !keep_penalty_rows; ++i)
+        keep_penalty_rows = (i >= p || !penalty_row_(i)) && (i < p || bound_row_(i - p) >= 0) &&
+                            set_(i) != 0 && wrong_sign(i, lam_of(i), td);
       for (int i = 0; i < p + n; ++i) {
         if (i >= p && bound_row_(i - p) < 0) continue;
         const int a = set_(i);
+        if (keep_penalty_rows && i < p && penalty_row_(i) && a != 0) continue;
         const double value = value_of(i), lam = lam_of(i), lo = lo_of(i), up = up_of(i);
         int to = a;
         double score = 0.0;

@@ -55,22 +55,34 @@ QpSolution PiqpBackend::solution() const {
   return QpSolution{r.x, r.y, r.z_l, r.z_u, r.z_bl, r.z_bu};
 }
 
-ActiveSetBackend::ActiveSetBackend(const QpProblem& qp, const QpLayout& layout, const Settings& s)
+ActiveSetBackend::ActiveSetBackend(const QpProblem& qp, const QpLayout& layout, const QpLayout* longer,
+                                   const Settings& s)
     : piqp_(qp, s) {
   ActiveSetQp::Settings as;
   as.max_iterations = s.active_set_max_iterations;
   as.eps_abs = s.qp_eps_abs;
   as.eps_rel = s.qp_eps_rel;
   active_set_.setup(qp.P, qp.A, qp.G, layout.boundable(s), as);
+  if (layout.off_t >= 0) {  // the soft-terminal rows |dz_N| <= t are exact L1 penalty pairs
+    Eigen::Array<bool, Eigen::Dynamic, 1> penalty =
+        Eigen::Array<bool, Eigen::Dynamic, 1>::Constant(layout.n_in, false);
+    penalty.segment(layout.terminal_row(), 2 * layout.nx).setConstant(true);
+    active_set_.set_penalty_rows(penalty);
+  }
   set_.setZero(layout.n_in + layout.n_var);
   prev_ = set_;
-  shift_ = layout.shift_map();
+  shift_ = layout.shift_map(layout);
+  if (longer != nullptr) shift_longer_ = layout.shift_map(*longer);
 }
 
-void ActiveSetBackend::begin_step(int k) {
-  if (set_k_ == k - 1) {
+void ActiveSetBackend::begin_step(int k, const QpBackend& previous) {
+  const Eigen::VectorXi* last = previous.final_set(k - 1);
+  if (last == &set_) {
     prev_ = set_;
     for (int j = 0; j < set_.size(); ++j) set_(j) = prev_(shift_(j));
+  } else if (last != nullptr && shift_longer_.size() == set_.size() &&
+             shift_longer_.maxCoeff() < last->size()) {
+    for (int j = 0; j < set_.size(); ++j) set_(j) = (*last)(shift_longer_(j));
   } else {
     set_.setZero();
   }
@@ -115,9 +127,10 @@ QpSolution ActiveSetBackend::solution() const {
   return QpSolution{as.w(), as.y(), as.z_l(), as.z_u(), as.z_bl(), as.z_bu()};
 }
 
-std::unique_ptr<QpBackend> make_qp_backend(const QpProblem& qp, const QpLayout& layout, const Settings& s) {
+std::unique_ptr<QpBackend> make_qp_backend(const QpProblem& qp, const QpLayout& layout,
+                                           const QpLayout* longer, const Settings& s) {
   if (s.qp_solver == QpSolver::Piqp) return std::make_unique<PiqpBackend>(qp, s);
-  return std::make_unique<ActiveSetBackend>(qp, layout, s);
+  return std::make_unique<ActiveSetBackend>(qp, layout, longer, s);
 }
 
 }  // namespace tubempc::mpc::detail

@@ -16,8 +16,12 @@ namespace tubempc::mpc::detail {
 class QpBackend {
  public:
   virtual ~QpBackend() = default;
-  // Start of step k: a warm start may use the final state of step k - 1 if that step returned a plan.
-  virtual void begin_step(int k) = 0;
+  // Start of step k: a warm start may use the final state of step k - 1 (solved by `previous`, this
+  // backend or, in the shrinking phase, the backend of one node more) if that step returned a plan.
+  virtual void begin_step(int k, const QpBackend& previous) = 0;
+  // The active set (G rows, then variables) of step k's last QP if step k returned a plan and this
+  // backend has one, else nullptr.
+  virtual const Eigen::VectorXi* final_set(int k) const = 0;
   // Step k returned a plan (its solver state may warm-start step k + 1).
   virtual void plan_applied(int k) = 0;
   // Forgets the warm start.
@@ -37,7 +41,8 @@ class QpBackend {
 class PiqpBackend final : public QpBackend {
  public:
   PiqpBackend(const QpProblem& qp, const Settings& s);
-  void begin_step(int) override {}
+  void begin_step(int, const QpBackend&) override {}
+  const Eigen::VectorXi* final_set(int) const override { return nullptr; }
   void plan_applied(int) override {}
   void reset() override {}
   Status solve(const QpProblem& qp, const Settings& s, StepResult& res, Clock::time_point t_start) override;
@@ -51,12 +56,15 @@ class PiqpBackend final : public QpBackend {
 };
 
 // The active set warm-started from the last QP's set (the previous step's shifted by one node in a
-// step's first QP); once more from the empty set if that guess fails (a wrong guess can make dependent
-// rows active); PIQP if neither verifies, whose multipliers then give the next guess.
+// step's first QP, from the QP of one node more in the shrinking phase); once more from the empty set
+// if that guess fails (a wrong guess can make dependent rows active); PIQP if neither verifies, whose
+// multipliers then give the next guess.
 class ActiveSetBackend final : public QpBackend {
  public:
-  ActiveSetBackend(const QpProblem& qp, const QpLayout& layout, const Settings& s);
-  void begin_step(int k) override;
+  // `longer`: the layout of the QP of one node more whose set may warm-start this one (nullptr: none).
+  ActiveSetBackend(const QpProblem& qp, const QpLayout& layout, const QpLayout* longer, const Settings& s);
+  void begin_step(int k, const QpBackend& previous) override;
+  const Eigen::VectorXi* final_set(int k) const override { return k >= 0 && set_k_ == k ? &set_ : nullptr; }
   void plan_applied(int k) override { set_k_ = k; }
   void reset() override { set_k_ = -1; }
   Status solve(const QpProblem& qp, const Settings& s, StepResult& res, Clock::time_point t_start) override;
@@ -70,10 +78,13 @@ class ActiveSetBackend final : public QpBackend {
   ActiveSetQp active_set_;
   PiqpBackend piqp_;
   Eigen::VectorXi set_, prev_, shift_;  // working set (G rows, then variables), its copy, the shift map
+  Eigen::VectorXi shift_longer_;        // the shift map from the longer QP's set (empty: none)
   int set_k_ = -1;                      // step whose final set set_ holds (-1: none)
   bool by_active_set_ = false;          // the last QP was solved by the active set
 };
 
-std::unique_ptr<QpBackend> make_qp_backend(const QpProblem& qp, const QpLayout& layout, const Settings& s);
+// The backend of Settings::qp_solver for the QP laid out by `layout` (`longer`: see ActiveSetBackend).
+std::unique_ptr<QpBackend> make_qp_backend(const QpProblem& qp, const QpLayout& layout,
+                                           const QpLayout* longer, const Settings& s);
 
 }  // namespace tubempc::mpc::detail

@@ -1,11 +1,12 @@
 // The tube MPC's QP layout and fixed sparsity pattern (see qp_layout.hpp).
 #include "qp_layout.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace tubempc::mpc::detail {
 
-QpLayout::QpLayout(int nx_, int nu_, int nc_, const Settings& s) : nx(nx_), nu(nu_), nc(nc_), N(s.horizon) {
+QpLayout::QpLayout(int nx_, int nu_, int nc_, int N_, const Settings& s) : nx(nx_), nu(nu_), nc(nc_), N(N_) {
   n_var = N * (nx + nu) + nx;
   if (s.initial_condition == InitialCondition::WhitenedBox) {
     off_s = n_var;
@@ -33,17 +34,22 @@ Eigen::Array<bool, Eigen::Dynamic, 1> QpLayout::boundable(const Settings& s) con
   return b;
 }
 
-Eigen::VectorXi QpLayout::shift_map() const {
+Eigen::VectorXi QpLayout::shift_map(const QpLayout& from) const {
   Eigen::VectorXi map(n_in + n_var);
-  for (int j = 0; j < n_in + n_var; ++j) map(j) = j;
-  for (int i = 0; i < N; ++i) {
-    for (int c = 0; c < nc; ++c) map(state_row(i) + c) = state_row(i + 1) + c;
-    for (int r = 0; r < nx; ++r) map(n_in + iz(i) + r) = n_in + iz(i + 1) + r;
-    if (i + 1 < N)
-      for (int r = 0; r < nu; ++r) map(n_in + iv(i) + r) = n_in + iv(i + 1) + r;
+  const int src_in = from.n_in;
+  for (int i = 0; i <= N; ++i) {
+    const int j = std::min(i + 1, from.N);  // the source node
+    for (int c = 0; c < nc; ++c) map(state_row(i) + c) = from.state_row(j) + c;
+    for (int r = 0; r < nx; ++r) map(n_in + iz(i) + r) = src_in + from.iz(j) + r;
+    if (i < N)
+      for (int r = 0; r < nu; ++r) map(n_in + iv(i) + r) = src_in + from.iv(std::min(i + 1, from.N - 1)) + r;
     if (off_sigma >= 0)
-      for (int c = 0; c < nc; ++c) map(n_in + off_sigma + i * nc + c) = n_in + off_sigma + (i + 1) * nc + c;
+      for (int c = 0; c < nc; ++c) map(n_in + off_sigma + i * nc + c) = src_in + from.off_sigma + j * nc + c;
   }
+  for (int r = n_in - (off_t >= 0 ? 2 * nx : 0); r < n_in; ++r)
+    map(r) = from.terminal_row() + (r - terminal_row());
+  for (int r = 0; off_s >= 0 && r < nx; ++r) map(n_in + off_s + r) = src_in + from.off_s + r;
+  for (int r = 0; off_t >= 0 && r < nx; ++r) map(n_in + off_t + r) = src_in + from.off_t + r;
   return map;
 }
 
@@ -55,7 +61,7 @@ void QpPattern::build(const QpLayout& l, const Eigen::MatrixXd& Q, const Eigen::
   mQ = mask_upper_of(Q);
   mP = mask_upper_of(P_term);
   mR = mask_upper_of(R);
-  mA = mask_structure(s.A_structure, nx, nx) || mask_diagonal(nx);  // frozen nodes write the identity
+  mA = mask_structure(s.A_structure, nx, nx);
   mB = mask_structure(s.B_structure, nx, nu);
   mG = mask_structure(s.G_structure, nc, nx);
   mL = mask_lower(nx);

@@ -20,7 +20,8 @@ struct QpLayout {
   int off_s = -1, off_sigma = -1, off_t = -1;  // -1: the block is absent
 
   QpLayout() = default;
-  QpLayout(int nx, int nu, int nc, const Settings& s);
+  // The layout of horizon N (1 <= N <= Settings::horizon: the shrinking phase's QPs have N = T - k).
+  QpLayout(int nx, int nu, int nc, int N, const Settings& s);
   int iz(int i) const { return i < N ? i * (nx + nu) : N * (nx + nu); }  // dz_i
   int iv(int i) const { return i * (nx + nu) + nx; }                     // v_i
   int dynamics_row(int i) const { return (i + 1) * nx; }  // rows of dz_{i+1} - A dz_i - B v_i = ...
@@ -29,9 +30,11 @@ struct QpLayout {
   // Variables that may carry finite bounds: the inputs, s, sigma, the states with a finite trust
   // region and z_N with the hard terminal constraint.
   Eigen::Array<bool, Eigen::Dynamic, 1> boundable(const Settings& s) const;
-  // Active-set index map of a one-node shift (entries: G rows, then one per variable): node i's rows
-  // and variables take node i + 1's, the last node keeps its own.
-  Eigen::VectorXi shift_map() const;
+  // Active-set index map of a one-node shift from the set of a QP laid out by `from` (entries: G rows,
+  // then one per variable; values: indices into from's set): node i's rows and variables take node
+  // i + 1's (from's last node where i + 1 is past it; from has this horizon or one node more), the
+  // slacks s, sigma and t and the terminal rows their own.
+  Eigen::VectorXi shift_map(const QpLayout& from) const;
 };
 
 // The QP in PIQP's form with P's upper triangle, on the fixed pattern.

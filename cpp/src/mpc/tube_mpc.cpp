@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <vector>
 
 #include "linearization_cache.hpp"
 #include "qp_backend.hpp"
@@ -60,10 +61,18 @@ struct TubeMPC::Impl {
   Eigen::MatrixXd Q, R, P_term;
   Reference ref;
 
-  detail::QpLayout lay;
-  detail::QpPattern pat;
-  detail::QpProblem& qp = pat.qp;
-  std::unique_ptr<detail::QpBackend> solver;  // Settings::qp_solver, chosen at setup
+  // The QP of horizon n = 1..N in slots[n - 1]: every step before the shrinking phase solves
+  // horizon N, the shrinking phase's step k horizon T - k, each on its own fixed pattern and solver
+  // (Settings::qp_solver) set up once.
+  struct QpSlot {
+    detail::QpLayout lay;
+    detail::QpPattern pat;
+    std::unique_ptr<detail::QpBackend> solver;
+  };
+  std::vector<QpSlot> slots;
+  int current = 0;  // horizon of the last QP built (0: none)
+  QpSlot& slot(int n) { return slots[static_cast<std::size_t>(n - 1)]; }
+  const QpSlot& slot(int n) const { return slots[static_cast<std::size_t>(n - 1)]; }
   detail::LinearizationCache lin;
 
   bool have_plan = false;
@@ -119,7 +128,8 @@ TubeMPC::~TubeMPC() = default;
 const Eigen::MatrixXd& TubeMPC::terminal_weight() const { return impl_->P_term; }
 int TubeMPC::mission_steps() const { return impl_->T; }
 Eigen::Vector3i TubeMPC::qp_dimensions() const {
-  return {impl_->lay.n_var, impl_->lay.n_eq, impl_->lay.n_in};
+  const detail::QpLayout& l = impl_->slot(impl_->N).lay;
+  return {l.n_var, l.n_eq, l.n_in};
 }
 
 void TubeMPC::setup(const Reference& reference) {
@@ -157,9 +167,13 @@ void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_termina
   m.ref = reference;
   m.T = static_cast<int>(reference.u.cols());
   m.allocate(nx, nu, nc, settings_);
-  m.lay = detail::QpLayout(nx, nu, nc, settings_);
-  m.pat.build(m.lay, m.Q, m.R, m.P_term, settings_);
-  m.solver = detail::make_qp_backend(m.qp, m.lay, settings_);
+  m.slots.resize(static_cast<std::size_t>(m.N));
+  for (int n = m.N; n >= 1; --n) {  // from the longest: each shorter QP's warm start maps its set
+    Impl::QpSlot& q = m.slot(n);
+    q.lay = detail::QpLayout(nx, nu, nc, n, settings_);
+    q.pat.build(q.lay, m.Q, m.R, m.P_term, settings_);
+    q.solver = detail::make_qp_backend(q.pat.qp, q.lay, n < m.N ? &m.slot(n + 1).lay : nullptr, settings_);
+  }
   if (settings_.linearization == Linearization::Reuse)
     m.lin.prime(*model_, reference.z, reference.u, reference.t0, settings_.dt);
 }
@@ -167,12 +181,13 @@ void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_termina
 void TubeMPC::reset() {
   impl_->have_plan = false;
   impl_->lin.reset();
-  if (impl_->solver) impl_->solver->reset();
+  for (auto& q : impl_->slots) q.solver->reset();
 }
 
 QpData TubeMPC::qp_data() const {
-  const detail::QpProblem& qp = impl_->qp;
   QpData d;
+  if (impl_->current == 0) return d;
+  const detail::QpProblem& qp = impl_->slot(impl_->current).pat.qp;
   const detail::SpMat Pu = qp.P;
   d.P = Pu.selfadjointView<Eigen::Upper>();
   d.q = qp.q;
@@ -188,8 +203,8 @@ QpData TubeMPC::qp_data() const {
 }
 
 QpSolution TubeMPC::qp_solution() const {
-  if (!impl_->solver) return QpSolution{};
-  return impl_->solver->solution();
+  if (impl_->current == 0) return QpSolution{};
+  return impl_->slot(impl_->current).solver->solution();
 }
 
 // The phases of TubeMPC::step, in order; each works on the controller's preallocated state (Impl) and
@@ -210,11 +225,14 @@ struct TubeMPC::StepContext {
 };
 
 // Phase 1: re-use the previous converged step's model data shifted by one node
-// (Settings::linearization) and let the QP solver warm-start from the previous step.
+// (Settings::linearization) and let the QP solver warm-start from the previous step's (whose QP had
+// this step's horizon or, in the shrinking phase, one node more).
 void TubeMPC::shift_warm_start(StepContext& c) {
   Impl& m = *impl_;
   m.lin.begin_step(c.k, c.n, c.s.linearization == Linearization::Reuse, c.n_reuse_d, c.n_reuse_z);
-  m.solver->begin_step(c.k);
+  const int n_prev = std::min(m.N, m.T - c.k + 1);
+  m.slot(c.n).solver->begin_step(c.k, *m.slot(n_prev).solver);
+  m.current = c.n;
 }
 
 // Phase 2: the linearisation trajectory: the previous plan shifted to k (usually by one node),
@@ -302,61 +320,62 @@ Status TubeMPC::tighten(const StepContext& c) {
 void TubeMPC::write_cost(const StepContext& c) {
   Impl& m = *impl_;
   const Settings& s = c.s;
-  const int nx = m.nx, nu = m.nu, nc = m.nc, N = m.N, T = m.T, k = c.k, n = c.n;
-  for (int i = 0; i <= N; ++i) m.z_ref.col(i) = m.ref.z.col(std::min(k + i, T));
-  m.qp.constant = 0.0;
-  m.qp.b.head(nx) = c.x_k - m.z_ref.col(0);
+  const int nx = m.nx, nu = m.nu, nc = m.nc, T = m.T, k = c.k, n = c.n;
+  const detail::QpLayout& lay = m.slot(n).lay;
+  detail::QpPattern& pat = m.slot(n).pat;
+  detail::QpProblem& qp = pat.qp;
+  for (int i = 0; i <= m.N; ++i) m.z_ref.col(i) = m.ref.z.col(std::min(k + i, T));
+  qp.constant = 0.0;
+  qp.b.head(nx) = c.x_k - m.z_ref.col(0);
   if (s.initial_condition == InitialCondition::WhitenedBox) {
-    write_block(m.qp.A, m.pat.posA_L, m.Lc, -1.0, m.pat.mL);
+    write_block(qp.A, pat.posA_L, m.Lc, -1.0, pat.mL);
     const double r = 1.0 / std::sqrt(static_cast<double>(nx));
-    m.qp.x_l.segment(m.lay.off_s, nx).setConstant(-r);
-    m.qp.x_u.segment(m.lay.off_s, nx).setConstant(r);
+    qp.x_l.segment(lay.off_s, nx).setConstant(-r);
+    qp.x_u.segment(lay.off_s, nx).setConstant(r);
   }
-  for (int i = 0; i < N; ++i) {
-    m.qp.x_l.segment(m.lay.iv(i), nu) = -m.u_tight;
-    m.qp.x_u.segment(m.lay.iv(i), nu) = m.u_tight;
-    if (s.input_cost == InputCost::Deviation && i < n) {
+  for (int i = 0; i < n; ++i) {
+    qp.x_l.segment(lay.iv(i), nu) = -m.u_tight;
+    qp.x_u.segment(lay.iv(i), nu) = m.u_tight;
+    if (s.input_cost == InputCost::Deviation) {
       m.tmp_nu.noalias() = m.R * m.ref.u.col(k + i);
-      m.qp.q.segment(m.lay.iv(i), nu) = -2.0 * m.tmp_nu;
-      m.qp.constant += m.ref.u.col(k + i).dot(m.tmp_nu);
+      qp.q.segment(lay.iv(i), nu) = -2.0 * m.tmp_nu;
+      qp.constant += m.ref.u.col(k + i).dot(m.tmp_nu);
     } else {
-      m.qp.q.segment(m.lay.iv(i), nu).setZero();
+      qp.q.segment(lay.iv(i), nu).setZero();
     }
   }
-  for (int i = 0; i <= N; ++i) {
-    const bool staged = i < n;
-    const bool terminal_cost = i == N && !c.terminal_phase;
-    const bool soft_end = i == N && c.terminal_phase && s.soft_terminal;
+  for (int i = 0; i <= n; ++i) {
+    const bool terminal_cost = i == n && !c.terminal_phase;
+    const bool soft_end = i == n && c.terminal_phase && s.soft_terminal;
     // Stage, terminal (zbar_{k+N}, W = P_term) and soft-end (zbar_T = x_f, W = Q) costs are all
     // ||dz_i||^2_W. The soft end takes Q: the exact penalty already holds z_N at x_f, and P_term's
     // rate entries (~1e8) would only worsen the KKT conditioning there.
-    if (staged || terminal_cost || soft_end)
-      write_block(m.qp.P, m.pat.posP_z[i], terminal_cost ? m.P_term : m.Q, 2.0, i < N ? m.pat.mQ : m.pat.mP);
+    if (i < n || terminal_cost || soft_end)
+      write_block(qp.P, pat.posP_z[i], terminal_cost ? m.P_term : m.Q, 2.0, i < n ? pat.mQ : pat.mP);
     else
-      zero_block(m.qp.P, m.pat.posP_z[i]);
-    m.qp.q.segment(m.lay.iz(i), nx).setZero();
+      zero_block(qp.P, pat.posP_z[i]);
+    qp.q.segment(lay.iz(i), nx).setZero();
   }
-  if (m.lay.off_sigma >= 0) {
-    m.qp.q.segment(m.lay.off_sigma, (N + 1) * nc).setConstant(s.soft_penalty);
-    m.qp.x_l.segment(m.lay.off_sigma, (N + 1) * nc).setZero();
+  if (lay.off_sigma >= 0) {
+    qp.q.segment(lay.off_sigma, (n + 1) * nc).setConstant(s.soft_penalty);
+    qp.x_l.segment(lay.off_sigma, (n + 1) * nc).setZero();
   }
-  if (m.lay.off_t >= 0) {
-    const int r0 = (N + 1) * nc;
-    m.qp.q.segment(m.lay.off_t, nx).setConstant(c.terminal_phase ? s.soft_penalty : 0.0);
-    m.qp.x_l.segment(m.lay.off_t, nx)
-        .setConstant(-kInf);                       // t >= 0 follows from |dz_N| <= t: no redundant bound
-    const double sign[4] = {1.0, -1.0, 1.0, 1.0};  // dz_N - t <= 0, dz_N + t >= 0 (zbar_T = x_f)
+  if (lay.off_t >= 0) {
+    const int r0 = lay.terminal_row();
+    qp.q.segment(lay.off_t, nx).setConstant(c.terminal_phase ? s.soft_penalty : 0.0);
+    qp.x_l.segment(lay.off_t, nx).setConstant(-kInf);  // t >= 0 follows from |dz_N| <= t: no redundant bound
+    const double sign[4] = {1.0, -1.0, 1.0, 1.0};      // dz_N - t <= 0, dz_N + t >= 0 (zbar_T = x_f)
     for (int blk = 0; blk < 4; ++blk)
       for (int j = 0; j < nx; ++j)
-        m.qp.G.valuePtr()[m.pat.posG_term[blk * nx + j]] = c.terminal_phase ? sign[blk] : 0.0;
+        qp.G.valuePtr()[pat.posG_term[blk * nx + j]] = c.terminal_phase ? sign[blk] : 0.0;
     if (c.terminal_phase) {
-      m.qp.h_l.segment(r0, nx).setConstant(-kInf);
-      m.qp.h_u.segment(r0, nx).setZero();
-      m.qp.h_l.segment(r0 + nx, nx).setZero();
-      m.qp.h_u.segment(r0 + nx, nx).setConstant(kInf);
+      qp.h_l.segment(r0, nx).setConstant(-kInf);
+      qp.h_u.segment(r0, nx).setZero();
+      qp.h_l.segment(r0 + nx, nx).setZero();
+      qp.h_u.segment(r0 + nx, nx).setConstant(kInf);
     } else {
-      m.qp.h_l.segment(r0, 2 * nx).setConstant(-1.0);
-      m.qp.h_u.segment(r0, 2 * nx).setConstant(1.0);
+      qp.h_l.segment(r0, 2 * nx).setConstant(-1.0);
+      qp.h_u.segment(r0, 2 * nx).setConstant(1.0);
     }
   }
 }
@@ -367,58 +386,45 @@ void TubeMPC::write_constraints(const StepContext& c) {
   Impl& m = *impl_;
   const Settings& s = c.s;
   const Eigen::MatrixXd& Pe = c.tube.Pe;
-  const int nx = m.nx, nc = m.nc, N = m.N, n = c.n;
-  for (int i = 0; i < N; ++i) {
-    const int r0 = (i + 1) * nx;
-    if (i < n) {
-      write_block(m.qp.A, m.pat.posA_A[i], m.lin.Ad[i], -1.0, m.pat.mA);
-      write_block(m.qp.A, m.pat.posA_B[i], m.lin.Bd[i], -1.0, m.pat.mB);
-      // dz_{i+1} - A dz_i - B v_i = c + A zbar_i - zbar_{i+1}
-      m.tmp_nx.noalias() = m.lin.Ad[i] * m.z_ref.col(i);
-      m.qp.b.segment(r0, nx) = m.lin.cd[i] + m.tmp_nx - m.z_ref.col(i + 1);
-    } else {  // frozen node: z_{i+1} = z_i, input without effect
-      write_block(m.qp.A, m.pat.posA_A[i], Eigen::MatrixXd::Identity(nx, nx), -1.0, m.pat.mA);
-      zero_block(m.qp.A, m.pat.posA_B[i]);
-      m.qp.b.segment(r0, nx) = m.z_ref.col(i) - m.z_ref.col(i + 1);
-    }
+  const int nx = m.nx, nc = m.nc, n = c.n;
+  const detail::QpLayout& lay = m.slot(n).lay;
+  detail::QpPattern& pat = m.slot(n).pat;
+  detail::QpProblem& qp = pat.qp;
+  for (int i = 0; i < n; ++i) {
+    write_block(qp.A, pat.posA_A[i], m.lin.Ad[i], -1.0, pat.mA);
+    write_block(qp.A, pat.posA_B[i], m.lin.Bd[i], -1.0, pat.mB);
+    // dz_{i+1} - A dz_i - B v_i = c + A zbar_i - zbar_{i+1}
+    m.tmp_nx.noalias() = m.lin.Ad[i] * m.z_ref.col(i);
+    qp.b.segment(lay.dynamics_row(i), nx) = m.lin.cd[i] + m.tmp_nx - m.z_ref.col(i + 1);
   }
-  for (int i = 0; i <= N; ++i) {
-    if (nc == 0) break;
-    if (i <= n) {
-      write_block(m.qp.G, m.pat.posG[i], m.lin.Gc[i], 1.0, m.pat.mG);
-      for (int j = 0; j < nc; ++j) {
-        const int row = i * nc + j;
-        if (std::isfinite(m.lin.hc[i](j))) {
-          m.tmp_nx.noalias() = Pe * m.lin.Gc[i].row(j).transpose();
-          m.qp.h_l(row) = -kInf;
-          m.qp.h_u(row) = m.lin.hc[i](j) - std::sqrt(std::max(0.0, m.lin.Gc[i].row(j).dot(m.tmp_nx))) -
-                          m.lin.Gc[i].row(j).dot(m.z_ref.col(i));
-        } else {  // the model marks the row absent
-          zero_block_row(m.qp.G, m.pat.posG[i], m.pat.mG, j);
-          m.qp.h_l(row) = -1.0;
-          m.qp.h_u(row) = 1.0;
-        }
+  for (int i = 0; i <= n && nc > 0; ++i) {
+    write_block(qp.G, pat.posG[i], m.lin.Gc[i], 1.0, pat.mG);
+    for (int j = 0; j < nc; ++j) {
+      const int row = lay.state_row(i) + j;
+      if (std::isfinite(m.lin.hc[i](j))) {
+        m.tmp_nx.noalias() = Pe * m.lin.Gc[i].row(j).transpose();
+        qp.h_l(row) = -kInf;
+        qp.h_u(row) = m.lin.hc[i](j) - std::sqrt(std::max(0.0, m.lin.Gc[i].row(j).dot(m.tmp_nx))) -
+                      m.lin.Gc[i].row(j).dot(m.z_ref.col(i));
+      } else {  // the model marks the row absent
+        zero_block_row(qp.G, pat.posG[i], pat.mG, j);
+        qp.h_l(row) = -1.0;
+        qp.h_u(row) = 1.0;
       }
-    } else {
-      zero_block(m.qp.G, m.pat.posG[i]);
-      m.qp.h_l.segment(i * nc, nc).setConstant(-1.0);
-      m.qp.h_u.segment(i * nc, nc).setConstant(1.0);
     }
   }
-  for (int i = 1; i <= N; ++i) {
-    if (i <= n && std::isfinite(s.trust_region)) {
-      m.qp.x_l.segment(m.lay.iz(i), nx).array() =
-          (m.lin.z_lin.col(i) - m.z_ref.col(i)).array() - s.trust_region;
-      m.qp.x_u.segment(m.lay.iz(i), nx).array() =
-          (m.lin.z_lin.col(i) - m.z_ref.col(i)).array() + s.trust_region;
+  for (int i = 1; i <= n; ++i) {
+    if (std::isfinite(s.trust_region)) {
+      qp.x_l.segment(lay.iz(i), nx).array() = (m.lin.z_lin.col(i) - m.z_ref.col(i)).array() - s.trust_region;
+      qp.x_u.segment(lay.iz(i), nx).array() = (m.lin.z_lin.col(i) - m.z_ref.col(i)).array() + s.trust_region;
     } else {
-      m.qp.x_l.segment(m.lay.iz(i), nx).setConstant(-kInf);
-      m.qp.x_u.segment(m.lay.iz(i), nx).setConstant(kInf);
+      qp.x_l.segment(lay.iz(i), nx).setConstant(-kInf);
+      qp.x_u.segment(lay.iz(i), nx).setConstant(kInf);
     }
   }
   if (c.terminal_phase && !s.soft_terminal) {  // z_N = x_f = zbar_T
-    m.qp.x_l.segment(m.lay.iz(N), nx).setZero();
-    m.qp.x_u.segment(m.lay.iz(N), nx).setZero();
+    qp.x_l.segment(lay.iz(n), nx).setZero();
+    qp.x_u.segment(lay.iz(n), nx).setZero();
   }
 }
 
@@ -430,12 +436,19 @@ double TubeMPC::update_plan(const StepContext& c, const Eigen::VectorXd& x_qp) {
   Impl& m = *impl_;
   const Settings& s = c.s;
   const int nx = m.nx, nu = m.nu, N = m.N, n = c.n;
+  const detail::QpLayout& lay = m.slot(n).lay;
   double delta = 0.0;
-  for (int i = 0; i <= N; ++i) {
-    m.z_star.col(i) = x_qp.segment(m.lay.iz(i), nx) + m.z_ref.col(i);
-    if (i <= n) delta = std::max(delta, (m.z_star.col(i) - m.lin.z_lin.col(i)).cwiseAbs().maxCoeff());
+  for (int i = 0; i <= n; ++i) {
+    m.z_star.col(i) = x_qp.segment(lay.iz(i), nx) + m.z_ref.col(i);
+    delta = std::max(delta, (m.z_star.col(i) - m.lin.z_lin.col(i)).cwiseAbs().maxCoeff());
   }
-  for (int i = 0; i < N; ++i) m.v_star.col(i) = x_qp.segment(m.lay.iv(i), nu);
+  for (int i = n + 1; i <= N; ++i) m.z_star.col(i) = m.z_star.col(n);  // past the mission's end: z_T
+  for (int i = 0; i < N; ++i) {
+    if (i < n)
+      m.v_star.col(i) = x_qp.segment(lay.iv(i), nu);
+    else
+      m.v_star.col(i).setZero();
+  }
   m.lin.update(m.z_star, m.v_star, n, s.linearization == Linearization::Reuse, s.scp_eps);
   return delta;
 }
@@ -458,7 +471,7 @@ const StepResult& TubeMPC::finish(const StepContext& c, bool converged, bool ina
   res.status = !converged ? Status::MaxIterations : (inaccurate ? Status::SolvedInaccurate : Status::Solved);
   if (!res.u.allFinite()) return fallback(c, Status::NumericalError);
   if (converged) m.lin.converged(c.k, c.n, c.s.scp_mode == ScpMode::RealTime);
-  m.solver->plan_applied(c.k);
+  m.slot(c.n).solver->plan_applied(c.k);
   res.timings.total = seconds_since(c.t_start);
   return res;
 }
@@ -502,8 +515,9 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   for (int it = 0; it < s.scp_max_iterations; ++it) {
     if (it > 0 && seconds_since(c.t_start) > s.time_limit) return fallback(c, Status::TimeLimit);
     auto t0 = Clock::now();
-    const Status lin = m.lin.evaluate(c.model, m.ref.t0, k, s.dt, c.n, it, m.pat.mA, m.pat.mB, m.pat.mG,
-                                      res.model_evaluations);
+    const detail::QpPattern& pat = m.slot(m.N).pat;  // the masks are every horizon's
+    const Status lin =
+        m.lin.evaluate(c.model, m.ref.t0, k, s.dt, c.n, it, pat.mA, pat.mB, pat.mG, res.model_evaluations);
     res.timings.linearize += seconds_since(t0);
     if (lin != Status::Solved) return fallback(c, lin);
     if (m.lin.same_as_last(it, c.n, last_delta < s.trust_region)) {
@@ -515,20 +529,21 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     write_constraints(c);
     res.timings.build += seconds_since(t0);
     t0 = Clock::now();
-    const Status qp_status = m.solver->solve(m.qp, s, res, c.t_start);
+    detail::QpBackend& solver = *m.slot(c.n).solver;
+    const Status qp_status = solver.solve(m.slot(c.n).pat.qp, s, res, c.t_start);
     res.timings.solve += seconds_since(t0);
     res.scp_iterations = it + 1;
     if (qp_status == Status::SolvedInaccurate)
       inaccurate = true;
     else if (qp_status != Status::Solved)
       return fallback(c, qp_status);
-    const Eigen::VectorXd& x_qp = m.solver->w();
+    const Eigen::VectorXd& x_qp = solver.w();
     if (!x_qp.allFinite()) return fallback(c, Status::NumericalError);
     if (seconds_since(c.t_start) > s.time_limit) return fallback(c, Status::TimeLimit);
     const double delta = update_plan(c, x_qp);
     res.scp_residual = delta;
     last_delta = delta;
-    res.objective = m.solver->objective() + m.qp.constant;
+    res.objective = solver.objective() + m.slot(c.n).pat.qp.constant;
     // ScpMode::RealTime: one QP; the nodes it moved are re-linearised at the next step.
     if (delta < s.scp_eps || s.scp_mode == ScpMode::RealTime) {
       converged = true;

@@ -141,7 +141,7 @@ double excursion(const Eigen::MatrixXd& Pe, const dynamics::StateVector& x, cons
   return e.dot(P.ldlt().solve(e));
 }
 
-Flight fly(const io::Scenario& scn, control::Method method,
+Flight fly(const io::ScenarioFile& scn, control::Method method,
            const std::shared_ptr<const dynamics::ProximityModel>& model,
            const dynamics::ProximityModel& truth, const Eigen::MatrixXd& disturbance) {
   Flight f;
@@ -313,7 +313,7 @@ int main(int argc, char** argv) {
   if (scenario_path.empty() || (method_arg != "both" && method_arg != "tbmpc" && method_arg != "ffa"))
     return usage(argv[0]);
 
-  io::Scenario scn;
+  io::ScenarioFile scn;
   std::shared_ptr<const dynamics::ProximityModel> model;
   std::shared_ptr<const dynamics::ProximityModel> truth;
   Eigen::MatrixXd disturbance;

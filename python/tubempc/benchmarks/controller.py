@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import _core
 from ..machine import machine_info
 from . import write_json
 
@@ -27,7 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_mutually_exclusive_group()
     group.add_argument("--config", help="scenario TOML (fields left out are the paper scenario's)")
     group.add_argument("--scenario", help="a packaged scenario (default: bennu-paper)")
-    parser.add_argument("--method", choices=["tbmpc", "ffa", "both"], default="both")
+    parser.add_argument("--method", choices=[*_core.control.Method.names(), "both"], default="both")
     parser.add_argument("--seed", type=int, default=0, help="disturbance seed")
     parser.add_argument(
         "--design-worker",
@@ -50,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
 
     cfg = load_config(args.config, scenario=args.scenario)
     scn = build_scenario(cfg)
-    methods = ["tbmpc", "ffa"] if args.method == "both" else [args.method]
+    methods = _core.control.Method.names() if args.method == "both" else [args.method]
     out: dict[str, Any] = {
         "machine": machine_info(),
         "config": cfg.to_dict(),

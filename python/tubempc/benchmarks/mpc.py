@@ -221,14 +221,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--linearization",
-        choices=("reuse", "every_iteration"),
+        choices=mpc.Linearization.names(),
         default="reuse",
         help="every_iteration: call the model at every node in every SCP iteration (mpc::Linearization; "
         "default reuse: a step re-uses the previous converged step's model data)",
     )
     parser.add_argument(
         "--qp-solver",
-        choices=("active_set", "piqp"),
+        choices=mpc.QpSolver.names(),
         default="active_set",
         help="QP solver of the step: the warm-started active set with PIQP when it does not verify "
         "(default, mpc::QpSolver::ActiveSet) or PIQP alone",
@@ -327,10 +327,8 @@ def run(args: argparse.Namespace) -> int:
         plant_text = "plant: 12-state/6-input stand-in (Hill/CW translation + linearised rigid body, 4 glide-slope planes)"
 
     samples = set(np.linspace(0, args.steps - 1, args.qp_samples).round().astype(int).tolist())
-    settings.linearization = {"reuse": mpc.Linearization.Reuse, "every_iteration": mpc.Linearization.EveryIteration}[
-        args.linearization
-    ]
-    settings.qp_solver = mpc.QpSolver.ActiveSet if args.qp_solver == "active_set" else mpc.QpSolver.Piqp
+    settings.linearization = mpc.Linearization.from_string(args.linearization)
+    settings.qp_solver = mpc.QpSolver.from_string(args.qp_solver)
     records, qps = run_mission(model, settings, reference, tube, truth, samples)
     final = records.pop()
     # Further flights of the same (deterministic) mission, for the timings' spread between runs.

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from .. import _core
 from . import EXIT_FAILED_RUNS, config_from_args, guarantee_status, parse_ints, parse_seed, scenario_arguments
 
 DESCRIPTION = "resumable Monte Carlo campaign of both methods (paper Table 4)"
@@ -17,7 +18,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default="results/montecarlo")
     scenario_arguments(parser)
     parser.add_argument("--seed", type=parse_seed, default=0, help="master seed >= 0")
-    parser.add_argument("--method", choices=["tbmpc", "ffa", "both"], default="both")
+    parser.add_argument("--method", choices=[*_core.control.Method.names(), "both"], default="both")
     parser.add_argument("--retry-failed", action="store_true", help="rerun the runs recorded as failed")
     parser.add_argument("--only", type=parse_ints, help="rerun just these run indices (comma-separated)")
     parser.add_argument("--quiet", action="store_true")
@@ -29,7 +30,7 @@ def run(args: argparse.Namespace) -> int:
     from ..analysis import montecarlo
     from ..metrics import below_or_above
 
-    methods = ("tbmpc", "ffa") if args.method == "both" else (args.method,)
+    methods = tuple(_core.control.Method.names()) if args.method == "both" else (args.method,)
     s = montecarlo(
         config_from_args(args),
         args.runs,

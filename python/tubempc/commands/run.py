@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from .. import _core
 from . import EXIT_REFLIGHT_DIFFERS, EXIT_USAGE, config_from_args, guarantee_status, parse_seed, scenario_arguments
 
 DESCRIPTION = "closed-loop TBMPC and/or TBMPC-FFA on a scenario (default: the paper's)"
@@ -13,7 +14,7 @@ DESCRIPTION = "closed-loop TBMPC and/or TBMPC-FFA on a scenario (default: the pa
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     scenario_arguments(parser)
-    parser.add_argument("--method", choices=["tbmpc", "ffa", "both"], default="both")
+    parser.add_argument("--method", choices=[*_core.control.Method.names(), "both"], default="both")
     parser.add_argument(
         "--shape",
         help="shape file (OBJ, PDS v/f table, ICQ, PLY, STL) instead of the config's, with --shape-unit; "
@@ -99,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
                 "disturbance inside the prior's 3-sigma ellipsoid (the paper scenario's own is 2.5; README "
                 '"Your own mission")'
             )
-    methods = ["tbmpc", "ffa"] if args.method == "both" else [args.method]
+    methods = _core.control.Method.names() if args.method == "both" else [args.method]
     seed = cfg.disturbance.seed if args.seed is None else args.seed
     if cfg.mpc.n_steps > LARGE_RUN_STEPS:
         print(

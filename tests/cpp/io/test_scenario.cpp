@@ -12,7 +12,7 @@
 #include "tubempc/io/scenario.hpp"
 
 using tubempc::io::read_scenario;
-using tubempc::io::Scenario;
+using tubempc::io::ScenarioFile;
 using tubempc::io::write_scenario;
 
 namespace {
@@ -28,17 +28,20 @@ Eigen::MatrixXd filled(Eigen::Index rows, Eigen::Index cols, double seed, double
 }
 
 // A scenario whose every value is distinct and not exactly representable in few digits.
-Scenario sample(int T) {
-  Scenario s;
+ScenarioFile sample(int T) {
+  ScenarioFile s;
   s.model.params.kinematics = tubempc::dynamics::Kinematics::Exact;
   s.model.params.spin_angle0 = 0.1;
   s.model.params.inertia_B(0, 1) = s.model.params.inertia_B(1, 0) = 1.0 / 3.0;
+  s.model.params.glide_slope_apex_A = Eigen::Vector3d(1.0 / 3.0, -2.0, 0.1);  // not the defaults
+  s.model.params.glide_slope_axis_A = Eigen::Vector3d(0.1, 0.2, 1.0 / 3.0);
   s.model.density = 1260.0;
   s.model.shape = "shape.obj";
   s.truth = s.model;
   s.truth.density = 1260.0 * 1.1;
   s.truth.params.beta_srp *= 0.9;
   s.truth.params.srp_enabled = false;
+  s.truth.params.kinematics = tubempc::dynamics::Kinematics::FirstOrder;  // version 1 calls it "paper"
   s.truth.shape = "/abs/truth shape.tab";
   s.truth.shape_unit_scale = 1000.0;
   s.propagator.substeps = 8;
@@ -104,7 +107,7 @@ void expect_same_bits(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, const 
   }
 }
 
-class ScenarioFile : public ::testing::Test {
+class ScenarioFileTest : public ::testing::Test {
  protected:
   void SetUp() override {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
@@ -168,9 +171,9 @@ class ScenarioFile : public ::testing::Test {
 
 }  // namespace
 
-TEST_F(ScenarioFile, RoundTripIsBitExact) {
-  const Scenario a = sample(3);
-  const Scenario b = read_scenario(path_);
+TEST_F(ScenarioFileTest, RoundTripIsBitExact) {
+  const ScenarioFile a = sample(3);
+  const ScenarioFile b = read_scenario(path_);
   EXPECT_EQ(b.directory, dir_.string());
   EXPECT_EQ(b.mission_steps(), 3);
   for (const auto& [x, y, name] :
@@ -187,6 +190,8 @@ TEST_F(ScenarioFile, RoundTripIsBitExact) {
     EXPECT_EQ(x->params.glide_slope_angle, y->params.glide_slope_angle);
     EXPECT_EQ(x->params.los_angle, y->params.los_angle);
     expect_same_bits(x->params.boresight_B, y->params.boresight_B, "boresight_B");
+    expect_same_bits(x->params.glide_slope_apex_A, y->params.glide_slope_apex_A, "glide_slope_apex_A");
+    expect_same_bits(x->params.glide_slope_axis_A, y->params.glide_slope_axis_A, "glide_slope_axis_A");
     EXPECT_EQ(x->density, y->density);
     EXPECT_EQ(x->shape, y->shape);
     EXPECT_EQ(x->shape_unit_scale, y->shape_unit_scale);
@@ -275,24 +280,27 @@ TEST_F(ScenarioFile, RoundTripIsBitExact) {
   EXPECT_EQ(text.str(), text_);
 }
 
-TEST_F(ScenarioFile, OptionalRecordsTakeDefaults) {
+TEST_F(ScenarioFileTest, OptionalRecordsTakeDefaults) {
   std::string text = text_;
-  for (const char* name :
-       {"mpc.trust_region 1 1\ninf\n", "mpc.kkt_solver text\nsparse_ldlt\n", "mpc.G_structure 2 12\n"}) {
+  for (const char* name : {"mpc.trust_region 1 1\ninf\n", "mpc.kkt_solver text\nsparse_ldlt\n",
+                           "mpc.G_structure 2 12\n", "model.glide_slope_apex_A 3 1\n"}) {
     const std::size_t at = text.find(name);
     ASSERT_NE(at, std::string::npos) << name;
     std::size_t end = at + std::string(name).size();
     if (std::string(name) == "mpc.G_structure 2 12\n") end = text.find("reference.t0", at);
+    if (std::string(name) == "model.glide_slope_apex_A 3 1\n")
+      end = text.find("model.glide_slope_axis_A", at);
     text.erase(at, end - at);
   }
   std::ofstream(path_, std::ios::binary) << text;
-  const Scenario s = read_scenario(path_);
+  const ScenarioFile s = read_scenario(path_);
   EXPECT_EQ(s.settings.trust_region, tubempc::mpc::Settings{}.trust_region);
   EXPECT_EQ(s.settings.G_structure.size(), 0);
+  EXPECT_EQ(s.model.params.glide_slope_apex_A, tubempc::dynamics::ModelParams{}.glide_slope_apex_A);
 }
 
 // A version-1 file (the option names before the one-name-per-option change) reads to the same scenario.
-TEST_F(ScenarioFile, VersionOneFilesAreRead) {
+TEST_F(ScenarioFileTest, VersionOneFilesAreRead) {
   std::string text = text_;
   const auto replace = [&text](const std::string& from, const std::string& to) {
     const std::size_t at = text.find(from);
@@ -300,7 +308,7 @@ TEST_F(ScenarioFile, VersionOneFilesAreRead) {
     text.replace(at, from.size(), to);
   };
   replace("tubempc-scenario 3", "tubempc-scenario 1");
-  const Scenario fresh = read_scenario(path_);
+  const ScenarioFile fresh = read_scenario(path_);
   // versions 1 and 2 carry TBMPC's tube instead of the controller
   const std::size_t c0 = text.find("controller.measured_input"), c1 = text.find("mission.x0");
   ASSERT_NE(c0, std::string::npos);
@@ -310,11 +318,10 @@ TEST_F(ScenarioFile, VersionOneFilesAreRead) {
   tube << "tube.Pe 12 12\n"
        << fresh.tube.Pe.format(Eigen::IOFormat(17, Eigen::DontAlignCols, " ", "\n")) << "\n";
   text.replace(c0, c1 - c0, tube.str());
-  const std::string kin = std::string("model.kinematics text\n") + to_string(fresh.model.params.kinematics);
-  if (fresh.model.params.kinematics == tubempc::dynamics::Kinematics::FirstOrder)
-    replace(kin, "model.kinematics text\npaper");
-  if (fresh.truth.params.kinematics == tubempc::dynamics::Kinematics::FirstOrder)
-    replace("truth.kinematics text\nfirst_order", "truth.kinematics text\npaper");
+  // the truth's first-order kinematics under version 1's name (the model's stays "exact")
+  ASSERT_EQ(fresh.truth.params.kinematics, tubempc::dynamics::Kinematics::FirstOrder);
+  ASSERT_EQ(fresh.model.params.kinematics, tubempc::dynamics::Kinematics::Exact);
+  replace("truth.kinematics text\nfirst_order", "truth.kinematics text\npaper");
   replace(std::string("mpc.input_cost text\n") + tubempc::mpc::to_string(fresh.settings.input_cost),
           fresh.settings.input_cost == tubempc::mpc::InputCost::Absolute
               ? "mpc.input_cost text\npaper"
@@ -328,7 +335,7 @@ TEST_F(ScenarioFile, VersionOneFilesAreRead) {
               : "mpc.reuse_linearization 1 1\n0");
   const std::string path = (dir_ / "v1.txt").string();
   std::ofstream(path, std::ios::binary) << text;
-  const Scenario old = read_scenario(path);
+  const ScenarioFile old = read_scenario(path);
   EXPECT_EQ(old.model.params.kinematics, fresh.model.params.kinematics);
   EXPECT_EQ(old.truth.params.kinematics, fresh.truth.params.kinematics);
   EXPECT_EQ(old.settings.input_cost, fresh.settings.input_cost);
@@ -341,7 +348,7 @@ TEST_F(ScenarioFile, VersionOneFilesAreRead) {
   EXPECT_THROW(read_scenario(path), std::invalid_argument);
 }
 
-TEST_F(ScenarioFile, ErrorsNameFileLineAndRecord) {
+TEST_F(ScenarioFileTest, ErrorsNameFileLineAndRecord) {
   expect_error("tubempc-scenario 3", "tubempc-scenario 4", 1, "format version 4 is not supported");
   expect_error("tubempc-scenario 3", "tubempc 3", 1, "not a tubempc scenario file");
   const long mu = line_of("model.mu_sun 1 1");
@@ -372,8 +379,14 @@ TEST_F(ScenarioFile, ErrorsNameFileLineAndRecord) {
   expect_error("model.inertia_B 3 3\n2750 0.33333333333333331 0",
                "model.inertia_B 3 3\n2750 0.33333333333333331", inertia + 1,
                "model.inertia_B: row 0: expected 3 values, got 2");
-  expect_error("model.density 1 1\n1260", "model.density 1 1\n0", line_of("model.density 1 1") + 1,
-               "model.density: must be > 0");
+  expect_error("model.density 1 1\n1260", "model.density 1 1\n0", 0,
+               "model.* (BodyModel): BodyModel.density: must be finite and > 0, got 0");
+  // a fixed-size optional record may be left out, not written empty
+  const long axis = line_of("model.glide_slope_axis_A 3 1");
+  expect_error("model.glide_slope_axis_A 3 1\n" + line_at(axis + 1) + "\n" + line_at(axis + 2) + "\n" +
+                   line_at(axis + 3) + "\n",
+               "model.glide_slope_axis_A 0 0\n", axis,
+               "model.glide_slope_axis_A: expected size 3 x 1, got 0 x 0");
   const long sub = line_of("propagator.substeps 1 1");
   expect_error("propagator.substeps 1 1\n8", "propagator.substeps 1 1\n8.5", sub + 1,
                "propagator.substeps: expected an integer, got 8.5");
@@ -410,7 +423,7 @@ TEST(ScenarioFileErrors, MissingFileAndEmptyFile) {
   } catch (const std::invalid_argument& e) {
     EXPECT_EQ(std::string(e.what()).rfind(missing + ": cannot open the file", 0), 0u) << e.what();
   }
-  Scenario s;  // default: no weights, no reference
+  ScenarioFile s;  // default: no weights, no reference
   EXPECT_THROW(write_scenario((fs::temp_directory_path() / "tubempc_never.txt").string(), s),
                std::invalid_argument);
 }

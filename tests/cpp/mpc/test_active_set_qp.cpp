@@ -220,6 +220,49 @@ TEST(ActiveSetQp, DualPhaseMatchesPiqpFromAnyGuess) {
   EXPECT_THROW(bad.validate(), std::invalid_argument);
 }
 
+// An exact L1 penalty, as the tube MPC's soft terminal constraint: min 1/2 |w|^2 + t + 1/2 t^2 with
+// |w_0 + w_1| <= t (the pair rows w_0 + w_1 - t <= 0 and w_0 + w_1 + t >= 0) and w_0 <= 3; optimum w = 0,
+// t = 0 with both pair rows active (multipliers 1/2 each) and the bound inactive. The guess "bound and
+// both pair rows active" holds w = (3, -3): the bound's multiplier is -6 and the lower pair row's -1,
+// both wrong. Dropping both (the primal-dual step) leaves t = -2 and costs a third factorisation;
+// with the pair marked (set_penalty_rows) only the bound leaves and the second factorisation is the optimum.
+TEST(ActiveSetQp, PenaltyRowsStayWhileAnotherRowIsWrong) {
+  SpMat P(3, 3), A(0, 3), G(2, 3);
+  P.insert(0, 0) = 1.0;
+  P.insert(1, 1) = 1.0;
+  P.insert(2, 2) = 1.0;
+  G.insert(0, 0) = 1.0;
+  G.insert(0, 1) = 1.0;
+  G.insert(0, 2) = -1.0;
+  G.insert(1, 0) = 1.0;
+  G.insert(1, 1) = 1.0;
+  G.insert(1, 2) = 1.0;
+  P.makeCompressed();
+  A.makeCompressed();
+  G.makeCompressed();
+  const Eigen::VectorXd q = Eigen::Vector3d(0.0, 0.0, 1.0), b(0), h_l = Eigen::Vector2d(-kInf, 0.0),
+                        h_u = Eigen::Vector2d(0.0, kInf), x_l = Eigen::Vector3d::Constant(-kInf),
+                        x_u = Eigen::Vector3d(3.0, kInf, kInf);
+  const Eigen::Array<bool, Eigen::Dynamic, 1> boundable = Eigen::Array<bool, 3, 1>(true, false, false);
+  for (const bool marked : {true, false}) {
+    ActiveSetQp as;
+    as.setup(P, A, G, boundable, ActiveSetQp::Settings{});
+    if (marked) as.set_penalty_rows(Eigen::Array<bool, Eigen::Dynamic, 1>::Constant(2, true));
+    Eigen::VectorXi guess(5);
+    guess << 1, -1, 1, 0, 0;  // both pair rows and w_0's upper bound
+    ASSERT_EQ(as.solve(P, q, A, b, G, h_l, h_u, x_l, x_u, guess), ActiveSetQp::Status::Solved) << marked;
+    EXPECT_EQ(as.info().iterations, marked ? 2 : 3);
+    EXPECT_LT(as.w().lpNorm<Eigen::Infinity>(), 1e-12) << marked;
+    EXPECT_NEAR(as.z_u()(0), 0.5, 1e-9);
+    EXPECT_NEAR(as.z_l()(1), 0.5, 1e-9);
+    EXPECT_EQ(guess(2), 0);
+  }
+  ActiveSetQp as;
+  as.setup(P, A, G, boundable, ActiveSetQp::Settings{});
+  EXPECT_THROW(as.set_penalty_rows(Eigen::Array<bool, Eigen::Dynamic, 1>::Constant(3, true)),
+               std::invalid_argument);
+}
+
 TEST(ActiveSetQp, ReportsBadDataAndUnsolvedProblemsAsStatuses) {
   RandomQp qp(3);
   ActiveSetQp as;

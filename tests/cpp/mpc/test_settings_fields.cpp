@@ -8,6 +8,9 @@
 
 #include "tubempc/control/controller.hpp"
 #include "tubempc/dynamics/propagator.hpp"
+#include "tubempc/io/scenario.hpp"
+#include "tubempc/mpc/active_set_qp.hpp"
+#include "tubempc/mpc/results.hpp"
 #include "tubempc/mpc/settings.hpp"
 
 using namespace tubempc;
@@ -51,6 +54,34 @@ TEST(SettingsFields, EnumTablesAreCompleteAndInvertible) {
   expect_complete_table<control::MeasuredInput>(2);
 }
 
+TEST(SettingsFields, StatusTablesAreCompleteAndInvertible) {
+  expect_complete_table<mpc::Status>(11);
+  expect_complete_table<mpc::ActiveSetQp::Status>(5);
+  expect_complete_table<dynamics::DiscretizationStatus>(3);
+  expect_complete_table<dynamics::PropagationStatus>(4);
+  expect_complete_table<control::Method>(2);
+  expect_complete_table<control::Certification>(4);
+  expect_complete_table<control::TubeStatus>(7);
+}
+
+// The status names are the results files' format (per-step statuses in <method>.h5 and summary.json).
+TEST(SettingsFields, StatusNamesAreTheResultsFormat) {
+  EXPECT_EQ(mpc::to_string(mpc::Status::FallbackShiftedPlan), "fallback_shifted_plan");
+  EXPECT_EQ(mpc::to_string(mpc::Status::SolvedInaccurate), "solved_inaccurate");
+  EXPECT_STREQ(dynamics::to_string(dynamics::PropagationStatus::MaxStepsReached), "max_steps_reached");
+  EXPECT_STREQ(dynamics::to_string(dynamics::DiscretizationStatus::NonFiniteResult), "non_finite_result");
+  EXPECT_STREQ(control::to_string(control::Method::Tbmpc), "tbmpc");
+  EXPECT_STREQ(control::to_string(control::TubeStatus::LyapunovNoMargin), "lyapunov_no_margin");
+  EXPECT_STREQ(control::to_string(control::Certification::InvarianceViolated), "invariance_violated");
+  int fallbacks = 0;
+  for (const auto& entry : core::EnumNames<mpc::Status>::values) {
+    EXPECT_EQ(mpc::is_fallback(entry.value), std::string(entry.name).rfind("fallback_", 0) == 0)
+        << entry.name;
+    fallbacks += mpc::is_fallback(entry.value) ? 1 : 0;
+  }
+  EXPECT_EQ(fallbacks, 2);
+}
+
 // The names are the scenario and configuration files' format: files written before must still read.
 TEST(SettingsFields, NamesAreTheFileFormatsAndToStringUsesThem) {
   EXPECT_STREQ(mpc::to_string(mpc::QpSolver::ActiveSet), "active_set");
@@ -80,7 +111,7 @@ std::set<std::string> expect_fields_listed_once() {
     names.insert(f.name);
     addresses.insert(reinterpret_cast<std::uintptr_t>(&(s.*member)));
     using T = std::decay_t<decltype(s.*member)>;
-    const bool matrix = !std::is_arithmetic_v<T> && !std::is_enum_v<T>;
+    const bool matrix = !std::is_arithmetic_v<T> && !std::is_enum_v<T> && !std::is_same_v<T, std::string>;
     EXPECT_EQ(matrix, f.rows != core::Dim::One) << f.name;
     if (!std::is_same_v<T, double>) EXPECT_FALSE(f.allow_infinite) << f.name;
   });
@@ -96,4 +127,6 @@ TEST(SettingsFields, EveryFieldIsListedOnceWithItsMember) {
   for (const char* required : {"horizon", "dt", "Q", "R", "u_max", "input_cost", "scp_eps"})
     EXPECT_EQ(names.count(required), 1u) << required;
   EXPECT_EQ(expect_fields_listed_once<control::IdentifierSettings>().size(), 6u);
+  EXPECT_EQ(expect_fields_listed_once<dynamics::ModelParams>().size(), 13u);
+  EXPECT_EQ(expect_fields_listed_once<io::BodyModel>().size(), 3u);
 }

@@ -321,10 +321,16 @@ TEST(TubeMPC, ShrinkingHorizonReachesTheTarget) {
       // Linear plant: the re-linearised QP is identical, so one QP per step.
       EXPECT_EQ(r.scp_iterations, 1);
       EXPECT_LT(r.scp_residual, s.scp_eps);
+      // The QP has the step's horizon: n + 1 nodes of initial condition and dynamics rows.
+      EXPECT_EQ(mpc.qp_data().A.rows(), (r.horizon + 1) * 2);
       if (r.horizon < 10) {
         ++shrunk;
-        // The nominal plan ends at x_f and stays there on the frozen nodes.
+        // The nominal plan ends at x_f and stays there past the mission's end, with zero inputs.
         for (int i = r.horizon; i <= 10; ++i) EXPECT_LT((r.z.col(i) - xf).cwiseAbs().maxCoeff(), 1e-6);
+        for (int i = r.horizon; i < 10; ++i) EXPECT_EQ(r.v(0, i), 0.0);
+        // The previous step's set, carried over from the QP of one node more, is this QP's: one
+        // factorisation (a linear plant without disturbance repeats its plan).
+        if (ic == InitialCondition::Exact) EXPECT_EQ(r.active_set_iterations, 1) << k;
       }
       model->discretize(0.0, dt, x, r.u, A, B, c);
       x = A * x + B * r.u + c;

@@ -68,7 +68,8 @@ def test_report_compares_with_the_paper_only_for_the_paper_scenario(tmp_path: Pa
 
 
 def test_a_campaign_run_reflies_to_the_bit_and_a_changed_record_is_caught(tmp_path: Path) -> None:
-    from tubempc.cli import EXIT_OK, EXIT_REFLIGHT_DIFFERS, EXIT_USAGE, main
+    from tubempc.cli import main
+    from tubempc.commands import EXIT_OK, EXIT_REFLIGHT_DIFFERS, EXIT_USAGE
 
     cfg = load_config().with_overrides({"disturbance.scale_error_p": 0.05, "disturbance.misalignment_p": "1 deg"})
     out = tmp_path / "mc"

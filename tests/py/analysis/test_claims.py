@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from tubempc.claims import paper_claims
-from tubempc.cli import EXIT_GUARANTEE_LOST, main
+from tubempc.cli import main
+from tubempc.commands import EXIT_GUARANTEE_LOST
 from tubempc.report import write_report
 from tubempc.results import load_record
 

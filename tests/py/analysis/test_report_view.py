@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tubempc.cli import EXIT_GUARANTEE_LOST, main
+from tubempc.cli import main
+from tubempc.commands import EXIT_GUARANTEE_LOST
 from tubempc.report import write_report
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")

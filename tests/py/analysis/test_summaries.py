@@ -119,7 +119,8 @@ def test_a_results_folder_of_format_0_files_still_reports(tmp_path: Path) -> Non
 
 def test_a_campaign_with_a_format_0_summary_reports_and_re_flies(tmp_path: Path) -> None:
     from tubempc.analysis import montecarlo
-    from tubempc.cli import EXIT_OK, main
+    from tubempc.cli import main
+    from tubempc.commands import EXIT_OK
     from tubempc.report import write_report
 
     out = tmp_path / "mc"

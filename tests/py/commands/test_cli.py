@@ -9,7 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from tubempc.cli import EXIT_GUARANTEE_LOST, EXIT_INPUT, EXIT_OK, main
+from tubempc.cli import main
+from tubempc.commands import EXIT_GUARANTEE_LOST, EXIT_INPUT, EXIT_OK
 
 
 def test_bad_option_value_names_the_option(capsys: pytest.CaptureFixture[str]) -> None:

@@ -10,7 +10,7 @@ from scipy.optimize import minimize
 
 from tubempc import _core
 from tubempc.identification import ForgettingFactorIdentifier
-from tubempc.tube import TubeDesigner, TubeStatus, lmi_residual, lyapunov_tube
+from tubempc.tube import DesignStatus, TubeDesigner, lmi_residual, lyapunov_tube
 
 ctl = _core.control
 
@@ -107,7 +107,7 @@ def test_every_certified_design_is_invariant_in_its_worst_direction() -> None:
             P_W = _spd(rng, 6, np.sqrt(np.diag(P0)) * 10 ** rng.uniform(-1.5, 0.3)) * (1.2 if i % 2 else 1.0)
             res = des.design(A, B, P_W, None if i % 3 else 0.9)
             if not res.feasible:
-                assert res.status in (TubeStatus.INFEASIBLE, TubeStatus.INVALID, TubeStatus.SOLVER_ERROR)
+                assert res.status in (DesignStatus.INFEASIBLE, DesignStatus.INVALID, DesignStatus.SOLVER_ERROR)
                 continue
             assert res.K is not None and res.Pe is not None
             assert res.lmi_residual <= 0.0 and lmi_residual(A, B, res.K, res.Pe, P_W, res.alpha) <= 0.0

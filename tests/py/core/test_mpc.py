@@ -280,3 +280,30 @@ def test_option_enums_map_their_file_names_both_ways(enum: type[mpc.QpSolver]) -
         assert enum.from_string(value.to_string()) == value
     with pytest.raises(ValueError, match="unknown value 'nope' \\(known: '"):
         enum.from_string("nope")
+
+
+@pytest.mark.parametrize(
+    "enum",
+    [
+        mpc.Status,
+        _core.dynamics.PropagationStatus,
+        _core.control.Method,
+        _core.control.TubeStatus,
+        _core.control.Certification,
+        _core.control.MeasuredInput,
+    ],
+)
+def test_status_enums_str_is_their_table_name(enum: type[mpc.Status]) -> None:
+    members = list(enum.__members__.values())
+    assert len(enum.names()) == len(members) == len(set(enum.names()))
+    for value in members:
+        assert str(value) == value.to_string()
+        assert enum.from_string(str(value)) == value
+
+
+def test_fallback_statuses_are_the_fallback_ones() -> None:
+    fallbacks = {s for s in mpc.Status.__members__.values() if _core.mpc.is_fallback(s)}
+    assert fallbacks == {mpc.Status.FallbackShiftedPlan, mpc.Status.FallbackSafeInput}
+    from tubempc.summaries import fallback_steps
+
+    assert fallback_steps({"solved": 5, "fallback_safe_input": 2, "fallback_shifted_plan": 1}) == 3

@@ -84,7 +84,8 @@ def test_a_body_read_in_the_wrong_unit_is_refused_with_the_size_in_the_other(tmp
 
 
 def test_shape_option_carries_its_own_unit(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from tubempc.cli import EXIT_USAGE, main
+    from tubempc.cli import main
+    from tubempc.commands import EXIT_USAGE
 
     save_shape(tmp_path / "km.obj", bennu_like_shape(), unit="km")
     cfg = _write(tmp_path, '[asteroid]\nshape = "generated"\nshape_unit = "m"\n')
@@ -210,7 +211,8 @@ def test_montecarlo_exit_status_means_what_run_s_does(
 
 
 def test_sweep_exit_status_says_a_row_lost_its_guarantee(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from tubempc.cli import EXIT_GUARANTEE_LOST, main
+    from tubempc.cli import main
+    from tubempc.commands import EXIT_GUARANTEE_LOST
 
     # the paper scenario: TBMPC leaves its fixed tube (as `tubempc run` says with the same status)
     assert main(["sweep", "--lambda-p", "0.96", "--out", str(tmp_path), "--quiet"]) == EXIT_GUARANTEE_LOST
@@ -230,7 +232,8 @@ def test_a_campaign_counts_the_runs_that_lost_a_guarantee(tmp_path: Path) -> Non
 
 def test_a_reflight_checks_arrays_and_configuration_and_has_its_own_status(tmp_path: Path) -> None:
     from tubempc.analysis import montecarlo
-    from tubempc.cli import EXIT_OK, EXIT_REFLIGHT_DIFFERS, main
+    from tubempc.cli import main
+    from tubempc.commands import EXIT_OK, EXIT_REFLIGHT_DIFFERS
 
     out = tmp_path / "mc"
     montecarlo(load_config(), 1, out, master_seed=3, workers=1, progress=False, max_steps=4, methods=("ffa",))
@@ -296,7 +299,8 @@ def test_a_run_folder_with_its_own_shape_re_flies_and_re_reports_elsewhere(tmp_p
 
 def test_a_campaign_with_its_own_shape_re_flies_from_a_copy(tmp_path: Path) -> None:
     from tubempc.analysis import montecarlo
-    from tubempc.cli import EXIT_OK, main
+    from tubempc.cli import main
+    from tubempc.commands import EXIT_OK
 
     cfg = load_config(_own_mission(tmp_path))
     out = tmp_path / "results" / "mc"
@@ -367,7 +371,8 @@ def test_own_missions_get_a_neutral_disturbance_and_the_paper_scenario_keeps_its
     given = load_config(_write(tmp_path, "[disturbance]\ngrowth_r = 2.0\n"))
     assert given.disturbance.growth_r == 2.0
     # `tubempc run` says which disturbance an own mission got
-    from tubempc.cli import EXIT_OK, main
+    from tubempc.cli import main
+    from tubempc.commands import EXIT_OK
 
     mission = _write(tmp_path, "[disturbance]\nseed = 3\n", "short.toml")
     out = ["run", "--config", str(mission), "--method", "ffa", "--out", str(tmp_path / "o"), "--quiet", "--no-figures"]

@@ -221,7 +221,8 @@ def test_bennu_like_shape_is_watertight_outward_spinning_top() -> None:
 def test_a_badly_oriented_mesh_points_to_a_command_a_user_can_run(tmp_path: Path) -> None:
     """The core's advice (ShapeRepair::Orient) is offered as `tubempc repair-shape`, which writes a mesh
     that loads without repair (issue #28)."""
-    from tubempc.cli import EXIT_OK, main
+    from tubempc.cli import main
+    from tubempc.commands import EXIT_OK
 
     path = tmp_path / "flipped.obj"
     path.write_text(_with(CUBE, 14, "f 3 4 7"))

@@ -5,9 +5,9 @@ import pytest
 import scipy.linalg
 
 from tubempc.tube import (
+    DesignResult,
+    DesignStatus,
     TubeDesigner,
-    TubeResult,
-    TubeStatus,
     lmi_residual,
     sample_invariance,
 )
@@ -32,19 +32,19 @@ def _rot(**kw: object) -> TubeDesigner:
 
 
 @pytest.fixture(scope="module")
-def trans() -> tuple[TubeDesigner, TubeResult]:
+def trans() -> tuple[TubeDesigner, DesignResult]:
     d = _trans()
     return d, d.design(A_DI, B_TRANS, PW_TRANS)
 
 
 @pytest.fixture(scope="module")
-def rot() -> tuple[TubeDesigner, TubeResult]:
+def rot() -> tuple[TubeDesigner, DesignResult]:
     d = _rot()
     return d, d.design(A_DI, B_ROT, PW_ROT)
 
 
-def _check_valid(r: TubeResult, A: np.ndarray, B: np.ndarray, PW: np.ndarray, u_max: float) -> None:
-    assert r.status is TubeStatus.OPTIMAL and r.feasible
+def _check_valid(r: DesignResult, A: np.ndarray, B: np.ndarray, PW: np.ndarray, u_max: float) -> None:
+    assert r.status is DesignStatus.OPTIMAL and r.feasible
     assert r.K is not None and r.Pe is not None
     assert 0.0 < r.alpha < 1.0
     assert r.lmi_residual <= 1e-7
@@ -58,14 +58,14 @@ def _check_valid(r: TubeResult, A: np.ndarray, B: np.ndarray, PW: np.ndarray, u_
 
 
 def test_translational_tube_is_invariant(
-    trans: tuple[TubeDesigner, TubeResult],
+    trans: tuple[TubeDesigner, DesignResult],
 ) -> None:
     _check_valid(trans[1], A_DI, B_TRANS, PW_TRANS, U_MAX)
     assert trans[1].objective > 0.0 and trans[1].n_solves >= 1
 
 
 def test_badly_scaled_rotational_tube_is_valid(
-    rot: tuple[TubeDesigner, TubeResult],
+    rot: tuple[TubeDesigner, DesignResult],
 ) -> None:
     _check_valid(rot[1], A_DI, B_ROT, PW_ROT, T_MAX)
 
@@ -80,7 +80,7 @@ def test_a_design_does_not_depend_on_the_designs_before_it() -> None:
 
 
 def test_checks_detect_a_non_invariant_tube(
-    trans: tuple[TubeDesigner, TubeResult],
+    trans: tuple[TubeDesigner, DesignResult],
 ) -> None:
     r = trans[1]
     assert r.K is not None and r.Pe is not None
@@ -91,7 +91,7 @@ def test_checks_detect_a_non_invariant_tube(
 
 
 def test_larger_disturbance_gives_larger_tube(
-    trans: tuple[TubeDesigner, TubeResult],
+    trans: tuple[TubeDesigner, DesignResult],
 ) -> None:
     d, r = trans
     assert r.Pe is not None
@@ -102,22 +102,22 @@ def test_larger_disturbance_gives_larger_tube(
 
 
 def test_alpha_search_beats_fixed_alpha(
-    trans: tuple[TubeDesigner, TubeResult], rot: tuple[TubeDesigner, TubeResult]
+    trans: tuple[TubeDesigner, DesignResult], rot: tuple[TubeDesigner, DesignResult]
 ) -> None:
     for (d, r), A, B, PW in (
         (trans, A_DI, B_TRANS, PW_TRANS),
         (rot, A_DI, B_ROT, PW_ROT),
     ):
         fixed = d.design_fixed_alpha(A, B, PW, 0.5)
-        assert fixed.status is TubeStatus.OPTIMAL and fixed.n_solves == 1
+        assert fixed.status is DesignStatus.OPTIMAL and fixed.n_solves == 1
         assert r.objective < 0.99 * fixed.objective
 
 
-def test_warm_start_uses_few_solves(trans: tuple[TubeDesigner, TubeResult]) -> None:
+def test_warm_start_uses_few_solves(trans: tuple[TubeDesigner, DesignResult]) -> None:
     d, r = trans
     warm = d.design(A_DI, B_TRANS, 1.1 * PW_TRANS, alpha_prev=r.alpha)
     cold = d.design(A_DI, B_TRANS, 1.1 * PW_TRANS)
-    assert warm.status is TubeStatus.OPTIMAL and warm.n_solves <= 3 < cold.n_solves
+    assert warm.status is DesignStatus.OPTIMAL and warm.n_solves <= 3 < cold.n_solves
     assert warm.objective <= cold.objective * (1.0 + 5e-3)
     # Warm start far from the optimum widens the bracket and still finds it.
     far = d.design(A_DI, B_TRANS, PW_TRANS, alpha_prev=0.2)
@@ -125,11 +125,11 @@ def test_warm_start_uses_few_solves(trans: tuple[TubeDesigner, TubeResult]) -> N
 
 
 def test_infeasible_is_reported_not_raised(
-    trans: tuple[TubeDesigner, TubeResult],
+    trans: tuple[TubeDesigner, DesignResult],
 ) -> None:
     tiny = TubeDesigner(Q=np.eye(6), R=1e3 * np.eye(3), u_max=1e-6)
     bad = tiny.design(A_DI, B_TRANS, 1e4 * PW_TRANS)
-    assert bad.status is TubeStatus.INFEASIBLE and not bad.feasible
+    assert bad.status is DesignStatus.INFEASIBLE and not bad.feasible
     assert bad.K is None and bad.Pe is None
     assert bad.n_solves == len(tiny.alpha_grid)
 
@@ -184,12 +184,12 @@ def test_lyapunov_tube_is_invariant_and_minimal(seed: int) -> None:
     A, B, K = _random_stable(rng, 6, 3)
     rho = float(np.max(np.abs(np.linalg.eigvals(A + B @ K))))
     alpha = min(0.99, max(rho**2 * 1.2, 0.3))
-    design = TubeResult(
+    design = DesignResult(
         K=K,
         Pe=np.eye(6),
         alpha=alpha,
         objective=1.0,
-        status=TubeStatus.OPTIMAL,
+        status=DesignStatus.OPTIMAL,
         lmi_residual=-1.0,
         solve_time_s=0.0,
         n_solves=1,
@@ -198,7 +198,7 @@ def test_lyapunov_tube_is_invariant_and_minimal(seed: int) -> None:
     P_W = 1e-3 * (L @ L.T + 0.1 * np.eye(6))
     tube, why = lyapunov_tube(A, B, design, P_W, u_max=1e6)
     assert tube is not None, why
-    assert tube.status == TubeStatus.LYAPUNOV
+    assert tube.status == DesignStatus.LYAPUNOV
     Pe = tube.Pe
     # independent: the Schur-complement LMI [[Pe - P_W/(1-a), A_K Pe], [Pe A_K^T, a Pe]] >= 0
     AK = A + B @ K
@@ -215,12 +215,12 @@ def test_lyapunov_tube_certification_refuses_what_it_cannot_certify() -> None:
     rng = np.random.default_rng(1)
     A, B, K = _random_stable(rng, 4, 2)
     rho2 = float(np.max(np.abs(np.linalg.eigvals(A + B @ K)))) ** 2
-    design = TubeResult(
+    design = DesignResult(
         K=K,
         Pe=np.eye(4),
         alpha=min(0.99, rho2 * 1.5 + 0.05),
         objective=1.0,
-        status=TubeStatus.OPTIMAL,
+        status=DesignStatus.OPTIMAL,
         lmi_residual=-1.0,
         solve_time_s=0.0,
         n_solves=1,
@@ -228,12 +228,12 @@ def test_lyapunov_tube_certification_refuses_what_it_cannot_certify() -> None:
     P_W = 1e-4 * np.eye(4)
     ok, _ = lyapunov_tube(A, B, design, P_W, u_max=1e6)
     assert ok is not None
-    slow = TubeResult(
+    slow = DesignResult(
         K=K,
         Pe=np.eye(4),
         alpha=rho2 * 0.5,
         objective=1.0,
-        status=TubeStatus.OPTIMAL,
+        status=DesignStatus.OPTIMAL,
         lmi_residual=-1.0,
         solve_time_s=0.0,
         n_solves=1,
@@ -242,12 +242,12 @@ def test_lyapunov_tube_certification_refuses_what_it_cannot_certify() -> None:
     assert refused is None and "not contractive enough" in why
     _, why = lyapunov_tube(A, B, design, P_W, u_max=1e-9)
     assert "empty input tightening" in why
-    failed = TubeResult(
+    failed = DesignResult(
         K=None,
         Pe=None,
         alpha=0.5,
         objective=np.inf,
-        status=TubeStatus.INFEASIBLE,
+        status=DesignStatus.INFEASIBLE,
         lmi_residual=np.inf,
         solve_time_s=0.0,
         n_solves=1,

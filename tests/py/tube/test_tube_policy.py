@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tubempc.tube import TubeDesigner, TubeResult, TubeStatus
+from tubempc.tube import DesignResult, DesignStatus, TubeDesigner
 from tubempc.tube_policy import BackgroundDesigns
 
 # Three decoupled double integrators (dt = 1): the 6-state, 3-input shape of a subsystem.
@@ -24,20 +24,20 @@ K = np.hstack([-np.eye(3), -1.5 * np.eye(3)])  # deadbeat per axis
 PE = 10.0 * np.eye(6)
 
 
-def _tube(alpha: float, status: TubeStatus = TubeStatus.OPTIMAL) -> TubeResult:
-    ok = status in (TubeStatus.OPTIMAL, TubeStatus.OPTIMAL_INACCURATE)
-    return TubeResult(K if ok else None, PE if ok else None, alpha, 1.0, status, -1.0, 0.0, 1)
+def _tube(alpha: float, status: DesignStatus = DesignStatus.OPTIMAL) -> DesignResult:
+    ok = status in (DesignStatus.OPTIMAL, DesignStatus.OPTIMAL_INACCURATE)
+    return DesignResult(K if ok else None, PE if ok else None, alpha, 1.0, status, -1.0, 0.0, 1)
 
 
 class ScriptedDesigner(TubeDesigner):
     """Returns the scripted results in order and records each call."""
 
-    def __init__(self, results: list[TubeResult]) -> None:
+    def __init__(self, results: list[DesignResult]) -> None:
         self.results = list(results)
         self.calls: list[tuple[Any, float | None]] = []
         self.spec = {}
 
-    def design(self, A: Any, B: Any, P_W: Any, alpha_prev: float | None = None) -> TubeResult:  # type: ignore[override]
+    def design(self, A: Any, B: Any, P_W: Any, alpha_prev: float | None = None) -> DesignResult:  # type: ignore[override]
         self.calls.append((np.asarray(P_W).copy(), alpha_prev))
         return self.results.pop(0)
 
@@ -83,7 +83,7 @@ def test_a_design_is_offered_at_a_deterministic_step() -> None:
 
 
 def test_a_failed_design_is_recorded_and_not_offered() -> None:
-    des = ScriptedDesigner([_tube(0.8, TubeStatus.INFEASIBLE)])
+    des = ScriptedDesigner([_tube(0.8, DesignStatus.INFEASIBLE)])
     ctrl = FakeController()
     with BackgroundDesigns([des], delay=1, worker="inline") as designs:
         _fly(designs, ctrl, due={2}, n=5)
@@ -93,12 +93,12 @@ def test_a_failed_design_is_recorded_and_not_offered() -> None:
 class BlockingDesigner(ScriptedDesigner):
     """A design that does not return until ``release`` is set."""
 
-    def __init__(self, results: list[TubeResult]) -> None:
+    def __init__(self, results: list[DesignResult]) -> None:
         super().__init__(results)
         self.release = threading.Event()
         self.returned = threading.Event()
 
-    def design(self, A: Any, B: Any, P_W: Any, alpha_prev: float | None = None) -> TubeResult:  # type: ignore[override]
+    def design(self, A: Any, B: Any, P_W: Any, alpha_prev: float | None = None) -> DesignResult:  # type: ignore[override]
         self.release.wait(timeout=600.0)
         res = super().design(A, B, P_W, alpha_prev)
         self.returned.set()

@@ -188,6 +188,14 @@ class Controller {
 
 namespace tubempc::core {
 
+/// Names of control::Method.
+template <>
+struct EnumNames<control::Method> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<control::Method>, 2> values{
+      {{control::Method::Tbmpc, "Tbmpc", "tbmpc"}, {control::Method::Ffa, "Ffa", "ffa"}}};
+};
+
 /// Names of control::MeasuredInput.
 template <>
 struct EnumNames<control::MeasuredInput> {

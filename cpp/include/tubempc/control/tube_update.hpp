@@ -17,6 +17,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <array>
 #include <string>
 #include <vector>
 
@@ -197,6 +198,34 @@ class TubePolicy {
 };
 
 }  // namespace tubempc::control
+
+namespace tubempc::core {
+
+/// Names of control::Certification.
+template <>
+struct EnumNames<control::Certification> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<control::Certification>, 4> values{
+      {{control::Certification::Certified, "Certified", "certified"},
+       {control::Certification::NotContractive, "NotContractive", "not_contractive"},
+       {control::Certification::InvarianceViolated, "InvarianceViolated", "invariance_violated"},
+       {control::Certification::EmptyTightening, "EmptyTightening", "empty_tightening"}}};
+};
+/// Names of control::TubeStatus.
+template <>
+struct EnumNames<control::TubeStatus> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<control::TubeStatus>, 7> values{
+      {{control::TubeStatus::Fixed, "Fixed", "fixed"},
+       {control::TubeStatus::Initial, "Initial", "initial"},
+       {control::TubeStatus::Lyapunov, "Lyapunov", "lyapunov"},
+       {control::TubeStatus::LyapunovNoMargin, "LyapunovNoMargin", "lyapunov_no_margin"},
+       {control::TubeStatus::Library, "Library", "library"},
+       {control::TubeStatus::LibraryNoMargin, "LibraryNoMargin", "library_no_margin"},
+       {control::TubeStatus::Uncertified, "Uncertified", "uncertified"}}};
+};
+
+}  // namespace tubempc::core
 
 namespace tubempc::control {
 

@@ -4,8 +4,12 @@
 ///
 /// An option enum E has its names in a specialisation of EnumNames<E> (next to the enum); a settings
 /// struct lists its members once in a static `for_each_field(visitor)` that calls `visitor(FieldInfo, member
-/// pointer)` per member. The kind of a field is its member's C++ type (int, double, bool, a named
-/// enum, Eigen::MatrixXd or Eigen::VectorXd); its default is the struct's in-class initialiser.
+/// pointer)` per member. The kind of a field is its member's C++ type (int, double, bool, std::string,
+/// a named enum, Eigen::MatrixXd, Eigen::VectorXd or a fixed-size Eigen matrix such as Eigen::Vector3d,
+/// whose size the table gives with Dim::Three); its default is the struct's in-class initialiser.
+///
+/// A status enum (the outcome of a step or a call) has a name table too: its to_string reads it and
+/// the Python binding (bind_named_enum) binds its values and names from it.
 #pragma once
 
 #include <array>
@@ -78,18 +82,21 @@ std::string enum_names_list() {
 /// Symbolic size of a matrix field's dimension, resolved by the user of the table (n_x, n_u, n_c are
 /// the plant's state, input and constraint counts).
 enum class Dim {
-  One,  ///< 1
-  Nx,   ///< n_x, the state size
-  Nu,   ///< n_u, the input size
-  Nc,   ///< n_c, the number of state constraints
-  Nw,   ///< n_w, a subsystem's state size (6: the identifiers' inputs)
+  One,    ///< 1
+  Nx,     ///< n_x, the state size
+  Nu,     ///< n_u, the input size
+  Nc,     ///< n_c, the number of state constraints
+  Nw,     ///< n_w, a subsystem's state size (6: the identifiers' inputs)
+  Three,  ///< 3, a fixed size (Eigen::Vector3d, Eigen::Matrix3d members: never empty, even when optional)
 };
 
 /// Description of one field of a settings struct.
 struct FieldInfo {
-  const char* name;      ///< member and record name (scenario files prefix it, e.g. "mpc.")
-  const char* unit;      ///< SI unit ("" if dimensionless, an integer, a flag or an option)
-  bool optional;         ///< whether a scenario file may omit it (then it keeps its default)
+  const char* name;  ///< member and record name (scenario files prefix it, e.g. "mpc.")
+  const char* unit;  ///< SI unit ("" if dimensionless, an integer, a flag or an option)
+  /// Whether a scenario file may omit it (then it keeps its default); an optional dynamic-size matrix
+  /// may also be written empty (`0 0`).
+  bool optional;
   bool allow_infinite;   ///< whether +-inf is a valid value (doubles only)
   Dim rows = Dim::One;   ///< rows of a matrix field (One for scalars)
   Dim cols = Dim::One;   ///< columns of a matrix field (One for scalars and vectors)

@@ -111,6 +111,16 @@ struct EnumNames<dynamics::Integrator> {
   static constexpr std::array<EnumName<dynamics::Integrator>, 2> values{
       {{dynamics::Integrator::RK4, "RK4", "rk4"}, {dynamics::Integrator::DOPRI5, "DOPRI5", "dopri5"}}};
 };
+/// Names of dynamics::PropagationStatus.
+template <>
+struct EnumNames<dynamics::PropagationStatus> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<dynamics::PropagationStatus>, 4> values{
+      {{dynamics::PropagationStatus::Success, "Success", "success"},
+       {dynamics::PropagationStatus::MaxStepsReached, "MaxStepsReached", "max_steps_reached"},
+       {dynamics::PropagationStatus::StepTooSmall, "StepTooSmall", "step_too_small"},
+       {dynamics::PropagationStatus::NonFinite, "NonFinite", "non_finite"}}};
+};
 
 }  // namespace tubempc::core
 

@@ -88,6 +88,14 @@ struct ModelParams {
   /// Orbital rate of the frame L.
   /// @return n = sqrt(mu_sun / R^3) (rad/s).
   double mean_motion() const;
+
+  /// The fields, once: calls visit(info, pointer to the member) with a core::FieldInfo for each member,
+  /// in the order scenario files write them (records model.name and truth.name). Drives the scenario
+  /// file's reading and writing (io/scenario.cpp) and the Python binding (docs/decisions.md "One field
+  /// table").
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
 };
 
 /// An extra acceleration in L for the truth model (e.g. an unmodelled force), with its Jacobian so
@@ -295,5 +303,49 @@ struct EnumNames<dynamics::Kinematics> {
       {{dynamics::Kinematics::FirstOrder, "FirstOrder", "first_order"},
        {dynamics::Kinematics::Exact, "Exact", "exact"}}};
 };
+/// Names of dynamics::DiscretizationStatus.
+template <>
+struct EnumNames<dynamics::DiscretizationStatus> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<dynamics::DiscretizationStatus>, 3> values{
+      {{dynamics::DiscretizationStatus::Ok, "Ok", "ok"},
+       {dynamics::DiscretizationStatus::NonFiniteInput, "NonFiniteInput", "non_finite_input"},
+       {dynamics::DiscretizationStatus::NonFiniteResult, "NonFiniteResult", "non_finite_result"}}};
+};
 
 }  // namespace tubempc::core
+
+namespace tubempc::dynamics {
+
+// The table of ModelParams::for_each_field.
+template <typename V>
+void ModelParams::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  using P = ModelParams;
+  constexpr bool req = false, opt = true, finite = false;
+  constexpr Dim one = Dim::One, three = Dim::Three;
+  visit(FieldInfo{"mu_sun", "m^3/s^2", req, finite, one, one, "m^3/s^2"}, &P::mu_sun);
+  visit(FieldInfo{"orbit_radius", "m", req, finite, one, one, "R (m)"}, &P::orbit_radius);
+  visit(FieldInfo{"beta_srp", "m^3/s^2", req, finite, one, one,
+                  "m^3/s^2; SRP acceleration beta/R^2 along +x_L"},
+        &P::beta_srp);
+  visit(FieldInfo{"srp_enabled", "", req, finite, one, one, "include the SRP acceleration"}, &P::srp_enabled);
+  visit(FieldInfo{"inertia_B", "kg m^2", req, finite, three, three, "J (kg m^2), 3x3"}, &P::inertia_B);
+  visit(FieldInfo{"spin_rate", "rad/s", req, finite, one, one, "omega_A (rad/s), inertial, about z_A = z_L"},
+        &P::spin_rate);
+  visit(FieldInfo{"spin_angle0", "rad", req, finite, one, one, "theta_0 (rad)"}, &P::spin_angle0);
+  visit(FieldInfo{"kinematics", "", req, finite, one, one, "rotation-vector kinematics of the model"},
+        &P::kinematics);
+  visit(FieldInfo{"glide_slope_angle", "rad", req, finite, one, one, "phi_gs (rad)"}, &P::glide_slope_angle);
+  visit(FieldInfo{"los_angle", "rad", req, finite, one, one, "theta_LOS (rad)"}, &P::los_angle);
+  visit(FieldInfo{"boresight_B", "", req, finite, three, one, "b_B in B"}, &P::boresight_B);
+  visit(FieldInfo{"glide_slope_apex_A", "m", opt, finite, three, one,
+                  "glide-slope cone apex in A (m); the cone turns with the body"},
+        &P::glide_slope_apex_A);
+  visit(FieldInfo{"glide_slope_axis_A", "", opt, finite, three, one,
+                  "glide-slope cone axis in A (normalised on use)"},
+        &P::glide_slope_axis_A);
+}
+
+}  // namespace tubempc::dynamics

@@ -20,22 +20,8 @@
 ///
 ///   | record | size | meaning |
 ///   | --- | --- | --- |
-///   | `model.mu_sun` | 1 1 | Sun's gravitational parameter (m^3/s^2) |
-///   | `model.orbit_radius` | 1 1 | heliocentric distance R (m) |
-///   | `model.beta_srp` | 1 1 | SRP constant (m^3/s^2) |
-///   | `model.srp_enabled` | 1 1 | 0 or 1 |
-///   | `model.inertia_B` | 3 3 | spacecraft inertia in B (kg m^2) |
-///   | `model.spin_rate` | 1 1 | asteroid spin rate omega_A (rad/s, signed, about z_L) |
-///   | `model.spin_angle0` | 1 1 | theta_0 (rad) |
-///   | `model.kinematics` | text | `first_order` or `exact` |
-///   | `model.glide_slope_angle` | 1 1 | phi_gs (rad) |
-///   | `model.los_angle` | 1 1 | theta_LOS (rad) |
-///   | `model.boresight_B` | 3 1 | boresight in B |
-///   | `model.glide_slope_apex_A` | 3 1 | optional (default 0): glide-slope cone apex in A (m) |
-///   | `model.glide_slope_axis_A` | 3 1 | optional (default z_A): glide-slope cone axis in A |
-///   | `model.density` | 1 1 | asteroid density (kg/m^3) |
-///   | `model.shape` | text | shape file (gravity/shape_io.hpp), relative to the scenario's folder or absolute |
-///   | `model.shape_unit_scale` | 1 1 | metres per unit of the shape file |
+///   | `model.<field>` | | every field of dynamics::ModelParams, as its for_each_field lists them (name, size, unit, optional): `model.kinematics` is text (`first_order` or `exact`; version 1: `paper`), `srp_enabled` a flag, `inertia_B` 3 3, the vectors 3 1 (the optional `glide_slope_apex_A`, `glide_slope_axis_A` may be left out, not written empty) |
+///   | `model.density`, `.shape`, `.shape_unit_scale` | 1 1, text, 1 1 | the fields of io::BodyModel, as its for_each_field lists them: asteroid density (kg/m^3), shape file (gravity/shape_io.hpp, relative to the scenario's folder or absolute), metres per unit of the shape file |
 ///   | `truth.*` | | the same records for the simulated plant (the truth model) |
 ///   | `propagator.method` | text | `rk4` or `dopri5` |
 ///   | `propagator.substeps`, `.rtol`, `.atol`, `.max_steps`, `.initial_step` | 1 1 each | dynamics::PropagatorSettings (s for initial_step) |
@@ -58,7 +44,7 @@
 ///   is required; unknown names are errors (a later version adds names and bumps the number).
 ///   Version 3 adds the whole controller (control::Controller: identification, tube policy, designs and
 ///   libraries) and drops `tube.K`/`tube.Pe` (TBMPC's tube is `designs.tbmpc_*`). Version 2 files carry
-///   TBMPC's tube only: Scenario::has_controller is false for them.
+///   TBMPC's tube only: ScenarioFile::has_controller is false for them.
 ///   Version 1 files are read too: they name the options `paper` (kinematics `first_order`, input
 ///   cost `absolute`) and `from_reference` (`deviation`), and carry `mpc.backend` (`active_set_piqp`
 ///   or `piqp`) and the flag `mpc.reuse_linearization` instead of `mpc.qp_solver` and `mpc.linearization`.
@@ -93,12 +79,35 @@ inline constexpr int kScenarioFormatVersion = 3;
 struct BodyModel {
   dynamics::ModelParams params;  ///< dynamics constants (SI; see dynamics::ModelParams)
   double density{1260.0};        ///< asteroid density (kg/m^3), finite and > 0
-  std::string shape;             ///< shape file as written: relative to Scenario::directory, or absolute
+  std::string shape;             ///< shape file as written: relative to ScenarioFile::directory, or absolute
   double shape_unit_scale{1.0};  ///< metres per unit of the shape file, finite and > 0
+
+  /// Checks density and shape_unit_scale (finite, > 0) and that shape is not empty.
+  /// @throws std::invalid_argument naming the first bad field (`BodyModel.<field>`).
+  void validate() const;
+
+  /// The fields besides `params` (whose own table is dynamics::ModelParams::for_each_field), once:
+  /// calls visit(info, pointer to the member) per member, in the order scenario files write them
+  /// (after the ModelParams records). Drives the scenario file and the Python binding.
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit) {
+    using core::FieldInfo;
+    using B = BodyModel;
+    visit(FieldInfo{"density", "kg/m^3", false, false, core::Dim::One, core::Dim::One,
+                    "asteroid density (kg/m^3)"},
+          &B::density);
+    visit(FieldInfo{"shape", "", false, false, core::Dim::One, core::Dim::One,
+                    "shape file as written (relative to ScenarioFile.directory or absolute)"},
+          &B::shape);
+    visit(FieldInfo{"shape_unit_scale", "", false, false, core::Dim::One, core::Dim::One,
+                    "metres per unit of the shape file"},
+          &B::shape_unit_scale);
+  }
 };
 
 /// Contents of a scenario file (see the file comment for the format).
-struct Scenario {
+struct ScenarioFile {
   /// Folder of the file read (relative shape paths are relative to it); empty if not read from a file.
   std::string directory;
   BodyModel model;                          ///< the controller's model (records `model.*`)
@@ -133,7 +142,7 @@ struct Scenario {
 ///         `<path>: <record>: <what>` for a missing record, an unreadable file, or values rejected by
 ///         ModelParams::validate, PropagatorSettings::validate, mpc::Settings::validate or the
 ///         size checks of the reference, the tube and the states.
-Scenario read_scenario(const std::string& path);
+ScenarioFile read_scenario(const std::string& path);
 
 /// Writes a scenario file (format version 3) with every record, optional ones included.
 /// @param path     file to create or overwrite.
@@ -142,6 +151,6 @@ Scenario read_scenario(const std::string& path);
 /// @throws std::invalid_argument if the contents have the wrong sizes for the format (12 states,
 ///         6 inputs) or carry no controller (has_controller false); std::runtime_error naming the path
 ///         when the file cannot be written.
-void write_scenario(const std::string& path, const Scenario& scenario, const std::string& comment = "");
+void write_scenario(const std::string& path, const ScenarioFile& scenario, const std::string& comment = "");
 
 }  // namespace tubempc::io

@@ -31,8 +31,10 @@
 
 #include <Eigen/Dense>
 #include <Eigen/SparseCore>
+#include <array>
 #include <string>
 
+#include "tubempc/core/fields.hpp"
 #include "tubempc/mpc/partial_ldlt.hpp"
 
 namespace tubempc::mpc {
@@ -89,6 +91,13 @@ class ActiveSetQp {
   void setup(const SpMat& P_upper, const SpMat& A, const SpMat& G,
              const Eigen::Array<bool, Eigen::Dynamic, 1>& boundable, const Settings& settings);
 
+  /// Marks the G rows of exact L1 penalty pairs (|a^T w| <= t with t costed: rows a^T w - t <= 0 and
+  /// a^T w + t >= 0), `rows` with p entries (empty: none; setup clears the marks). At a solution at least
+  /// one row of each pair is active, so a wrong-sign multiplier of such a row in the primal-dual phase
+  /// is the echo of another row's wrong guess: these rows leave the set only in an iteration where no
+  /// unmarked row has a wrong sign. Allocates; throws std::invalid_argument on a wrong size.
+  void set_penalty_rows(const Eigen::Array<bool, Eigen::Dynamic, 1>& rows);
+
   /// Solves the QP whose matrices have the set-up patterns. `active` (p + n entries: the G rows, then
   /// one per variable) holds the guess on entry (+1 upper side, -1 lower side, 0 inactive; entries of
   /// variables that are not boundable are ignored) and the final set on return. Allocates nothing.
@@ -117,10 +126,11 @@ class ActiveSetQp {
 
   Settings settings_;
   int n_ = 0, m_ = 0, p_ = 0;
-  Eigen::VectorXi bound_var_;  // variable of each bound row
-  Eigen::VectorXi bound_row_;  // bound row of each variable (-1: not boundable)
-  SpMat K_;                    // KKT upper triangle in the permuted order
-  Eigen::VectorXi perm_;       // natural index -> permuted index
+  Eigen::VectorXi bound_var_;                          // variable of each bound row
+  Eigen::VectorXi bound_row_;                          // bound row of each variable (-1: not boundable)
+  Eigen::Array<bool, Eigen::Dynamic, 1> penalty_row_;  // G rows of exact L1 penalty pairs (p)
+  SpMat K_;                                            // KKT upper triangle in the permuted order
+  Eigen::VectorXi perm_;                               // natural index -> permuted index
   Eigen::VectorXi pos_P_, pos_A_, pos_G_, pos_B_, pos_diag_;  // value positions in K_
   PartialLdlt ldlt_;
   Eigen::VectorXd K_factored_;  // K_'s values at the last factorisation
@@ -136,7 +146,23 @@ class ActiveSetQp {
   Info info_;
 };
 
-/// Name of an ActiveSetQp status ("solved", "max_iterations", ...).
+/// Name of an ActiveSetQp status ("solved", "max_iterations", ...; core::EnumNames<ActiveSetQp::Status>).
 std::string to_string(ActiveSetQp::Status status);
 
 }  // namespace tubempc::mpc
+
+namespace tubempc::core {
+
+/// Names of mpc::ActiveSetQp::Status.
+template <>
+struct EnumNames<mpc::ActiveSetQp::Status> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<mpc::ActiveSetQp::Status>, 5> values{
+      {{mpc::ActiveSetQp::Status::Solved, "Solved", "solved"},
+       {mpc::ActiveSetQp::Status::MaxIterations, "MaxIterations", "max_iterations"},
+       {mpc::ActiveSetQp::Status::Inaccurate, "Inaccurate", "inaccurate"},
+       {mpc::ActiveSetQp::Status::Singular, "Singular", "singular"},
+       {mpc::ActiveSetQp::Status::InvalidData, "InvalidData", "invalid_data"}}};
+};
+
+}  // namespace tubempc::core

@@ -5,7 +5,10 @@
 
 #include <Eigen/Dense>
 #include <Eigen/SparseCore>
+#include <array>
 #include <string>
+
+#include "tubempc/core/fields.hpp"
 
 namespace tubempc::mpc {
 
@@ -24,8 +27,13 @@ enum class Status {
   ModelStructure,       ///< Failure cause: the model returned a nonzero outside Settings::*_structure.
 };
 
-/// Name of a status ("solved", "fallback_shifted_plan", ...).
+/// Name of a status ("solved", "fallback_shifted_plan", ...; core::EnumNames<Status>).
 std::string to_string(Status status);
+/// @param status a status.
+/// @return whether it is a fallback (FallbackShiftedPlan or FallbackSafeInput).
+constexpr bool is_fallback(Status status) {
+  return status == Status::FallbackShiftedPlan || status == Status::FallbackSafeInput;
+}
 
 /// Wall-clock split of one step (s).
 struct Timings {
@@ -86,3 +94,25 @@ struct QpSolution {
 };
 
 }  // namespace tubempc::mpc
+
+namespace tubempc::core {
+
+/// Names of mpc::Status.
+template <>
+struct EnumNames<mpc::Status> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<mpc::Status>, 11> values{
+      {{mpc::Status::Solved, "Solved", "solved"},
+       {mpc::Status::SolvedInaccurate, "SolvedInaccurate", "solved_inaccurate"},
+       {mpc::Status::MaxIterations, "MaxIterations", "max_iterations"},
+       {mpc::Status::FallbackShiftedPlan, "FallbackShiftedPlan", "fallback_shifted_plan"},
+       {mpc::Status::FallbackSafeInput, "FallbackSafeInput", "fallback_safe_input"},
+       {mpc::Status::Infeasible, "Infeasible", "infeasible"},
+       {mpc::Status::NotSolved, "NotSolved", "not_solved"},
+       {mpc::Status::TimeLimit, "TimeLimit", "time_limit"},
+       {mpc::Status::NumericalError, "NumericalError", "numerical_error"},
+       {mpc::Status::EmptyTightening, "EmptyTightening", "empty_tightening"},
+       {mpc::Status::ModelStructure, "ModelStructure", "model_structure"}}};
+};
+
+}  // namespace tubempc::core

@@ -32,9 +32,11 @@
 /// from the QP is `QpData::constant` (nonzero only with InputCost::Deviation). Constraints: the
 /// linearised dynamics, the model's state constraints tightened by sqrt(a^T Pe a) at nodes 0..n, the
 /// input box tightened by sqrt(K_i Pe K_i^T), and the SCP trust region |z_i - z_lin_i| <= r (i >= 1).
-/// The nodes past the mission's end (k + i > T) are padded with frozen nodes z_{i+1} = z_i, zero state
-/// cost and free (costed, unused) inputs so the sparsity pattern never changes; in that shrinking
-/// phase (k >= T - N, the paper's Problem 3) z_N = x_f = zbar_T (hard, or L1-penalised).
+/// In the shrinking phase (k >= T - N, the paper's Problem 3) the QP has the step's horizon n = T - k
+/// and z_n = x_f = zbar_T (hard, or L1-penalised): setup lays out and sets up one QP per horizon
+/// 1..N, each with its own fixed sparsity pattern and solver, and a step's warm start maps the
+/// previous step's active set from the QP of one node more. The plan returned still has N + 1 nodes:
+/// past the mission's end it holds z_T with zero inputs.
 /// QP solver (Settings::qp_solver): by default a warm-started primal-dual active-set method
 /// (active_set_qp.hpp) whose guess is the previous QP's active set (the previous step's shifted by one
 /// node in a step's first SCP iteration), accepted only when it verifies the KKT conditions; if that
@@ -107,7 +109,7 @@ class TubeMPC {
   /// Forgets the previous plan and the re-usable model data (the next step linearises about the reference).
   void reset();
 
-  /// The last QP built (copies; allocates).
+  /// The last QP built, of the last step's horizon (copies; allocates; empty before the first step).
   QpData qp_data() const;
   /// The last QP's primal-dual solution, from the solver that solved it (copies; allocates).
   QpSolution qp_solution() const;
@@ -118,7 +120,8 @@ class TubeMPC {
   const Eigen::MatrixXd& terminal_weight() const;
   /// Mission length T (steps); 0 before setup.
   int mission_steps() const;
-  /// Number of QP variables, equality rows and inequality rows.
+  /// Number of QP variables, equality rows and inequality rows of the horizon-N QP (a shrinking-phase
+  /// step's QP, horizon T - k, is smaller).
   Eigen::Vector3i qp_dimensions() const;
 
  private:
