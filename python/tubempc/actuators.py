@@ -301,11 +301,12 @@ class ScenarioActuation:
 
     def system(self, seed: int) -> _act.ActuationSystem:
         """A run's actuation system: the preset's thrusters with truth errors drawn within their bounds
-        from ``numpy.random.default_rng(seed)`` and the preset's faults (random ones drawn from ``seed``)."""
+        from ``numpy.random.default_rng([seed, 1])`` and the preset's faults (random ones drawn from
+        ``default_rng(seed)`` by :func:`load_actuators`: two independent streams)."""
         suite = self.suite
         if suite.random_faults and suite.path is not None:
             suite = load_actuators(suite.path, suite.modulation.period, seed=seed)
-        truth = sample_truth_errors(suite.cluster, np.random.default_rng(seed))
+        truth = sample_truth_errors(suite.cluster, np.random.default_rng([seed, 1]))
         return _act.ActuationSystem(truth, self.suite.wheels, actuation_settings(self.suite))
 
     def error_shapes(self) -> tuple[FloatArray, FloatArray]:
