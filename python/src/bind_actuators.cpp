@@ -7,6 +7,7 @@
 
 #include "bindings.hpp"
 #include "tubempc/actuators/achievable_set.hpp"
+#include "tubempc/actuators/system.hpp"
 
 namespace py = pybind11;
 
@@ -244,6 +245,83 @@ void bind_actuators(py::module_& m) {
         py::arg("cluster"), py::arg("modulator"), py::arg("mass"), py::arg("wheels"), py::arg("allocation"),
         py::arg("command_half_width_B"), py::arg("t") = 0.0, py::arg("tolerate_one_failure") = true,
         "The actuation-error box for commands inside a wrench box (the allocation's thrust norm bounded)");
+  s.def("disturbance_with_actuation_error", &disturbance_with_actuation_error, py::arg("P_W"), py::arg("B"),
+        py::arg("E"),
+        "P of an ellipsoid containing W (+) B E (trace-minimal member of the outer family; M38)");
+
+  bind_named_enum<ActuationStatus>(s, "ActuationStatus", "Outcome of a period's actuation")
+      .value("Ok", ActuationStatus::Ok)
+      .value("ThrusterFailed", ActuationStatus::ThrusterFailed)
+      .value("Saturated", ActuationStatus::Saturated)
+      .value("Infeasible", ActuationStatus::Infeasible)
+      .value("MaxIterations", ActuationStatus::MaxIterations)
+      .value("InvalidCommand", ActuationStatus::InvalidCommand);
+
+  py::class_<ActuationSettings>(s, "ActuationSettings", "Settings of the actuation system")
+      .def(py::init<>())
+      .def_readwrite("mass", &ActuationSettings::mass)
+      .def_readwrite("modulation", &ActuationSettings::modulation)
+      .def_readwrite("allocation", &ActuationSettings::allocation)
+      .def("validate", &ActuationSettings::validate);
+
+  py::class_<ActuationStep>(s, "ActuationStep", "One period's actuation (a copy)")
+      .def_readonly("status", &ActuationStep::status)
+      .def_readonly("allocation", &ActuationStep::allocation)
+      .def_readonly("u_commanded", &ActuationStep::u_commanded)
+      .def_readonly("u_delivered", &ActuationStep::u_delivered)
+      .def_readonly("commanded_B", &ActuationStep::commanded_B)
+      .def_readonly("allocated_B", &ActuationStep::allocated_B)
+      .def_readonly("delivered_B", &ActuationStep::delivered_B)
+      .def_readonly("error_B", &ActuationStep::error_B)
+      .def_readonly("remainder_B", &ActuationStep::remainder_B)
+      .def_readonly("thrust", &ActuationStep::thrust)
+      .def_readonly("on_time", &ActuationStep::on_time)
+      .def_readonly("impulse", &ActuationStep::impulse)
+      .def_readonly("wheel_torque", &ActuationStep::wheel_torque)
+      .def_readonly("wheel_momentum", &ActuationStep::wheel_momentum)
+      .def_readonly("impulse_total", &ActuationStep::impulse_total)
+      .def_readonly("delta_v", &ActuationStep::delta_v)
+      .def_readonly("propellant", &ActuationStep::propellant)
+      .def_readonly("pulses", &ActuationStep::pulses)
+      .def_readonly("failed_thrusters", &ActuationStep::failed_thrusters)
+      .def_readonly("step_time", &ActuationStep::step_time);
+
+  py::class_<ActuationTotals>(s, "ActuationTotals", "A mission's actuation totals")
+      .def_readonly("impulse", &ActuationTotals::impulse)
+      .def_readonly("delta_v", &ActuationTotals::delta_v)
+      .def_readonly("propellant", &ActuationTotals::propellant)
+      .def_readonly("pulses", &ActuationTotals::pulses)
+      .def_readonly("steps", &ActuationTotals::steps)
+      .def_readonly("not_delivered", &ActuationTotals::not_delivered)
+      .def_readonly("max_wheel_momentum_fraction", &ActuationTotals::max_wheel_momentum_fraction);
+
+  py::class_<ActuationSystem>(s, "ActuationSystem",
+                              "Thrusters, wheels, allocation and modulation as one call per control period")
+      .def(py::init<const ThrusterCluster&, const ReactionWheels&, const ActuationSettings&>(),
+           py::arg("cluster"), py::arg("wheels"), py::arg("settings"))
+      .def(
+          "step",
+          [](ActuationSystem& self, double t, const Vector6& u, const Eigen::Matrix3d& C_BL) {
+            return ActuationStep(self.step(t, u, C_BL));
+          },
+          py::arg("t"), py::arg("u"), py::arg("C_BL"),
+          "Actuates one period: the command [u_p (m/s^2, L); T (N m, B)] to the delivered input (a copy)")
+      .def("reset", &ActuationSystem::reset, py::arg("wheel_momentum"))
+      .def_property_readonly("totals", &ActuationSystem::totals)
+      .def_property_readonly("cluster", &ActuationSystem::cluster)
+      .def_property_readonly("wheels", &ActuationSystem::wheels)
+      .def(
+          "last_problem",
+          [](const ActuationSystem& self) {
+            Eigen::MatrixXd A;
+            Eigen::VectorXd b, lo, hi;
+            self.allocator().last_problem(A, b, lo, hi);
+            return std::make_tuple(A, b, lo, hi);
+          },
+          "(A, b, lower, upper) of the last allocation: min ||A x - b||^2, lower <= x <= upper")
+      .def_property_readonly("remainder",
+                             [](const ActuationSystem& self) { return self.modulator().remainder(); })
+      .def_property_readonly("settings", &ActuationSystem::settings);
 }
 
 }  // namespace tubempc::python

@@ -118,6 +118,9 @@ void bind_control(py::module_& m) {
       .def_readwrite("identification_p", &ControllerSettings::identification_p)
       .def_readwrite("identification_r", &ControllerSettings::identification_r)
       .def_readwrite("tube", &ControllerSettings::tube)
+      .def_readwrite(
+          "actuation_error", &ControllerSettings::actuation_error,
+          "[E_p ((m/s^2)^2), E_r ((N m)^2)]: certified input-error sets added to P_W (zero: ideal)")
       .def("validate", &ControllerSettings::validate);
 
   py::class_<ControllerDesigns>(s, "ControllerDesigns", "Initial designs and libraries of both subsystems")

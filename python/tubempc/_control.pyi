@@ -125,6 +125,7 @@ class ControllerSettings:
     identification_p: IdentifierSettings
     identification_r: IdentifierSettings
     tube: TubePolicySettings
+    actuation_error: list[_Arr]
     def __init__(self) -> None: ...
     def validate(self) -> None: ...
 

@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._core import actuators as _act
+from ._core import so3 as _so3
 
 FloatArray = NDArray[np.float64]
 
@@ -111,6 +112,8 @@ class ActuatorSuite:
     wheels: _act.ReactionWheels
     modulation: _act.ModulationSettings
     allocation: _act.AllocationSettings
+    path: Path | None = None  # the file read
+    random_faults: bool = False  # whether a fault's thruster or time was drawn (from the seed)
 
     def allocator(self) -> _act.Allocator:
         """A new allocator for these actuators."""
@@ -190,17 +193,22 @@ def load_actuators(source: str | Path, period: float, *, seed: int = 0) -> Actua
     specs = [_thruster(t, defaults, f"{where}.thrusters[{i}]") for i, t in enumerate(units)]
 
     rng = np.random.default_rng(seed)
+    random_faults = False
     for i, f in enumerate(raw.get("faults", [])):
         w = f"{where}.faults[{i}]"
         j = f.get("thruster")
+        if j == "random":
+            j = int(rng.integers(len(specs)))
+            random_faults = True
         if isinstance(j, bool) or not isinstance(j, int) or not 0 <= j < len(specs):
-            raise ActuatorConfigError(f"{w}.thruster: expected an index in [0, {len(specs)}), got {j!r}")
+            raise ActuatorConfigError(f'{w}.thruster: expected an index in [0, {len(specs)}) or "random", got {j!r}')
         try:
             specs[j].fault = _act.fault_kind_from_string(str(f.get("kind")))
         except ValueError as exc:
             raise ActuatorConfigError(f"{w}.kind: {exc}") from exc
         t = f.get("time")
         if t == "random":
+            random_faults = True
             lo, hi = _vector(f.get("window"), "s", f"{w}.window", (2,))
             if not lo <= hi:
                 raise ActuatorConfigError(f"{w}.window: expected start <= end")
@@ -244,7 +252,9 @@ def load_actuators(source: str | Path, period: float, *, seed: int = 0) -> Actua
         _act.PulseModulator(cluster, modulation)  # every minimum on-time fits in the period
     except ValueError as exc:
         raise ActuatorConfigError(f"{where}: {exc}") from exc
-    return ActuatorSuite(str(raw.get("name", path.stem)), mass, cluster, wheel_set, modulation, allocation)
+    return ActuatorSuite(
+        str(raw.get("name", path.stem)), mass, cluster, wheel_set, modulation, allocation, path, random_faults
+    )
 
 
 def sample_truth_errors(cluster: _act.ThrusterCluster, rng: np.random.Generator) -> _act.ThrusterCluster:
@@ -258,3 +268,125 @@ def sample_truth_errors(cluster: _act.ThrusterCluster, rng: np.random.Generator)
         s.misalignment_B = axis / np.linalg.norm(axis) * float(rng.uniform(0.0, 1.0)) * s.misalignment_bound
         specs.append(s)
     return _act.ThrusterCluster(specs)
+
+
+def actuation_settings(suite: ActuatorSuite) -> _act.ActuationSettings:
+    """The settings of :class:`tubempc._core.actuators.ActuationSystem` for a preset's actuators."""
+    s = _act.ActuationSettings()
+    s.mass, s.modulation, s.allocation = suite.mass, suite.modulation, suite.allocation
+    return s
+
+
+#: "ideal": the paper's idealised spacecraft, a continuous input inside spacecraft.u_max / T_max (no actuator model).
+IDEAL = "ideal"
+
+
+@dataclass(frozen=True, eq=False)
+class ScenarioActuation:
+    """A scenario's actuators (``spacecraft.actuators``) and what the controller knows of them
+    (docs/model.md "Actuators in the closed loop", M37-M38).
+
+    ``box``: the inner box of the achievable wrench with any one thruster failed off (shape (1 N, 1 N m)
+    per axis); ``u_max``, ``T_max``: the MPC's input bounds, the box's at every attitude, capped by
+    spacecraft.u_max and T_max; ``error``: the certified box of the actuation error for the wrenches those
+    bounds command (inside the box), with any one thruster failed.
+    """
+
+    source: str
+    suite: ActuatorSuite
+    box: _act.AchievableBox
+    error: _act.ActuationErrorBound
+    u_max: float
+    T_max: float
+
+    def system(self, seed: int) -> _act.ActuationSystem:
+        """A run's actuation system: the preset's thrusters with truth errors drawn within their bounds
+        from ``numpy.random.default_rng([seed, 1])`` and the preset's faults (random ones drawn from
+        ``default_rng(seed)`` by :func:`load_actuators`: two independent streams)."""
+        suite = self.suite
+        if suite.random_faults and suite.path is not None:
+            suite = load_actuators(suite.path, suite.modulation.period, seed=seed)
+        truth = sample_truth_errors(suite.cluster, np.random.default_rng([seed, 1]))
+        return _act.ActuationSystem(truth, self.suite.wheels, actuation_settings(self.suite))
+
+    def error_shapes(self) -> tuple[FloatArray, FloatArray]:
+        """The certified sets of the commanded minus the delivered input (M38), {e : e^T E^-1 e <= 1}: u_p's
+        ((m/s^2)^2, the ball at every attitude) and T's ((N m)^2, around the box). They add to the error box of
+        :func:`tubempc._core.actuators.actuation_error_bound` (allocated minus delivered) the allocation's
+        remainder tolerance over the achievable box, |r_i| <= tol (max_l W_r,l a_l + 1) / W_r,i."""
+        alloc = self.suite.allocation
+        W_r = np.asarray(alloc.residual_weight)
+        half = np.asarray(self.box.half_width_B)
+        remainder = alloc.remainder_tolerance * (float(np.max(W_r * half)) + 1.0) / W_r
+        wrench = np.asarray(self.error.wrench_B) + remainder
+        radius_p = float(np.linalg.norm(wrench[:3])) / self.suite.mass
+        return radius_p**2 * np.eye(3), 3.0 * np.diag(wrench[3:] ** 2)
+
+    def describe(self) -> dict[str, Any]:
+        """JSON-ready summary for a run's record."""
+        return {
+            "actuators": self.source,
+            "u_max": self.u_max,
+            "T_max": self.T_max,
+            "box_half_width_B": np.asarray(self.box.half_width_B).tolist(),
+            "error_input": np.asarray(self.error.input).tolist(),
+        }
+
+
+def scenario_actuation(
+    source: str, folder: Path, period: float, u_max: float, T_max: float, *, seed: int = 0
+) -> ScenarioActuation | None:
+    """The actuators of ``spacecraft.actuators`` = ``source`` (None for "ideal"): a preset name or a TOML
+    path (relative to ``folder``), for the control period (s); ``u_max`` (m/s^2) and ``T_max`` (N m) are the
+    configured bounds that cap the achievable box. ActuatorConfigError naming the file and field."""
+    if source == IDEAL:
+        return None
+    path = Path(source)
+    if path.suffix and not path.is_absolute():
+        path = folder / path
+    suite = load_actuators(path if path.suffix else source, period, seed=seed)
+    settings = _act.AchievableBoxSettings()
+    settings.tolerate_one_failure = True
+    box = _act.achievable_box(suite.cluster, suite.wheels, suite.allocation, suite.mass, settings)
+    if box.empty or not np.all(np.asarray(box.input_half_width) > 0.0):
+        raise ActuatorConfigError(f"{source}: the actuators cannot deliver every direction with one thruster failed")
+    half = np.asarray(box.input_half_width)
+    u_max, T_max = min(u_max, float(half[:3].min())), min(T_max, float(half[3:].min()))
+    # The wrenches the MPC can command: |u_p,i| <= u_max in L is a force within sqrt(3) m u_max in B.
+    command = np.minimum(np.r_[[math.sqrt(3.0) * suite.mass * u_max] * 3, [T_max] * 3], box.half_width_B)
+    error = _act.actuation_error_bound(
+        suite.cluster, suite.modulator(), suite.mass, suite.wheels, suite.allocation, command, 0.0, True
+    )
+    return ScenarioActuation(source, suite, box, error, u_max, T_max)
+
+
+def actuate(system: _act.ActuationSystem, t: float, u: FloatArray, state: FloatArray) -> tuple[FloatArray, Any]:
+    """One period of a run's actuators (M37): the command ``u`` [u_p (m/s^2, L); T (N m, B)] at time ``t`` (s)
+    with the truth's 13-state ``state`` (its q_B/L gives C_BL = R(q_B/L)^T); returns the delivered input and
+    the :class:`tubempc._core.actuators.ActuationStep`."""
+    C_BL = np.asarray(_so3.rotation_matrix(np.asarray(state[6:10], dtype=np.float64))).T
+    st = system.step(t, u, C_BL)
+    return np.asarray(st.u_delivered, dtype=np.float64), st
+
+
+def describe_actuation(system: _act.ActuationSystem, setup: ScenarioActuation | None) -> dict[str, Any]:
+    """A run's actuation totals and the truth's thruster errors and faults (JSON-ready, for ``applied``)."""
+    tot = system.totals
+    cluster = system.cluster
+    thrusters = [cluster.thruster(j) for j in range(len(cluster))]
+    return {
+        **({} if setup is None else setup.describe()),
+        "delta_v": tot.delta_v,
+        "propellant": tot.propellant,
+        "impulse": tot.impulse,
+        "pulses": int(tot.pulses),
+        "not_delivered_steps": tot.not_delivered,
+        "max_wheel_momentum_fraction": tot.max_wheel_momentum_fraction,
+        "scale_error": [s.scale_error for s in thrusters],
+        "misalignment_B": [np.asarray(s.misalignment_B).tolist() for s in thrusters],
+        "faults": [
+            {"thruster": j, "kind": str(s.fault), "time": s.fault_time}
+            for j, s in enumerate(thrusters)
+            if s.fault != _act.FaultKind.None_
+        ],
+    }

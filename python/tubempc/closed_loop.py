@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from .actuators import actuate, describe_actuation
 from .disturbances import ActuatorMismatch, AdditiveDisturbance
 from .metrics import tube_excursion
 from .results import RunRecord
@@ -51,11 +52,18 @@ class _Plant:
     actuators: ActuatorMismatch
     propagator: Any  # _core.dynamics.PropagatorSettings
     state: Array  # 13-state [r_L, v_L, q_B/L, omega_BL_B] of the truth
+    actuation: Any = None  # _core.actuators.ActuationSystem (spacecraft.actuators), or None: ideal
+    delivered: Any = None  # the last period's (u_delivered, ActuationStep or None)
 
     def step(self, k: int, u: Array) -> tuple[Array, Array]:
         """Propagates one control period with input ``u``; returns x_{k+1} and the disturbance drawn."""
         scn, dt = self.scn, self.scn.config.mpc.dt
-        u_applied = np.concatenate([self.actuators.apply_acceleration(u[:3]), self.actuators.apply_torque(u[3:])])
+        if self.actuation is None:
+            u_applied = np.concatenate([self.actuators.apply_acceleration(u[:3]), self.actuators.apply_torque(u[3:])])
+            self.delivered = (u_applied, None)
+        else:
+            self.delivered = actuate(self.actuation, k * dt, u, self.state)
+            u_applied = self.delivered[0]
         prop = scn.truth.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator)
         if prop.status.name != "Success":
             raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
@@ -112,7 +120,25 @@ def _new_record(scn: Scenario, method: str, seed: int) -> RunRecord:
 
 def _new_plant(scn: Scenario, seed: int) -> _Plant:
     loop = scn.loop
-    return _Plant(scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, scn.model.state_to_truth(scn.x0))
+    system = None if loop.actuation is None else loop.actuation.system(seed + 1)
+    truth0 = scn.model.state_to_truth(scn.x0)
+    return _Plant(scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, truth0, system)
+
+
+def _record_actuation(rec: RunRecord, k: int, plant: _Plant, dt: float) -> None:
+    """The period's delivered input and, with an actuator model, its accounting (ideal: |u_p| dt)."""
+    u_delivered, st = plant.delivered
+    rec.u_delivered[k] = u_delivered
+    if st is None:
+        rec.delta_v[k] = float(np.linalg.norm(u_delivered[:3])) * dt
+        rec.actuation_statuses.append("ideal")
+        return
+    rec.delta_v[k], rec.propellant[k], rec.pulses[k] = st.delta_v, st.propellant, st.pulses
+    rec.wheel_momentum[k] = np.asarray(plant.actuation.wheels.axes_B) @ np.asarray(st.wheel_momentum)
+    rec.time_actuation[k] = st.step_time
+    on_time = np.asarray(st.on_time)
+    rec.thruster_on_time[k, : on_time.size] = on_time
+    rec.actuation_statuses.append(str(st.status))
 
 
 def simulate(
@@ -183,6 +209,7 @@ def simulate(
             Pe = np.asarray(step.tube.Pe)
             rec.excursion[k] = [tube_excursion(x_next[None, sx], z1[None, sx], Pe[sx, sx])[0] for sx in (P_STATES, R_STATES)]
             rec.w_true[k] = w_true
+            _record_actuation(rec, k, plant, dt)
             _record_step(rec, k, step, ctrl, (t0, t1), 0.0 if designs is None else designs.last_wait_s)
             x = x_next
             rec.x[k + 1] = x
@@ -213,7 +240,9 @@ def _applied(scn: Scenario, plant: _Plant, rec: RunRecord, max_steps: int | None
         "seed": rec.seed,
         "max_steps": max_steps,
         "disturbance": plant.disturbance.describe(),
-        "actuators": plant.actuators.describe(),
+        "actuators": plant.actuators.describe()
+        if plant.actuation is None
+        else describe_actuation(plant.actuation, scn.loop.actuation),
         "truth": {
             "density_scale": sim.density_scale,
             "srp_scale": sim.srp_scale,

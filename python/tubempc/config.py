@@ -127,13 +127,16 @@ class AsteroidSection:
 
 @dataclass(frozen=True, eq=False)
 class SpacecraftSection:
-    """Inertia (B principal axes), input bounds and boresight (docs/model.md "Attitude",
-    "Constraints")."""
+    """Inertia (B principal axes), input bounds, boresight and actuators (docs/model.md "Attitude",
+    "Constraints", "Actuators in the closed loop"). actuators: "ideal" (the paper's continuous input
+    inside u_max, T_max) or a preset name or TOML path (tubempc.actuators) whose achievable box then
+    caps the bounds."""
 
     J: FloatArray = field(metadata=_q("kg*m^2", "moment of inertia", (3, 3), _SPD))
     u_max: float = field(metadata=_q("m/s^2", "acceleration", check=_POS))
     T_max: float = field(metadata=_q("N*m", "torque", check=_POS))
     boresight_B: FloatArray = field(metadata=_num((3,), _NONZERO))
+    actuators: str = field(metadata=_opt())
 
 
 @dataclass(frozen=True, eq=False)
@@ -710,6 +713,13 @@ def _check_consistency(c: Config) -> None:
         raise ConfigError(f'{c.source}: mpc.scp_mode: "real_time" needs mpc.linearization = "reuse"')
     if c.mpc.horizon > c.mpc.n_steps:
         raise ConfigError(f"{c.source}: mpc.horizon: horizon {c.mpc.horizon} exceeds t_f / dt = {c.mpc.n_steps} steps")
+    if c.spacecraft.actuators != "ideal":
+        for name in ("scale_error_p", "misalignment_p", "scale_error_r", "misalignment_r"):
+            if getattr(c.disturbance, name) != 0.0:
+                raise ConfigError(
+                    f"{c.source}: disturbance.{name}: must be 0 with spacecraft.actuators = {c.spacecraft.actuators!r} "
+                    "(the actuator model draws its own thruster errors within the preset's bounds)"
+                )
     if c.tube.design_adoption == "when_ready" and c.tube.design_worker == "inline":
         raise ConfigError(f'{c.source}: tube.design_adoption: "when_ready" needs a concurrent tube.design_worker')
 

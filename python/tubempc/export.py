@@ -30,7 +30,7 @@ import numpy as np
 from . import _core
 from .config import Config
 from .dynamics import ProximityModel
-from .scenario import build_scenario, mpc_settings, propagator_settings
+from .scenario import ScenarioError, build_scenario, mpc_settings, propagator_settings
 from .shapes import Shape, save_shape
 from .tube_library import controller_designs, controller_settings
 
@@ -61,6 +61,11 @@ def export_scenario(cfg: Config, out_dir: str | Path, *, cache_dir: str | Path |
     """
     from . import __version__
 
+    if cfg.spacecraft.actuators != "ideal":
+        raise ScenarioError(
+            f"{cfg.source}: spacecraft.actuators: the scenario file carries no actuator model yet; export with "
+            '"ideal" (a C++ program would fly the ideal input)'
+        )
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     scn = build_scenario(cfg, cache_dir=cache_dir)

@@ -26,6 +26,7 @@ __all__ = [
     "METHOD_COLORS",
     "ROTATION",
     "TRANSLATION",
+    "actuation",
     "constraints",
     "controls",
     "convergence",
@@ -202,6 +203,35 @@ def controls(results: Mapping[str, RunRecord], u_max: float, T_max: float) -> Fi
         axes[-1, i].set_xlabel("t (s)")
     axes[0, 0].legend(fontsize=8)
     fig.suptitle("Inputs (dotted: limits)")
+    fig.tight_layout()
+    return fig
+
+
+def actuation(results: Mapping[str, RunRecord], thrusters: int) -> Figure:
+    """Fig. 15 (the project's): each method's thruster firings (on-time per thruster and period), the
+    cumulative thruster delta-v and propellant, and the wheels' total momentum (docs/model.md M37)."""
+    n = len(results)
+    fig, axes = plt.subplots(n + 2, 1, figsize=(10, 2.6 * (n + 2)), sharex=True, squeeze=False)
+    for row, (name, r) in enumerate(results.items()):
+        ax = axes[row, 0]
+        t = r.t[:-1]
+        dt = float(t[1] - t[0]) if len(t) > 1 else 1.0
+        on = r.thruster_on_time[:, :thrusters].T / dt
+        im = ax.imshow(on, aspect="auto", origin="lower", extent=(t[0], t[-1] + dt, -0.5, thrusters - 0.5), cmap="viridis")
+        ax.set_ylabel(f"{name}: thruster")
+        fig.colorbar(im, ax=ax, label="on-time / period")
+    for name, r in results.items():
+        t, color = r.t[:-1], METHOD_COLORS.get(name)
+        axes[n, 0].plot(t, np.cumsum(r.delta_v), color=color, label=f"{name} thruster delta-v (m/s)")
+        axes[n, 0].plot(t, np.cumsum(r.propellant), color=color, ls="--", label=f"{name} propellant (kg)")
+        axes[n + 1, 0].plot(t, np.linalg.norm(r.wheel_momentum, axis=1), color=color, label=name)
+    axes[n, 0].set_ylabel("cumulative")
+    axes[n + 1, 0].set_ylabel("|h_wheels| (N m s)")
+    axes[n + 1, 0].set_xlabel("t (s)")
+    for ax in axes[n:, 0]:
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle("Actuators: firings, delta-v, propellant and wheel momentum")
     fig.tight_layout()
     return fig
 

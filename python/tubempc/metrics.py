@@ -27,6 +27,7 @@ from scipy.optimize import minimize_scalar
 
 from . import _core
 from .summaries import (
+    ActuationSummary,
     ConstraintViolations,
     ControlEffort,
     EnvelopeFit,
@@ -43,7 +44,9 @@ if TYPE_CHECKING:
 __all__ = [
     "CERTIFIED_TUBE_STATUSES",
     "GROUPS",
+    "NOT_DELIVERED",
     "ConvergenceFit",
+    "actuation_summary",
     "below_or_above",
     "control_effort",
     "fit_exponential_convergence",
@@ -240,6 +243,25 @@ def tube_status_certified(status: str) -> bool:
     return all(part in CERTIFIED_TUBE_STATUSES for part in status.split("/"))
 
 
+#: Actuation statuses of a period the actuators did not deliver (actuators::ActuationStatus).
+NOT_DELIVERED = frozenset({"saturated", "infeasible", "invalid_command"})
+
+
+def actuation_summary(rec: RunRecord, dt: float) -> ActuationSummary | None:
+    """A run's actuation totals (docs/model.md M37); None for ideal actuators (or a record without them)."""
+    if not rec.actuation_statuses or all(s == "ideal" for s in rec.actuation_statuses):
+        return None
+    return ActuationSummary(
+        thruster_delta_v=float(np.sum(rec.delta_v)),
+        net_delta_v=float(np.linalg.norm(rec.u_delivered[:, :3], axis=1).sum() * dt),
+        propellant=float(np.sum(rec.propellant)),
+        pulses=int(np.sum(rec.pulses)),
+        max_wheel_momentum=float(np.linalg.norm(rec.wheel_momentum, axis=1).max()),
+        statuses=dict(collections.Counter(rec.actuation_statuses)),
+        not_delivered_steps=sum(s in NOT_DELIVERED for s in rec.actuation_statuses),
+    )
+
+
 def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> RunMetrics:
     """Every scalar result of one closed-loop run: J_p and J_r (Eq. 54-55), control effort, terminal and
     RMS errors, the tube excursions, the constraint violations of the actual trajectory, step-time
@@ -276,6 +298,7 @@ def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> RunMetrics:
         tube_feasible_every_step=not rec.design_failures and all(map(tube_status_certified, rec.tube_statuses)),
         run_time_s=rec.wall_time_s,
         seed=rec.seed,
+        actuation=actuation_summary(rec, dt),
     )
 
 

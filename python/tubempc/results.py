@@ -27,6 +27,8 @@ from . import __version__
 __all__ = ["RunRecord", "load_record", "load_result", "save_record", "save_result"]
 
 Array = npt.NDArray[np.float64]
+#: Columns of RunRecord.thruster_on_time (actuators::kMaxThrusters).
+MAX_THRUSTERS = 32
 _STATE = "[m, m/s, rad, rad/s]"  # x = [r_L, v_L, phi, omega_BL_B]
 _INPUT = "[m/s^2 (L), N m (B)]"  # u = [u_p, T]
 
@@ -80,10 +82,20 @@ class RunRecord:
         ("T",), "s", "wall time of the one-step prediction after the command (the next identification's input)"
     )
     time_step: Array = _array(("T",), "s", "wall time of the whole control step")
+    u_delivered: Array = _array(("T", 6), _INPUT, "input the actuators delivered over the period (its average)")
+    delta_v: Array = _array(("T",), "m/s", "thruster delta-v of the period, sum of impulses / m (ideal: |u_p| dt)")
+    propellant: Array = _array(("T",), "kg", "propellant of the period (0 for ideal actuators)")
+    pulses: Array = _array(("T",), "1", "thruster firings of the period")
+    wheel_momentum: Array = _array(("T", 3), "N m s", "the wheels' total momentum in B after the period")
+    time_actuation: Array = _array(("T",), "s", "wall time of the actuation call (allocation, modulation, wheels)")
+    thruster_on_time: Array = _array(
+        ("T", MAX_THRUSTERS), "s", "on-time of each thruster in the period (its first n columns; 0 if ideal)"
+    )
     statuses: list[str] = field(default_factory=list)  # MPC step status per step
     failures: list[str] = field(default_factory=list)  # cause of each fallback ("solved": none)
     tube_statuses: list[str] = field(default_factory=list)  # per tube update: "<translation>/<rotation>"
     design_failures: list[str] = field(default_factory=list)  # failed LMI designs: "<step>:<subsystem>:<status>"
+    actuation_statuses: list[str] = field(default_factory=list)  # actuators::ActuationStatus per step ("ideal")
     wall_time_s: float = 0.0
     # What the run actually applied: its seeds, the disturbance model, the actuator errors drawn, the
     # truth's physical mismatches (closed_loop.simulate; Monte Carlo runs keep it in their records).
@@ -180,6 +192,18 @@ def load_result(path: str | Path) -> dict[str, Any]:
     return out
 
 
+#: Arrays added with the actuator model (issue #31) and their trailing shapes.
+_ACTUATION_ARRAYS: dict[str, tuple[int, ...]] = {
+    "u_delivered": (6,),
+    "delta_v": (),
+    "propellant": (),
+    "pulses": (),
+    "wheel_momentum": (3,),
+    "time_actuation": (),
+    "thruster_on_time": (MAX_THRUSTERS,),
+}
+
+
 def save_record(
     path: str | Path, record: RunRecord, *, config: Mapping[str, Any], metadata: Mapping[str, Any] | None = None
 ) -> Path:
@@ -191,6 +215,7 @@ def save_record(
         failure=np.array(record.failures),
         tube_status=np.array(record.tube_statuses),
         design_failure=np.array(record.design_failures, dtype=str),
+        actuation_status=np.array(record.actuation_statuses, dtype=str),
     )
     meta = {"wall_time_s": record.wall_time_s, "applied": record.applied, **(metadata or {})}
     return save_result(
@@ -206,6 +231,9 @@ def load_record(path: str | Path) -> tuple[RunRecord, dict[str, Any]]:
         raw["time_design_wait"] = np.zeros_like(raw["time_tube"])
     if "time_predict" not in raw and "time_identify" in raw:  # before the C++ controller: inside time_identify
         raw["time_predict"] = np.zeros_like(raw["time_identify"])
+    for name, shape in _ACTUATION_ARRAYS.items():  # a record from before the actuator model: ideal, not recorded
+        if name not in raw and "u" in raw:
+            raw[name] = np.zeros((len(raw["u"]), *shape))
     missing = [f.name for f in RunRecord.array_fields() if f.name not in raw]
     if missing:
         raise ValueError(f"{path}: not a run record (missing arrays {missing})")
@@ -219,6 +247,7 @@ def load_record(path: str | Path) -> tuple[RunRecord, dict[str, Any]]:
         failures=[str(v) for v in raw.get("failure", [])],
         tube_statuses=[str(v) for v in raw.get("tube_status", [])],
         design_failures=[str(v) for v in raw.get("design_failure", [])],
+        actuation_statuses=[str(v) for v in raw.get("actuation_status", [])],
         wall_time_s=float(meta.get("wall_time_s", 0.0)),
         applied=dict(meta.get("applied", {})),
     )

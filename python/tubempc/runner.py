@@ -55,7 +55,8 @@ def run_summary(scn: Scenario, rec: RunRecord) -> RunMetrics:
 
 def guarantee_lost(result: RunMetrics | CampaignMethodResult) -> list[str]:
     """What a run's result (its summary or a campaign's per-method record) says was lost: steps outside
-    the tube, fallback steps, states inside the body (empty: every guarantee kept). The exit status 4
+    the tube, fallback steps, states inside the body, steps the actuators did not deliver (empty: every
+    guarantee kept). The exit status 4
     of every command means a non-empty list for some run."""
     reasons = []
     if result.steps_outside_tube:
@@ -67,6 +68,8 @@ def guarantee_lost(result: RunMetrics | CampaignMethodResult) -> list[str]:
         reasons.append(f"{fallbacks} fallback steps")
     if result.states_inside_body:
         reasons.append(f"{result.states_inside_body} states inside the body")
+    if result.actuation is not None and result.actuation.not_delivered_steps:
+        reasons.append(f"{result.actuation.not_delivered_steps} steps the actuators did not deliver")
     return reasons
 
 
@@ -87,7 +90,7 @@ def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dic
         ("fig05_states_rotation.png", lambda: figures.states(records, figures.ROTATION)),
         ("fig06_errors_translation.png", lambda: figures.errors(records, figures.TRANSLATION)),
         ("fig07_errors_rotation.png", lambda: figures.errors(records, figures.ROTATION)),
-        ("fig08_controls.png", lambda: figures.controls(records, c.spacecraft.u_max, c.spacecraft.T_max)),
+        ("fig08_controls.png", lambda: figures.controls(records, *scn.input_bounds)),
         (
             "fig09_disturbances_translation.png",
             lambda: figures.disturbances(records, c.identification.pw_scale, prior, figures.TRANSLATION),
@@ -100,6 +103,9 @@ def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dic
         ("fig13_constraints.png", lambda: figures.constraints(records)),
     ]
 
+    if scn.actuation is not None:
+        n_thrusters = len(scn.actuation.suite.cluster)
+        jobs.append(("fig15_actuation.png", lambda: figures.actuation(records, n_thrusters)))
     if "tbmpc" in records:
         jobs.append(
             ("fig11_exceedances.png", lambda: figures.exceedances(records["tbmpc"], prior, c.identification.pw_scale))

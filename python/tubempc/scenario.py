@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
+from .actuators import ActuatorConfigError, ScenarioActuation, scenario_actuation
 from .config import Config, DisturbanceSection, TubeSection
 from .disturbances import ActuatorMismatch, AdditiveDisturbance
 from .dynamics import ProximityModel
@@ -38,6 +39,7 @@ __all__ = [
     "build_scenario",
     "identifiers",
     "initial_tube",
+    "input_bounds",
     "landing_geometry",
     "landing_site",
     "memory_weight",
@@ -90,6 +92,8 @@ class Scenario:
     xf: Array
     reference: ReferenceTrajectory
     site: Site | None = None
+    #: The actuators of spacecraft.actuators (None: "ideal").
+    actuation: ScenarioActuation | None = None
     #: LMI designs computed once for this scenario (tubempc.tube_library.controller_designs).
     tube_designs: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
 
@@ -98,11 +102,17 @@ class Scenario:
         """Number of control steps T = t_f / dt."""
         return int(self.reference.u.shape[0])
 
+    @property
+    def input_bounds(self) -> tuple[float, float]:
+        """The controller's input bounds (u_max (m/s^2), T_max (N m)): spacecraft.u_max and T_max, capped
+        by the actuators' achievable box (:attr:`actuation`)."""
+        return input_bounds(self.config, self.actuation)
+
     @functools.cached_property
     def loop(self) -> LoopSetup:
         """Everything the closed loop takes from the configuration, built once for the scenario."""
         cfg = self.config
-        designers = tube_designers(cfg)
+        designers = tube_designers(cfg, self.input_bounds)
         return LoopSetup(
             mpc_settings=mpc_settings(self),
             designer_specs=(designers[0].spec, designers[1].spec),
@@ -110,6 +120,7 @@ class Scenario:
             disturbance=cfg.disturbance,
             tube=cfg.tube,
             n_steps=self.n_steps,
+            actuation=self.actuation,
         )
 
 
@@ -126,6 +137,7 @@ class LoopSetup:
     disturbance: DisturbanceSection
     tube: TubeSection
     n_steps: int
+    actuation: ScenarioActuation | None = None
 
     def designers(self) -> tuple[TubeDesigner, TubeDesigner]:
         """A run's own tube designers (a designer keeps its last design, so runs do not share them)."""
@@ -140,6 +152,13 @@ class LoopSetup:
         """The actuator errors of a run with seed ``seed`` (drawn from ``seed + 1``)."""
         d = self.disturbance
         return ActuatorMismatch(seed + 1, d.scale_error_p, d.misalignment_p, d.scale_error_r, d.misalignment_r)
+
+
+def input_bounds(cfg: Config, actuation: ScenarioActuation | None) -> tuple[float, float]:
+    """(u_max (m/s^2), T_max (N m)): the configured bounds, or the actuators' (capped by them)."""
+    if actuation is None:
+        return cfg.spacecraft.u_max, cfg.spacecraft.T_max
+    return actuation.u_max, actuation.T_max
 
 
 def model_params(cfg: Config, srp_scale: float = 1.0, site: Site | None = None) -> dict[str, Any]:
@@ -235,12 +254,12 @@ def check_body_size(cfg: Config, shape: Shape, path: Path) -> None:
         )
 
 
-def check_gravity(cfg: Config, model: ProximityModel, xf: Array) -> None:
+def check_gravity(cfg: Config, model: ProximityModel, xf: Array, u_max: float | None = None) -> None:
     """Refuses a body whose gravity at the terminal target exceeds the reference's input bound
     (simulation.reference_input_fraction x spacecraft.u_max): the spacecraft could not hover there."""
     r_A = np.asarray(model.C_AL(cfg.mpc.t_f)) @ xf[:3]
     g = float(np.linalg.norm(model.gravity.evaluate_point(r_A)[1]))
-    bound = cfg.simulation.reference_input_fraction * cfg.spacecraft.u_max
+    bound = cfg.simulation.reference_input_fraction * (cfg.spacecraft.u_max if u_max is None else u_max)
     if not g < bound:
         raise ScenarioError(
             f"{cfg.source}: spacecraft.u_max: the body's gravity at the terminal target is {g:.4g} m/s^2, more than "
@@ -419,7 +438,14 @@ def build_scenario(
     truth = ProximityModel(truth_gravity, model_params(cfg, sim.srp_scale, site=site))
     x0, xf = boundary_states(cfg, shape, model, site)
     check_boundary(cfg, shape, model, x0, xf)
-    check_gravity(cfg, model, xf)
+    try:
+        actuation = scenario_actuation(
+            cfg.spacecraft.actuators, config_folder(cfg), cfg.mpc.dt, cfg.spacecraft.u_max, cfg.spacecraft.T_max
+        )
+    except ActuatorConfigError as exc:
+        raise ScenarioError(f"{cfg.source}: spacecraft.actuators: {exc}") from exc
+    u_max, T_max = input_bounds(cfg, actuation)
+    check_gravity(cfg, model, xf, u_max)
     frac = sim.reference_input_fraction
     key = {
         "model": model_params(cfg, site=site),
@@ -438,17 +464,17 @@ def build_scenario(
             key_extra=key,
             dt=cfg.mpc.dt,
             n_steps=cfg.mpc.n_steps,
-            u_max=frac * cfg.spacecraft.u_max,
-            T_max=frac * cfg.spacecraft.T_max,
+            u_max=frac * u_max,
+            T_max=frac * T_max,
             glide_slope_angle=cfg.constraints.glide_slope_angle,
             settings=ReferenceSettings(),
         )
     except RuntimeError as exc:
         raise ScenarioError(
             f"{cfg.source}: the reference trajectory is infeasible ({exc}): no path from x0 to x_f in mpc.t_f = "
-            f"{cfg.mpc.t_f:g} s within {frac:g} x the input bounds (spacecraft.u_max = {cfg.spacecraft.u_max:g} m/s^2, "
-            f"T_max = {cfg.spacecraft.T_max:g} N m) and the cones; lengthen mpc.t_f, raise the bounds or move the "
-            "boundary states"
+            f"{cfg.mpc.t_f:g} s within {frac:g} x the input bounds (spacecraft.u_max = {u_max:g} m/s^2, "
+            f"T_max = {T_max:g} N m{_bounds_origin(cfg, actuation)}) and the cones; lengthen mpc.t_f, raise the bounds "
+            "or move the boundary states"
         ) from exc
     if not ref.converged:
         message = (
@@ -458,7 +484,14 @@ def build_scenario(
         if sim.unconverged_reference == "error":
             raise ScenarioError(message + '; simulation.unconverged_reference = "warn" flies it anyway')
         warnings.warn(message + '; flown anyway (simulation.unconverged_reference = "warn")', RuntimeWarning, stacklevel=2)
-    return Scenario(cfg, shape, shape_src, model, truth, x0, xf, ref, site)
+    return Scenario(cfg, shape, shape_src, model, truth, x0, xf, ref, site, actuation)
+
+
+def _bounds_origin(cfg: Config, actuation: ScenarioActuation | None) -> str:
+    """Where the bounds of an infeasible reference came from, for its message."""
+    if actuation is None:
+        return ""
+    return f"; the achievable box of spacecraft.actuators = {cfg.spacecraft.actuators!r} with one thruster failed"
 
 
 def _model_structure(scn: Scenario) -> tuple[Array, Array, Array]:
@@ -485,7 +518,8 @@ def mpc_settings(scn: Scenario) -> Any:
     st.dt = m.dt
     st.Q = np.diag(np.concatenate([m.Q_p, m.Q_r]))
     st.R = np.diag(np.concatenate([m.R_p, m.R_r]))
-    st.u_max = np.r_[[cfg.spacecraft.u_max] * 3, [cfg.spacecraft.T_max] * 3]
+    u_max, T_max = scn.input_bounds
+    st.u_max = np.r_[[u_max] * 3, [T_max] * 3]
     st.scp_eps = m.scp_eps
     # configuration options are the C++ enums' names (their from_string, as in scenario files)
     st.input_cost = _core.mpc.InputCost.from_string(m.input_cost)
@@ -508,24 +542,26 @@ def propagator_settings(cfg: Config) -> Any:
     return prop
 
 
-def tube_designers(cfg: Config) -> tuple[TubeDesigner, TubeDesigner]:
+def tube_designers(cfg: Config, bounds: tuple[float, float] | None = None) -> tuple[TubeDesigner, TubeDesigner]:
     """LMI tube designers of the translational and rotational subsystems (paper Eq. 25).
 
     ``tube.weighting = "normalized"``: Q = inverse prior variances, R = input_weight / u_max^2;
-    ``"mpc"``: the MPC weights.
+    ``"mpc"``: the MPC weights. ``bounds``: (u_max, T_max) (:attr:`Scenario.input_bounds`; default the
+    configured ones).
     """
-    m, s, t = cfg.mpc, cfg.spacecraft, cfg.tube
+    m, t = cfg.mpc, cfg.tube
+    u_max, T_max = bounds or (cfg.spacecraft.u_max, cfg.spacecraft.T_max)
     if t.weighting == "mpc":
         Qp, Rp, Qr, Rr = np.diag(m.Q_p), np.diag(m.R_p), np.diag(m.Q_r), np.diag(m.R_r)
     else:
         ident = cfg.identification
         Qp = np.diag(1.0 / np.diag(ident.S0_p))
         Qr = np.diag(1.0 / np.diag(ident.S0_r))
-        Rp = t.input_weight * np.eye(3) / s.u_max**2
-        Rr = t.input_weight * np.eye(3) / s.T_max**2
+        Rp = t.input_weight * np.eye(3) / u_max**2
+        Rr = t.input_weight * np.eye(3) / T_max**2
     return (
-        TubeDesigner(Q=Qp, R=Rp, u_max=s.u_max, max_solves=t.max_solves),
-        TubeDesigner(Q=Qr, R=Rr, u_max=s.T_max, max_solves=t.max_solves),
+        TubeDesigner(Q=Qp, R=Rp, u_max=u_max, max_solves=t.max_solves),
+        TubeDesigner(Q=Qr, R=Rr, u_max=T_max, max_solves=t.max_solves),
     )
 
 

@@ -25,6 +25,7 @@ from . import _core
 
 __all__ = [
     "FORMAT_VERSION",
+    "ActuationSummary",
     "CampaignMethodResult",
     "CampaignRunResult",
     "Comparison",
@@ -215,6 +216,22 @@ class EnvelopeFit(_Json):
 
 
 @dataclass(frozen=True, kw_only=True)
+class ActuationSummary(_Json):
+    """A run's actuators (docs/model.md M37; absent for ideal actuators): the thrusters' delta-v (sum of
+    impulses / m, m/s), the net delta-v delivered (sum |u_p| dt, m/s), propellant (kg), pulses, the wheels'
+    largest total momentum (N m s), the steps per actuation status and the steps the actuators did not
+    deliver (saturated, infeasible or an invalid command)."""
+
+    thruster_delta_v: float
+    net_delta_v: float
+    propellant: float
+    pulses: int
+    max_wheel_momentum: float
+    statuses: dict[str, int]
+    not_delivered_steps: int
+
+
+@dataclass(frozen=True, kw_only=True)
 class MethodResult(_Json):
     """The results of one method's closed-loop run that every summary keeps (a run's
     :class:`RunMetrics`, a Monte Carlo run's :class:`CampaignMethodResult`); run_time_s is the
@@ -230,6 +247,7 @@ class MethodResult(_Json):
     constraint_violations: ConstraintViolations
     statuses: dict[str, int]
     states_inside_body: int | None = field(default=None, metadata=_OMIT)  # None: not counted
+    actuation: ActuationSummary | None = field(default=None, metadata=_OMIT)  # None: ideal actuators
     run_time_s: float
 
 

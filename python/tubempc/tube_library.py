@@ -53,8 +53,17 @@ def subsystem_design(res: DesignResult, P_W: Array) -> Any:
 
 
 def _prior_P_W(scn: Scenario) -> tuple[Array, Array]:
+    """The prior's P_W per subsystem; with an actuator model, grown by B E (M38) about the first node."""
     ident = scn.config.identification
-    return ident.pw_scale * np.asarray(ident.S0_p), ident.pw_scale * np.asarray(ident.S0_r)
+    priors = ident.pw_scale * np.asarray(ident.S0_p), ident.pw_scale * np.asarray(ident.S0_r)
+    if scn.actuation is None:
+        return priors
+    E = scn.actuation.error_shapes()
+    grown = (
+        np.asarray(_core.actuators.disturbance_with_actuation_error(P, B, E_s))
+        for P, (_, B), E_s in zip(priors, _node0(scn), E, strict=True)
+    )
+    return next(grown), next(grown)
 
 
 def _node0(scn: Scenario) -> list[tuple[Array, Array]]:
@@ -108,7 +117,7 @@ def controller_designs(scn: Scenario, method: str) -> Any:
     key = f"designs:{method}"
     if key not in scn.tube_designs:
         t = scn.config.tube
-        designers = tube_designers(scn.config)
+        designers = tube_designers(scn.config, scn.input_bounds)
         nodes = _node0(scn)
         priors = _prior_P_W(scn)
         d = _core.control.ControllerDesigns()
@@ -163,6 +172,8 @@ def controller_settings(
     tube.alpha_search_period = t.alpha_search_period
     tube.background_designs = background_designs
     s.tube = tube
+    if scn.actuation is not None:
+        s.actuation_error = list(scn.actuation.error_shapes())
     return s
 
 

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -218,6 +219,63 @@ ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const 
     e.misalignment_B(i) = std::min(e.misalignment_B(i), a.row(i).norm() * (e.thrust_norm + carried.norm()));
   finish(e, mass);
   return e;
+}
+
+namespace {
+
+using Matrix6 = Eigen::Matrix<double, 6, 6>;
+
+// log det(P_W / (1 - beta) + P_E / beta) at beta = 1 / (1 + e^-s); +inf if not positive definite.
+double log_det_of_sum(const Matrix6& P_W, const Matrix6& P_E, double s) {
+  const double beta = 1.0 / (1.0 + std::exp(-s));
+  const Eigen::LLT<Matrix6> llt(P_W / (1.0 - beta) + P_E / beta);
+  if (llt.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
+  return 2.0 * llt.matrixL().toDenseMatrix().diagonal().array().log().sum();
+}
+
+}  // namespace
+
+Eigen::Matrix<double, 6, 6> disturbance_with_actuation_error(const Eigen::Matrix<double, 6, 6>& P_W,
+                                                             const Eigen::Matrix<double, 6, 3>& B,
+                                                             const Eigen::Matrix3d& E) {
+  const Matrix6 P_E = B * E * B.transpose();
+  // Start: the beta minimising the trace in the coordinates that make diag(P_W) = 1.
+  double b2 = 0.0;
+  for (int i = 0; i < 6; ++i) b2 += P_W(i, i) > 0.0 ? P_E(i, i) / P_W(i, i) : 0.0;
+  const double b = std::sqrt(b2);
+  if (!(b > 0.0) || !std::isfinite(b)) return P_W;
+  const double s0 = std::log(b / std::sqrt(6.0));  // logit(b / (sqrt(6) + b))
+  // Smallest volume: a grid of logit(beta) about s0, then golden-section refinement between the grid
+  // points beside the best (fixed counts; any beta gives a containing ellipsoid).
+  constexpr int kGrid = 33;
+  constexpr double kSpan = 8.0, kStep = 2.0 * kSpan / (kGrid - 1);
+  int best = kGrid / 2;
+  double f_best = log_det_of_sum(P_W, P_E, s0);
+  for (int i = 0; i < kGrid; ++i) {
+    const double f = log_det_of_sum(P_W, P_E, s0 - kSpan + kStep * i);
+    if (f < f_best) f_best = f, best = i;
+  }
+  const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+  double lo = s0 - kSpan + kStep * (best - 1), hi = s0 - kSpan + kStep * (best + 1);
+  double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
+  double f1 = log_det_of_sum(P_W, P_E, x1), f2 = log_det_of_sum(P_W, P_E, x2);
+  for (int it = 0; it < 30; ++it) {
+    if (f1 <= f2) {
+      hi = x2, x2 = x1, f2 = f1;
+      x1 = hi - g * (hi - lo);
+      f1 = log_det_of_sum(P_W, P_E, x1);
+    } else {
+      lo = x1, x1 = x2, f1 = f2;
+      x2 = lo + g * (hi - lo);
+      f2 = log_det_of_sum(P_W, P_E, x2);
+    }
+  }
+  double s = s0 - kSpan + kStep * best;
+  if (std::min(f1, f2) < f_best) s = f1 <= f2 ? x1 : x2;
+  if (!std::isfinite(std::min(f_best, std::min(f1, f2)))) s = s0;
+  const double beta = 1.0 / (1.0 + std::exp(-s));
+  const Matrix6 P = P_W / (1.0 - beta) + P_E / beta;
+  return 0.5 * (P + P.transpose());
 }
 
 }  // namespace tubempc::actuators

@@ -5,6 +5,8 @@
 #include <string>
 #include <utility>
 
+#include "tubempc/actuators/achievable_set.hpp"
+
 namespace tubempc::control {
 
 namespace {
@@ -28,6 +30,14 @@ void ControllerSettings::validate() const {
   identification_p.validate("identification_p");
   identification_r.validate("identification_r");
   tube.validate();
+  for (int s = 0; s < 2; ++s) {
+    const Eigen::Matrix3d& E = actuation_error[s];
+    const char* name = s == 0 ? "actuation_error[0]" : "actuation_error[1]";
+    if (!E.allFinite() || !E.isApprox(E.transpose(), 1e-12) ||
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(E).eigenvalues().minCoeff() < -1e-12 * E.norm())
+      throw std::invalid_argument(std::string(name) +
+                                  ": must be finite, symmetric and positive semidefinite");
+  }
 }
 
 Controller::Controller(std::shared_ptr<const mpc::LinearizedModel> model, mpc::Settings mpc_settings,
@@ -141,7 +151,8 @@ const ControlStep& Controller::step(int k, const Eigen::Ref<const Eigen::VectorX
   for (int s = 0; s < 2; ++s) {
     out_.A[s] = A_ref_[k][s];
     out_.B[s] = B_ref_[k][s];
-    out_.P_W[s] = identifiers_[s].P_W();
+    out_.P_W[s] = actuators::disturbance_with_actuation_error(identifiers_[s].P_W(), out_.B[s],
+                                                              settings_.actuation_error[s]);
     const TubeStatus status = policies_[s].update(k, out_.A[s], out_.B[s], out_.P_W[s], due);
     const SubsystemTube& tube = policies_[s].tube();
     out_.tube_status[s] = status;

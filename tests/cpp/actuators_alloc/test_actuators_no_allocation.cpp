@@ -7,6 +7,7 @@
 
 #include "../actuators/actuator_fixtures.hpp"
 #include "tubempc/actuators/allocation.hpp"
+#include "tubempc/actuators/system.hpp"
 #include "tubempc/core/allocation_counter.hpp"
 
 using namespace tubempc::actuators;
@@ -59,4 +60,38 @@ TEST(ActuatorsAllocation, StepDoesNotAllocateAfterSetup) {
   EXPECT_GT(statuses[static_cast<int>(AllocationStatus::ThrusterFailed)], 0);
   EXPECT_EQ(statuses[static_cast<int>(AllocationStatus::InvalidCommand)], 1);
   EXPECT_GT(dumping, 0);
+}
+
+TEST(ActuatorsAllocation, ActuationSystemStepDoesNotAllocate) {
+  if (!tubempc::core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  ThrusterCluster cluster = actuator_test::cube_cluster();
+  cluster.set_fault(3, FaultKind::FailedOff, 80.0);
+  cluster.set_fault(9, FaultKind::StuckOn, 240.0);
+  MomentumDumpSettings dump;
+  dump.time_constant = 50.0;
+  ActuationSettings settings;
+  settings.mass = 200.0;
+  settings.modulation.period = 1.0;
+  settings.allocation.period = 1.0;
+  ActuationSystem sys(cluster, actuator_test::pyramid_wheels(0.2, 2.0, dump), settings);
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> n(0.0, 1.0);
+  Vector6 u;
+  Eigen::Matrix3d C_BL = Eigen::Matrix3d::Identity();
+  long allocations = 0;
+  int statuses[6] = {0, 0, 0, 0, 0, 0};
+  for (int k = 0; k < 300; ++k) {
+    for (int i = 0; i < 6; ++i) u(i) = (k % 5 == 0 ? 0.1 : 0.005) * n(rng) * (i < 3 ? 1.0 : 20.0);
+    if (k == 100) u(4) = std::nan("");
+    C_BL = Eigen::AngleAxisd(0.01 * k, Eigen::Vector3d(1.0, 2.0, 3.0).normalized()).toRotationMatrix();
+    AllocationWindow window;
+    const ActuationStep& st = sys.step(k, u, C_BL);
+    ++statuses[static_cast<int>(st.status)];
+    allocations += window.count();
+  }
+  EXPECT_EQ(allocations, 0);
+  EXPECT_GT(statuses[static_cast<int>(ActuationStatus::Ok)], 0);
+  EXPECT_GT(statuses[static_cast<int>(ActuationStatus::Saturated)], 0);
+  EXPECT_GT(statuses[static_cast<int>(ActuationStatus::ThrusterFailed)], 0);
+  EXPECT_EQ(statuses[static_cast<int>(ActuationStatus::InvalidCommand)], 1);
 }

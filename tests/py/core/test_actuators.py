@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 from scipy.optimize import lsq_linear
 
+from tubempc import _core
 from tubempc import actuators as A
 from tubempc._core import actuators as act
+from tubempc.disturbances import sample_ellipsoid_surface
 
 PERIOD = 2.0
 
@@ -292,3 +294,81 @@ def test_errors_of_commands_in_the_achievable_box_lie_in_the_tighter_box(suite: 
         worst = np.maximum(worst, np.abs(e) / bound.wrench_B)
     assert dumping > 10 and failed == 300
     assert worst.max() > 0.1
+
+
+def test_system_call_allocates_like_scipy_and_fires_what_it_allocated(suite: A.ActuatorSuite) -> None:
+    """Through ActuationSystem.step: each period's allocation is the bounded least-squares optimum (scipy's
+    BVLS), the firing delivers the truth's mapping of the modulated on-times plus the wheels' torques, and the
+    delivered input is that wrench in the MPC's coordinates."""
+    rng = np.random.default_rng(21)
+    truth = A.sample_truth_errors(suite.cluster, rng)
+    sys_ = act.ActuationSystem(truth, suite.wheels, A.actuation_settings(suite))
+    D_true, F = np.asarray(truth.true_mapping), np.asarray(truth.max_thrust)
+    G = np.asarray(suite.wheels.axes_B)
+    statuses = set()
+    for k in range(120):
+        axis = rng.normal(size=3)
+        C_BL = np.asarray(_core.so3.rotation_matrix(np.r_[np.sin(0.4) * axis / np.linalg.norm(axis), np.cos(0.4)])).T
+        u = rng.normal(size=6) * np.array([1e-3, 1e-3, 1e-3, 0.5, 0.5, 0.5]) * (20.0 if k % 4 == 0 else 1.0)
+        st = sys_.step(k * PERIOD, u, C_BL)
+        statuses.add(st.status)
+        Amat, b, lo, hi = sys_.last_problem()
+        fixed = lo == hi
+        free = ~fixed
+        ref = lsq_linear(
+            Amat[:, free], b - Amat[:, fixed] @ lo[fixed], bounds=(lo[free], hi[free]), method="bvls", tol=1e-14
+        )
+        x_ref = lo.copy()
+        x_ref[free] = ref.x
+        np.testing.assert_allclose(st.thrust, x_ref[: len(truth)], atol=1e-6 * (1.0 + np.abs(hi).max()))
+        np.testing.assert_allclose(st.commanded_B, act.wrench_from_input(u, C_BL, suite.mass), rtol=1e-14, atol=1e-14)
+        delivered = D_true @ (F * np.asarray(st.on_time) / PERIOD) + np.r_[np.zeros(3), G @ np.asarray(st.wheel_torque)]
+        np.testing.assert_allclose(st.delivered_B, delivered, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(
+            st.u_delivered, act.input_from_wrench(delivered, C_BL, suite.mass), rtol=1e-12, atol=1e-15
+        )
+    assert {act.ActuationStatus.Ok, act.ActuationStatus.Saturated} <= statuses
+
+
+def test_certified_error_set_contains_every_sampled_commanded_minus_delivered_input(suite: A.ActuatorSuite) -> None:
+    """Commands inside the MPC's bounds of the preset, at random attitudes, truth errors drawn, wheels dumping and
+    a thruster failing half-way: every commanded-minus-delivered input lies in the certified ellipsoids (M38)."""
+    setup = A.scenario_actuation("osiris_rex_like", A.PRESET_DIR, PERIOD, 0.55, 3.0)
+    assert setup is not None
+    E_p, E_T = setup.error_shapes()
+    rng = np.random.default_rng(5)
+    sys_ = setup.system(7)
+    cluster = sys_.cluster.copy()
+    cluster.set_fault(11, act.FaultKind.FailedOff, 200 * PERIOD)
+    wheels = suite.wheels.copy()
+    wheels.set_momentum(np.array([42.0, -42.0, 30.0, -30.0]))
+    sys_ = act.ActuationSystem(cluster, wheels, A.actuation_settings(suite))
+    worst = np.zeros(2)
+    bound = np.r_[[setup.u_max] * 3, [setup.T_max] * 3]
+    for k in range(400):
+        q = rng.normal(size=4)
+        C_BL = np.asarray(_core.so3.rotation_matrix(q / np.linalg.norm(q))).T
+        u = rng.uniform(-1.0, 1.0, size=6) * bound * (0.05 if k % 3 == 0 else 1.0)
+        st = sys_.step(k * PERIOD, u, C_BL)
+        assert st.status in (act.ActuationStatus.Ok, act.ActuationStatus.ThrusterFailed), (k, st.status)
+        e = np.asarray(st.u_commanded) - np.asarray(st.u_delivered)
+        r = np.array([e[:3] @ np.linalg.solve(E_p, e[:3]), e[3:] @ np.linalg.solve(E_T, e[3:])])
+        assert np.all(r <= 1.0), (k, r)
+        worst = np.maximum(worst, r)
+    assert worst.min() > 1e-3  # not vacuous
+
+
+def test_disturbance_with_actuation_error_contains_the_minkowski_sum() -> None:
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        L = rng.normal(size=(6, 6)) * np.r_[1.0, 1.0, 1.0, 0.01, 0.01, 0.01][:, None]
+        P_W = L @ L.T + 1e-6 * np.eye(6)
+        B = rng.normal(size=(6, 3)) * np.r_[2.0, 2.0, 2.0, 2.0, 2.0, 2.0][:, None]
+        M = rng.normal(size=(3, 3)) * 1e-3
+        E = M @ M.T
+        P = np.asarray(act.disturbance_with_actuation_error(P_W, B, E))
+        w = sample_ellipsoid_surface(P_W, 500, rng)
+        e = sample_ellipsoid_surface(E, 500, rng)
+        s = w + e @ B.T
+        assert np.max(np.einsum("ij,ij->i", s, np.linalg.solve(P, s.T).T)) <= 1.0 + 1e-9
+    assert np.array_equal(np.asarray(act.disturbance_with_actuation_error(P_W, B, np.zeros((3, 3)))), P_W)

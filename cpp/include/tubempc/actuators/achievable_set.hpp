@@ -117,4 +117,20 @@ ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const 
                                           const Vector6& command_half_width_B, double t = 0.0,
                                           bool tolerate_one_failure = true);
 
+/// The disturbance set of a subsystem's tube design with the actuation error added (docs/model.md M38): an
+/// ellipsoid {w : w^T P^-1 w <= 1} containing W (+) B E, the Minkowski sum of W = {w : w^T P_W^-1 w <= 1} and
+/// the image under B of the input error set E = {e : e^T E^-1 e <= 1}: P = P_W / (1 - beta) + P_E / beta,
+/// P_E = B E B^T, which contains the sum for every beta in (0, 1). beta is chosen for the smallest volume
+/// (log det P): 33 values of logit(beta) within +-8 of the start b / (a + b) (a = sqrt(6), b^2 = sum_i
+/// P_E,ii / P_W,ii, the trace-minimal beta in the coordinates that make diag(P_W) = 1), then 30 golden-section
+/// steps between the neighbours of the best. E = 0 returns P_W. Allocation-free, a fixed number of 6 x 6
+/// Cholesky factorisations.
+/// @param P_W the disturbance set's shape (6 x 6, symmetric positive definite; state units squared).
+/// @param B the subsystem's discrete input matrix (6 x 3; state units per input unit).
+/// @param E the input error set's shape (3 x 3, symmetric positive semidefinite; input units squared).
+/// @return the shape P.
+Eigen::Matrix<double, 6, 6> disturbance_with_actuation_error(const Eigen::Matrix<double, 6, 6>& P_W,
+                                                             const Eigen::Matrix<double, 6, 3>& B,
+                                                             const Eigen::Matrix3d& E);
+
 }  // namespace tubempc::actuators

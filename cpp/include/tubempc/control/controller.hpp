@@ -54,6 +54,10 @@ struct ControllerSettings {
   IdentifierSettings identification_r;                     ///< rotational identifier
   /// The tube update; `adaptive` is set from `method` by the controller.
   TubePolicySettings tube;
+  /// Certified actuation-error sets of the inputs {e : e^T E^-1 e <= 1} (p: (m/s^2)^2, r: (N m)^2; symmetric
+  /// positive semidefinite): each step's tube is certified for the identified P_W plus B_k E
+  /// (actuators::disturbance_with_actuation_error; docs/model.md M38). Zero (the default): ideal actuators.
+  std::array<Eigen::Matrix3d, 2> actuation_error{Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Zero()};
   /// Throws std::invalid_argument naming the field.
   void validate() const;
 };

@@ -1,0 +1,115 @@
+"""Actuators in the closed loop against ideal actuators (docs/model.md "Actuators in the closed loop").
+
+Flies a scenario whose ``spacecraft.actuators`` is a thruster-and-wheel model, and the same scenario with
+ideal actuators and the same input bounds (``spacecraft.u_max`` and ``T_max`` set to the actuators' bounds,
+so that the reference trajectory is the same), each method with the same seed. Reports per method: steps
+outside the tube, terminal position error, net delta-v (sum |u_p delivered| dt), the thrusters' delta-v
+(sum of impulses / m) and propellant, pulses, the wheels' largest momentum, and the controller step's p99
+with and without the actuation call in the same run (and the ideal run's). The JSON carries the machine and
+both configurations.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+from typing import Any
+
+import numpy as np
+
+from ..machine import machine_info
+from . import write_json
+
+DESCRIPTION = "closed loop with thrusters and wheels against ideal actuators with the same bounds, both methods"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_mutually_exclusive_group(required=True)
+    group.add_argument("--config", help='scenario TOML with spacecraft.actuators (not "ideal")')
+    group.add_argument("--scenario", help="a packaged scenario")
+    parser.add_argument("--actuators", help="override spacecraft.actuators (a preset name or a TOML path)")
+    parser.add_argument("--method", choices=["tbmpc", "ffa", "both"], default="both")
+    parser.add_argument("--seed", type=int, default=0, help="disturbance seed")
+    parser.add_argument(
+        "--design-worker",
+        choices=["process", "thread", "inline", "none"],
+        help="where due LMI designs run (default: the configuration's tube.design_worker)",
+    )
+    parser.add_argument("--json", metavar="PATH", help="write the figures as JSON")
+
+
+def _p99_ms(seconds: np.ndarray) -> float:
+    return float(np.percentile(1e3 * np.asarray(seconds, dtype=float), 99))
+
+
+def _figures(rec: Any, xf: np.ndarray, dt: float) -> dict[str, Any]:
+    return {
+        "steps_outside_tube": int(np.sum(np.any(rec.excursion > 1.0 + 1e-9, axis=1))),
+        "max_tube_excursion": rec.excursion.max(axis=0).tolist(),
+        "terminal_position_error_m": float(np.linalg.norm(rec.x[-1, :3] - xf[:3])),
+        "terminal_velocity_error_m_s": float(np.linalg.norm(rec.x[-1, 3:6] - xf[3:6])),
+        "net_delta_v_m_s": float(np.linalg.norm(rec.u_delivered[:, :3], axis=1).sum() * dt),
+        "thruster_delta_v_m_s": float(rec.delta_v.sum()),
+        "propellant_kg": float(rec.propellant.sum()),
+        "pulses": int(rec.pulses.sum()),
+        "max_wheel_momentum_N_m_s": float(np.linalg.norm(rec.wheel_momentum, axis=1).max()),
+        "actuation_statuses": dict(collections.Counter(rec.actuation_statuses)),
+        "mpc_statuses": dict(collections.Counter(rec.statuses)),
+        "controller_p99_ms": _p99_ms(rec.time_step),
+        "controller_and_actuation_p99_ms": _p99_ms(rec.time_step + rec.time_actuation),
+        "actuation_p99_ms": _p99_ms(rec.time_actuation),
+    }
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..closed_loop import simulate
+    from ..config import load_config
+    from ..scenario import build_scenario
+
+    cfg = load_config(args.config, scenario=args.scenario)
+    if args.actuators:
+        cfg = cfg.with_overrides({"spacecraft.actuators": args.actuators})
+    if cfg.spacecraft.actuators == "ideal":
+        raise SystemExit('bench actuation: spacecraft.actuators is "ideal"; give --actuators or a configuration with one')
+    scn = build_scenario(cfg)
+    u_max, T_max = scn.input_bounds
+    ideal_cfg = cfg.with_overrides({"spacecraft.actuators": "ideal", "spacecraft.u_max": u_max, "spacecraft.T_max": T_max})
+    ideal = build_scenario(ideal_cfg)
+    if not np.array_equal(ideal.reference.x, scn.reference.x):
+        raise SystemExit("bench actuation: the ideal run's reference differs from the actuated run's")
+    methods = ["tbmpc", "ffa"] if args.method == "both" else [args.method]
+    dt = cfg.mpc.dt
+    out: dict[str, Any] = {
+        "machine": machine_info(),
+        "config": cfg.to_dict(),
+        "ideal_config": ideal_cfg.to_dict(),
+        "actuators": cfg.spacecraft.actuators,
+        "u_max": u_max,
+        "T_max": T_max,
+        "seed": args.seed,
+        "design_worker": args.design_worker or cfg.tube.design_worker,
+        "methods": {},
+    }
+    print(f"{cfg.spacecraft.actuators} against ideal actuators (u_max {u_max:.4g} m/s^2, T_max {T_max:.4g} N m):")
+    for m in methods:
+        act = _figures(simulate(scn, m, args.seed, design_worker=args.design_worker), scn.xf, dt)
+        base = _figures(simulate(ideal, m, args.seed, design_worker=args.design_worker), ideal.xf, dt)
+        row = {
+            "actuators": act,
+            "ideal": base,
+            "terminal_error_ratio": act["terminal_position_error_m"] / base["terminal_position_error_m"],
+            "net_delta_v_ratio": act["net_delta_v_m_s"] / base["net_delta_v_m_s"],
+            "thruster_delta_v_over_ideal": act["thruster_delta_v_m_s"] / base["net_delta_v_m_s"],
+            "p99_growth_ms": act["controller_and_actuation_p99_ms"] - act["controller_p99_ms"],
+        }
+        out["methods"][m] = row
+        print(
+            f"  {m:6s} outside {act['steps_outside_tube']} (ideal {base['steps_outside_tube']}); terminal "
+            f"{act['terminal_position_error_m']:.3g} m = {row['terminal_error_ratio']:.3g}x ideal; net delta-v "
+            f"{act['net_delta_v_m_s']:.4g} m/s = {row['net_delta_v_ratio']:.4g}x ideal, thrusters "
+            f"{act['thruster_delta_v_m_s']:.4g} m/s, propellant {act['propellant_kg']:.4g} kg, {act['pulses']} pulses; "
+            f"p99 {act['controller_p99_ms']:.3g} ms -> {act['controller_and_actuation_p99_ms']:.3g} ms with the "
+            f"actuation (+{row['p99_growth_ms']:.3g} ms)"
+        )
+    write_json(args.json, out)
+    return 0

@@ -1,0 +1,131 @@
+"""Actuators in the closed loop (docs/model.md "Actuators in the closed loop"): the configuration field, its
+errors, and short runs flying a thruster-and-wheel spacecraft inside their certified tubes."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tubempc import actuators as A
+from tubempc.closed_loop import simulate
+from tubempc.config import ConfigError, load_config
+from tubempc.metrics import run_metrics
+from tubempc.runner import guarantee_lost
+from tubempc.scenario import Scenario, ScenarioError, build_scenario, mpc_settings
+from tubempc.tube_library import _prior_P_W, controller_settings
+
+# A spacecraft the short hover-and-descend mission below can fly with a certified tube: the OSIRIS-REx-like
+# layout with sized thrusters (the preset itself cannot fly these missions: docs/decisions.md "Actuators in the
+# closed loop").
+SIZED = Path(__file__).resolve().parents[3] / "examples" / "actuators" / "sized_thrusters.toml"
+_OVERRIDES: dict[str, Any] = {
+    "boundary.hover_altitude": "15 m",
+    "spacecraft.T_max": "10 N*m",
+    "identification.S0_p_position": {"value": [1e-4] * 3, "unit": "m^2"},
+    "identification.S0_p_velocity": {"value": [1e-6] * 3, "unit": "m^2/s^2"},
+    "disturbance.S_p_position": {"value": [1e-6] * 3, "unit": "m^2"},
+    "disturbance.S_p_velocity": {"value": [1e-8] * 3, "unit": "m^2/s^2"},
+}
+
+
+def _preset(folder: Path, faults: str = "") -> Path:
+    path = folder / "sized.toml"
+    path.write_text(SIZED.read_text() + faults)
+    return path
+
+
+def _scenario(folder: Path, preset: Path | str, cache: Path) -> Scenario:
+    cfg = load_config(scenario="bennu-tag").with_overrides({**_OVERRIDES, "spacecraft.actuators": str(preset)})
+    return build_scenario(cfg, cache_dir=cache)
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return tmp_path_factory.mktemp("cache")
+
+
+def test_default_is_ideal_and_a_bad_actuator_field_is_named(tmp_path: Path, cache: Path) -> None:
+    cfg = load_config()
+    assert cfg.spacecraft.actuators == A.IDEAL
+    with pytest.raises(ScenarioError, match=r"spacecraft\.actuators: .*no_such_preset"):
+        build_scenario(cfg.with_overrides({"spacecraft.actuators": "no_such_preset"}), cache_dir=cache)
+    bad = tmp_path / "bad.toml"
+    bad.write_text((A.PRESET_DIR / "osiris_rex_like.toml").read_text().replace('isp = "226.1 s"', 'isp = "226.1 m"'))
+    with pytest.raises(ScenarioError, match=r"spacecraft\.actuators: .*thrusters\[0\]\.isp"):
+        build_scenario(cfg.with_overrides({"spacecraft.actuators": str(bad)}), cache_dir=cache)
+    with pytest.raises(ConfigError, match=r"disturbance\.scale_error_p: must be 0 with spacecraft\.actuators"):
+        cfg.with_overrides({"spacecraft.actuators": "osiris_rex_like", "disturbance.scale_error_p": 0.01})
+
+
+def test_ideal_actuators_leave_every_input_of_the_default_run_as_it_was(cache: Path) -> None:
+    """With "ideal", the bounds, the designs' priors, the controller's error sets and the plant's input are the
+    configured ones to the bit (the whole default run is compared with the previous version in
+    docs/decisions.md "Actuators in the closed loop")."""
+    scn = build_scenario(load_config(), cache_dir=cache)
+    s = scn.config.spacecraft
+    assert scn.actuation is None and scn.loop.actuation is None
+    assert scn.input_bounds == (s.u_max, s.T_max)
+    assert np.array_equal(np.asarray(mpc_settings(scn).u_max), np.r_[[s.u_max] * 3, [s.T_max] * 3])
+    ident = scn.config.identification
+    P_p, P_r = _prior_P_W(scn)
+    assert np.array_equal(P_p, ident.pw_scale * np.asarray(ident.S0_p))
+    assert np.array_equal(P_r, ident.pw_scale * np.asarray(ident.S0_r))
+    assert all(not np.asarray(E).any() for E in controller_settings(scn, "ffa").actuation_error)
+    rec = simulate(scn, "ffa", 3, max_steps=3, design_worker="none")
+    mismatch = scn.loop.actuators(3)
+    for u, u_del in zip(rec.u, rec.u_delivered, strict=True):
+        assert np.array_equal(u_del, np.r_[mismatch.apply_acceleration(u[:3]), mismatch.apply_torque(u[3:])])
+    assert rec.actuation_statuses == ["ideal"] * 3 and not rec.propellant.any()
+    assert run_metrics(rec, scn.config.mpc.dt, scn.xf).actuation is None
+
+
+def test_the_paper_mission_is_beyond_the_osiris_rex_like_thrusters(cache: Path) -> None:
+    """The preset's one-failure box gives 1.2e-3 m/s^2 at every attitude; the paper's reference needs 0.44."""
+    cfg = load_config().with_overrides({"spacecraft.actuators": "osiris_rex_like"})
+    with pytest.raises(ScenarioError, match=r"spacecraft\.u_max = 0\.00121.*achievable box of spacecraft\.actuators"):
+        build_scenario(cfg, cache_dir=cache)
+
+
+def test_short_run_with_thrusters_and_wheels_stays_in_its_certified_tube(tmp_path: Path, cache: Path) -> None:
+    scn = _scenario(tmp_path, _preset(tmp_path), cache)
+    assert scn.actuation is not None
+    u_max, T_max = scn.input_bounds
+    assert u_max == pytest.approx(float(np.asarray(scn.actuation.box.input_half_width)[0]))
+    assert T_max == 10.0
+    assert np.all(np.abs(scn.reference.u[:, :3]) <= u_max)
+    rec = simulate(scn, "ffa", 0, max_steps=30, design_worker="none")
+    assert np.all(rec.excursion <= 1.0)
+    assert set(rec.actuation_statuses) == {"ok"}
+    assert all(s.startswith(("initial", "lyapunov", "library")) for s in rec.tube_statuses)  # certified
+    assert rec.propellant.sum() > 0.0 and rec.pulses.sum() > 0
+    # The delivered input differs from the command by the modulation and the truth's errors, within the
+    # certified sets the tube carries.
+    E_p, E_T = scn.actuation.error_shapes()
+    e = rec.u - rec.u_delivered
+    assert np.abs(e).max() > 0.0
+    assert np.max(np.einsum("ij,ij->i", e[:, :3], np.linalg.solve(E_p, e[:, :3].T).T)) <= 1.0
+    assert np.max(np.einsum("ij,ij->i", e[:, 3:], np.linalg.solve(E_T, e[:, 3:].T).T)) <= 1.0
+    acc = rec.applied["actuators"]
+    assert acc["propellant"] == pytest.approx(rec.propellant.sum())
+    assert acc["pulses"] == int(rec.pulses.sum())
+    summary = run_metrics(rec, scn.config.mpc.dt, scn.xf)
+    assert summary.actuation is not None
+    assert summary.actuation.statuses == {"ok": 30} and summary.actuation.not_delivered_steps == 0
+    assert summary.actuation.thruster_delta_v >= summary.actuation.net_delta_v > 0.0
+    assert guarantee_lost(summary) == []
+    lost = dataclasses.replace(summary, actuation=dataclasses.replace(summary.actuation, not_delivered_steps=3))
+    assert guarantee_lost(lost) == ["3 steps the actuators did not deliver"]
+
+
+def test_a_failed_thruster_is_reported_and_flown_around(tmp_path: Path, cache: Path) -> None:
+    fault = '\n[[faults]]\nthruster = 3\nkind = "failed_off"\ntime = "20 s"\n'
+    scn = _scenario(tmp_path, _preset(tmp_path, fault), cache)
+    rec = simulate(scn, "tbmpc", 0, max_steps=25, design_worker="none")
+    assert rec.actuation_statuses[:10] == ["ok"] * 10
+    assert set(rec.actuation_statuses[10:]) == {"thruster_failed"}
+    assert np.all(rec.excursion <= 1.0)
+    assert rec.applied["actuators"]["faults"] == [{"thruster": 3, "kind": "failed_off", "time": 20.0}]
