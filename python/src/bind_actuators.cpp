@@ -28,12 +28,7 @@ void bind_actuators(py::module_& m) {
   s.attr("MAX_WHEELS") = kMaxWheels;
   s.attr("STANDARD_GRAVITY") = kStandardGravity;
 
-  bind_named_enum<FaultKind>(s, "FaultKind", "A thruster's fault")
-      .value("None_", FaultKind::None)
-      .value("FailedOff", FaultKind::FailedOff)
-      .value("StuckOn", FaultKind::StuckOn);
-  s.def("fault_kind_from_string", &fault_kind_from_string, py::arg("name"),
-        "'none', 'failed_off' or 'stuck_on' to a FaultKind (ValueError otherwise)");
+  bind_named_enum<FaultKind>(s, "FaultKind", "A thruster's fault");
 
   py::class_<ThrusterSpec>(s, "ThrusterSpec",
                            "One thruster (nominal geometry, truth errors and their bounds, fault)")
@@ -143,13 +138,7 @@ void bind_actuators(py::module_& m) {
       .def_property_readonly("applied_torque", &ReactionWheels::applied_torque)
       .def("copy", [](const ReactionWheels& w) { return ReactionWheels(w); });
 
-  bind_named_enum<AllocationStatus>(s, "AllocationStatus", "Outcome of an allocation")
-      .value("Ok", AllocationStatus::Ok)
-      .value("ThrusterFailed", AllocationStatus::ThrusterFailed)
-      .value("Saturated", AllocationStatus::Saturated)
-      .value("Infeasible", AllocationStatus::Infeasible)
-      .value("MaxIterations", AllocationStatus::MaxIterations)
-      .value("InvalidCommand", AllocationStatus::InvalidCommand);
+  bind_named_enum<AllocationStatus>(s, "AllocationStatus", "Outcome of an allocation");
 
   py::class_<AllocationSettings>(s, "AllocationSettings", "Allocation settings")
       .def(py::init<>())
@@ -249,13 +238,7 @@ void bind_actuators(py::module_& m) {
         py::arg("E"),
         "P of an ellipsoid containing W (+) B E (trace-minimal member of the outer family; M38)");
 
-  bind_named_enum<ActuationStatus>(s, "ActuationStatus", "Outcome of a period's actuation")
-      .value("Ok", ActuationStatus::Ok)
-      .value("ThrusterFailed", ActuationStatus::ThrusterFailed)
-      .value("Saturated", ActuationStatus::Saturated)
-      .value("Infeasible", ActuationStatus::Infeasible)
-      .value("MaxIterations", ActuationStatus::MaxIterations)
-      .value("InvalidCommand", ActuationStatus::InvalidCommand);
+  bind_named_enum<ActuationStatus>(s, "ActuationStatus", "Outcome of a period's actuation");
 
   py::class_<ActuationSettings>(s, "ActuationSettings", "Settings of the actuation system")
       .def(py::init<>())

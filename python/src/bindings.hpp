@@ -19,13 +19,19 @@ struct has_enum_names : std::false_type {};
 template <typename E>
 struct has_enum_names<E, std::void_t<decltype(core::EnumNames<E>::values)>> : std::true_type {};
 
-// Binds an option enum from its name table (core::EnumNames): its values, `to_string()` (the name in
-// configuration and scenario files), `from_string(name)` (ValueError naming the known names) and
-// `names()` (the file names, in declaration order).
+// Binds an option enum from its name table (core::EnumNames): its values (an identifier that is a
+// Python keyword gets a trailing underscore: `None_`), `to_string()` (the name in configuration and
+// scenario files), `from_string(name)` (ValueError naming the known names) and `names()` (the file
+// names, in declaration order).
 template <typename E>
 pybind11::enum_<E> bind_option_enum(pybind11::module_& m, const char* name, const char* doc = "") {
   pybind11::enum_<E> e(m, name, doc);
-  for (const auto& entry : core::EnumNames<E>::values) e.value(entry.identifier, entry.value);
+  const pybind11::object is_keyword = pybind11::module_::import("keyword").attr("iskeyword");
+  for (const auto& entry : core::EnumNames<E>::values) {
+    std::string identifier = entry.identifier;
+    if (is_keyword(identifier).template cast<bool>()) identifier += "_";
+    e.value(identifier.c_str(), entry.value);
+  }
   e.def("to_string", [](E v) { return std::string(core::enum_name(v)); });
   e.def_static("from_string", [](const std::string& text) {
     E v{};
@@ -42,8 +48,8 @@ pybind11::enum_<E> bind_option_enum(pybind11::module_& m, const char* name, cons
 }
 
 // Binds a status enum (or any enum whose name is its `str()`): with a name table (core::EnumNames), as
-// bind_option_enum, and `__str__` is the name; an enum without one (the nav and actuators statuses, not
-// yet moved to tables) gets `__str__` from its `to_string` and the caller adds its values.
+// bind_option_enum, and `__str__` is the name; an enum without one (the nav statuses, not yet
+// moved to tables) gets `__str__` from its `to_string` and the caller adds its values.
 template <typename E>
 pybind11::enum_<E> bind_named_enum(pybind11::module_& m, const char* name, const char* doc) {
   if constexpr (has_enum_names<E>::value) {

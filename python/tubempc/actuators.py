@@ -203,7 +203,7 @@ def load_actuators(source: str | Path, period: float, *, seed: int = 0) -> Actua
         if isinstance(j, bool) or not isinstance(j, int) or not 0 <= j < len(specs):
             raise ActuatorConfigError(f'{w}.thruster: expected an index in [0, {len(specs)}) or "random", got {j!r}')
         try:
-            specs[j].fault = _act.fault_kind_from_string(str(f.get("kind")))
+            specs[j].fault = _act.FaultKind.from_string(str(f.get("kind")))
         except ValueError as exc:
             raise ActuatorConfigError(f"{w}.kind: {exc}") from exc
         t = f.get("time")

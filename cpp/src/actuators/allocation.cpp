@@ -28,23 +28,7 @@ Vector6 input_from_wrench(const Vector6& w_B, const Eigen::Matrix3d& C_BL, doubl
   return u;
 }
 
-std::string to_string(AllocationStatus status) {
-  switch (status) {
-    case AllocationStatus::Ok:
-      return "ok";
-    case AllocationStatus::ThrusterFailed:
-      return "thruster_failed";
-    case AllocationStatus::Saturated:
-      return "saturated";
-    case AllocationStatus::Infeasible:
-      return "infeasible";
-    case AllocationStatus::MaxIterations:
-      return "max_iterations";
-    case AllocationStatus::InvalidCommand:
-      return "invalid_command";
-  }
-  return "unknown";
-}
+std::string to_string(AllocationStatus status) { return core::enum_name(status); }
 
 void AllocationSettings::validate() const {
   auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };

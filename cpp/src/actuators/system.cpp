@@ -9,23 +9,7 @@
 
 namespace tubempc::actuators {
 
-std::string to_string(ActuationStatus status) {
-  switch (status) {
-    case ActuationStatus::Ok:
-      return "ok";
-    case ActuationStatus::ThrusterFailed:
-      return "thruster_failed";
-    case ActuationStatus::Saturated:
-      return "saturated";
-    case ActuationStatus::Infeasible:
-      return "infeasible";
-    case ActuationStatus::MaxIterations:
-      return "max_iterations";
-    case ActuationStatus::InvalidCommand:
-      return "invalid_command";
-  }
-  return "unknown";
-}
+std::string to_string(ActuationStatus status) { return core::enum_name(status); }
 
 void ActuationSettings::validate() const {
   if (!(std::isfinite(mass) && mass > 0.0))

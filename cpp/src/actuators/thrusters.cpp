@@ -24,23 +24,14 @@ Eigen::Vector3d true_direction(const ThrusterSpec& s) {
 
 }  // namespace
 
-std::string to_string(FaultKind kind) {
-  switch (kind) {
-    case FaultKind::None:
-      return "none";
-    case FaultKind::FailedOff:
-      return "failed_off";
-    case FaultKind::StuckOn:
-      return "stuck_on";
-  }
-  return "unknown";
-}
+std::string to_string(FaultKind kind) { return core::enum_name(kind); }
 
 FaultKind fault_kind_from_string(const std::string& name) {
-  for (FaultKind k : {FaultKind::None, FaultKind::FailedOff, FaultKind::StuckOn})
-    if (to_string(k) == name) return k;
-  throw std::invalid_argument("fault: expected \"none\", \"failed_off\" or \"stuck_on\", got \"" + name +
-                              "\"");
+  FaultKind kind = FaultKind::None;
+  if (!core::enum_from_name(name, kind))
+    throw std::invalid_argument("fault: expected one of " + core::enum_names_list<FaultKind>() + ", got '" +
+                                name + "'");
+  return kind;
 }
 
 void ThrusterSpec::validate(const std::string& what) const {

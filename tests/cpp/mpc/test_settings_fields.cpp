@@ -6,6 +6,7 @@
 #include <string>
 #include <type_traits>
 
+#include "tubempc/actuators/system.hpp"
 #include "tubempc/control/controller.hpp"
 #include "tubempc/dynamics/propagator.hpp"
 #include "tubempc/io/scenario.hpp"
@@ -57,6 +58,9 @@ TEST(SettingsFields, EnumTablesAreCompleteAndInvertible) {
 TEST(SettingsFields, StatusTablesAreCompleteAndInvertible) {
   expect_complete_table<mpc::Status>(11);
   expect_complete_table<mpc::ActiveSetQp::Status>(5);
+  expect_complete_table<actuators::FaultKind>(3);
+  expect_complete_table<actuators::AllocationStatus>(6);
+  expect_complete_table<actuators::ActuationStatus>(6);
   expect_complete_table<dynamics::DiscretizationStatus>(3);
   expect_complete_table<dynamics::PropagationStatus>(4);
   expect_complete_table<control::Method>(2);

@@ -291,6 +291,9 @@ def test_option_enums_map_their_file_names_both_ways(enum: type[mpc.QpSolver]) -
         _core.control.TubeStatus,
         _core.control.Certification,
         _core.control.MeasuredInput,
+        _core.actuators.FaultKind,
+        _core.actuators.AllocationStatus,
+        _core.actuators.ActuationStatus,
     ],
 )
 def test_status_enums_str_is_their_table_name(enum: type[mpc.Status]) -> None:

@@ -17,10 +17,12 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <array>
 #include <string>
 
 #include "tubempc/actuators/reaction_wheels.hpp"
 #include "tubempc/actuators/thrusters.hpp"
+#include "tubempc/core/fields.hpp"
 
 namespace tubempc::actuators {
 
@@ -52,7 +54,8 @@ enum class AllocationStatus {
   InvalidCommand,  ///< Non-finite command: no thrust (stuck-on thrusters still fire), no wheel torque.
 };
 
-/// Name of a status ("ok", "thruster_failed", "saturated", "infeasible", "max_iterations", "invalid_command").
+/// Name of a status ("ok", "thruster_failed", "saturated", "infeasible", "max_iterations", "invalid_command";
+/// core::EnumNames<AllocationStatus>).
 std::string to_string(AllocationStatus status);
 
 /// Settings of the allocation.
@@ -161,3 +164,20 @@ class Allocator {
 };
 
 }  // namespace tubempc::actuators
+
+namespace tubempc::core {
+
+/// Names of actuators::AllocationStatus.
+template <>
+struct EnumNames<actuators::AllocationStatus> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<actuators::AllocationStatus>, 6> values{
+      {{actuators::AllocationStatus::Ok, "Ok", "ok"},
+       {actuators::AllocationStatus::ThrusterFailed, "ThrusterFailed", "thruster_failed"},
+       {actuators::AllocationStatus::Saturated, "Saturated", "saturated"},
+       {actuators::AllocationStatus::Infeasible, "Infeasible", "infeasible"},
+       {actuators::AllocationStatus::MaxIterations, "MaxIterations", "max_iterations"},
+       {actuators::AllocationStatus::InvalidCommand, "InvalidCommand", "invalid_command"}}};
+};
+
+}  // namespace tubempc::core

@@ -12,11 +12,13 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <array>
 #include <string>
 
 #include "tubempc/actuators/allocation.hpp"
 #include "tubempc/actuators/reaction_wheels.hpp"
 #include "tubempc/actuators/thrusters.hpp"
+#include "tubempc/core/fields.hpp"
 
 namespace tubempc::actuators {
 
@@ -43,7 +45,7 @@ enum class ActuationStatus {
 };
 
 /// Name of a status ("ok", "thruster_failed", "saturated", "infeasible", "max_iterations",
-/// "invalid_command").
+/// "invalid_command"; core::EnumNames<ActuationStatus>).
 std::string to_string(ActuationStatus status);
 
 /// One period's actuation (buffers sized at construction, overwritten by every step).
@@ -129,3 +131,20 @@ class ActuationSystem {
 };
 
 }  // namespace tubempc::actuators
+
+namespace tubempc::core {
+
+/// Names of actuators::ActuationStatus.
+template <>
+struct EnumNames<actuators::ActuationStatus> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<actuators::ActuationStatus>, 6> values{
+      {{actuators::ActuationStatus::Ok, "Ok", "ok"},
+       {actuators::ActuationStatus::ThrusterFailed, "ThrusterFailed", "thruster_failed"},
+       {actuators::ActuationStatus::Saturated, "Saturated", "saturated"},
+       {actuators::ActuationStatus::Infeasible, "Infeasible", "infeasible"},
+       {actuators::ActuationStatus::MaxIterations, "MaxIterations", "max_iterations"},
+       {actuators::ActuationStatus::InvalidCommand, "InvalidCommand", "invalid_command"}}};
+};
+
+}  // namespace tubempc::core

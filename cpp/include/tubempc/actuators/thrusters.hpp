@@ -11,8 +11,11 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <array>
 #include <string>
 #include <vector>
+
+#include "tubempc/core/fields.hpp"
 
 namespace tubempc::actuators {
 
@@ -33,7 +36,7 @@ enum class FaultKind {
   StuckOn,    ///< Fires at full thrust for the whole period from the fault time on.
 };
 
-/// Name of a fault kind ("none", "failed_off", "stuck_on").
+/// Name of a fault kind ("none", "failed_off", "stuck_on"; core::EnumNames<FaultKind>).
 std::string to_string(FaultKind kind);
 /// The fault kind of a name (as to_string); throws std::invalid_argument naming the text otherwise.
 /// @param name "none", "failed_off" or "stuck_on".
@@ -186,3 +189,17 @@ class PulseModulator {
 };
 
 }  // namespace tubempc::actuators
+
+namespace tubempc::core {
+
+/// Names of actuators::FaultKind.
+template <>
+struct EnumNames<actuators::FaultKind> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<actuators::FaultKind>, 3> values{
+      {{actuators::FaultKind::None, "None", "none"},
+       {actuators::FaultKind::FailedOff, "FailedOff", "failed_off"},
+       {actuators::FaultKind::StuckOn, "StuckOn", "stuck_on"}}};
+};
+
+}  // namespace tubempc::core
