@@ -137,17 +137,20 @@ void NavigationSystem::record(UpdateResult r, Sensor s) {
   if (r.accepted == 0) out_.filter_status = worse(out_.filter_status, r.status);
 }
 
+void NavigationSystem::count(Sensor s, SensorStatus st) {
+  const int i = static_cast<int>(s);
+  ++out_.samples[i];
+  out_.ok[i] += st == SensorStatus::Ok;
+  out_.sensor_status[i] = st;
+}
+
+void NavigationSystem::propagate_to(const SensorTruth& truth) {
+  count(Sensor::Imu, imu_.measure(truth, imu_sample_));
+  out_.filter_status = worse(out_.filter_status, filter_.propagate(truth.t, imu_sample_));
+}
+
 void NavigationSystem::sample(const SensorTruth& truth, bool all) {
   const auto due = [&](Sensor s) { return all || tick_ % every_[static_cast<int>(s)] == 0; };
-  auto count = [&](Sensor s, SensorStatus st) {
-    const int i = static_cast<int>(s);
-    ++out_.samples[i];
-    out_.ok[i] += st == SensorStatus::Ok;
-    out_.sensor_status[i] = st;
-  };
-  count(Sensor::Imu, imu_.measure(truth, imu_sample_));
-  // A zero-length propagation registers the sample: the estimate's angular velocity is this sample's.
-  out_.filter_status = worse(out_.filter_status, filter_.propagate(truth.t, imu_sample_));
   if (due(Sensor::StarTracker)) {
     count(Sensor::StarTracker, star_tracker_.measure(truth, star_));
     if (star_.status == SensorStatus::Ok) record(filter_.update_star_tracker(star_), Sensor::StarTracker);
@@ -226,7 +229,9 @@ const NavigationStep& NavigationSystem::initialize(double t0, const dynamics::Tr
   tick_ = 0;
   t0_ = t0;
   initialized_ = true;
-  sample(sensor_truth(t0, truth, accel_nongrav_L), true);
+  const SensorTruth st0 = sensor_truth(t0, truth, accel_nongrav_L);
+  propagate_to(st0);  // zero length: registers the gyro's rate for the estimate's angular velocity
+  sample(st0, true);
   finish(phi_ref);
   return out_;
 }
@@ -260,11 +265,12 @@ const NavigationStep& NavigationSystem::step(
     return out_;
   }
   for (Eigen::Index j = 0; j < n; ++j) {
-    out_.filter_status = worse(out_.filter_status, filter_.propagate(t(j), imu_sample_));
+    const dynamics::TruthState s = truth.row(j).transpose();
+    const SensorTruth st = sensor_truth(t(j), s, accel_nongrav_L.row(j).transpose());
+    propagate_to(st);
     ++tick_;
     if (j + 1 == n) out_.filter_status = worse(out_.filter_status, filter_.add_process_noise(Q_period_));
-    const dynamics::TruthState s = truth.row(j).transpose();
-    sample(sensor_truth(t(j), s, accel_nongrav_L.row(j).transpose()), false);
+    sample(st, false);
   }
   finish(phi_ref);
   return out_;

@@ -92,13 +92,13 @@ TEST(NavigationSystem, StepMatchesTheSensorsAndTheFilterCalledOneByOne) {
   nav::CameraFrame frame;
   nav::StarTrackerMeasurement stm;
   auto measure_all = [&](const nav::SensorTruth& truth, int tick) {
-    imu.measure(truth, sample);
-    filter.propagate(truth.t, sample);
     if (tick % 5 == 0 && star.measure(truth, stm) == nav::SensorStatus::Ok) filter.update_star_tracker(stm);
     if (tick % 10 == 0 && altimeter.measure(truth, alt) == nav::SensorStatus::Ok)
       filter.update_altimeter(alt);
     if (tick % 20 == 0 && camera.measure(truth, frame) == nav::SensorStatus::Ok) filter.update_camera(frame);
   };
+  imu.measure(st0, sample);
+  filter.propagate(0.0, sample);
   measure_all(st0, 0);
   nav::NavCovariance Q = nav::NavCovariance::Zero();
   Q.diagonal().head<9>() = ns.period_noise_sigma.cwiseAbs2();
@@ -109,10 +109,12 @@ TEST(NavigationSystem, StepMatchesTheSensorsAndTheFilterCalledOneByOne) {
     const Period p = truth_period(w, 2.0 * k, s, 20, 0.1);
     const nav::NavigationStep& out = sys.step(p.t, p.x, p.a, phi_ref);
     for (int j = 0; j < 20; ++j) {
+      const nav::SensorTruth truth = nav_test::sensor_truth(*w.model, p.t(j), p.x.row(j).transpose());
+      imu.measure(truth, sample);
       filter.propagate(p.t(j), sample);
       ++tick;
       if (j == 19) filter.add_process_noise(Q);
-      measure_all(nav_test::sensor_truth(*w.model, p.t(j), p.x.row(j).transpose()), tick);
+      measure_all(truth, tick);
     }
     EXPECT_EQ(out.status, nav::NavigationStatus::Ok) << "period " << k;
     EXPECT_EQ(out.samples[static_cast<int>(nav::Sensor::Imu)], 20);

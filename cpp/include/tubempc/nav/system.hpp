@@ -8,9 +8,10 @@
 /// Timing: the base rate is the IMU's period h; dt (the control period) and every other sensor's
 /// period are integer multiples of h. The plant propagates the truth in sub-steps of h and hands the
 /// samples of one period (times t_k + h, ..., t_k + dt = t_{k+1}, the last one after the period's
-/// additive disturbance) to `step`. At each sample the filter is propagated to the sample's time
-/// with the IMU sample of the previous one, the IMU is sampled, and the sensors whose period divides
-/// the sample's tick are sampled and folded in. The additive per-period disturbance (paper Eq. 16/18)
+/// additive disturbance) to `step`. At each sample the IMU is sampled (its specific force is the
+/// non-gravitational acceleration over the sub-step ending there, as an integrating accelerometer's;
+/// its rate the angular velocity at the sample), the filter is propagated to the sample's time with
+/// it, and the sensors whose period divides the sample's tick are sampled and folded in. The additive per-period disturbance (paper Eq. 16/18)
 /// is an instantaneous jump of the state: no IMU senses it, so the filter takes it as a process noise
 /// added at the period's end (`NavigationSettings::period_noise_sigma`) before that sample's
 /// measurements; the jump of the angular velocity is read by the gyro at that sample.
@@ -123,7 +124,8 @@ class NavigationSystem {
   /// one the period's end, after its additive disturbance). Allocation-free; never throws.
   /// @param t               sample times (s), n >= 1.
   /// @param truth           rows: the true state (13) at each time.
-  /// @param accel_nongrav_L rows: the true non-gravitational acceleration (thrust, SRP) in L (m/s^2).
+  /// @param accel_nongrav_L rows: the true non-gravitational acceleration (thrust, SRP) in L over the
+  ///                        sub-step (t_j - h, t_j] (m/s^2).
   /// @param phi_ref         the rotation vector the branch of phi is chosen nearest to (rad).
   /// @return the estimate at the last sample (internal storage, valid until the next call).
   const NavigationStep& step(
@@ -146,8 +148,11 @@ class NavigationSystem {
 
  private:
   SensorTruth sensor_truth(double t, const dynamics::TruthState& s, const Eigen::Vector3d& a_L) const;
-  // Samples the sensors due at the current tick from `truth` and folds them in.
+  // Samples the IMU at truth.t and propagates the filter to it with that sample.
+  void propagate_to(const SensorTruth& truth);
+  // Samples the sensors (but the IMU) due at the current tick from `truth` and folds them in.
   void sample(const SensorTruth& truth, bool all);
+  void count(Sensor s, SensorStatus st);
   void record(UpdateResult r, Sensor s);
   void finish(const Eigen::Vector3d& phi_ref);
 
