@@ -361,7 +361,9 @@ class NavigationSection:
     """Navigation in the loop (docs/model.md "Navigation", "Output-feedback tube"; navigation.py).
     enabled = false (default): the controller reads the true state, as the paper's. true: the plant is
     propagated in sub-steps of imu_period, the sensors sample it at their periods (each an integer
-    multiple of imu_period, as mpc.dt is), the filter's estimate is what the controller flies on, and
+    multiple of imu_period, as mpc.dt is), the landmark catalogue holds ``landmarks`` points spread over
+    the body plus ``site_landmarks`` on a disc of radius site_landmark_radius about the landing site (a
+    site map, as OSIRIS-REx's natural-feature catalogue), the filter's estimate is what the controller flies on, and
     the state constraints are also tightened by the estimation-error set: the filter covariance's
     chi-square ellipsoid of probability error_set_probability (a probabilistic bound). The sensors'
     noise is also the filter's model of it. period_noise: "disturbance" (the filter adds the covariance
@@ -394,6 +396,8 @@ class NavigationSection:
     camera_max_landmarks: int = field(metadata=_int(check=(lambda v: 1 <= v <= 32, "in [1, 32]")))
     camera_dropout: float = field(metadata=_num(check=_PROBABILITY))
     landmarks: int = field(metadata=_int(check=_GE1))
+    site_landmarks: int = field(metadata=_int(check=(lambda v: v >= 0, ">= 0")))
+    site_landmark_radius: float = field(metadata=_q("m", "length", check=_POS))
     star_tracker_period: float = field(metadata=_q("s", "time", check=_POS))
     star_tracker_sigma_B: FloatArray = field(metadata=_q("rad", "angle", (3,), _NONNEG))
     star_tracker_dropout: float = field(metadata=_num(check=_PROBABILITY))
@@ -779,6 +783,8 @@ def _check_navigation(c: Config) -> None:
         raise ConfigError(
             f"{c.source}: navigation.imu_period: mpc.dt = {c.mpc.dt} s is not an integer multiple of {n.imu_period} s"
         )
+    if n.site_landmarks > 0 and c.boundary.terminal != "site":
+        raise ConfigError(f'{c.source}: navigation.site_landmarks: site landmarks need boundary.terminal = "site"')
     for sensor in ("altimeter", "camera"):
         lo, hi = getattr(n, f"{sensor}_min_range"), getattr(n, f"{sensor}_max_range")
         if not hi > lo:
@@ -822,6 +828,10 @@ SCENARIOS: dict[str, tuple[str, str]] = {
     "bennu-tag": (
         "scenarios/bennu_tag.toml",
         "touch-and-go at 56 deg N (as OSIRIS-REx's Nightingale) from hovering 125 m above, contact at 0.1 m/s",
+    ),
+    "bennu-tag-nav": (
+        "scenarios/bennu_tag_nav.toml",
+        "bennu-tag flown on navigation (camera, altimeter, IMU, star tracker, EKF), a lit site at 180 deg",
     ),
     "itokawa-like": (
         "scenarios/itokawa_like.toml",

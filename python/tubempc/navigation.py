@@ -31,6 +31,7 @@ __all__ = [
     "navigation_settings",
     "new_navigation",
     "propagate_sampled",
+    "site_landmarks",
     "srp_acceleration",
     "tube_gauge",
 ]
@@ -164,11 +165,35 @@ def new_navigation(scn: Any, seed: int) -> Navigation | None:
     subdivisions = cfg.simulation.truth_shape_subdivisions
     sensor_caster = filter_caster if subdivisions == 0 else _core.nav.RayCaster(scenario_shape(cfg, subdivisions)[0])
     landmarks = _core.nav.generate_landmarks(filter_caster, n.landmarks)
+    if n.site_landmarks > 0 and scn.site is not None:
+        landmarks += site_landmarks(filter_caster, scn.site, n.site_landmarks, n.site_landmark_radius)
     system = _core.nav.NavigationSystem(
         scn.model.core, sensor_caster, filter_caster, landmarks, settings, int(seed) + NAV_SEED_OFFSET
     )
     n_sub = round(cfg.mpc.dt / n.imu_period)
     return Navigation(system, error_set_scale(n.error_set_probability), n.imu_period, n_sub, srp_acceleration(scn.truth))
+
+
+def site_landmarks(caster: Any, site: Any, count: int, radius: float) -> list[Any]:
+    """``count`` landmarks about a landing site: the surface points met by rays cast along the inward
+    normal from 2 radius above the points of a sunflower (Vogel) spiral on the disc of radius
+    ``radius`` about the site's surface point, normal to its surface normal (frame A). Deterministic."""
+    n_A = np.asarray(site.normal_A, dtype=float)
+    seed = np.eye(3)[int(np.argmin(np.abs(n_A)))]
+    e1 = seed - n_A * float(seed @ n_A)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n_A, e1)
+    golden = math.pi * (3.0 - math.sqrt(5.0))
+    out = []
+    for i in range(count):
+        rho, theta = radius * math.sqrt((i + 0.5) / count), i * golden
+        origin = np.asarray(site.surface_A) + 2.0 * radius * n_A + rho * (math.cos(theta) * e1 + math.sin(theta) * e2)
+        hit = caster.cast(origin, -n_A, 4.0 * radius)
+        if hit.hit:
+            lm = _core.nav.Landmark()
+            lm.p_A, lm.normal_A, lm.face = hit.point_A, hit.normal_A, hit.face
+            out.append(lm)
+    return out
 
 
 def tube_gauge(e: Array, Pe: Array, P_est: Array, iterations: int = 60) -> float:
