@@ -286,6 +286,18 @@ class NavigationRecord:
         self.status, self.sensor_status = self.status[: n_run + 1], self.sensor_status[: n_run + 1]
         self.gauge, self.gauge_estimate = self.gauge[:n_run], self.gauge_estimate[:n_run]
 
+    def campaign_arrays(self) -> dict[str, Array]:
+        """What a Monte Carlo run keeps (runs/run_<i>.npz, prefixed by the method): the estimation error
+        and its sigmas, the NEES, the landmarks in view and the output-feedback tube's gauges."""
+        return {
+            "nav_error": self.error,
+            "nav_sigma": self.sigma,
+            "nav_nees": self.nees,
+            "nav_landmarks": self.landmarks,
+            "nav_gauge": self.gauge,
+            "nav_gauge_estimate": self.gauge_estimate,
+        }
+
     def arrays(self) -> dict[str, Any]:
         """The record's arrays, named nav_<field> (as results files keep them)."""
         return {f"nav_{k}": np.asarray(v) for k, v in dataclasses.asdict(self).items()}
