@@ -81,6 +81,32 @@ def summarise(folder: Path, method: str, nees_runs: int) -> dict[str, Any]:
     }
 
 
+def dispersion_figure(folder: Path, method: str, path: Path) -> None:
+    """The touchdown offsets x_T - x_f in the site's tangent plane (runs that kept them) and their
+    99.7 % ellipse (tubempc.figures.touchdown_dispersion)."""
+    from tubempc import figures
+    from tubempc.config import load_config
+    from tubempc.scenario import build_scenario
+
+    scn = build_scenario(load_config(folder / "config.toml"), cache_dir=folder / "cache")
+    if scn.site is None:
+        raise SystemExit(f"{folder}: the campaign's mission has no landing site")
+    C_AL = np.asarray(scn.model.C_AL(scn.config.mpc.t_f))
+    n_A = np.asarray(scn.site.normal_A, dtype=float)
+    east = np.cross([0.0, 0.0, 1.0], n_A)
+    east /= np.linalg.norm(east)
+    north = np.cross(n_A, east)
+    offsets = []
+    for npz in sorted((folder / "runs").glob("run_*.npz")):
+        with np.load(npz) as d:
+            if f"{method}_nav_touchdown_error" in d.files:
+                dr_A = C_AL @ d[f"{method}_nav_touchdown_error"][:3].astype(float)
+                offsets.append([dr_A @ east, dr_A @ north])
+    if not offsets:
+        raise SystemExit(f"{folder}: no run kept its touchdown error (campaigns before the navigation arrays)")
+    figures.save(figures.touchdown_dispersion(np.array(offsets), f"{len(offsets)} runs of {method}", sigma_radius=1.0), path)
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("folder", type=Path)
@@ -88,8 +114,11 @@ def main() -> int:
     p.add_argument("--nees-runs", type=int, default=100)
     p.add_argument("--json", type=Path)
     p.add_argument("--command", default="")
+    p.add_argument("--figure", type=Path, help="touchdown dispersion on the site map (PNG)")
     a = p.parse_args()
     out = summarise(a.folder, a.method, a.nees_runs)
+    if a.figure:
+        dispersion_figure(a.folder, a.method, a.figure)
     summary = json.loads((a.folder / "summary.json").read_text(encoding="utf-8"))
     out["campaign_wall_time_s"] = summary.get("wall_time_s")
     out["workers"] = summary.get("workers")

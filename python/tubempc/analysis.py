@@ -85,6 +85,7 @@ def _run_arrays(records: dict[str, RunRecord]) -> dict[str, np.ndarray]:
             arrays.update(
                 {f"{m}_{k}": np.asarray(v, dtype=np.float32) for k, v in rec.navigation.campaign_arrays().items()}
             )
+            arrays[f"{m}_nav_touchdown_error"] = rec.x[-1] - rec.zbar[-1]  # x_T - x_f (12), the dispersion
     return arrays
 
 

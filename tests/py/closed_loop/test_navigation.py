@@ -123,3 +123,18 @@ def test_tube_gauge_is_the_minkowski_sums_support_gauge() -> None:
         assert g * (1 - 1e-6) <= -best.fun <= g * (1 + 1e-9)
     # the chi-square quantile against the regularised incomplete gamma function: P(chi2_12 <= c) = P(6, c / 2)
     assert scipy.special.gammainc(6.0, error_set_scale(0.9973, 12) / 2.0) == pytest.approx(0.9973, abs=1e-12)
+
+
+def test_touchdown_dispersion_ellipse_holds_its_share_of_a_gaussian_sample() -> None:
+    """The figure's ellipse of probability p holds about p of a large Gaussian sample (its fit)."""
+    from tubempc import figures
+
+    rng = np.random.default_rng(0)
+    L = np.array([[0.3, 0.0], [0.2, 0.1]])
+    pts = rng.standard_normal((4000, 2)) @ L.T + [0.05, -0.02]
+    fig = figures.touchdown_dispersion(pts, "test", probability=0.9)
+    ring = fig.axes[0].lines[1].get_xydata()
+    from matplotlib.path import Path as MplPath
+
+    share = MplPath(ring).contains_points(pts).mean()
+    assert share == pytest.approx(0.9, abs=0.015)
