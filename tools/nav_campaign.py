@@ -34,7 +34,7 @@ def summarise(folder: Path, method: str, nees_runs: int) -> dict[str, Any]:
         raise SystemExit(f"{folder}: no run of {method!r} flown with navigation")
     pos = np.array([r["terminal_error"]["position"] for r in results])
     vel = np.array([r["terminal_error"]["velocity"] for r in results])
-    cone = np.array([r["constraint_violations"]["glide_slope_steps"] + r["constraint_violations"]["los_steps"] for r in results])
+    cone = np.array([sum(r["constraint_violations"][k] for k in ("glide_slope_steps", "los_steps")) for r in results])
     gauge = np.stack([a["nav_gauge"] for a in arrays])  # (runs, T, 2)
     gauge_est = np.stack([a["nav_gauge_estimate"] for a in arrays])
     nees = np.stack([a["nav_nees"] for a in arrays]).astype(float)  # (runs, T + 1)

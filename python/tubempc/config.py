@@ -390,7 +390,9 @@ class NavigationSection:
     camera_pixels: int = field(metadata=_int(check=_GE1))
     camera_pixel_sigma: float = field(metadata=_num(check=_NONNEG))
     camera_max_emission_angle: float = field(metadata=_q("rad", "angle", check=_RIGHT_ANGLE))
-    camera_max_incidence_angle: float = field(metadata=_q("rad", "angle", check=(lambda v: 0.0 < v <= math.pi, "in (0, 180] deg")))
+    camera_max_incidence_angle: float = field(
+        metadata=_q("rad", "angle", check=(lambda v: 0.0 < v <= math.pi, "in (0, 180] deg"))
+    )
     camera_min_range: float = field(metadata=_q("m", "length", check=_NONNEG))
     camera_max_range: float = field(metadata=_q("m", "length", check=_POS))
     camera_max_landmarks: int = field(metadata=_int(check=(lambda v: 1 <= v <= 32, "in [1, 32]")))

@@ -307,7 +307,8 @@ class NavigationRecord:
         """The record from a results file's arrays (None: the run flew without navigation)."""
         if "nav_x_hat" not in raw:
             return None
-        values = {f.name: raw[f"nav_{f.name}"] for f in dataclasses.fields(cls)}
-        values["status"] = [str(s) for s in values["status"]]
-        values["sensor_status"] = [str(s) for s in values["sensor_status"]]
-        return cls(**{k: v if isinstance(v, list) else np.asarray(v, dtype=float) for k, v in values.items()})
+        values: dict[str, Any] = {}
+        for f in dataclasses.fields(cls):
+            v = raw[f"nav_{f.name}"]
+            values[f.name] = [str(s) for s in v] if f.name in ("status", "sensor_status") else np.asarray(v, dtype=float)
+        return cls(**values)

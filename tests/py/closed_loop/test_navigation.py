@@ -118,7 +118,9 @@ def test_tube_gauge_is_the_minkowski_sums_support_gauge() -> None:
         ratio = d @ e / (np.sqrt(np.einsum("ij,jk,ik->i", d, Pe, d)) + np.sqrt(np.einsum("ij,jk,ik->i", d, E, d)))
         assert ratio.max() <= g * (1 + 1e-9)
         best = scipy.optimize.minimize(
-            lambda v: -(v @ e) / (np.sqrt(v @ Pe @ v) + np.sqrt(v @ E @ v)), d[np.argmax(ratio)], method="BFGS"
+            lambda v, e=e, Pe=Pe, E=E: -(v @ e) / (np.sqrt(v @ Pe @ v) + np.sqrt(v @ E @ v)),
+            d[np.argmax(ratio)],
+            method="BFGS",
         )
         assert g * (1 - 1e-6) <= -best.fun <= g * (1 + 1e-9)
     # the chi-square quantile against the regularised incomplete gamma function: P(chi2_12 <= c) = P(6, c / 2)
