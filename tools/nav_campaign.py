@@ -3,7 +3,7 @@ touchdown position and velocity errors, cone violations, the true state in the o
 z + Omega (+) E at every step, the estimate in the certified tube Omega, and the filter's consistency
 (the average NEES over the first ``--nees-runs`` runs at each step against its 95 % chi-square bounds).
 
-    python tools/nav_campaign.py CAMPAIGN_DIR [--method ffa] [--nees-runs 100] [--json OUT.json] [--command TEXT]
+    python tools/nav_campaign.py CAMPAIGN_DIR [OUT.json] [--method ffa] [--nees-runs 100] [--figure PNG] [--command TEXT]
 """
 
 from __future__ import annotations
@@ -112,7 +112,7 @@ def main() -> int:
     p.add_argument("folder", type=Path)
     p.add_argument("--method", default="ffa")
     p.add_argument("--nees-runs", type=int, default=100)
-    p.add_argument("--json", type=Path)
+    p.add_argument("json", type=Path, nargs="?", help="write the figures to this JSON file too")
     p.add_argument("--command", default="")
     p.add_argument("--figure", type=Path, help="touchdown dispersion on the site map (PNG)")
     a = p.parse_args()
