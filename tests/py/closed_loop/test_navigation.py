@@ -140,3 +140,21 @@ def test_touchdown_dispersion_ellipse_holds_its_share_of_a_gaussian_sample() -> 
 
     share = MplPath(ring).contains_points(pts).mean()
     assert share == pytest.approx(0.9, abs=0.015)
+
+
+def test_claims_table_gets_navigation_rows_only_for_a_run_on_navigation(tmp_path: Path) -> None:
+    """A whole bennu-tag-nav descent (TBMPC-FFA): the claims table's navigation rows are measured and
+    hold (touchdown within 1 m and 2 cm/s, the truth in the output-feedback tube, errors within 3 sigma);
+    a record without navigation gets none."""
+    from tubempc.claims import paper_claims
+    from tubempc.runner import run_methods
+
+    cfg = load_config(scenario="bennu-tag-nav").with_overrides({"tube.design_worker": "none"})
+    run_methods(cfg, ["ffa"], 0, tmp_path / "nav", progress=False, cache_dir=tmp_path / "cache", make_figures=False)
+    rows = [c for c in paper_claims(tmp_path / "nav") if "on navigation" in c.claim]
+    assert len(rows) == 3 and all(c.verdict == "yes" for c in rows), [(c.claim, c.measured) for c in rows]
+    # the same folder with the records of a run on the true state (no nav_* arrays): no navigation row
+    rec, _ = load_record(tmp_path / "nav" / "ffa.h5")
+    rec.navigation = None
+    save_record(tmp_path / "nav" / "ffa.h5", rec, config=cfg.to_dict())
+    assert not [c for c in paper_claims(tmp_path / "nav") if "on navigation" in c.claim]
