@@ -272,6 +272,26 @@ def _actuation(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     return rows
 
 
+def _navigation(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
+    p, v, t, n = d["touchdown_position_error_m"], d["touchdown_velocity_error_m_s"], d["output_feedback_tube"], d["nees"]
+    where = f"{d['runs']} runs of {d['method']}, {name.removeprefix('navigation_')}"
+    return [
+        (
+            f"touchdown on navigation, {where}",
+            f"position error max {p['max']:.3g} m (p99.7 {p['p99_7']:.3g}), velocity error max {100 * v['max']:.3g} cm/s "
+            f"(p99.7 {100 * v['p99_7']:.3g}); runs over 1 m / 2 cm/s: {p['runs_over_1_m']} / {v['runs_over_2_cm_s']}; "
+            f"cone violations {d['runs_with_cone_violation']} runs; {d['run_time_s_mean']:.3g} s per run",
+        ),
+        (
+            f"output-feedback tube and filter consistency, {where}",
+            f"true state in z + Omega (+) E: largest gauge {t['max_gauge_true_state']:.3g}, runs outside "
+            f"{t['runs_true_state_outside']}; average NEES over {n['runs']} runs {n['average_over_runs_and_steps']:.3g} "
+            f"(95 % bounds {n['bounds_95'][0]:.3g}-{n['bounds_95'][1]:.3g}, {100 * n['steps_inside_bounds_fraction']:.0f} % "
+            f"of steps inside); landmarks per frame {d['landmarks_per_frame']['mean']:.3g}",
+        ),
+    ]
+
+
 def _test_command(d: dict[str, Any]) -> list[tuple[str, str]]:
     return [
         (
@@ -295,6 +315,7 @@ EXTRACTORS: dict[str, Callable[[dict[str, Any], str], list[tuple[str, str]]]] = 
     "test_command": lambda d, _: _test_command(d),
     "actuators": lambda d, _: _actuators(d),
     "actuation": _actuation,
+    "navigation": _navigation,
 }
 
 

@@ -177,6 +177,8 @@ void bind_control(py::module_& m) {
           },
           py::arg("k"), py::arg("x"), "One control step; returns a ControlStep copy")
       .def("adopt", &Controller::adopt, py::arg("subsystem"), py::arg("design"), py::arg("k_started"))
+      .def("set_estimation_error", &Controller::set_estimation_error, py::arg("P_est"),
+           "Output feedback: the estimation-error set (12 x 12) the state constraints are also tightened by")
       .def(
           "identify", [](Controller& self, int k, const Eigen::VectorXd& x) { return self.identify(k, x); },
           py::arg("k"), py::arg("x"),

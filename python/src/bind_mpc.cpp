@@ -113,7 +113,8 @@ void bind_mpc(py::module_& m) {
            }),
            py::arg("K"), py::arg("Pe"))
       .def_readwrite("K", &mpc::Tube::K)
-      .def_readwrite("Pe", &mpc::Tube::Pe);
+      .def_readwrite("Pe", &mpc::Tube::Pe)
+      .def_readwrite("P_est", &mpc::Tube::P_est);
 
   py::class_<mpc::Timings>(s, "Timings", "Wall-clock split of a step (s)")
       .def_readonly("linearize", &mpc::Timings::linearize)

@@ -13,6 +13,7 @@
 #include "tubempc/nav/random.hpp"
 #include "tubempc/nav/ray_caster.hpp"
 #include "tubempc/nav/sensors.hpp"
+#include "tubempc/nav/system.hpp"
 
 namespace py = pybind11;
 
@@ -22,6 +23,7 @@ namespace {
 
 using namespace tubempc::nav;
 using Rows3 = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+using Rows13 = Eigen::Matrix<double, Eigen::Dynamic, dynamics::kNtruth, Eigen::RowMajor>;
 
 // Ray casts of many rays with the GIL released: distances (inf for a miss) and faces (-1).
 py::tuple cast_batch(const RayCaster& caster, const Eigen::Ref<const Rows3>& origins_A,
@@ -310,6 +312,7 @@ void bind_nav(py::module_& m) {
            py::arg("model"), py::arg("caster"), py::arg("landmarks"), py::arg("settings"))
       .def("initialize", &NavigationFilter::initialize, py::arg("x0"), py::arg("P0"))
       .def("propagate", &NavigationFilter::propagate, py::arg("t_to"), py::arg("imu"))
+      .def("add_process_noise", &NavigationFilter::add_process_noise, py::arg("Q"))
       .def("update_altimeter", &NavigationFilter::update_altimeter, py::arg("measurement"))
       .def("update_camera", &NavigationFilter::update_camera, py::arg("frame"))
       .def("update_star_tracker", &NavigationFilter::update_star_tracker, py::arg("measurement"))
@@ -338,6 +341,70 @@ void bind_nav(py::module_& m) {
           },
           "(ok, range m, H (1, 15))")
       .def_property_readonly("settings", &NavigationFilter::settings);
+  bind_named_enum<Sensor>(s, "Sensor", "The four sensors, in the order of NavigationStep's per-sensor lists")
+      .value("Altimeter", Sensor::Altimeter)
+      .value("Camera", Sensor::Camera)
+      .value("Imu", Sensor::Imu)
+      .value("StarTracker", Sensor::StarTracker);
+  bind_named_enum<NavigationStatus>(s, "NavigationStatus", "Outcome of a navigation call")
+      .value("Ok", NavigationStatus::Ok)
+      .value("PredictionOnly", NavigationStatus::PredictionOnly)
+      .value("NumericalFailure", NavigationStatus::NumericalFailure)
+      .value("InvalidInput", NavigationStatus::InvalidInput)
+      .value("NotInitialized", NavigationStatus::NotInitialized);
+  s.attr("N_SENSORS") = kSensors;
+  py::class_<NavigationSettings>(
+      s, "NavigationSettings", "True sensors, the filter (its model of them), initial and per-period sigmas")
+      .def(py::init<>())
+      .def_readwrite("altimeter", &NavigationSettings::altimeter)
+      .def_readwrite("camera", &NavigationSettings::camera)
+      .def_readwrite("imu", &NavigationSettings::imu)
+      .def_readwrite("star_tracker", &NavigationSettings::star_tracker)
+      .def_readwrite("filter", &NavigationSettings::filter)
+      .def_readwrite("initial_sigma", &NavigationSettings::initial_sigma)
+      .def_readwrite("period_noise_sigma", &NavigationSettings::period_noise_sigma)
+      .def_readwrite("max_samples", &NavigationSettings::max_samples)
+      .def("validate", &NavigationSettings::validate);
+  py::class_<NavigationStep>(s, "NavigationStep", "Result of one navigation call (a copy)")
+      .def_readonly("status", &NavigationStep::status)
+      .def_readonly("t", &NavigationStep::t)
+      .def_readonly("x_hat", &NavigationStep::x_hat)
+      .def_readonly("P_x", &NavigationStep::P_x)
+      .def_readonly("estimate", &NavigationStep::estimate)
+      .def_readonly("covariance", &NavigationStep::covariance)
+      .def_property_readonly("sensor_status",
+                             [](const NavigationStep& r) {
+                               return std::vector<SensorStatus>(r.sensor_status.begin(),
+                                                                r.sensor_status.end());
+                             })
+      .def_readonly("samples", &NavigationStep::samples)
+      .def_readonly("ok", &NavigationStep::ok)
+      .def_readonly("accepted", &NavigationStep::accepted)
+      .def_readonly("rejected", &NavigationStep::rejected)
+      .def_readonly("landmarks_visible", &NavigationStep::landmarks_visible)
+      .def_readonly("filter_status", &NavigationStep::filter_status)
+      .def_readonly("nis", &NavigationStep::nis)
+      .def_readonly("nis_dof", &NavigationStep::nis_dof);
+  py::class_<NavigationSystem>(s, "NavigationSystem",
+                               "The sensors and the filter of a run: one call per control period")
+      .def(py::init<std::shared_ptr<const dynamics::ProximityModel>, std::shared_ptr<const RayCaster>,
+                    std::shared_ptr<const RayCaster>, std::vector<Landmark>, const NavigationSettings&,
+                    std::uint64_t>(),
+           py::arg("model"), py::arg("sensor_caster"), py::arg("filter_caster"), py::arg("landmarks"),
+           py::arg("settings"), py::arg("seed"))
+      .def("initialize", &NavigationSystem::initialize, py::arg("t0"), py::arg("truth"),
+           py::arg("accel_nongrav_L"), py::arg("phi_ref"), py::return_value_policy::copy)
+      .def(
+          "step",
+          [](NavigationSystem& n, const Eigen::Ref<const Eigen::VectorXd>& t,
+             const Eigen::Ref<const Rows13>& truth, const Eigen::Ref<const Rows3>& a,
+             const Eigen::Vector3d& phi_ref) { return n.step(t, truth, a, phi_ref); },
+          py::arg("t"), py::arg("truth"), py::arg("accel_nongrav_L"), py::arg("phi_ref"),
+          "One control period from the truth samples (n,), (n, 13), (n, 3); returns a copy")
+      .def_property_readonly("filter", &NavigationSystem::filter, py::return_value_policy::reference_internal)
+      .def_property_readonly("imu", &NavigationSystem::imu, py::return_value_policy::reference_internal)
+      .def_property_readonly("settings", &NavigationSystem::settings)
+      .def_property_readonly("base_period", &NavigationSystem::base_period);
 }
 
 }  // namespace tubempc::python

@@ -105,6 +105,7 @@ class Reference:
 class Tube:
     K: _Arr
     Pe: _Arr
+    P_est: _Arr
     def __init__(self, K: _Vec, Pe: _Vec) -> None: ...
 
 class Timings:

@@ -81,6 +81,9 @@ def _run_arrays(records: dict[str, RunRecord]) -> dict[str, np.ndarray]:
         arrays[f"{m}_half_width"] = np.sqrt(
             np.concatenate([np.diagonal(rec.Pe_p, axis1=1, axis2=2), np.diagonal(rec.Pe_r, axis1=1, axis2=2)], axis=1)
         ).astype(np.float32)
+        if rec.navigation is not None:  # flown on the estimate: the navigation's per-step record
+            arrays.update({f"{m}_{k}": np.asarray(v, dtype=np.float32) for k, v in rec.navigation.campaign_arrays().items()})
+            arrays[f"{m}_nav_touchdown_error"] = rec.x[-1] - rec.zbar[-1]  # x_T - x_f (12), the dispersion
     return arrays
 
 

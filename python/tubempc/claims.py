@@ -16,7 +16,7 @@ import numpy as np
 
 from .summaries import MonteCarloSummary, RunSummary, SweepRow, SweepSummary, read_summary
 
-__all__ = ["PAPER_TABLE3", "PAPER_TABLE4", "Claim", "holding_floor", "paper_claims"]
+__all__ = ["PAPER_TABLE3", "PAPER_TABLE4", "TOUCHDOWN_GOAL", "Claim", "holding_floor", "paper_claims"]
 
 #: Paper Table 3 (J_p, J_r) for TBMPC and TBMPC-FFA at lambda_p = 0.96, 0.97, 0.98.
 PAPER_TABLE3 = {"TBMPC": (16.2627, 16.3634), "0.96": (1.4787, 21.2822), "0.97": (1.5708, 22.2176), "0.98": (1.6187, 24.2805)}
@@ -275,4 +275,57 @@ def paper_claims(run_dir: Path | None, sweep_dir: Path | None = None, mc_dir: Pa
     sweep = _load(sweep_dir / "sweep.json", SweepSummary) if sweep_dir is not None else None
     mc = _load(mc_dir / "summary.json", MonteCarloSummary) if mc_dir is not None else None
     claims = _run_claims(run_dir, run, mc) if run_dir is not None and run is not None else []
+    if run_dir is not None and run is not None:
+        claims += _navigation_claims(run_dir, run)
     return claims + _sweep_claims(sweep)
+
+
+#: Issue #30's touchdown goals: position (m) and velocity (m/s) error at t_f.
+TOUCHDOWN_GOAL = (1.0, 0.02)
+
+
+def _navigation_claims(run_dir: Path, run: RunSummary) -> list[Claim]:
+    """Rows of a run flown on navigation (none for a run on the true state): per method, the estimation
+    error inside its 3-sigma bounds, the true state inside the output-feedback tube at every step, and
+    the touchdown goals. Not the paper's claims: issue #30's."""
+    from .results import load_record
+
+    claims = []
+    for m, res in sorted(run.methods.items()):
+        path = run_dir / f"{m}.h5"
+        if not path.exists():
+            continue
+        nav = load_record(path)[0].navigation
+        if nav is None:
+            continue
+        inside = float(np.mean(np.abs(nav.error) <= 3.0 * nav.sigma))
+        claims.append(
+            Claim(
+                f"{m} on navigation: the estimation error stays inside its 3-sigma bounds",
+                "issue #30",
+                ">= 99 % of components and steps (99.7 % for a consistent filter)",
+                f"{100 * inside:.2f} %",
+                inside >= 0.99,
+            )
+        )
+        gauge = float(nav.gauge.max()) if nav.gauge.size else 0.0
+        claims.append(
+            Claim(
+                f"{m} on navigation: the true state stays in the output-feedback tube z + Omega (+) E",
+                "issue #30",
+                "gauge <= 1 at every step (E: a probabilistic set)",
+                f"largest gauge {gauge:.3g} over {nav.gauge.shape[0]} steps",
+                gauge <= 1.0,
+            )
+        )
+        dr, dv = res.terminal_error.position, res.terminal_error.velocity
+        claims.append(
+            Claim(
+                f"{m} on navigation: touchdown within {TOUCHDOWN_GOAL[0]:g} m and {100 * TOUCHDOWN_GOAL[1]:g} cm/s",
+                "issue #30",
+                "OSIRIS-REx: about 1 m",
+                f"{dr:.3g} m, {100 * dv:.3g} cm/s",
+                dr <= TOUCHDOWN_GOAL[0] and dv <= TOUCHDOWN_GOAL[1],
+            )
+        )
+    return claims

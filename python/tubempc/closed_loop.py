@@ -23,8 +23,9 @@ to the reference (so that phi follows the reference through ``|phi| = pi``).
 
 from __future__ import annotations
 
+import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -33,6 +34,7 @@ import numpy.typing as npt
 from .actuators import actuate, describe_actuation
 from .disturbances import ActuatorMismatch, AdditiveDisturbance
 from .metrics import tube_excursion
+from .navigation import Navigation, NavigationRecord, new_navigation, propagate_sampled, tube_gauge
 from .results import RunRecord
 from .scenario import METHODS, P_STATES, R_STATES, Scenario
 from .tube_library import new_controller
@@ -54,6 +56,8 @@ class _Plant:
     state: Array  # 13-state [r_L, v_L, q_B/L, omega_BL_B] of the truth
     actuation: Any = None  # _core.actuators.ActuationSystem (spacecraft.actuators), or None: ideal
     delivered: Any = None  # the last period's (u_delivered, ActuationStep or None)
+    nav: Navigation | None = None  # with navigation: propagated in sub-steps the sensors sample
+    nav_error_set: Array = field(default_factory=lambda: np.zeros((0, 0)))  # E of the estimate flown
 
     def step(self, k: int, u: Array) -> tuple[Array, Array]:
         """Propagates one control period with input ``u``; returns x_{k+1} and the disturbance drawn."""
@@ -64,14 +68,20 @@ class _Plant:
         else:
             self.delivered = actuate(self.actuation, k * dt, u, self.state)
             u_applied = self.delivered[0]
-        prop = scn.truth.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator)
-        if prop.status.name != "Success":
-            raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
+        if self.nav is not None:
+            end = propagate_sampled(self.nav, scn.truth, k * dt, self.state, u_applied, self.propagator)
+        else:
+            prop = scn.truth.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator)
+            if prop.status.name != "Success":
+                raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
+            end = np.asarray(prop.state)
         w_p, w_r = self.disturbance.sample(k)
-        x_next = scn.truth.truth_to_state(np.asarray(prop.state), scn.reference.x[k + 1, 6:9])
+        x_next = scn.truth.truth_to_state(end, scn.reference.x[k + 1, 6:9])
         x_next[P_STATES] += w_p
         x_next[R_STATES] += w_r
         self.state = scn.truth.state_to_truth(x_next)
+        if self.nav is not None:
+            self.nav.truth[-1] = self.state  # the sensors' last sample is after the disturbance
         return x_next, np.concatenate([w_p, w_r])
 
 
@@ -175,6 +185,8 @@ def simulate(
     plant = _new_plant(scn, seed)
     rec = _new_record(scn, method, seed)
     x = scn.x0.copy()
+    nav, est = _start_navigation(scn, plant, rec, seed)
+    x_hat = x if est is None else np.asarray(est.x_hat)
     bar = None
     if progress:
         from tqdm import tqdm
@@ -197,7 +209,9 @@ def simulate(
         for k in range(n_run):
             if designs is not None:
                 designs.adopt_due(k, ctrl)
-            step = ctrl.step(k, x)
+            if est is not None:
+                ctrl.set_estimation_error(plant.nav_error_set)
+            step = ctrl.step(k, x_hat)
             if designs is not None:
                 designs.submit(k, step, ctrl, t.redesign_margin)
             u = np.asarray(step.u, dtype=float).copy()
@@ -207,7 +221,13 @@ def simulate(
             # Tube check (paper Proposition 1): the error after the step, x_{k+1} - z*_{1|k}, in the tube of step k.
             z1 = np.asarray(step.mpc.z)[:, 1]
             Pe = np.asarray(step.tube.Pe)
-            rec.excursion[k] = [tube_excursion(x_next[None, sx], z1[None, sx], Pe[sx, sx])[0] for sx in (P_STATES, R_STATES)]
+            if nav is not None:
+                est = nav.step(scn.reference.x[k + 1, 6:9])
+                x_hat = _record_navigation(rec, k, est, x_next, plant, z1, Pe)
+            else:
+                x_hat = x_next
+            # with navigation: the estimate's excursion in the certified tube (the truth's is rec.navigation.gauge)
+            rec.excursion[k] = [tube_excursion(x_hat[None, sx], z1[None, sx], Pe[sx, sx])[0] for sx in (P_STATES, R_STATES)]
             rec.w_true[k] = w_true
             _record_actuation(rec, k, plant, dt)
             _record_step(rec, k, step, ctrl, (t0, t1), 0.0 if designs is None else designs.last_wait_s)
@@ -216,7 +236,7 @@ def simulate(
             rec.g[k + 1] = [scn.truth.glide_slope(x, (k + 1) * dt)[0], scn.truth.line_of_sight(x)[0]]
             if bar is not None:
                 bar.update()
-        if ctrl.identify(n_run, x):  # the last period's input, which no later step folds in
+        if ctrl.identify(n_run, x_hat):  # the last period's input, which no later step folds in
             _record_identification(rec, n_run - 1, np.asarray(ctrl.last_measured_input), ctrl)
     finally:
         if designs is not None:
@@ -227,8 +247,36 @@ def simulate(
     rec.wall_time_s = time.perf_counter() - wall0
     if n_run < T:
         rec.truncate(n_run)
+        if rec.navigation is not None:
+            rec.navigation.truncate(n_run)
     rec.applied = _applied(scn, plant, rec, max_steps)
     return rec
+
+
+def _start_navigation(scn: Scenario, plant: _Plant, rec: RunRecord, seed: int) -> tuple[Navigation | None, Any]:
+    """The run's navigation, started at the initial state (None, None: the controller reads the truth)."""
+    nav = new_navigation(scn, seed)
+    if nav is None:
+        return None, None
+    plant.nav = nav
+    rec.navigation = NavigationRecord.allocate(scn.n_steps)
+    est = nav.initialize(plant.state, scn.reference.x[0, 6:9])
+    rec.navigation.add(0, est, scn.x0, plant.state, nav.system.imu)
+    plant.nav_error_set = nav.error_set(est.P_x)
+    return nav, est
+
+
+def _record_navigation(rec: RunRecord, k: int, est: Any, x_next: Array, plant: _Plant, z1: Array, Pe: Array) -> Array:
+    """Step k + 1's estimate into the record, and the truth's gauge in the output-feedback tube
+    z*_1|k (+) Omega_k (+) E_{k+1}; returns the estimate x^_{k+1}."""
+    assert plant.nav is not None and rec.navigation is not None
+    x_hat = np.asarray(est.x_hat)
+    rec.navigation.add(k + 1, est, x_next, plant.state, plant.nav.system.imu)
+    plant.nav_error_set = E = plant.nav.error_set(est.P_x)
+    for i, sx in enumerate((P_STATES, R_STATES)):
+        rec.navigation.gauge[k, i] = tube_gauge(x_next[sx] - z1[sx], Pe[sx, sx], E[sx, sx])
+        rec.navigation.gauge_estimate[k, i] = math.sqrt(tube_excursion(x_hat[None, sx], z1[None, sx], Pe[sx, sx])[0])
+    return x_hat
 
 
 def _applied(scn: Scenario, plant: _Plant, rec: RunRecord, max_steps: int | None) -> dict[str, Any]:

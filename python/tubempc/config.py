@@ -58,6 +58,7 @@ class _Spec:
     check: tuple[Callable[[Any], bool], str] | None = None
     choices: tuple[str, ...] | None = None
     integer: bool = False
+    boolean: bool = False
 
 
 _Check = tuple[Callable[[Any], bool], str] | None
@@ -76,6 +77,11 @@ def _num(shape: tuple[int, ...] = (), check: _Check = None) -> _Meta:
 def _int(check: _Check = None) -> _Meta:
     """Field metadata of an integer."""
     return {"spec": _Spec(None, "integer", (), check, integer=True)}
+
+
+def _bool() -> _Meta:
+    """Field metadata of a boolean (true or false)."""
+    return {"spec": _Spec(None, "boolean", boolean=True)}
 
 
 def _opt(*choices: str) -> _Meta:
@@ -348,6 +354,69 @@ class SimulationSection:
     unconverged_reference: str = field(metadata=_opt("error", "warn"))
 
 
+_PROBABILITY = (lambda v: 0.0 <= v <= 1.0, "in [0, 1]")
+_OPEN_PROBABILITY = (lambda v: 0.0 < v < 1.0, "in (0, 1)")
+_RIGHT_ANGLE = (lambda v: 0.0 < v <= math.pi / 2, "in (0, 90] deg")
+
+
+@dataclass(frozen=True, eq=False)
+class NavigationSection:
+    """Navigation in the loop (docs/model.md "Navigation", "Output-feedback tube"; navigation.py).
+    enabled = false (default): the controller reads the true state, as the paper's. true: the plant is
+    propagated in sub-steps of imu_period, the sensors sample it at their periods (each an integer
+    multiple of imu_period, as mpc.dt is), the landmark catalogue holds ``landmarks`` points spread over
+    the body plus ``site_landmarks`` on a disc of radius site_landmark_radius about the landing site (a
+    site map, as OSIRIS-REx's natural-feature catalogue), the filter's estimate is what the controller flies on, and
+    the state constraints are also tightened by the estimation-error set: the filter covariance's
+    chi-square ellipsoid of probability error_set_probability (a probabilistic bound). The sensors'
+    noise is also the filter's model of it. period_noise: "disturbance" (the filter adds the covariance
+    of the [disturbance] draw, at its largest growth, times period_noise_scale^2 at each period's end)
+    or "none". Seeded from the run's seed."""
+
+    enabled: bool = field(metadata=_bool())
+    imu_period: float = field(metadata=_q("s", "time", check=_POS))
+    gyro_noise_density: float = field(metadata=_q("rad/s/Hz^0.5", "angle random walk", check=_NONNEG))
+    gyro_bias_sigma: float = field(metadata=_q("rad/s", "angular velocity", check=_NONNEG))
+    gyro_bias_random_walk: float = field(metadata=_q("rad/s^2/Hz^0.5", "rate random walk", check=_NONNEG))
+    accel_noise_density: float = field(metadata=_q("m/s^2/Hz^0.5", "velocity random walk", check=_NONNEG))
+    accel_bias_sigma: float = field(metadata=_q("m/s^2", "acceleration", check=_NONNEG))
+    accel_bias_random_walk: float = field(metadata=_q("m/s^3/Hz^0.5", "acceleration random walk", check=_NONNEG))
+    imu_dropout: float = field(metadata=_num(check=_PROBABILITY))
+    altimeter_period: float = field(metadata=_q("s", "time", check=_POS))
+    altimeter_sigma: float = field(metadata=_q("m", "length", check=_NONNEG))
+    altimeter_bias: float = field(metadata=_q("m", "length"))
+    altimeter_min_range: float = field(metadata=_q("m", "length", check=_NONNEG))
+    altimeter_max_range: float = field(metadata=_q("m", "length", check=_POS))
+    altimeter_dropout: float = field(metadata=_num(check=_PROBABILITY))
+    camera_period: float = field(metadata=_q("s", "time", check=_POS))
+    camera_fov: float = field(metadata=_q("rad", "angle", check=_HALF_TURN))
+    camera_pixels: int = field(metadata=_int(check=_GE1))
+    camera_pixel_sigma: float = field(metadata=_num(check=_NONNEG))
+    camera_max_emission_angle: float = field(metadata=_q("rad", "angle", check=_RIGHT_ANGLE))
+    camera_max_incidence_angle: float = field(
+        metadata=_q("rad", "angle", check=(lambda v: 0.0 < v <= math.pi, "in (0, 180] deg"))
+    )
+    camera_min_range: float = field(metadata=_q("m", "length", check=_NONNEG))
+    camera_max_range: float = field(metadata=_q("m", "length", check=_POS))
+    camera_max_landmarks: int = field(metadata=_int(check=(lambda v: 1 <= v <= 32, "in [1, 32]")))
+    camera_dropout: float = field(metadata=_num(check=_PROBABILITY))
+    landmarks: int = field(metadata=_int(check=_GE1))
+    site_landmarks: int = field(metadata=_int(check=(lambda v: v >= 0, ">= 0")))
+    site_landmark_radius: float = field(metadata=_q("m", "length", check=_POS))
+    star_tracker_period: float = field(metadata=_q("s", "time", check=_POS))
+    star_tracker_sigma_B: FloatArray = field(metadata=_q("rad", "angle", (3,), _NONNEG))
+    star_tracker_dropout: float = field(metadata=_num(check=_PROBABILITY))
+    altimeter_terrain_sigma: float = field(metadata=_q("m", "length", check=_NONNEG))
+    accel_model_noise: float = field(metadata=_q("m/s^2/Hz^0.5", "velocity random walk", check=_NONNEG))
+    innovation_gate: float = field(metadata=_num(check=_POS))
+    initial_sigma_position: float = field(metadata=_q("m", "length", check=_NONNEG))
+    initial_sigma_velocity: float = field(metadata=_q("m/s", "velocity", check=_NONNEG))
+    initial_sigma_attitude: float = field(metadata=_q("rad", "angle", check=_NONNEG))
+    period_noise: str = field(metadata=_opt("disturbance", "none"))
+    period_noise_scale: float = field(metadata=_num(check=_NONNEG))
+    error_set_probability: float = field(metadata=_num(check=_OPEN_PROBABILITY))
+
+
 _SECTIONS: dict[str, type] = {
     "environment": EnvironmentSection,
     "asteroid": AsteroidSection,
@@ -359,6 +428,7 @@ _SECTIONS: dict[str, type] = {
     "disturbance": DisturbanceSection,
     "tube": TubeSection,
     "simulation": SimulationSection,
+    "navigation": NavigationSection,
 }
 
 
@@ -377,6 +447,7 @@ class Config:
     disturbance: DisturbanceSection
     tube: TubeSection
     simulation: SimulationSection
+    navigation: NavigationSection
     source: str = "<memory>"
     defaulted: tuple[str, ...] = ()  # "section.field" taken from the packaged defaults (not content)
 
@@ -445,6 +516,10 @@ def _section_to_dict(section: Any) -> dict[str, Any]:
 
 
 def _parse_field(spec: _Spec, raw: Any, where: str) -> Any:
+    if spec.boolean:
+        if not isinstance(raw, bool):
+            raise ConfigError(f"{where}: expected true or false, got {raw!r}")
+        return raw
     if spec.choices is not None or (spec.unit is None and not spec.integer):
         if not isinstance(raw, str) or not raw:
             raise ConfigError(f"{where}: expected a non-empty string, got {raw!r}")
@@ -695,7 +770,34 @@ def _parse(data: Mapping[str, Any], source: str, defaults: Mapping[str, Any] | N
     return config
 
 
+def _multiple(period: float, base: float) -> bool:
+    r = period / base
+    return round(r) >= 1 and abs(r - round(r)) <= 1e-9 * r
+
+
+def _check_navigation(c: Config) -> None:
+    """The sensors' periods and mpc.dt are integer multiples of the IMU's; each range interval is non-empty."""
+    n = c.navigation
+    for name in ("altimeter_period", "camera_period", "star_tracker_period"):
+        if not _multiple(getattr(n, name), n.imu_period):
+            raise ConfigError(
+                f"{c.source}: navigation.{name}: {getattr(n, name)} s is not an integer multiple of "
+                f"navigation.imu_period = {n.imu_period} s"
+            )
+    if not _multiple(c.mpc.dt, n.imu_period):
+        raise ConfigError(
+            f"{c.source}: navigation.imu_period: mpc.dt = {c.mpc.dt} s is not an integer multiple of {n.imu_period} s"
+        )
+    if n.site_landmarks > 0 and c.boundary.terminal != "site":
+        raise ConfigError(f'{c.source}: navigation.site_landmarks: site landmarks need boundary.terminal = "site"')
+    for sensor in ("altimeter", "camera"):
+        lo, hi = getattr(n, f"{sensor}_min_range"), getattr(n, f"{sensor}_max_range")
+        if not hi > lo:
+            raise ConfigError(f"{c.source}: navigation.{sensor}_max_range: {hi} m must exceed {sensor}_min_range = {lo} m")
+
+
 def _check_consistency(c: Config) -> None:
+    _check_navigation(c)
     ratio = c.mpc.t_f / c.mpc.dt
     if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
         raise ConfigError(f"{c.source}: mpc.t_f: {c.mpc.t_f} s is not a multiple of mpc.dt = {c.mpc.dt} s")
@@ -738,6 +840,10 @@ SCENARIOS: dict[str, tuple[str, str]] = {
     "bennu-tag": (
         "scenarios/bennu_tag.toml",
         "touch-and-go at 56 deg N (as OSIRIS-REx's Nightingale) from hovering 125 m above, contact at 0.1 m/s",
+    ),
+    "bennu-tag-nav": (
+        "scenarios/bennu_tag_nav.toml",
+        "bennu-tag flown on navigation (camera, altimeter, IMU, star tracker, EKF), a lit site at 180 deg",
     ),
     "itokawa-like": (
         "scenarios/itokawa_like.toml",
@@ -800,6 +906,7 @@ __all__ = [
     "EnvironmentSection",
     "IdentificationSection",
     "MpcSection",
+    "NavigationSection",
     "SimulationSection",
     "SpacecraftSection",
     "TubeSection",

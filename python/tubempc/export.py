@@ -60,12 +60,15 @@ def export_scenario(cfg: Config, out_dir: str | Path, *, cache_dir: str | Path |
     ``cache_dir``: reference-trajectory cache (:func:`tubempc.scenario.build_scenario`).
     """
     from . import __version__
+    from .config import ConfigError
 
     if cfg.spacecraft.actuators != "ideal":
         raise ScenarioError(
             f"{cfg.source}: spacecraft.actuators: the scenario file carries no actuator model yet; export with "
             '"ideal" (a C++ program would fly the ideal input)'
         )
+    if cfg.navigation.enabled:  # the scenario file has no [navigation] records yet: a C++ program flies the truth
+        raise ConfigError(f"{cfg.source}: navigation.enabled: the C++ scenario file does not carry [navigation] yet")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     scn = build_scenario(cfg, cache_dir=cache_dir)

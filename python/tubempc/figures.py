@@ -34,9 +34,12 @@ __all__ = [
     "errors",
     "exceedances",
     "lambda_sensitivity",
+    "landmarks_visible",
     "montecarlo_envelopes",
+    "navigation_errors",
     "save",
     "states",
+    "touchdown_dispersion",
     "trajectory_3d",
     "tube_projections",
 ]
@@ -407,5 +410,77 @@ def montecarlo_envelopes(
         ax.grid(alpha=0.3)
     np.atleast_1d(axes)[0].legend(fontsize=8)
     fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def navigation_errors(results: Mapping[str, RunRecord], groups: Sequence[int] = (0, 1, 2)) -> Figure:
+    """Estimation error x - x^ per axis with the filter's 3-sigma bounds (runs flown on navigation)."""
+    fig, axes = _state_grid(groups)
+    for m, r in results.items():
+        nav = r.navigation
+        if nav is None:
+            continue
+        for row, g in enumerate(groups):
+            for j in range(3):
+                ax, i = axes[row, j], 3 * g + j
+                ax.plot(r.t, nav.error[:, i], color=METHOD_COLORS.get(m, "k"), lw=0.9, label=f"{m}: x - x^")
+                ax.plot(r.t, 3 * nav.sigma[:, i], color=METHOD_COLORS.get(m, "k"), ls=":", lw=0.9, label=f"{m}: 3 sigma")
+                ax.plot(r.t, -3 * nav.sigma[:, i], color=METHOD_COLORS.get(m, "k"), ls=":", lw=0.9)
+                ax.set_ylabel(_STATE_LABELS[g][j])
+                ax.grid(alpha=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel("t (s)")
+    axes[0, 0].legend(fontsize=7)
+    fig.suptitle("Estimation error and its 3-sigma bounds")
+    fig.tight_layout()
+    return fig
+
+
+def landmarks_visible(results: Mapping[str, RunRecord]) -> Figure:
+    """Landmarks in the last camera frame of each control period, with the navigation status."""
+    fig, ax = plt.subplots(figsize=(8, 3.5))
+    for m, r in results.items():
+        nav = r.navigation
+        if nav is None:
+            continue
+        ax.step(r.t, nav.landmarks, where="post", label=m, **_style(m))
+        bad = [k for k, s in enumerate(nav.status) if s != "ok"]
+        if bad:
+            ax.plot(r.t[bad], nav.landmarks[bad], "rx", label=f"{m}: not ok")
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("landmarks in view")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def touchdown_dispersion(
+    offsets: np.ndarray, site_label: str, probability: float = 0.997, sigma_radius: float | None = None
+) -> Figure:
+    """Touchdown dispersion on the site map: the runs' horizontal offsets from the target (m, (n, 2), in
+    the site's tangent plane) and the ellipse of the given probability of a Gaussian fit."""
+    from scipy.stats import chi2
+
+    fig, ax = plt.subplots(figsize=(5.5, 5.5))
+    ax.plot(offsets[:, 0], offsets[:, 1], ".", ms=3, color="tab:blue", label=f"{len(offsets)} runs")
+    if len(offsets) > 2:
+        mean, cov = offsets.mean(axis=0), np.cov(offsets.T)
+        w, V = np.linalg.eigh(cov)
+        a = np.linspace(0.0, 2 * np.pi, 200)
+        c = np.sqrt(chi2.ppf(probability, 2))
+        ring = mean[:, None] + V @ (c * np.sqrt(np.maximum(w, 0.0))[:, None] * np.vstack([np.cos(a), np.sin(a)]))
+        ax.plot(ring[0], ring[1], "r-", lw=1.2, label=f"{100 * probability:.1f} % ellipse")
+    if sigma_radius is not None:
+        a = np.linspace(0.0, 2 * np.pi, 200)
+        ax.plot(sigma_radius * np.cos(a), sigma_radius * np.sin(a), "k--", lw=0.8, label=f"{sigma_radius:g} m")
+    ax.plot(0.0, 0.0, "k+", ms=12, label="target")
+    ax.set_aspect("equal")
+    ax.set_xlabel("east (m)")
+    ax.set_ylabel("north (m)")
+    ax.set_title(f"Touchdown dispersion, {site_label}")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
     fig.tight_layout()
     return fig

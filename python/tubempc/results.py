@@ -100,6 +100,8 @@ class RunRecord:
     # What the run actually applied: its seeds, the disturbance model, the actuator errors drawn, the
     # truth's physical mismatches (closed_loop.simulate; Monte Carlo runs keep it in their records).
     applied: dict[str, Any] = field(default_factory=dict)
+    # The navigation of a run flown on the estimate (tubempc.navigation.NavigationRecord), else None.
+    navigation: Any = None
 
     @staticmethod
     def array_fields() -> list[dataclasses.Field[Any]]:
@@ -217,6 +219,8 @@ def save_record(
         design_failure=np.array(record.design_failures, dtype=str),
         actuation_status=np.array(record.actuation_statuses, dtype=str),
     )
+    if record.navigation is not None:
+        arrays.update(record.navigation.arrays())
     meta = {"wall_time_s": record.wall_time_s, "applied": record.applied, **(metadata or {})}
     return save_result(
         path, arrays, config=config, seed=record.seed, method=record.method, units=RunRecord.units(), metadata=meta
@@ -250,5 +254,12 @@ def load_record(path: str | Path) -> tuple[RunRecord, dict[str, Any]]:
         actuation_statuses=[str(v) for v in raw.get("actuation_status", [])],
         wall_time_s=float(meta.get("wall_time_s", 0.0)),
         applied=dict(meta.get("applied", {})),
+        navigation=_navigation(raw),
     )
     return record, {k: raw[k] for k in ("config", "metadata", "tubempc_version")}
+
+
+def _navigation(raw: dict[str, Any]) -> Any:
+    from .navigation import NavigationRecord
+
+    return NavigationRecord.from_arrays(raw)

@@ -116,6 +116,11 @@ def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dic
         return lambda: figures.convergence(*metrics.velocity_convergence(r.t, r.x, r.zbar), "v - vbar", "m/s", title)
 
     jobs += [(f"fig14_convergence_{m}.png", convergence(m, r)) for m, r in records.items()]
+    if any(r.navigation is not None for r in records.values()):  # flown on navigation
+        jobs += [
+            ("fig19_navigation_errors.png", lambda: figures.navigation_errors(records)),
+            ("fig20_landmarks.png", lambda: figures.landmarks_visible(records)),
+        ]
     failed: dict[str, str] = {}
     for name, make in jobs:
         try:

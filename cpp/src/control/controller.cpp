@@ -132,6 +132,16 @@ void Controller::predict(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k) {
   predicted_ = x_pred_.allFinite();
 }
 
+void Controller::set_estimation_error(const Eigen::Ref<const Eigen::MatrixXd>& P_est) {
+  if (P_est.size() == 0) {
+    out_.tube.P_est.resize(0, 0);
+    return;
+  }
+  if (P_est.rows() != kNx || P_est.cols() != kNx)
+    throw std::invalid_argument("Controller::set_estimation_error: P_est must be 12 x 12 or empty");
+  out_.tube.P_est = P_est;
+}
+
 const ControlStep& Controller::step(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k) {
   if (policies_.empty()) throw std::invalid_argument("Controller::step: call setup first");
   const int T = mpc_->mission_steps();

@@ -301,7 +301,8 @@ const StepResult& TubeMPC::fallback(const StepContext& c, Status cause) {
 Status TubeMPC::tighten(const StepContext& c) {
   Impl& m = *impl_;
   const Tube& tube = c.tube;
-  if (!c.x_k.allFinite() || !tube.K.allFinite() || !tube.Pe.allFinite()) return Status::NumericalError;
+  if (!c.x_k.allFinite() || !tube.K.allFinite() || !tube.Pe.allFinite() || !tube.P_est.allFinite())
+    return Status::NumericalError;
   m.llt.compute(tube.Pe);
   if (m.llt.info() != Eigen::Success) return Status::NumericalError;
   m.Lc = m.llt.matrixL();
@@ -402,10 +403,15 @@ void TubeMPC::write_constraints(const StepContext& c) {
     for (int j = 0; j < nc; ++j) {
       const int row = lay.state_row(i) + j;
       if (std::isfinite(m.lin.hc[i](j))) {
+        double estimation = 0.0;  // output feedback: the estimation-error set's support (M40)
+        if (c.tube.P_est.size() != 0) {
+          m.tmp_nx.noalias() = c.tube.P_est * m.lin.Gc[i].row(j).transpose();
+          estimation = std::sqrt(std::max(0.0, m.lin.Gc[i].row(j).dot(m.tmp_nx)));
+        }
         m.tmp_nx.noalias() = Pe * m.lin.Gc[i].row(j).transpose();
         qp.h_l(row) = -kInf;
         qp.h_u(row) = m.lin.hc[i](j) - std::sqrt(std::max(0.0, m.lin.Gc[i].row(j).dot(m.tmp_nx))) -
-                      m.lin.Gc[i].row(j).dot(m.z_ref.col(i));
+                      estimation - m.lin.Gc[i].row(j).dot(m.z_ref.col(i));
       } else {  // the model marks the row absent
         zero_block_row(qp.G, pat.posG[i], pat.mG, j);
         qp.h_l(row) = -1.0;
@@ -484,6 +490,8 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
   if (x_k.size() != m.nx) throw std::invalid_argument("TubeMPC::step: x_k must have n_x entries");
   if (tube.K.rows() != m.nu || tube.K.cols() != m.nx || tube.Pe.rows() != m.nx || tube.Pe.cols() != m.nx)
     throw std::invalid_argument("TubeMPC::step: tube.K must be n_u x n_x and tube.Pe n_x x n_x");
+  if (tube.P_est.size() != 0 && (tube.P_est.rows() != m.nx || tube.P_est.cols() != m.nx))
+    throw std::invalid_argument("TubeMPC::step: tube.P_est must be empty or n_x x n_x");
 
   StepContext c{s, *model_, x_k, tube, Clock::now()};
   c.k = k;

@@ -130,6 +130,13 @@ FilterStatus NavigationFilter::initialize(const NavState& x0, const NavCovarianc
   return FilterStatus::Ok;
 }
 
+FilterStatus NavigationFilter::add_process_noise(const NavCovariance& Q) {
+  if (!initialized_ || !Q.allFinite()) return FilterStatus::InvalidInput;
+  P_ = symmetric(P_ + Q);
+  if (settings_.split) decouple(P_);
+  return FilterStatus::Ok;
+}
+
 FilterStatus NavigationFilter::propagate(double t_to, const ImuSample& imu) {
   if (!initialized_ || !std::isfinite(t_to) || t_to < x_.t) return FilterStatus::InvalidInput;
   FilterStatus status = FilterStatus::Ok;

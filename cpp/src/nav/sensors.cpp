@@ -127,8 +127,8 @@ void CameraSettings::validate() const {
   constexpr double half_pi = 1.5707963267948966;
   if (!(max_emission_angle > 0.0 && max_emission_angle <= half_pi))
     fail(s, "max_emission_angle", "must lie in (0, pi/2]");
-  if (!(max_incidence_angle > 0.0 && max_incidence_angle <= half_pi))
-    fail(s, "max_incidence_angle", "must lie in (0, pi/2]");
+  if (!(max_incidence_angle > 0.0 && max_incidence_angle <= 2.0 * half_pi))
+    fail(s, "max_incidence_angle", "must lie in (0, pi]");
   check_nonnegative(s, "min_range", min_range);
   if (!(std::isfinite(max_range) && max_range > min_range))
     fail(s, "max_range", "must be finite and > min_range");

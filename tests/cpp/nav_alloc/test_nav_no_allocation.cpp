@@ -5,6 +5,7 @@
 
 #include "../nav/nav_fixtures.hpp"
 #include "tubempc/core/allocation_counter.hpp"
+#include "tubempc/nav/system.hpp"
 
 using namespace tubempc;
 using tubempc::core::AllocationWindow;
@@ -73,5 +74,46 @@ TEST(NavAllocation, SensorsAndFilterDoNotAllocateAfterSetup) {
   EXPECT_GT(camera_updates, 3);
   EXPECT_GT(altimeter_updates, 5);
   EXPECT_TRUE(std::isfinite(checksum));
+  EXPECT_EQ(allocations, 0);
+}
+
+TEST(NavAllocation, NavigationSystemStepDoesNotAllocate) {
+  if (!core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  const nav_test::World w = nav_test::make_world();
+  nav::NavigationSettings ns;
+  ns.imu.period = 0.1;
+  ns.camera.dropout_probability = 0.2;
+  ns.star_tracker.dropout_probability = 0.2;
+  ns.filter.camera = ns.camera;
+  ns.period_noise_sigma.setConstant(1e-3);
+  nav::NavigationSystem sys(w.model, w.caster, w.caster, w.landmarks, ns, 5);
+  nav_test::RunSettings rs;
+  dynamics::TruthState s;
+  s << rs.r0_L, rs.v0_L, nav_test::nadir_attitude(rs.r0_L), rs.omega0_BL_B;
+  const int n = 20;
+  Eigen::VectorXd t(n);
+  Eigen::Matrix<double, Eigen::Dynamic, dynamics::kNtruth, Eigen::RowMajor> x(n, dynamics::kNtruth);
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> a = decltype(a)::Zero(n, 3);
+  dynamics::PropagatorSettings ps;
+  ps.substeps = 1;
+  long allocations = 0;
+  {
+    AllocationWindow window;
+    sys.initialize(0.0, s, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+    allocations += window.count();
+  }
+  int ok = 0;
+  for (int k = 0; k < 10; ++k) {
+    for (int j = 0; j < n; ++j) {
+      s = dynamics::propagate(*w.model, 2.0 * k + 0.1 * j, s, dynamics::InputVector::Zero(), 0.1, {}, ps)
+              .state;
+      t(j) = 2.0 * k + 0.1 * (j + 1);
+      x.row(j) = s.transpose();
+    }
+    AllocationWindow window;
+    ok += sys.step(t, x, a, Eigen::Vector3d::Zero()).status == nav::NavigationStatus::Ok;
+    allocations += window.count();
+  }
+  EXPECT_GT(ok, 5);
   EXPECT_EQ(allocations, 0);
 }

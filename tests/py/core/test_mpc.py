@@ -310,3 +310,41 @@ def test_fallback_statuses_are_the_fallback_ones() -> None:
     from tubempc.summaries import fallback_steps
 
     assert fallback_steps({"solved": 5, "fallback_safe_input": 2, "fallback_shifted_plan": 1}) == 3
+
+
+def test_estimation_error_set_tightens_each_state_constraint_by_its_support() -> None:
+    """Output feedback (docs/model.md M40): with P_est the bound of every state-constraint row a^T z <= b
+    drops by sqrt(a^T P_est a) and nothing else of the QP changes; a non-finite P_est is a status."""
+    plant = DoubleIntegrator(0.5, 1.0, 0.3)
+    x0 = np.array([0.05, 0.9, 0.25, -0.1])
+    plain = TubeMPC(plant, _settings(False))
+    plain.setup(_reference(20))
+    plain.step(0, x0, _tube())
+    qp0 = plain.qp_data()
+    rng = np.random.default_rng(3)
+    L = 0.05 * rng.standard_normal((4, 4))
+    P_est = L @ L.T
+    tube = _tube()
+    tube.P_est = P_est
+    out = TubeMPC(plant, _settings(False))
+    out.setup(_reference(20))
+    out.step(0, x0, tube)
+    qp1 = out.qp_data()
+    G = qp0.G.toarray() if hasattr(qp0.G, "toarray") else np.asarray(qp0.G)
+    finite = np.isfinite(qp0.h_u) & (np.abs(G).sum(axis=1) > 0)
+    support = np.zeros(len(G))
+    for row in np.flatnonzero(finite):  # a row acts on one node's dz_i: w = [dz_0 (4), v_0 (2), dz_1, ...]
+        cols = np.flatnonzero(G[row])
+        j = cols % 6
+        assert np.all(j < 4)
+        support[row] = np.sqrt(G[row, cols] @ P_est[np.ix_(j, j)] @ G[row, cols])
+    assert finite.sum() >= 5 * 13  # every node's five rows
+    np.testing.assert_allclose(qp1.h_u[finite], qp0.h_u[finite] - support[finite], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(qp1.b, qp0.b)
+    np.testing.assert_array_equal(qp1.x_u, qp0.x_u)  # the inputs' tightening is the tube's alone
+    tube.P_est = np.full((4, 4), np.nan)
+    r = out.step(1, x0, tube)
+    assert r.status != mpc.Status.Solved and np.all(np.isfinite(r.u))
+    tube.P_est = np.eye(3)
+    with pytest.raises(ValueError, match="P_est"):
+        out.step(1, x0, tube)

@@ -102,7 +102,14 @@ def test_site_cone_at_random_times_matches_its_definition(bennu: _core.gravity.S
 
 
 def test_packaged_scenarios_load_and_the_default_is_the_papers() -> None:
-    assert list(SCENARIOS) == ["bennu-paper", "bennu-paper-within-prior", "bennu-equator", "bennu-tag", "itokawa-like"]
+    assert list(SCENARIOS) == [
+        "bennu-paper",
+        "bennu-paper-within-prior",
+        "bennu-equator",
+        "bennu-tag",
+        "bennu-tag-nav",
+        "itokawa-like",
+    ]
     within = load_config(scenario="bennu-paper-within-prior")
     assert within == load_config().with_overrides({"disturbance.growth_r": 1.0})
     assert load_config(scenario="bennu-paper") == load_config()

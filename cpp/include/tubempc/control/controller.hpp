@@ -142,6 +142,13 @@ class Controller {
   /// @return the last measured input folded in (12: the p then r subsystem's state units).
   const Eigen::Matrix<double, 12, 1>& last_measured_input() const { return out_.w_measured; }
 
+  /// Output feedback (docs/model.md M40): the estimation-error set {e : e^T P_est^-1 e <= 1} of the
+  /// state the next steps are given; their state constraints are tightened by its support on top of
+  /// the tube's. An empty matrix returns to full-state feedback. Allocation-free after the first call.
+  /// @param P_est 12 x 12, symmetric positive semi-definite (units of x squared), or empty.
+  /// @throws std::invalid_argument for another size.
+  void set_estimation_error(const Eigen::Ref<const Eigen::MatrixXd>& P_est);
+
   /// Offers a background LMI design of subsystem `subsystem` (0: p, 1: r), started from the data of
   /// step `k_started` (TubePolicy::adopt). Allocation-free.
   /// @param subsystem 0 or 1.

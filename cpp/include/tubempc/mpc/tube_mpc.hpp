@@ -75,6 +75,11 @@ struct Reference {
 struct Tube {
   Eigen::MatrixXd K;   ///< Ancillary gain (n_u x n_x).
   Eigen::MatrixXd Pe;  ///< Tube shape (n_x x n_x, symmetric positive definite).
+  /// Output feedback (docs/model.md M40): the estimation-error set {e : e^T P_est^-1 e <= 1} of the
+  /// state the step is given (n_x x n_x, symmetric positive semi-definite; units of x squared). The
+  /// state constraints are tightened by sqrt(a^T P_est a) on top of sqrt(a^T Pe a). Empty (the
+  /// default): full-state feedback, no extra tightening.
+  Eigen::MatrixXd P_est;
 };
 
 /// Stabilising solution X of the discrete algebraic Riccati equation

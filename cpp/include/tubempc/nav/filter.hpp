@@ -137,6 +137,12 @@ class NavigationFilter {
   /// @return Ok, ImuHeld, StepTooLong, InvalidInput or NumericalFailure (the last three: unchanged).
   FilterStatus propagate(double t_to, const ImuSample& imu);
 
+  /// Adds a covariance to P at the filter's time: an instantaneous process noise that no IMU
+  /// senses, such as the closed loop's additive per-period disturbance (docs/model.md M39).
+  /// @param Q the covariance added (symmetric positive semi-definite, units of dx squared).
+  /// @return Ok, or InvalidInput (not initialised, or Q non-finite; nothing changed).
+  FilterStatus add_process_noise(const NavCovariance& Q);
+
   /// Folds an altimeter range in (scalar update).
   /// @param m the sample, at the filter's time.
   /// @return the result.

@@ -126,8 +126,9 @@ struct CameraSettings {
   Eigen::Matrix3d C_BC{Eigen::Matrix3d::Identity()};    ///< camera axes in B (v_B = C_BC v_C), a rotation
   double max_emission_angle{
       1.2217304763960306};  ///< largest angle between normal and view (rad, 70 deg), in (0, pi/2]
-  double max_incidence_angle{
-      1.3962634015954636};          ///< largest Sun incidence angle (rad, 80 deg), in (0, pi/2]
+  /// Largest Sun incidence angle (rad, default 80 deg), in (0, pi]; pi: no illumination test (a
+  /// sensor that needs no sunlight: a thermal-infrared camera or a flash lidar).
+  double max_incidence_angle{1.3962634015954636};
   double min_range{1.0};            ///< nearest landmark observed (m), >= 0
   double max_range{5000.0};         ///< farthest landmark observed (m), > min_range
   int max_landmarks{16};            ///< most landmarks per frame, in [1, kMaxLandmarksPerFrame]
