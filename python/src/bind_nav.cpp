@@ -95,22 +95,8 @@ void bind_nav(py::module_& m) {
   s.def("generate_landmarks", &generate_landmarks, py::arg("caster"), py::arg("count"),
         "Landmarks seen from count Fibonacci-lattice directions (deterministic)");
 
-  bind_named_enum<SensorStatus>(s, "SensorStatus", "Outcome of one measurement")
-      .value("Ok", SensorStatus::Ok)
-      .value("Dropout", SensorStatus::Dropout)
-      .value("OutOfRange", SensorStatus::OutOfRange)
-      .value("NoLandmarkVisible", SensorStatus::NoLandmarkVisible)
-      .value("InvalidInput", SensorStatus::InvalidInput);
-  bind_named_enum<FilterStatus>(s, "FilterStatus", "Outcome of a filter call")
-      .value("Ok", FilterStatus::Ok)
-      .value("ImuHeld", FilterStatus::ImuHeld)
-      .value("NoMeasurement", FilterStatus::NoMeasurement)
-      .value("Rejected", FilterStatus::Rejected)
-      .value("NoPrediction", FilterStatus::NoPrediction)
-      .value("TimeMismatch", FilterStatus::TimeMismatch)
-      .value("StepTooLong", FilterStatus::StepTooLong)
-      .value("InvalidInput", FilterStatus::InvalidInput)
-      .value("NumericalFailure", FilterStatus::NumericalFailure);
+  bind_named_enum<SensorStatus>(s, "SensorStatus", "Outcome of one measurement");
+  bind_named_enum<FilterStatus>(s, "FilterStatus", "Outcome of a filter call");
 
   py::class_<SensorTruth>(s, "SensorTruth", "The true state the sensors observe")
       .def(py::init<>())
@@ -341,17 +327,8 @@ void bind_nav(py::module_& m) {
           },
           "(ok, range m, H (1, 15))")
       .def_property_readonly("settings", &NavigationFilter::settings);
-  bind_named_enum<Sensor>(s, "Sensor", "The four sensors, in the order of NavigationStep's per-sensor lists")
-      .value("Altimeter", Sensor::Altimeter)
-      .value("Camera", Sensor::Camera)
-      .value("Imu", Sensor::Imu)
-      .value("StarTracker", Sensor::StarTracker);
-  bind_named_enum<NavigationStatus>(s, "NavigationStatus", "Outcome of a navigation call")
-      .value("Ok", NavigationStatus::Ok)
-      .value("PredictionOnly", NavigationStatus::PredictionOnly)
-      .value("NumericalFailure", NavigationStatus::NumericalFailure)
-      .value("InvalidInput", NavigationStatus::InvalidInput)
-      .value("NotInitialized", NavigationStatus::NotInitialized);
+  bind_named_enum<Sensor>(s, "Sensor", "The four sensors, in the order of NavigationStep's per-sensor lists");
+  bind_named_enum<NavigationStatus>(s, "NavigationStatus", "Outcome of a navigation call");
   s.attr("N_SENSORS") = kSensors;
   py::class_<NavigationSettings>(
       s, "NavigationSettings", "True sensors, the filter (its model of them), initial and per-period sigmas")

@@ -48,8 +48,8 @@ pybind11::enum_<E> bind_option_enum(pybind11::module_& m, const char* name, cons
 }
 
 // Binds a status enum (or any enum whose name is its `str()`): with a name table (core::EnumNames), as
-// bind_option_enum, and `__str__` is the name; an enum without one (the nav statuses, not yet
-// moved to tables) gets `__str__` from its `to_string` and the caller adds its values.
+// bind_option_enum, and `__str__` is the name; an enum without one gets `__str__` from its `to_string`
+// and the caller adds its values.
 template <typename E>
 pybind11::enum_<E> bind_named_enum(pybind11::module_& m, const char* name, const char* doc) {
   if constexpr (has_enum_names<E>::value) {

@@ -44,29 +44,7 @@ FilterStatus outcome(const UpdateResult& r) {
 
 }  // namespace
 
-const char* to_string(FilterStatus s) {
-  switch (s) {
-    case FilterStatus::Ok:
-      return "ok";
-    case FilterStatus::ImuHeld:
-      return "imu_held";
-    case FilterStatus::NoMeasurement:
-      return "no_measurement";
-    case FilterStatus::Rejected:
-      return "rejected";
-    case FilterStatus::NoPrediction:
-      return "no_prediction";
-    case FilterStatus::TimeMismatch:
-      return "time_mismatch";
-    case FilterStatus::StepTooLong:
-      return "step_too_long";
-    case FilterStatus::InvalidInput:
-      return "invalid_input";
-    case FilterStatus::NumericalFailure:
-      return "numerical_failure";
-  }
-  return "unknown";
-}
+const char* to_string(FilterStatus s) { return core::enum_name(s); }
 
 NavErrorVector nav_error(const NavState& estimate, const NavState& truth) {
   NavErrorVector dx;

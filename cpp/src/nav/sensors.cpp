@@ -37,21 +37,7 @@ Eigen::Vector3d normal3(Random& rng) {
 
 }  // namespace
 
-const char* to_string(SensorStatus s) {
-  switch (s) {
-    case SensorStatus::Ok:
-      return "ok";
-    case SensorStatus::Dropout:
-      return "dropout";
-    case SensorStatus::OutOfRange:
-      return "out_of_range";
-    case SensorStatus::NoLandmarkVisible:
-      return "no_landmark_visible";
-    case SensorStatus::InvalidInput:
-      return "invalid_input";
-  }
-  return "unknown";
-}
+const char* to_string(SensorStatus s) { return core::enum_name(s); }
 
 // ---- altimeter ---------------------------------------------------------------------------------
 

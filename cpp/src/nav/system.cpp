@@ -44,35 +44,9 @@ FilterStatus worse(FilterStatus a, FilterStatus b) {
 
 }  // namespace
 
-const char* to_string(Sensor s) {
-  switch (s) {
-    case Sensor::Altimeter:
-      return "altimeter";
-    case Sensor::Camera:
-      return "camera";
-    case Sensor::Imu:
-      return "imu";
-    case Sensor::StarTracker:
-      return "star_tracker";
-  }
-  return "unknown";
-}
+const char* to_string(Sensor s) { return core::enum_name(s); }
 
-const char* to_string(NavigationStatus s) {
-  switch (s) {
-    case NavigationStatus::Ok:
-      return "ok";
-    case NavigationStatus::PredictionOnly:
-      return "prediction_only";
-    case NavigationStatus::NumericalFailure:
-      return "numerical_failure";
-    case NavigationStatus::InvalidInput:
-      return "invalid_input";
-    case NavigationStatus::NotInitialized:
-      return "not_initialized";
-  }
-  return "unknown";
-}
+const char* to_string(NavigationStatus s) { return core::enum_name(s); }
 
 void NavigationSettings::validate() const {
   altimeter.validate();

@@ -13,6 +13,7 @@
 #include "tubempc/mpc/active_set_qp.hpp"
 #include "tubempc/mpc/results.hpp"
 #include "tubempc/mpc/settings.hpp"
+#include "tubempc/nav/system.hpp"
 
 using namespace tubempc;
 
@@ -61,6 +62,10 @@ TEST(SettingsFields, StatusTablesAreCompleteAndInvertible) {
   expect_complete_table<actuators::FaultKind>(3);
   expect_complete_table<actuators::AllocationStatus>(6);
   expect_complete_table<actuators::ActuationStatus>(6);
+  expect_complete_table<nav::SensorStatus>(5);
+  expect_complete_table<nav::FilterStatus>(9);
+  expect_complete_table<nav::Sensor>(4);
+  expect_complete_table<nav::NavigationStatus>(5);
   expect_complete_table<dynamics::DiscretizationStatus>(3);
   expect_complete_table<dynamics::PropagationStatus>(4);
   expect_complete_table<control::Method>(2);

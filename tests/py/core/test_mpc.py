@@ -294,6 +294,10 @@ def test_option_enums_map_their_file_names_both_ways(enum: type[mpc.QpSolver]) -
         _core.actuators.FaultKind,
         _core.actuators.AllocationStatus,
         _core.actuators.ActuationStatus,
+        _core.nav.SensorStatus,
+        _core.nav.FilterStatus,
+        _core.nav.Sensor,
+        _core.nav.NavigationStatus,
     ],
 )
 def test_status_enums_str_is_their_table_name(enum: type[mpc.Status]) -> None:

@@ -14,9 +14,11 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <array>
 #include <memory>
 #include <vector>
 
+#include "tubempc/core/fields.hpp"
 #include "tubempc/dynamics/proximity_model.hpp"
 #include "tubempc/math/so3.hpp"
 #include "tubempc/nav/ray_caster.hpp"
@@ -213,3 +215,23 @@ class NavigationFilter {
 };
 
 }  // namespace tubempc::nav
+
+namespace tubempc::core {
+
+/// Names of nav::FilterStatus.
+template <>
+struct EnumNames<nav::FilterStatus> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<nav::FilterStatus>, 9> values{
+      {{nav::FilterStatus::Ok, "Ok", "ok"},
+       {nav::FilterStatus::ImuHeld, "ImuHeld", "imu_held"},
+       {nav::FilterStatus::NoMeasurement, "NoMeasurement", "no_measurement"},
+       {nav::FilterStatus::Rejected, "Rejected", "rejected"},
+       {nav::FilterStatus::NoPrediction, "NoPrediction", "no_prediction"},
+       {nav::FilterStatus::TimeMismatch, "TimeMismatch", "time_mismatch"},
+       {nav::FilterStatus::StepTooLong, "StepTooLong", "step_too_long"},
+       {nav::FilterStatus::InvalidInput, "InvalidInput", "invalid_input"},
+       {nav::FilterStatus::NumericalFailure, "NumericalFailure", "numerical_failure"}}};
+};
+
+}  // namespace tubempc::core

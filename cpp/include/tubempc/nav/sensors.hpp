@@ -13,6 +13,7 @@
 #include <memory>
 #include <vector>
 
+#include "tubempc/core/fields.hpp"
 #include "tubempc/math/so3.hpp"
 #include "tubempc/nav/random.hpp"
 #include "tubempc/nav/ray_caster.hpp"
@@ -296,3 +297,19 @@ class StarTracker {
 };
 
 }  // namespace tubempc::nav
+
+namespace tubempc::core {
+
+/// Names of nav::SensorStatus.
+template <>
+struct EnumNames<nav::SensorStatus> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<nav::SensorStatus>, 5> values{
+      {{nav::SensorStatus::Ok, "Ok", "ok"},
+       {nav::SensorStatus::Dropout, "Dropout", "dropout"},
+       {nav::SensorStatus::OutOfRange, "OutOfRange", "out_of_range"},
+       {nav::SensorStatus::NoLandmarkVisible, "NoLandmarkVisible", "no_landmark_visible"},
+       {nav::SensorStatus::InvalidInput, "InvalidInput", "invalid_input"}}};
+};
+
+}  // namespace tubempc::core

@@ -23,6 +23,7 @@
 #include <memory>
 #include <vector>
 
+#include "tubempc/core/fields.hpp"
 #include "tubempc/dynamics/proximity_model.hpp"
 #include "tubempc/nav/filter.hpp"
 #include "tubempc/nav/random.hpp"
@@ -177,3 +178,30 @@ class NavigationSystem {
 };
 
 }  // namespace tubempc::nav
+
+namespace tubempc::core {
+
+/// Names of nav::Sensor.
+template <>
+struct EnumNames<nav::Sensor> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<nav::Sensor>, 4> values{
+      {{nav::Sensor::Altimeter, "Altimeter", "altimeter"},
+       {nav::Sensor::Camera, "Camera", "camera"},
+       {nav::Sensor::Imu, "Imu", "imu"},
+       {nav::Sensor::StarTracker, "StarTracker", "star_tracker"}}};
+};
+
+/// Names of nav::NavigationStatus.
+template <>
+struct EnumNames<nav::NavigationStatus> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<nav::NavigationStatus>, 5> values{
+      {{nav::NavigationStatus::Ok, "Ok", "ok"},
+       {nav::NavigationStatus::PredictionOnly, "PredictionOnly", "prediction_only"},
+       {nav::NavigationStatus::NumericalFailure, "NumericalFailure", "numerical_failure"},
+       {nav::NavigationStatus::InvalidInput, "InvalidInput", "invalid_input"},
+       {nav::NavigationStatus::NotInitialized, "NotInitialized", "not_initialized"}}};
+};
+
+}  // namespace tubempc::core
