@@ -313,7 +313,7 @@ class ScenarioActuation:
         """The certified sets of the commanded minus the delivered input (M38), {e : e^T E^-1 e <= 1}: u_p's
         ((m/s^2)^2, the ball at every attitude) and T's ((N m)^2, around the box). They add to the error box of
         :func:`tubempc._core.actuators.actuation_error_bound` (allocated minus delivered) the allocation's
-        remainder tolerance over the achievable box, |r_i| <= tol (max_l W_r,l a_l + 1) / W_r,i."""
+        remainder tolerance over the achievable box, ``|r_i| <= tol (max_l W_r,l a_l + 1) / W_r,i``."""
         alloc = self.suite.allocation
         W_r = np.asarray(alloc.residual_weight)
         half = np.asarray(self.box.half_width_B)

@@ -136,7 +136,7 @@ def _new_plant(scn: Scenario, seed: int) -> _Plant:
 
 
 def _record_actuation(rec: RunRecord, k: int, plant: _Plant, dt: float) -> None:
-    """The period's delivered input and, with an actuator model, its accounting (ideal: |u_p| dt)."""
+    """The period's delivered input and, with an actuator model, its accounting (ideal: ``|u_p| dt``)."""
     u_delivered, st = plant.delivered
     rec.u_delivered[k] = u_delivered
     if st is None:

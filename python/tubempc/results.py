@@ -83,7 +83,9 @@ class RunRecord:
     )
     time_step: Array = _array(("T",), "s", "wall time of the whole control step")
     u_delivered: Array = _array(("T", 6), _INPUT, "input the actuators delivered over the period (its average)")
-    delta_v: Array = _array(("T",), "m/s", "thruster delta-v of the period, sum of impulses / m (ideal: |u_p| dt)")
+    delta_v: Array = _array(
+        ("T",), "m/s", "thruster delta-v of the period, sum of impulses / m (ideal: the norm of u_p times dt)"
+    )
     propellant: Array = _array(("T",), "kg", "propellant of the period (0 for ideal actuators)")
     pulses: Array = _array(("T",), "1", "thruster firings of the period")
     wheel_momentum: Array = _array(("T", 3), "N m s", "the wheels' total momentum in B after the period")

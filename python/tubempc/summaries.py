@@ -218,7 +218,7 @@ class EnvelopeFit(_Json):
 @dataclass(frozen=True, kw_only=True)
 class ActuationSummary(_Json):
     """A run's actuators (docs/model.md M37; absent for ideal actuators): the thrusters' delta-v (sum of
-    impulses / m, m/s), the net delta-v delivered (sum |u_p| dt, m/s), propellant (kg), pulses, the wheels'
+    impulses / m, m/s), the net delta-v delivered (the sum of ``|u_p| dt``, m/s), propellant (kg), pulses, the wheels'
     largest total momentum (N m s), the steps per actuation status and the steps the actuators did not
     deliver (saturated, infeasible or an invalid command)."""
 
