@@ -446,7 +446,8 @@ def run(args: argparse.Namespace) -> int:
         for qp, cpp_solve, objective, _ in qps.values():
             eps = args.eps
             if solver.startswith("node-"):
-                res = solve_qp_per_node(qp, 12, 6, model.n_constraints(), args.horizon, solver.removeprefix("node-"), eps)
+                horizon = qp.A.shape[0] // 12 - 1  # the step's: T - k in the shrinking phase
+                res = solve_qp_per_node(qp, 12, 6, model.n_constraints(), horizon, solver.removeprefix("node-"), eps)
             else:
                 res = solve_qp(qp, solver, eps)
             solver_t.append(res.solve_time)
