@@ -197,6 +197,16 @@ def _controller(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
                 f"outside the tube {r['steps_outside_tube']}, uncertified {r['uncertified_steps']}",
             )
         )
+        if "navigation" in r:
+            n, cn, b = r["navigation"], r["controller_and_navigation"], r["full_state_controller"]
+            rows.append(
+                (
+                    f"controller step {m} with the navigation call, {name.removeprefix('controller_')}",
+                    f"navigation call median {n['median_ms']:.3g} ms, p99 {n['p99_ms']:.3g} ms; controller + navigation "
+                    f"p99 {cn['p99_ms']:.3g} ms = {r['navigation_p99_ratio']:.3g}x the full-state controller's p99 "
+                    f"({b['p99_ms']:.3g} ms, the same scenario on the true state)",
+                )
+            )
     return rows
 
 

@@ -222,8 +222,9 @@ def simulate(
             z1 = np.asarray(step.mpc.z)[:, 1]
             Pe = np.asarray(step.tube.Pe)
             if nav is not None:
+                t_nav = time.perf_counter()
                 est = nav.step(scn.reference.x[k + 1, 6:9])
-                x_hat = _record_navigation(rec, k, est, x_next, plant, z1, Pe)
+                x_hat = _record_navigation(rec, k, est, x_next, plant, z1, Pe, time.perf_counter() - t_nav)
             else:
                 x_hat = x_next
             # with navigation: the estimate's excursion in the certified tube (the truth's is rec.navigation.gauge)
@@ -266,10 +267,13 @@ def _start_navigation(scn: Scenario, plant: _Plant, rec: RunRecord, seed: int) -
     return nav, est
 
 
-def _record_navigation(rec: RunRecord, k: int, est: Any, x_next: Array, plant: _Plant, z1: Array, Pe: Array) -> Array:
-    """Step k + 1's estimate into the record, and the truth's gauge in the output-feedback tube
-    z*_1|k (+) Omega_k (+) E_{k+1}; returns the estimate x^_{k+1}."""
+def _record_navigation(
+    rec: RunRecord, k: int, est: Any, x_next: Array, plant: _Plant, z1: Array, Pe: Array, seconds: float
+) -> Array:
+    """Step k + 1's estimate into the record (``seconds``: the navigation call's wall time), and the truth's
+    gauge in the output-feedback tube z*_1|k (+) Omega_k (+) E_{k+1}; returns the estimate x^_{k+1}."""
     assert plant.nav is not None and rec.navigation is not None
+    rec.navigation.time_step[k] = seconds
     x_hat = np.asarray(est.x_hat)
     rec.navigation.add(k + 1, est, x_next, plant.state, plant.nav.system.imu)
     plant.nav_error_set = E = plant.nav.error_set(est.P_x)

@@ -257,13 +257,26 @@ class NavigationRecord:
     accepted: Array  # (T+1, 4) measurements folded in per sensor
     gauge: Array  # (T, 2) true x_{k+1} - z*_1|k in Omega_k (+) E_{k+1} per subsystem (<= 1: inside)
     gauge_estimate: Array  # (T, 2) x^_{k+1} - z*_1|k in Omega_k (the certified part)
+    time_step: Array  # (T,) wall time of the navigation call that gave the estimate of step k + 1 (s)
 
     @classmethod
     def allocate(cls, n_steps: int) -> NavigationRecord:
         """Zeros for T = n_steps steps."""
         T1 = n_steps + 1
         z = np.zeros
-        return cls(z((T1, 12)), z((T1, 12)), z((T1, 12)), z(T1), [], [], z(T1), z((T1, 4)), z((n_steps, 2)), z((n_steps, 2)))
+        return cls(
+            z((T1, 12)),
+            z((T1, 12)),
+            z((T1, 12)),
+            z(T1),
+            [],
+            [],
+            z(T1),
+            z((T1, 4)),
+            z((n_steps, 2)),
+            z((n_steps, 2)),
+            z(n_steps),
+        )
 
     def add(self, k: int, est: Any, x_true: Array, state_true: Array, imu: Any) -> None:
         """The estimate of step k against the true 12-state and 13-state (IMU: the true biases)."""
@@ -285,6 +298,7 @@ class NavigationRecord:
             setattr(self, name, getattr(self, name)[: n_run + 1])
         self.status, self.sensor_status = self.status[: n_run + 1], self.sensor_status[: n_run + 1]
         self.gauge, self.gauge_estimate = self.gauge[:n_run], self.gauge_estimate[:n_run]
+        self.time_step = self.time_step[:n_run]
 
     def campaign_arrays(self) -> dict[str, Array]:
         """What a Monte Carlo run keeps (runs/run_<i>.npz, prefixed by the method): the estimation error
@@ -309,6 +323,9 @@ class NavigationRecord:
             return None
         values: dict[str, Any] = {}
         for f in dataclasses.fields(cls):
+            if f.name == "time_step" and "nav_time_step" not in raw:  # written before the call was timed
+                values[f.name] = np.zeros(len(raw["nav_gauge"]))
+                continue
             v = raw[f"nav_{f.name}"]
             values[f.name] = [str(s) for s in v] if f.name in ("status", "sensor_status") else np.asarray(v, dtype=float)
         return cls(**values)

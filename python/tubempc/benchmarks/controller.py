@@ -4,7 +4,10 @@ tube update + MPC step until the command, then the one-step prediction for the n
 Flies the mission of a scenario (default: the paper's) with each method and reports the distribution
 (median, p99, max) of the controller's own time per step, as the controller measures it (the truth
 propagation excluded: it is the simulated plant, not the controller), its parts, and identification +
-tube update as a ratio to the MPC step in the same run, and the steps whose tube is not certified.
+tube update as a ratio to the MPC step in the same run, and the steps whose tube is not certified. A
+scenario flown on navigation also reports the navigation call (sensors + filter, one per step) and the
+controller plus that call against the full-state controller's p99 (the same scenario with navigation off,
+flown in the same command).
 The LMI designs run at set-up or in the background, never inside the C++ step. The JSON carries the
 machine and the configuration it ran with.
 """
@@ -13,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -60,6 +64,9 @@ def run(args: argparse.Namespace) -> int:
         "methods": {},
     }
     print(f"controller step per step (ms), {scn.n_steps} steps, seed {args.seed}:")
+    full_state = None
+    if cfg.navigation.enabled:  # the baseline: the same scenario on the true state
+        full_state = build_scenario(dataclasses.replace(cfg, navigation=dataclasses.replace(cfg.navigation, enabled=False)))
     for m in methods:
         rec = simulate(scn, m, args.seed, design_worker=args.design_worker)
         command = rec.time_identify + rec.time_tube + rec.time_mpc
@@ -75,6 +82,12 @@ def run(args: argparse.Namespace) -> int:
             "uncertified_steps": int(sum(not tube_status_certified(s) for s in rec.tube_statuses)),
             "tube_statuses": dict(collections.Counter(rec.tube_statuses)),
         }
+        if rec.navigation is not None and full_state is not None:
+            base = simulate(full_state, m, args.seed, design_worker=args.design_worker)
+            row["navigation"] = _stats(rec.navigation.time_step)
+            row["controller_and_navigation"] = _stats(rec.time_step + rec.navigation.time_step)
+            row["full_state_controller"] = _stats(base.time_step)
+            row["navigation_p99_ratio"] = row["controller_and_navigation"]["p99_ms"] / row["full_state_controller"]["p99_ms"]
         out["methods"][m] = row
         c, cmd, t = row["controller"], row["command"], row["tube"]
         print(
@@ -84,5 +97,12 @@ def run(args: argparse.Namespace) -> int:
             f"{t['median_ms']:.3g}, max {t['max_ms']:.3g}; predict median {row['predict']['median_ms']:.3g}); "
             f"steps outside the tube {row['steps_outside_tube']}, uncertified {row['uncertified_steps']}"
         )
+        if "navigation" in row:
+            n, cn, b = row["navigation"], row["controller_and_navigation"], row["full_state_controller"]
+            print(
+                f"         navigation call median {n['median_ms']:.3g}, p99 {n['p99_ms']:.3g}; controller + navigation "
+                f"p99 {cn['p99_ms']:.3g} = {row['navigation_p99_ratio']:.3g}x the full-state controller's p99 "
+                f"{b['p99_ms']:.3g}"
+            )
     write_json(args.json, out)
     return 0

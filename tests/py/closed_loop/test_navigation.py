@@ -83,6 +83,9 @@ def test_a_short_descent_on_the_estimate(tag_nav, tmp_path: Path) -> None:  # ty
     assert again.navigation is not None
     np.testing.assert_array_equal(again.navigation.x_hat, nav.x_hat)
     assert again.navigation.sensor_status == nav.sensor_status
+    # every step's navigation call is timed (bench controller's navigation figures), and kept
+    assert nav.time_step.shape == (20,) and np.all(nav.time_step > 0.0)
+    np.testing.assert_array_equal(again.navigation.time_step, nav.time_step)
 
 
 def test_broken_sensors_fly_on_prediction_without_nan(tag_nav) -> None:  # type: ignore[no-untyped-def]
