@@ -72,7 +72,10 @@ ActiveSetBackend::ActiveSetBackend(const QpProblem& qp, const QpLayout& layout, 
   set_.setZero(layout.n_in + layout.n_var);
   prev_ = set_;
   shift_ = layout.shift_map(layout);
-  if (longer != nullptr) shift_longer_ = layout.shift_map(*longer);
+  if (longer != nullptr) {
+    shift_longer_ = layout.shift_map(*longer);
+    longer_set_size_ = longer->n_in + longer->n_var;
+  }
 }
 
 void ActiveSetBackend::begin_step(int k, const QpBackend& previous) {
@@ -80,8 +83,7 @@ void ActiveSetBackend::begin_step(int k, const QpBackend& previous) {
   if (last == &set_) {
     prev_ = set_;
     for (int j = 0; j < set_.size(); ++j) set_(j) = prev_(shift_(j));
-  } else if (last != nullptr && shift_longer_.size() == set_.size() &&
-             shift_longer_.maxCoeff() < last->size()) {
+  } else if (last != nullptr && last->size() == longer_set_size_) {
     for (int j = 0; j < set_.size(); ++j) set_(j) = (*last)(shift_longer_(j));
   } else {
     set_.setZero();

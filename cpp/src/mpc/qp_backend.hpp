@@ -79,6 +79,7 @@ class ActiveSetBackend final : public QpBackend {
   PiqpBackend piqp_;
   Eigen::VectorXi set_, prev_, shift_;  // working set (G rows, then variables), its copy, the shift map
   Eigen::VectorXi shift_longer_;        // the shift map from the longer QP's set (empty: none)
+  Eigen::Index longer_set_size_ = -1;   // that set's size (-1: no longer QP)
   int set_k_ = -1;                      // step whose final set set_ holds (-1: none)
   bool by_active_set_ = false;          // the last QP was solved by the active set
 };

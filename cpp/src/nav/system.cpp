@@ -162,9 +162,7 @@ void NavigationSystem::finish(const Eigen::Vector3d& phi_ref) {
     out_.status = folded > 0 ? NavigationStatus::Ok : NavigationStatus::PredictionOnly;
 }
 
-const NavigationStep& NavigationSystem::initialize(double t0, const dynamics::TruthState& truth,
-                                                   const Eigen::Vector3d& accel_nongrav_L,
-                                                   const Eigen::Vector3d& phi_ref) {
+void NavigationSystem::clear_step() {
   out_.samples.fill(0);
   out_.ok.fill(0);
   out_.accepted.fill(0);
@@ -174,6 +172,12 @@ const NavigationStep& NavigationSystem::initialize(double t0, const dynamics::Tr
   out_.nis_dof = 0;
   out_.landmarks_visible = 0;
   out_.filter_status = FilterStatus::Ok;
+}
+
+const NavigationStep& NavigationSystem::initialize(double t0, const dynamics::TruthState& truth,
+                                                   const Eigen::Vector3d& accel_nongrav_L,
+                                                   const Eigen::Vector3d& phi_ref) {
+  clear_step();
   if (!std::isfinite(t0) || !truth.allFinite() || !accel_nongrav_L.allFinite() || !phi_ref.allFinite()) {
     out_.status = NavigationStatus::InvalidInput;
     return out_;
@@ -215,15 +219,7 @@ const NavigationStep& NavigationSystem::step(
     const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, dynamics::kNtruth, Eigen::RowMajor>>& truth,
     const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& accel_nongrav_L,
     const Eigen::Vector3d& phi_ref) {
-  out_.samples.fill(0);
-  out_.ok.fill(0);
-  out_.accepted.fill(0);
-  out_.rejected.fill(0);
-  out_.sensor_status.fill(SensorStatus::Ok);
-  out_.nis = 0.0;
-  out_.nis_dof = 0;
-  out_.landmarks_visible = 0;
-  out_.filter_status = FilterStatus::Ok;
+  clear_step();
   if (!initialized_) {
     out_.status = NavigationStatus::NotInitialized;
     return out_;

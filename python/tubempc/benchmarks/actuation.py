@@ -19,6 +19,7 @@ import numpy as np
 
 from ..machine import machine_info
 from . import write_json
+from .controller import add_flight_arguments
 
 DESCRIPTION = "closed loop with thrusters and wheels against ideal actuators with the same bounds, both methods"
 
@@ -28,14 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--config", help='scenario TOML with spacecraft.actuators (not "ideal")')
     group.add_argument("--scenario", help="a packaged scenario")
     parser.add_argument("--actuators", help="override spacecraft.actuators (a preset name or a TOML path)")
-    parser.add_argument("--method", choices=["tbmpc", "ffa", "both"], default="both")
-    parser.add_argument("--seed", type=int, default=0, help="disturbance seed")
-    parser.add_argument(
-        "--design-worker",
-        choices=["process", "thread", "inline", "none"],
-        help="where due LMI designs run (default: the configuration's tube.design_worker)",
-    )
-    parser.add_argument("--json", metavar="PATH", help="write the figures as JSON")
+    add_flight_arguments(parser)
 
 
 def _p99_ms(seconds: np.ndarray) -> float:

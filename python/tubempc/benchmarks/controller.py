@@ -28,18 +28,23 @@ from . import write_json
 DESCRIPTION = "controller step (identify + tube update + MPC) per step of the closed loop, both methods"
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    group = parser.add_mutually_exclusive_group()
-    group.add_argument("--config", help="scenario TOML (fields left out are the paper scenario's)")
-    group.add_argument("--scenario", help="a packaged scenario (default: bennu-paper)")
+def add_flight_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of a benchmark that flies the closed loop: --method, --seed, --design-worker, --json."""
     parser.add_argument("--method", choices=[*_core.control.Method.names(), "both"], default="both")
     parser.add_argument("--seed", type=int, default=0, help="disturbance seed")
     parser.add_argument(
         "--design-worker",
-        choices=["process", "thread", "inline", "none"],
+        choices=["process", "thread", "inline", "none"],  # tube.design_worker's values
         help="where due LMI designs run (default: the configuration's tube.design_worker)",
     )
     parser.add_argument("--json", metavar="PATH", help="write the figures as JSON")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--config", help="scenario TOML (fields left out are the paper scenario's)")
+    group.add_argument("--scenario", help="a packaged scenario (default: bennu-paper)")
+    add_flight_arguments(parser)
 
 
 def _stats(seconds: np.ndarray) -> dict[str, float]:

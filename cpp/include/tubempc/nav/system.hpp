@@ -148,6 +148,8 @@ class NavigationSystem {
   double base_period() const { return settings_.imu.period; }
 
  private:
+  // Zeroes the step's counters and statuses before a call fills them.
+  void clear_step();
   SensorTruth sensor_truth(double t, const dynamics::TruthState& s, const Eigen::Vector3d& a_L) const;
   // Samples the IMU at truth.t and propagates the filter to it with that sample.
   void propagate_to(const SensorTruth& truth);
