@@ -243,7 +243,7 @@ def tube_status_certified(status: str) -> bool:
     return all(part in CERTIFIED_TUBE_STATUSES for part in status.split("/"))
 
 
-#: Actuation statuses of a period the actuators did not deliver (actuators::ActuationStatus).
+#: Actuation statuses of a period the actuators did not deliver (actuators::AllocationStatus).
 NOT_DELIVERED = frozenset({"saturated", "infeasible", "invalid_command"})
 
 

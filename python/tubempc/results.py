@@ -97,7 +97,7 @@ class RunRecord:
     failures: list[str] = field(default_factory=list)  # cause of each fallback ("solved": none)
     tube_statuses: list[str] = field(default_factory=list)  # per tube update: "<translation>/<rotation>"
     design_failures: list[str] = field(default_factory=list)  # failed LMI designs: "<step>:<subsystem>:<status>"
-    actuation_statuses: list[str] = field(default_factory=list)  # actuators::ActuationStatus per step ("ideal")
+    actuation_statuses: list[str] = field(default_factory=list)  # actuators::AllocationStatus per step ("ideal")
     wall_time_s: float = 0.0
     # What the run actually applied: its seeds, the disturbance model, the actuator errors drawn, the
     # truth's physical mismatches (closed_loop.simulate; Monte Carlo runs keep it in their records).

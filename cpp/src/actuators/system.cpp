@@ -9,8 +9,6 @@
 
 namespace tubempc::actuators {
 
-std::string to_string(ActuationStatus status) { return core::enum_name(status); }
-
 void ActuationSettings::validate() const {
   if (!(std::isfinite(mass) && mass > 0.0))
     throw std::invalid_argument("actuation.mass: must be finite and > 0 (kg)");
@@ -26,24 +24,6 @@ namespace {
 ActuationSettings validated(const ActuationSettings& s) {
   s.validate();
   return s;
-}
-
-ActuationStatus status_of(AllocationStatus s) {
-  switch (s) {
-    case AllocationStatus::Ok:
-      return ActuationStatus::Ok;
-    case AllocationStatus::ThrusterFailed:
-      return ActuationStatus::ThrusterFailed;
-    case AllocationStatus::Saturated:
-      return ActuationStatus::Saturated;
-    case AllocationStatus::Infeasible:
-      return ActuationStatus::Infeasible;
-    case AllocationStatus::MaxIterations:
-      return ActuationStatus::MaxIterations;
-    case AllocationStatus::InvalidCommand:
-      return ActuationStatus::InvalidCommand;
-  }
-  return ActuationStatus::InvalidCommand;
 }
 
 }  // namespace
@@ -80,7 +60,7 @@ const ActuationStep& ActuationSystem::step(double t, const Vector6& u, const Eig
   // M35: a non-finite wrench is the allocation's InvalidCommand (no thrust, no wheel torque).
   const AllocationResult& a = allocator_.solve(cluster_, wheels_, t, out_.commanded_B);
   out_.allocation = a.info;
-  out_.status = status_of(a.info.status);
+  out_.status = a.info.status;
   out_.thrust = a.thrust;
   out_.allocated_B = a.wrench_B;
   out_.remainder_B = out_.commanded_B.allFinite() ? Vector6(out_.commanded_B - a.wrench_B) : Vector6::Zero();
@@ -108,8 +88,8 @@ const ActuationStep& ActuationSystem::step(double t, const Vector6& u, const Eig
   totals_.propellant += out_.propellant;
   totals_.pulses += out_.pulses;
   ++totals_.steps;
-  if (out_.status == ActuationStatus::Saturated || out_.status == ActuationStatus::Infeasible ||
-      out_.status == ActuationStatus::InvalidCommand)
+  if (out_.status == AllocationStatus::Saturated || out_.status == AllocationStatus::Infeasible ||
+      out_.status == AllocationStatus::InvalidCommand)
     ++totals_.not_delivered;
   const int m = wheels_.size();
   for (int j = 0; j < m; ++j)

@@ -67,7 +67,7 @@ TEST(ActuationSystem, DeliveredImpulseMatchesTheAnalyticPulseTrain) {
     EXPECT_NEAR(st.u_delivered(1), (1.0 + scale) * F * tau / dt / mass, 1e-12) << k;  // back in L
     EXPECT_NEAR(st.u_delivered(0), 0.0, 1e-15);
     EXPECT_NEAR(st.propellant, (1.0 + scale) * F * tau / (200.0 * kStandardGravity), 1e-15);
-    EXPECT_EQ(st.status, ActuationStatus::Ok);
+    EXPECT_EQ(st.status, AllocationStatus::Ok);
     impulse += (1.0 + scale) * F * tau;
   }
   EXPECT_NEAR(sys.totals().impulse, impulse, 1e-11);
@@ -84,7 +84,7 @@ TEST(ActuationSystem, ErrorIsAllocatedMinusDeliveredAndWheelsCarryTheTorque) {
   Vector6 u;
   u << 1e-3, -2e-3, 5e-4, 0.05, -0.02, 0.1;  // m/s^2, N m: the torque within the wheels' 0.2 N m
   const ActuationStep& st = sys.step(0.0, u, Eigen::Matrix3d::Identity());
-  EXPECT_EQ(st.status, ActuationStatus::Ok);
+  EXPECT_EQ(st.status, AllocationStatus::Ok);
   EXPECT_TRUE(st.error_B.isApprox(st.allocated_B - st.delivered_B));
   EXPECT_LT((st.commanded_B - st.allocated_B).cwiseAbs().maxCoeff(), 1e-4);
   // The wheels' torque is G u_w and their momentum moved by -u_w dt.
@@ -99,9 +99,9 @@ TEST(ActuationSystem, FailedThrusterIsReported) {
   ActuationSystem sys(cluster, actuator_test::pyramid_wheels(), settings(2.0, 100.0, 1e-3));
   Vector6 u = Vector6::Zero();
   u(0) = 0.002;  // 0.2 N along +x: thrusters 0 and 1 (one alone: its 0.1 N m torque goes to the wheels)
-  EXPECT_EQ(sys.step(0.0, u, Eigen::Matrix3d::Identity()).status, ActuationStatus::Ok);
+  EXPECT_EQ(sys.step(0.0, u, Eigen::Matrix3d::Identity()).status, AllocationStatus::Ok);
   const ActuationStep& st = sys.step(4.0, u, Eigen::Matrix3d::Identity());
-  EXPECT_EQ(st.status, ActuationStatus::ThrusterFailed);
+  EXPECT_EQ(st.status, AllocationStatus::ThrusterFailed);
   EXPECT_EQ(st.failed_thrusters, 1);
   EXPECT_EQ(st.on_time(0), 0.0);
   EXPECT_EQ(to_string(st.status), "thruster_failed");
@@ -118,7 +118,7 @@ TEST(ActuationSystem, EverythingFailedGivesStatusesAndNoNaN) {
     EXPECT_TRUE(st.u_delivered.allFinite());
     EXPECT_TRUE(st.error_B.allFinite());
     EXPECT_TRUE(st.delivered_B.head<3>().isZero()) << k;
-    EXPECT_TRUE(st.status == ActuationStatus::Infeasible || st.status == ActuationStatus::Saturated) << k;
+    EXPECT_TRUE(st.status == AllocationStatus::Infeasible || st.status == AllocationStatus::Saturated) << k;
     EXPECT_LE(st.wheel_momentum.cwiseAbs().maxCoeff(), 1.0 + 1e-12);
   }
   EXPECT_EQ(sys.totals().not_delivered, 20);
@@ -126,11 +126,11 @@ TEST(ActuationSystem, EverythingFailedGivesStatusesAndNoNaN) {
   // Non-finite command and attitude: InvalidCommand, finite output.
   Vector6 bad = u;
   bad(2) = std::nan("");
-  EXPECT_EQ(sys.step(21.0, bad, Eigen::Matrix3d::Identity()).status, ActuationStatus::InvalidCommand);
+  EXPECT_EQ(sys.step(21.0, bad, Eigen::Matrix3d::Identity()).status, AllocationStatus::InvalidCommand);
   Eigen::Matrix3d C = Eigen::Matrix3d::Identity();
   C(0, 0) = std::nan("");
   const ActuationStep& st = sys.step(22.0, u, C);
-  EXPECT_EQ(st.status, ActuationStatus::InvalidCommand);
+  EXPECT_EQ(st.status, AllocationStatus::InvalidCommand);
   EXPECT_TRUE(st.u_delivered.allFinite());
 }
 

@@ -90,8 +90,8 @@ TEST(ActuatorsAllocation, ActuationSystemStepDoesNotAllocate) {
     allocations += window.count();
   }
   EXPECT_EQ(allocations, 0);
-  EXPECT_GT(statuses[static_cast<int>(ActuationStatus::Ok)], 0);
-  EXPECT_GT(statuses[static_cast<int>(ActuationStatus::Saturated)], 0);
-  EXPECT_GT(statuses[static_cast<int>(ActuationStatus::ThrusterFailed)], 0);
-  EXPECT_EQ(statuses[static_cast<int>(ActuationStatus::InvalidCommand)], 1);
+  EXPECT_GT(statuses[static_cast<int>(AllocationStatus::Ok)], 0);
+  EXPECT_GT(statuses[static_cast<int>(AllocationStatus::Saturated)], 0);
+  EXPECT_GT(statuses[static_cast<int>(AllocationStatus::ThrusterFailed)], 0);
+  EXPECT_EQ(statuses[static_cast<int>(AllocationStatus::InvalidCommand)], 1);
 }

@@ -61,7 +61,6 @@ TEST(SettingsFields, StatusTablesAreCompleteAndInvertible) {
   expect_complete_table<mpc::ActiveSetQp::Status>(5);
   expect_complete_table<actuators::FaultKind>(3);
   expect_complete_table<actuators::AllocationStatus>(6);
-  expect_complete_table<actuators::ActuationStatus>(6);
   expect_complete_table<nav::SensorStatus>(5);
   expect_complete_table<nav::FilterStatus>(9);
   expect_complete_table<nav::Sensor>(4);

@@ -327,7 +327,7 @@ def test_system_call_allocates_like_scipy_and_fires_what_it_allocated(suite: A.A
         np.testing.assert_allclose(
             st.u_delivered, act.input_from_wrench(delivered, C_BL, suite.mass), rtol=1e-12, atol=1e-15
         )
-    assert {act.ActuationStatus.Ok, act.ActuationStatus.Saturated} <= statuses
+    assert {act.AllocationStatus.Ok, act.AllocationStatus.Saturated} <= statuses
 
 
 def test_certified_error_set_contains_every_sampled_commanded_minus_delivered_input(suite: A.ActuatorSuite) -> None:
@@ -350,7 +350,7 @@ def test_certified_error_set_contains_every_sampled_commanded_minus_delivered_in
         C_BL = np.asarray(_core.so3.rotation_matrix(q / np.linalg.norm(q))).T
         u = rng.uniform(-1.0, 1.0, size=6) * bound * (0.05 if k % 3 == 0 else 1.0)
         st = sys_.step(k * PERIOD, u, C_BL)
-        assert st.status in (act.ActuationStatus.Ok, act.ActuationStatus.ThrusterFailed), (k, st.status)
+        assert st.status in (act.AllocationStatus.Ok, act.AllocationStatus.ThrusterFailed), (k, st.status)
         e = np.asarray(st.u_commanded) - np.asarray(st.u_delivered)
         r = np.array([e[:3] @ np.linalg.solve(E_p, e[:3]), e[3:] @ np.linalg.solve(E_T, e[3:])])
         assert np.all(r <= 1.0), (k, r)

@@ -293,7 +293,6 @@ def test_option_enums_map_their_file_names_both_ways(enum: type[mpc.QpSolver]) -
         _core.control.MeasuredInput,
         _core.actuators.FaultKind,
         _core.actuators.AllocationStatus,
-        _core.actuators.ActuationStatus,
         _core.nav.SensorStatus,
         _core.nav.FilterStatus,
         _core.nav.Sensor,

@@ -34,25 +34,12 @@ struct ActuationSettings {
   void validate() const;
 };
 
-/// Outcome of a period's actuation.
-enum class ActuationStatus {
-  Ok,              ///< Allocated within tolerance with every thruster healthy.
-  ThrusterFailed,  ///< Allocated within tolerance around at least one failed thruster.
-  Saturated,       ///< The command's magnitude could not be allocated: the least-squares best was fired.
-  Infeasible,      ///< The command's direction cannot be produced (e.g. every thruster failed): best fired.
-  MaxIterations,   ///< The allocation's iteration cap was reached: a feasible, possibly suboptimal firing.
-  InvalidCommand,  ///< A non-finite command or attitude: no thrust (stuck-on thrusters still fire), no wheel torque.
-};
-
-/// Name of a status ("ok", "thruster_failed", "saturated", "infeasible", "max_iterations",
-/// "invalid_command"; core::EnumNames<ActuationStatus>).
-std::string to_string(ActuationStatus status);
-
 /// One period's actuation (buffers sized at construction, overwritten by every step).
 struct ActuationStep {
-  ActuationStatus status = ActuationStatus::Ok;  ///< Outcome.
-  AllocationInfo allocation;                     ///< The allocation's counters.
-  Vector6 u_commanded = Vector6::Zero();         ///< The command [u_p (m/s^2, L); T (N m, B)] as received.
+  /// Outcome: the allocation's (a non-finite attitude, like a non-finite command, is InvalidCommand).
+  AllocationStatus status = AllocationStatus::Ok;
+  AllocationInfo allocation;              ///< The allocation's counters.
+  Vector6 u_commanded = Vector6::Zero();  ///< The command [u_p (m/s^2, L); T (N m, B)] as received.
   /// The input delivered over the period (period average), [u_p (m/s^2, L); T (N m, B)]; always finite.
   Vector6 u_delivered = Vector6::Zero();
   Vector6 commanded_B = Vector6::Zero();  ///< The commanded wrench (M32; N, N m).
@@ -132,19 +119,6 @@ class ActuationSystem {
 
 }  // namespace tubempc::actuators
 
-namespace tubempc::core {
-
-/// Names of actuators::ActuationStatus.
-template <>
-struct EnumNames<actuators::ActuationStatus> {
-  /// The values, their identifiers and names.
-  static constexpr std::array<EnumName<actuators::ActuationStatus>, 6> values{
-      {{actuators::ActuationStatus::Ok, "Ok", "ok"},
-       {actuators::ActuationStatus::ThrusterFailed, "ThrusterFailed", "thruster_failed"},
-       {actuators::ActuationStatus::Saturated, "Saturated", "saturated"},
-       {actuators::ActuationStatus::Infeasible, "Infeasible", "infeasible"},
-       {actuators::ActuationStatus::MaxIterations, "MaxIterations", "max_iterations"},
-       {actuators::ActuationStatus::InvalidCommand, "InvalidCommand", "invalid_command"}}};
-};
+namespace tubempc::core {};
 
 }  // namespace tubempc::core
