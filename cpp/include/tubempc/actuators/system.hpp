@@ -12,13 +12,11 @@
 #pragma once
 
 #include <Eigen/Dense>
-#include <array>
 #include <string>
 
 #include "tubempc/actuators/allocation.hpp"
 #include "tubempc/actuators/reaction_wheels.hpp"
 #include "tubempc/actuators/thrusters.hpp"
-#include "tubempc/core/fields.hpp"
 
 namespace tubempc::actuators {
 
@@ -118,7 +116,3 @@ class ActuationSystem {
 };
 
 }  // namespace tubempc::actuators
-
-namespace tubempc::core {};
-
-}  // namespace tubempc::core
