@@ -238,7 +238,6 @@ void bind_actuators(py::module_& m) {
         py::arg("E"),
         "P of an ellipsoid containing W (+) B E (trace-minimal member of the outer family; M38)");
 
-
   py::class_<ActuationSettings>(s, "ActuationSettings", "Settings of the actuation system")
       .def(py::init<>())
       .def_readwrite("mass", &ActuationSettings::mass)
