@@ -89,6 +89,8 @@ def navigation_settings(cfg: Config) -> Any:
     filt.altimeter, filt.camera, filt.imu, filt.star_tracker = alt, cam, imu, star
     filt.altimeter_terrain_sigma, filt.accel_model_noise = n.altimeter_terrain_sigma, n.accel_model_noise
     filt.innovation_gate = n.innovation_gate
+    filt.gravity_relinearization_distance = n.gravity_relinearization_distance
+    filt.covariance_step = n.covariance_step
     s.altimeter, s.camera, s.imu, s.star_tracker, s.filter = alt, cam, imu, star, filt
     s.initial_sigma = np.repeat([n.initial_sigma_position, n.initial_sigma_velocity, n.initial_sigma_attitude], 3)
     sigma = np.zeros(9)
@@ -258,6 +260,7 @@ class NavigationRecord:
     gauge: Array  # (T, 2) true x_{k+1} - z*_1|k in Omega_k (+) E_{k+1} per subsystem (<= 1: inside)
     gauge_estimate: Array  # (T, 2) x^_{k+1} - z*_1|k in Omega_k (the certified part)
     time_step: Array  # (T,) wall time of the navigation call that gave the estimate of step k + 1 (s)
+    time_filter: Array  # (T,) of that call, the onboard estimator's part (C++ clock; sensors excluded) (s)
 
     @classmethod
     def allocate(cls, n_steps: int) -> NavigationRecord:
@@ -275,6 +278,7 @@ class NavigationRecord:
             z((T1, 4)),
             z((n_steps, 2)),
             z((n_steps, 2)),
+            z(n_steps),
             z(n_steps),
         )
 
@@ -298,7 +302,7 @@ class NavigationRecord:
             setattr(self, name, getattr(self, name)[: n_run + 1])
         self.status, self.sensor_status = self.status[: n_run + 1], self.sensor_status[: n_run + 1]
         self.gauge, self.gauge_estimate = self.gauge[:n_run], self.gauge_estimate[:n_run]
-        self.time_step = self.time_step[:n_run]
+        self.time_step, self.time_filter = self.time_step[:n_run], self.time_filter[:n_run]
 
     def campaign_arrays(self) -> dict[str, Array]:
         """What a Monte Carlo run keeps (runs/run_<i>.npz, prefixed by the method): the estimation error
@@ -323,7 +327,7 @@ class NavigationRecord:
             return None
         values: dict[str, Any] = {}
         for f in dataclasses.fields(cls):
-            if f.name == "time_step" and "nav_time_step" not in raw:  # written before the call was timed
+            if f.name in ("time_step", "time_filter") and f"nav_{f.name}" not in raw:  # written before it was timed
                 values[f.name] = np.zeros(len(raw["nav_gauge"]))
                 continue
             v = raw[f"nav_{f.name}"]
