@@ -3,12 +3,22 @@ view against an independent ray cast and pinhole, and the touchdown dispersion's
 
 from __future__ import annotations
 
+import functools
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
+from matplotlib.path import Path as Polygon
 from scipy.spatial.transform import Rotation
 
+import tubempc.analysis
+from tubempc import figures
+from tubempc.analysis import touchdown_offsets
+from tubempc.cli import main
 from tubempc.closed_loop import simulate
 from tubempc.config import load_config
+from tubempc.landing_site import site_map, tangent_axes
 from tubempc.scenario import build_scenario
 from tubempc.view3d import FootprintCaster, camera_footprint, mission_view_html
 
@@ -102,3 +112,62 @@ def test_the_view_of_a_navigation_run_has_the_footprints(tag_nav) -> None:  # ty
         assert len(fp.landmarks) == rec.navigation.landmarks[k]
         assert f"{len(fp.landmarks)} landmarks in the frame" in html
     assert "camera footprint" not in mission_view_html(tag_nav, {"ffa": rec}, footprints=0)
+
+
+def _line(fig, label: str) -> np.ndarray:  # type: ignore[no-untyped-def]
+    lines = [ln for ax in fig.axes for ln in ax.get_lines() if ln.get_label() == label]
+    assert lines, label
+    return np.asarray(lines[-1].get_xydata(), dtype=float)
+
+
+def test_the_dispersion_ellipse_holds_its_probability_of_a_known_gaussian() -> None:
+    rng = np.random.default_rng(30)
+    mean, L = np.array([0.2, -0.1]), np.array([[0.30, 0.0], [0.12, 0.08]])  # correlated, elongated
+    fig = figures.touchdown_dispersion(mean + rng.standard_normal((4000, 2)) @ L.T, "test", 0.997, 1.0)
+    ring = _line(fig, "99.7 % ellipse")
+    fresh = mean + rng.standard_normal((200_000, 2)) @ L.T
+    coverage = float(np.mean(Polygon(ring).contains_points(fresh)))
+    assert abs(coverage - 0.997) < 1.5e-3, coverage  # a 1-dof quantile would give 0.988, sigma instead of c: 0.39
+    # its semi-axes against the closed form of the 2-dof quantile, c^2 = -2 ln(1 - p), on the true covariance
+    lam, V = np.linalg.eigh(L @ L.T)
+    for k in range(2):
+        half = 0.5 * np.ptp((ring - ring.mean(axis=0)) @ V[:, k])
+        assert half == pytest.approx(np.sqrt(-2.0 * np.log(0.003) * lam[k]), rel=0.05)
+    goal = _line(fig, "goal: 1 m")
+    np.testing.assert_allclose(np.linalg.norm(goal, axis=1), 1.0)
+    figures.plt.close(fig)
+
+
+def test_the_site_map_lies_in_the_site_s_tangent_plane(tag_nav) -> None:  # type: ignore[no-untyped-def]
+    site = tag_nav.site
+    east, north = tangent_axes(site.normal_A)
+    np.testing.assert_allclose(
+        np.array([east, north, site.normal_A]) @ np.array([east, north, site.normal_A]).T, np.eye(3), atol=1e-12
+    )
+    assert abs(east[2]) < 1e-12 and north[2] > 0  # east is horizontal, north towards +z_A (the spin axis)
+    lm = np.array([site.surface_A + 3.0 * east - 4.0 * north + 0.5 * site.normal_A, site.surface_A + 50.0 * east])
+    m = site_map(tag_nav.shape, site, 20.0, lm)
+    np.testing.assert_allclose(m.landmarks, [[3.0, -4.0]], atol=1e-9)  # the second is outside the map
+    np.testing.assert_allclose(m.project(site.target_A - site.surface_A), [0.0, 0.0], atol=1e-9)
+    assert len(m.facets) > 0 and np.all(np.abs(m.heights) < 20.0)
+    # the facet holding the site: a triangle around the origin of the plane
+    assert any(Polygon(f).contains_point((0.0, 0.0)) for f in m.facets)
+
+
+def test_montecarlo_of_a_navigation_campaign_draws_the_touchdown_dispersion(
+    tag_nav, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:  # type: ignore[no-untyped-def]
+    # short runs: the command's own path, each run cut after 5 steps
+    monkeypatch.setattr(tubempc.analysis, "montecarlo", functools.partial(tubempc.analysis.montecarlo, max_steps=5))
+    out = tmp_path / "mc"
+    args = ["montecarlo", "--scenario", "bennu-tag-nav", "--runs", "3", "--workers", "1", "--method", "ffa"]
+    assert main([*args, "--out", str(out), "--quiet"]) == 0
+    assert (out / "fig21_touchdown_ffa.png").stat().st_size > 10_000
+    offsets = touchdown_offsets(tag_nav, out, "ffa")
+    assert offsets.shape == (3, 2) and np.all(np.isfinite(offsets))
+    for i, (e, n) in enumerate(offsets):  # the horizontal part of each run's terminal position error
+        run = json.loads((out / "runs" / f"run_{i:05d}.json").read_text())
+        assert np.hypot(e, n) <= run["result"]["ffa"]["terminal_error"]["position"] + 1e-9
+    other = tmp_path / "paper"  # without navigation: no dispersion figure
+    assert main(["montecarlo", "--runs", "1", "--workers", "1", "--method", "ffa", "--out", str(other), "--quiet"]) == 0
+    assert (other / "summary.json").exists() and not list(other.glob("fig21*"))
