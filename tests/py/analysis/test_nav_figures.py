@@ -171,3 +171,17 @@ def test_montecarlo_of_a_navigation_campaign_draws_the_touchdown_dispersion(
     other = tmp_path / "paper"  # without navigation: no dispersion figure
     assert main(["montecarlo", "--runs", "1", "--workers", "1", "--method", "ffa", "--out", str(other), "--quiet"]) == 0
     assert (other / "summary.json").exists() and not list(other.glob("fig21*"))
+
+
+def test_the_report_of_a_navigation_run_shows_its_figures(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import tubempc.runner
+    from tubempc.report import write_report
+
+    monkeypatch.setattr(tubempc.runner, "simulate", functools.partial(simulate, max_steps=8, design_worker="none"))
+    out = tmp_path / "run"
+    assert main(["run", "--scenario", "bennu-tag-nav", "--method", "ffa", "--out", str(out), "--quiet"]) == 0
+    html, md = write_report(out)
+    text, page = md.read_text(), html.read_text()
+    for stem in ("fig19_navigation_errors", "fig20_landmarks"):
+        assert f"![{stem}]" in text and f"{stem}.png: Navigation: " in text
+    assert "the navigation camera's footprint" in text and "camera footprint at t = " in page
