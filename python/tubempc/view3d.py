@@ -265,6 +265,8 @@ def mission_view_html(
         height=700,
         title={"text": "Mission in the orbital frame L (drag to turn, scroll to zoom)", "font": {"size": 14}},
     )
+    if fig.layout.sliders:  # room for the footprints' slider below the scene
+        fig.update_layout(margin={"b": 70}, height=770)
     return str(fig.to_html(full_html=False, include_plotlyjs=True, div_id=div_id))
 
 
