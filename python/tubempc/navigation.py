@@ -28,9 +28,11 @@ __all__ = [
     "Navigation",
     "NavigationRecord",
     "error_set_scale",
+    "landmark_catalogue",
     "navigation_settings",
     "new_navigation",
     "propagate_sampled",
+    "sensor_caster",
     "site_landmarks",
     "srp_acceleration",
     "tube_gauge",
@@ -160,20 +162,41 @@ def new_navigation(scn: Any, seed: int) -> Navigation | None:
     n = cfg.navigation
     if not n.enabled:
         return None
-    from .scenario import scenario_shape
-
     settings = navigation_settings(cfg)
     filter_caster = _core.nav.RayCaster(scn.shape)
-    subdivisions = cfg.simulation.truth_shape_subdivisions
-    sensor_caster = filter_caster if subdivisions == 0 else _core.nav.RayCaster(scenario_shape(cfg, subdivisions)[0])
-    landmarks = _core.nav.generate_landmarks(filter_caster, n.landmarks)
-    if n.site_landmarks > 0 and scn.site is not None:
-        landmarks += site_landmarks(filter_caster, scn.site, n.site_landmarks, n.site_landmark_radius)
     system = _core.nav.NavigationSystem(
-        scn.model.core, sensor_caster, filter_caster, landmarks, settings, int(seed) + NAV_SEED_OFFSET
+        scn.model.core,
+        sensor_caster(scn, filter_caster),
+        filter_caster,
+        landmark_catalogue(scn, filter_caster),
+        settings,
+        int(seed) + NAV_SEED_OFFSET,
     )
     n_sub = round(cfg.mpc.dt / n.imu_period)
     return Navigation(system, error_set_scale(n.error_set_probability), n.imu_period, n_sub, srp_acceleration(scn.truth))
+
+
+def sensor_caster(scn: Any, filter_caster: Any | None = None) -> Any:
+    """The ray caster the sensors of a run cast on (frame A): the truth's shape, which is the
+    controller's (``filter_caster`` when given) unless ``simulation.truth_shape_subdivisions`` > 0."""
+    subdivisions = scn.config.simulation.truth_shape_subdivisions
+    if subdivisions == 0:
+        return filter_caster if filter_caster is not None else _core.nav.RayCaster(scn.shape)
+    from .scenario import scenario_shape
+
+    return _core.nav.RayCaster(scenario_shape(scn.config, subdivisions)[0])
+
+
+def landmark_catalogue(scn: Any, filter_caster: Any | None = None) -> list[Any]:
+    """The navigation camera's landmark catalogue of a scenario (frame A, on the controller's shape):
+    ``navigation.landmarks`` spread over the body, then ``navigation.site_landmarks`` about the site.
+    Deterministic; the index of a landmark is its index in the C++ camera's catalogue."""
+    n = scn.config.navigation
+    caster = filter_caster if filter_caster is not None else _core.nav.RayCaster(scn.shape)
+    landmarks = _core.nav.generate_landmarks(caster, n.landmarks)
+    if n.site_landmarks > 0 and scn.site is not None:
+        landmarks += site_landmarks(caster, scn.site, n.site_landmarks, n.site_landmark_radius)
+    return landmarks
 
 
 def site_landmarks(caster: Any, site: Any, count: int, radius: float) -> list[Any]:
