@@ -5,8 +5,9 @@ A preset names its figures' public sources in comments (``python/tubempc/data/sp
 are strings or ``{value = [...], unit = "..."}`` tables parsed with pint; plain numbers are dimensionless.
 A preset may name another as its ``base`` (a preset name or a path relative to its folder): the base's
 sections are taken, a table of the preset's is merged into the base's field by field and any other entry
-(``[[thrusters]]``, ``[[faults]]``) replaces the base's. Faults are ``[[faults]]`` entries (``thruster``, ``kind`` = "failed_off" or "stuck_on", ``time`` a
-quantity or "random" with ``window`` = [start, end]); a random time is drawn with ``numpy.random.default_rng(seed)``.
+(``[[thrusters]]``, ``[[faults]]``) replaces the base's. Faults are ``[[faults]]`` entries (``thruster``,
+``kind`` = "failed_off" or "stuck_on", ``time`` a quantity or "random" with ``window`` = [start, end]); a random
+time is drawn with ``numpy.random.default_rng(seed)``.
 """
 
 from __future__ import annotations
