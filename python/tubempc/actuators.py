@@ -185,7 +185,7 @@ def _with_base(raw: dict[str, Any], path: Path, where: str, seen: tuple[Path, ..
     _known(base, _SECTIONS, base_where)
     if "base" in base:
         base = _with_base(base, base_path, base_where, seen)
-    merged = dict(base)
+    merged = {k: v for k, v in base.items() if k != "name"}  # a preset's name is its own (or its file's)
     for key, value in raw.items():
         if key == "base":
             continue

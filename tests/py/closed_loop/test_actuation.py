@@ -142,6 +142,10 @@ def test_a_preset_over_its_base_changes_only_the_fields_it_gives(tmp_path: Path)
         assert np.array_equal(c.position_B, b.position_B) and np.array_equal(c.direction_B, b.direction_B)
     assert np.array_equal(cal.wheels.axes_B, base.wheels.axes_B)
     assert np.array_equal(cal.wheels.max_momentum, base.wheels.max_momentum)
+    (tmp_path / "own.toml").write_text('base = "osiris_rex_like_calibrated"\n[modulation]\non_time_resolution = "2 ms"\n')
+    own = A.load_actuators(tmp_path / "own.toml", 5.0)
+    assert own.name == "own" and own.modulation.on_time_resolution == 0.002
+    assert own.cluster.thruster(0).scale_error_bound == 0.01  # through two bases
     (tmp_path / "a.toml").write_text('base = "b.toml"\n')
     (tmp_path / "b.toml").write_text('base = "a.toml"\n')
     with pytest.raises(A.ActuatorConfigError, match=r"a\.toml\.base.*a\.toml is a base of itself"):
