@@ -100,7 +100,12 @@ def test_report_compares_a_run_with_actuators_with_the_ideal_actuator_run(tmp_pa
     from tubempc.runner import run_methods
     from tubempc.scenario import build_scenario
 
-    short = {"boundary.hover_altitude": "10 m", "mpc.t_f": "200 s", "boundary.touchdown_speed": "0.05 m/s"}
+    short = {
+        "boundary.hover_altitude": "10 m",
+        "mpc.t_f": "200 s",
+        "boundary.touchdown_speed": "0.05 m/s",
+        "tube.design_worker": "inline",
+    }
     cfg = load_config(scenario="bennu-tag-osirisrex").with_overrides(short)
     out = tmp_path / "run"
     summary = run_methods(cfg, ["ffa"], 2, out, progress=False, make_figures=False)
