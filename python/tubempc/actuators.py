@@ -3,8 +3,11 @@
 
 A preset names its figures' public sources in comments (``python/tubempc/data/spacecraft/``). Quantities
 are strings or ``{value = [...], unit = "..."}`` tables parsed with pint; plain numbers are dimensionless.
-Faults are ``[[faults]]`` entries (``thruster``, ``kind`` = "failed_off" or "stuck_on", ``time`` a
-quantity or "random" with ``window`` = [start, end]); a random time is drawn with ``numpy.random.default_rng(seed)``.
+A preset may name another as its ``base`` (a preset name or a path relative to its folder): the base's
+sections are taken, a table of the preset's is merged into the base's field by field and any other entry
+(``[[thrusters]]``, ``[[faults]]``) replaces the base's. Faults are ``[[faults]]`` entries (``thruster``,
+``kind`` = "failed_off" or "stuck_on", ``time`` a quantity or "random" with ``window`` = [start, end]); a random
+time is drawn with ``numpy.random.default_rng(seed)``.
 """
 
 from __future__ import annotations
@@ -42,7 +45,7 @@ class ActuatorConfigError(ValueError):
     """Invalid actuator preset; the message names the file and the field."""
 
 
-_SECTIONS = {"name", "mass", "thruster_defaults", "thrusters", "wheels", "momentum_dump", "modulation", "faults"}
+_SECTIONS = {"base", "name", "mass", "thruster_defaults", "thrusters", "wheels", "momentum_dump", "modulation", "faults"}
 _SECTION_KEYS = {
     "thruster_defaults": set(_THRUSTER_FIELDS) | {"misalignment_B"},
     "wheels": {"max_torque", "max_momentum", "axes_B"},
@@ -156,6 +159,41 @@ def _thruster(raw: Mapping[str, Any], defaults: Mapping[str, Any], where: str) -
     return s
 
 
+def _read_preset(path: Path, where: str) -> dict[str, Any]:
+    try:
+        with path.open("rb") as fh:
+            return tomllib.load(fh)
+    except OSError as exc:
+        raise ActuatorConfigError(f"{where}: cannot read: {exc}") from exc
+    except tomllib.TOMLDecodeError as exc:
+        raise ActuatorConfigError(f"{where}: not TOML: {exc}") from exc
+
+
+def _with_base(raw: dict[str, Any], path: Path, where: str, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
+    """`raw` over its ``base`` preset (itself over its own base): tables merged field by field, any other entry
+    replaced. ActuatorConfigError on a cycle of bases."""
+    name = raw["base"]
+    if not isinstance(name, str) or not name:
+        raise ActuatorConfigError(f"{where}.base: expected a preset name or a TOML path, got {name!r}")
+    base_path = Path(name)
+    base_path = (path.parent / base_path if base_path.suffix else PRESET_DIR / f"{name}.toml").resolve()
+    seen = (*seen, path.resolve())
+    if base_path in seen:
+        raise ActuatorConfigError(f"{where}.base: {base_path.name} is a base of itself")
+    base_where = f"{where}.base ({base_path.name})"
+    base = _read_preset(base_path, base_where)
+    _known(base, _SECTIONS, base_where)
+    if "base" in base:
+        base = _with_base(base, base_path, base_where, seen)
+    merged = {k: v for k, v in base.items() if k != "name"}  # a preset's name is its own (or its file's)
+    for key, value in raw.items():
+        if key == "base":
+            continue
+        old = merged.get(key)
+        merged[key] = {**old, **value} if isinstance(old, Mapping) and isinstance(value, Mapping) else value
+    return merged
+
+
 def load_actuators(source: str | Path, period: float, *, seed: int = 0) -> ActuatorSuite:
     """Reads a preset (a name of :func:`preset_names` or a path) for a control period (s).
 
@@ -166,14 +204,10 @@ def load_actuators(source: str | Path, period: float, *, seed: int = 0) -> Actua
     if not path.suffix:
         path = PRESET_DIR / f"{source}.toml"
     where = path.name
-    try:
-        with path.open("rb") as fh:
-            raw = tomllib.load(fh)
-    except OSError as exc:
-        raise ActuatorConfigError(f"{where}: cannot read: {exc}") from exc
-    except tomllib.TOMLDecodeError as exc:
-        raise ActuatorConfigError(f"{where}: not TOML: {exc}") from exc
+    raw = _read_preset(path, where)
     _known(raw, _SECTIONS, where)
+    if "base" in raw:
+        raw = _with_base(raw, path, where)
     for section in ("thruster_defaults", "wheels", "momentum_dump", "modulation"):
         if section in raw:
             if not isinstance(raw[section], Mapping):

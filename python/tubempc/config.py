@@ -847,6 +847,10 @@ SCENARIOS: dict[str, tuple[str, str]] = {
         "scenarios/bennu_tag_nav.toml",
         "bennu-tag flown on navigation (camera, altimeter, IMU, star tracker, EKF), a lit site at 180 deg",
     ),
+    "bennu-tag-osirisrex": (
+        "scenarios/bennu_tag_osirisrex.toml",
+        "bennu-tag over the real TAG's 20 min, flown by the OSIRIS-REx-like thrusters and wheels (5 s period)",
+    ),
     "itokawa-like": (
         "scenarios/itokawa_like.toml",
         "a generated 535 x 294 x 209 m contact binary (1900 kg/m^3, 12.13 h), a site on its smaller lobe",

@@ -247,13 +247,18 @@ def tube_status_certified(status: str) -> bool:
 NOT_DELIVERED = frozenset({"saturated", "infeasible", "invalid_command"})
 
 
+def net_delta_v(rec: RunRecord, dt: float) -> float:
+    """The net delta-v delivered (m/s): the sum of ``|u_p delivered| dt`` (ideal actuators: the command's)."""
+    return float(np.linalg.norm(rec.u_delivered[:, :3], axis=1).sum() * dt)
+
+
 def actuation_summary(rec: RunRecord, dt: float) -> ActuationSummary | None:
     """A run's actuation totals (docs/model.md M37); None for ideal actuators (or a record without them)."""
     if not rec.actuation_statuses or all(s == "ideal" for s in rec.actuation_statuses):
         return None
     return ActuationSummary(
         thruster_delta_v=float(np.sum(rec.delta_v)),
-        net_delta_v=float(np.linalg.norm(rec.u_delivered[:, :3], axis=1).sum() * dt),
+        net_delta_v=net_delta_v(rec, dt),
         propellant=float(np.sum(rec.propellant)),
         pulses=int(np.sum(rec.pulses)),
         max_wheel_momentum=float(np.linalg.norm(rec.wheel_momentum, axis=1).max()),

@@ -5,7 +5,10 @@ DIR may hold a run (``summary.json`` from ``tubempc run``, here or in ``DIR/run`
 ``DIR/montecarlo``); each file says its kind (:mod:`tubempc.summaries`). Each part states its
 scenario (from the ``config.toml`` saved beside it), the reference's status, the steps outside the
 tube, the fallbacks and the tube statuses. Only the paper's own scenario is set
-beside the paper's values (docs/model.md "Metrics"; paper Tables 3-4). Every figure has a caption.
+beside the paper's values (docs/model.md "Metrics"; paper Tables 3-4). A run with thrusters and wheels
+(``spacecraft.actuators`` not "ideal") is compared, method by method, with the same mission flown with ideal
+actuators, the same seed, reference and input bounds (flown when the report is written). Every figure has a
+caption.
 """
 
 from __future__ import annotations
@@ -13,15 +16,16 @@ from __future__ import annotations
 import base64
 import datetime
 import html
+from collections.abc import Mapping
 from pathlib import Path
 
 from . import __version__
 from .claims import PAPER_REDUCTION_TABLE3, PAPER_REDUCTION_TABLE4, PAPER_TABLE3, PAPER_TABLE4, paper_claims
 from .config import Config, ConfigError, load_config
 from .metrics import below_or_above
-from .summaries import MonteCarloSummary, RunSummary, Summary, SweepSummary, load_summary
+from .summaries import MethodResult, MonteCarloSummary, RunSummary, Summary, SweepSummary, load_summary
 
-__all__ = ["write_report"]
+__all__ = ["actuation_comparison", "write_report"]
 
 _WHY = (
     "The paper does not publish its disturbance realisation, its truth model or its spacecraft inertia, so "
@@ -150,6 +154,45 @@ def _mission_view(folder: Path, cfg: Config | None, methods: list[str]) -> tuple
     return view, note
 
 
+def actuation_comparison(
+    folder: Path, cfg: Config, seed: int, results: Mapping[str, MethodResult]
+) -> dict[str, dict[str, float]]:
+    """Each method's run with actuators (``results``, its summary) against the same mission flown now with ideal
+    actuators (:func:`tubempc.benchmarks.actuation.ideal_counterpart`: the same reference and input bounds) and
+    the same seed: steps outside the tube, terminal position error (m) and net delta-v (m/s) of both and their
+    ratios, and the run's thruster delta-v (m/s), propellant (kg), pulses and largest wheel momentum (N m s)."""
+    from .benchmarks.actuation import ideal_counterpart
+    from .closed_loop import simulate
+    from .metrics import net_delta_v, run_metrics
+    from .scenario import build_scenario
+
+    scn = build_scenario(cfg, cache_dir=folder / "cache")
+    _, ideal = ideal_counterpart(cfg, scn, cache_dir=folder / "cache")
+    dt = cfg.mpc.dt
+    out: dict[str, dict[str, float]] = {}
+    for method, r in results.items():
+        if r.actuation is None:
+            raise ValueError(f"{method}: the run's summary has no actuation figures")
+        rec = simulate(ideal, method, seed)
+        base = run_metrics(rec, dt, ideal.xf)
+        dv = net_delta_v(rec, dt)
+        out[method] = {
+            "steps_outside_tube": r.steps_outside_tube,
+            "ideal_steps_outside_tube": base.steps_outside_tube,
+            "terminal_position_error": r.terminal_error.position,
+            "ideal_terminal_position_error": base.terminal_error.position,
+            "terminal_error_ratio": r.terminal_error.position / base.terminal_error.position,
+            "net_delta_v": r.actuation.net_delta_v,
+            "ideal_net_delta_v": dv,
+            "net_delta_v_ratio": r.actuation.net_delta_v / dv,
+            "thruster_delta_v": r.actuation.thruster_delta_v,
+            "propellant": r.actuation.propellant,
+            "pulses": r.actuation.pulses,
+            "max_wheel_momentum": r.actuation.max_wheel_momentum,
+        }
+    return out
+
+
 def _scenario_text(cfg: Config | None, paper: bool) -> str:
     if cfg is None:
         return "scenario: unknown (no readable config.toml beside the results)"
@@ -259,6 +302,54 @@ def write_report(root: Path) -> tuple[Path, Path]:
             red = run.comparison.J_p_reduction_percent
             paper_red = f" (paper: {PAPER_REDUCTION_TABLE3:.1f} %)." if paper else "."
             paragraph(f"TBMPC-FFA's J_p is {below_or_above(red)} TBMPC's" + paper_red)
+        if cfg is not None and cfg.spacecraft.actuators != "ideal":
+            section(
+                "Actuators against ideal actuators",
+                f"spacecraft.actuators = {cfg.spacecraft.actuators}; each method against the same mission flown now "
+                "with ideal actuators, the same seed, reference and input bounds (the actuators' one-failure box).",
+            )
+            try:
+                comp = actuation_comparison(run_dir, cfg, run.seed, run.methods)
+            except Exception as exc:  # the report of the run's own numbers must not depend on the second flight
+                paragraph(f"No comparison: {type(exc).__name__}: {exc}")
+            else:
+                table(
+                    [
+                        "method",
+                        "steps outside the tube (ideal)",
+                        "terminal position error (m)",
+                        "ideal (m)",
+                        "ratio",
+                        "net delta-v (m/s)",
+                        "ideal (m/s)",
+                        "ratio",
+                        "thrusters' delta-v (m/s)",
+                        "propellant (kg)",
+                        "pulses",
+                        "max wheel momentum (N m s)",
+                    ],
+                    [
+                        [
+                            m,
+                            f"{c['steps_outside_tube']:g} ({c['ideal_steps_outside_tube']:g})",
+                            _fmt(c["terminal_position_error"]),
+                            _fmt(c["ideal_terminal_position_error"]),
+                            _fmt(c["terminal_error_ratio"]),
+                            _fmt(c["net_delta_v"]),
+                            _fmt(c["ideal_net_delta_v"]),
+                            _fmt(c["net_delta_v_ratio"]),
+                            _fmt(c["thruster_delta_v"]),
+                            _fmt(c["propellant"]),
+                            f"{c['pulses']:g}",
+                            _fmt(c["max_wheel_momentum"]),
+                        ]
+                        for m, c in comp.items()
+                    ],
+                )
+                paragraph(
+                    "Net delta-v: the sum of |u_p delivered| dt; the thrusters' delta-v: the sum of their impulses / m "
+                    "(opposed firings for torques and dumping count in it)."
+                )
         view, note = _mission_view(run_dir, cfg, list(run.methods))
         section("The mission in 3D", note)
         parts_h.append(view)

@@ -13,13 +13,19 @@ from __future__ import annotations
 
 import argparse
 import collections
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..machine import machine_info
+from ..metrics import net_delta_v
 from . import write_json
 from .controller import add_flight_arguments
+
+if TYPE_CHECKING:
+    from ..config import Config
+    from ..scenario import Scenario
 
 DESCRIPTION = "closed loop with thrusters and wheels against ideal actuators with the same bounds, both methods"
 
@@ -36,13 +42,26 @@ def _p99_ms(seconds: np.ndarray) -> float:
     return float(np.percentile(1e3 * np.asarray(seconds, dtype=float), 99))
 
 
+def ideal_counterpart(cfg: Config, scn: Scenario, cache_dir: str | Path | None = None) -> tuple[Config, Scenario]:
+    """The mission of ``scn`` (built from ``cfg``) with ideal actuators and its input bounds: the same reference.
+    ValueError if the references differ."""
+    from ..scenario import build_scenario
+
+    u_max, T_max = scn.input_bounds
+    ideal_cfg = cfg.with_overrides({"spacecraft.actuators": "ideal", "spacecraft.u_max": u_max, "spacecraft.T_max": T_max})
+    ideal = build_scenario(ideal_cfg, cache_dir=cache_dir)
+    if not np.array_equal(ideal.reference.x, scn.reference.x):
+        raise ValueError("the ideal run's reference differs from the actuated run's")
+    return ideal_cfg, ideal
+
+
 def _figures(rec: Any, xf: np.ndarray, dt: float) -> dict[str, Any]:
     return {
         "steps_outside_tube": int(np.sum(np.any(rec.excursion > 1.0 + 1e-9, axis=1))),
         "max_tube_excursion": rec.excursion.max(axis=0).tolist(),
         "terminal_position_error_m": float(np.linalg.norm(rec.x[-1, :3] - xf[:3])),
         "terminal_velocity_error_m_s": float(np.linalg.norm(rec.x[-1, 3:6] - xf[3:6])),
-        "net_delta_v_m_s": float(np.linalg.norm(rec.u_delivered[:, :3], axis=1).sum() * dt),
+        "net_delta_v_m_s": net_delta_v(rec, dt),
         "thruster_delta_v_m_s": float(rec.delta_v.sum()),
         "propellant_kg": float(rec.propellant.sum()),
         "pulses": int(rec.pulses.sum()),
@@ -67,10 +86,10 @@ def run(args: argparse.Namespace) -> int:
         raise SystemExit('bench actuation: spacecraft.actuators is "ideal"; give --actuators or a configuration with one')
     scn = build_scenario(cfg)
     u_max, T_max = scn.input_bounds
-    ideal_cfg = cfg.with_overrides({"spacecraft.actuators": "ideal", "spacecraft.u_max": u_max, "spacecraft.T_max": T_max})
-    ideal = build_scenario(ideal_cfg)
-    if not np.array_equal(ideal.reference.x, scn.reference.x):
-        raise SystemExit("bench actuation: the ideal run's reference differs from the actuated run's")
+    try:
+        ideal_cfg, ideal = ideal_counterpart(cfg, scn)
+    except ValueError as exc:
+        raise SystemExit(f"bench actuation: {exc}") from exc
     methods = ["tbmpc", "ffa"] if args.method == "both" else [args.method]
     dt = cfg.mpc.dt
     out: dict[str, Any] = {

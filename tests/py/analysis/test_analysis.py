@@ -89,3 +89,50 @@ def test_a_campaign_run_reflies_to_the_bit_and_a_changed_record_is_caught(tmp_pa
     assert main(["run", "--from-campaign", str(out), "--index", "1", "--out", str(tmp_path / "b")]) == EXIT_REFLIGHT_DIFFERS
     assert json.loads((tmp_path / "b" / "refly.json").read_text())["differences"] == ["ffa.J_p"]
     assert main(["run", "--from-campaign", str(out), "--out", str(tmp_path / "c")]) == EXIT_USAGE
+
+
+def test_report_compares_a_run_with_actuators_with_the_ideal_actuator_run(tmp_path: Path) -> None:
+    """The report's comparison against the same mission computed here apart: the ideal run flown from hand-made
+    overrides, terminal error and net delta-v from the records."""
+    from tubempc.closed_loop import simulate
+    from tubempc.report import actuation_comparison
+    from tubempc.results import load_record
+    from tubempc.runner import run_methods
+    from tubempc.scenario import build_scenario
+
+    short = {
+        "boundary.hover_altitude": "10 m",
+        "mpc.t_f": "200 s",
+        "boundary.touchdown_speed": "0.05 m/s",
+        "tube.design_worker": "inline",
+    }
+    cfg = load_config(scenario="bennu-tag-osirisrex").with_overrides(short)
+    out = tmp_path / "run"
+    summary = run_methods(cfg, ["ffa"], 2, out, progress=False, make_figures=False)
+    scn = build_scenario(cfg, cache_dir=tmp_path / "cache")
+    u_max, T_max = scn.input_bounds
+    ideal = build_scenario(
+        cfg.with_overrides({"spacecraft.actuators": "ideal", "spacecraft.u_max": u_max, "spacecraft.T_max": T_max}),
+        cache_dir=tmp_path / "cache",
+    )
+    base = simulate(ideal, "ffa", 2)
+    act = load_record(out / "ffa.h5")[0]
+    dt = cfg.mpc.dt
+    want = {
+        "terminal_position_error": float(np.linalg.norm(act.x[-1, :3] - scn.xf[:3])),
+        "ideal_terminal_position_error": float(np.linalg.norm(base.x[-1, :3] - ideal.xf[:3])),
+        "net_delta_v": dt * sum(float(np.sqrt(u @ u)) for u in act.u_delivered[:, :3]),
+        "ideal_net_delta_v": dt * sum(float(np.sqrt(u @ u)) for u in base.u[:, :3]),
+        "propellant": float(act.propellant.sum()),
+    }
+    got = actuation_comparison(out, load_config(out / "config.toml"), 2, summary.methods)["ffa"]
+    for key, value in want.items():
+        assert got[key] == pytest.approx(value, rel=1e-12), key
+    ratio = want["terminal_position_error"] / want["ideal_terminal_position_error"]
+    assert got["terminal_error_ratio"] == pytest.approx(ratio)
+    assert got["net_delta_v_ratio"] == pytest.approx(want["net_delta_v"] / want["ideal_net_delta_v"])
+    assert got["pulses"] == int(act.pulses.sum()) > 0 and want["propellant"] > 0.0
+    text = write_report(out)[1].read_text()
+    assert "## Actuators against ideal actuators" in text
+    assert f"| ffa | {got['steps_outside_tube']:g} ({got['ideal_steps_outside_tube']:g}) |" in text
+    assert f"| {got['terminal_error_ratio']:.4g} |" in text and f"| {got['net_delta_v_ratio']:.4g} |" in text

@@ -129,3 +129,50 @@ def test_a_failed_thruster_is_reported_and_flown_around(tmp_path: Path, cache: P
     assert set(rec.actuation_statuses[10:]) == {"thruster_failed"}
     assert np.all(rec.excursion <= 1.0)
     assert rec.applied["actuators"]["faults"] == [{"thruster": 3, "kind": "failed_off", "time": 20.0}]
+
+
+def test_a_preset_over_its_base_changes_only_the_fields_it_gives(tmp_path: Path) -> None:
+    base, cal = A.load_actuators("osiris_rex_like", 5.0), A.load_actuators("osiris_rex_like_calibrated", 5.0)
+    assert (cal.name, cal.mass, len(cal.cluster)) == ("osiris_rex_like_calibrated", base.mass, len(base.cluster))
+    for j in range(len(base.cluster)):
+        b, c = base.cluster.thruster(j), cal.cluster.thruster(j)
+        assert (b.scale_error_bound, c.scale_error_bound) == (0.05, 0.01)
+        assert c.misalignment_bound == pytest.approx(np.radians(0.1), rel=1e-12)
+        assert (c.max_thrust, c.min_on_time, c.isp) == (b.max_thrust, b.min_on_time, b.isp)
+        assert np.array_equal(c.position_B, b.position_B) and np.array_equal(c.direction_B, b.direction_B)
+    assert np.array_equal(cal.wheels.axes_B, base.wheels.axes_B)
+    assert np.array_equal(cal.wheels.max_momentum, base.wheels.max_momentum)
+    (tmp_path / "own.toml").write_text('base = "osiris_rex_like_calibrated"\n[modulation]\non_time_resolution = "2 ms"\n')
+    own = A.load_actuators(tmp_path / "own.toml", 5.0)
+    assert own.name == "own" and own.modulation.on_time_resolution == 0.002
+    assert own.cluster.thruster(0).scale_error_bound == 0.01  # through two bases
+    (tmp_path / "a.toml").write_text('base = "b.toml"\n')
+    (tmp_path / "b.toml").write_text('base = "a.toml"\n')
+    with pytest.raises(A.ActuatorConfigError, match=r"a\.toml\.base.*a\.toml is a base of itself"):
+        A.load_actuators(tmp_path / "a.toml", 5.0)
+    (tmp_path / "c.toml").write_text('base = "osiris_rex_like"\n[thruster_defaults]\nscale_error_bnd = 0.01\n')
+    with pytest.raises(A.ActuatorConfigError, match=r"c\.toml\.thruster_defaults: unknown field.*scale_error_bnd"):
+        A.load_actuators(tmp_path / "c.toml", 5.0)
+
+
+def test_the_osiris_rex_like_tag_fits_the_preset_s_authority_with_its_certified_error(cache: Path) -> None:
+    """bennu-tag-osirisrex: the 20 min TAG on the calibrated preset at a 5 s period; the reference and the certified
+    error set leave the tube a margin of the one-failure box, which the uncalibrated preset's error set takes whole
+    (docs/decisions.md "An OSIRIS-REx-like spacecraft in the loop")."""
+    cfg = load_config(scenario="bennu-tag-osirisrex")
+    assert (cfg.spacecraft.actuators, cfg.mpc.t_f, cfg.mpc.dt) == ("osiris_rex_like_calibrated", 1200.0, 5.0)
+    scn = build_scenario(cfg, cache_dir=cache)
+    assert scn.actuation is not None
+    u_max, T_max = scn.input_bounds
+    # the one-failure box in L at every attitude: the B box's force half-width over sqrt(3) m
+    force_B = float(np.asarray(scn.actuation.box.half_width_B)[:3].min())
+    assert u_max == pytest.approx(force_B / (np.sqrt(3.0) * 1500.0), rel=1e-12) and T_max == 3.0
+    # 16 thrusters of 1 lbf on 1500 kg: the box is below what all of them give along one axis
+    assert u_max < 8 * 4.4482216152605 / 1500.0
+    peak = float(np.abs(scn.reference.u[:, :3]).max())
+    assert peak <= 0.4 * u_max * (1.0 + 1e-9)
+    E_p, _ = scn.actuation.error_shapes()
+    radius = float(np.sqrt(E_p[0, 0]))
+    assert peak + radius < 0.7 * u_max
+    raw = A.scenario_actuation("osiris_rex_like", A.PRESET_DIR, 5.0, 1.0, 3.0)
+    assert float(np.sqrt(raw.error_shapes()[0][0, 0])) > 0.9 * raw.u_max
