@@ -28,6 +28,7 @@ __all__ = [
     "Navigation",
     "NavigationRecord",
     "error_set_scale",
+    "landmark_catalogue",
     "navigation_settings",
     "new_navigation",
     "propagate_sampled",
@@ -164,14 +165,24 @@ def new_navigation(scn: Any, seed: int) -> Navigation | None:
     filter_caster = _core.nav.RayCaster(scn.shape)
     subdivisions = cfg.simulation.truth_shape_subdivisions
     sensor_caster = filter_caster if subdivisions == 0 else _core.nav.RayCaster(scenario_shape(cfg, subdivisions)[0])
-    landmarks = _core.nav.generate_landmarks(filter_caster, n.landmarks)
-    if n.site_landmarks > 0 and scn.site is not None:
-        landmarks += site_landmarks(filter_caster, scn.site, n.site_landmarks, n.site_landmark_radius)
+    landmarks = landmark_catalogue(scn, filter_caster)
     system = _core.nav.NavigationSystem(
         scn.model.core, sensor_caster, filter_caster, landmarks, settings, int(seed) + NAV_SEED_OFFSET
     )
     n_sub = round(cfg.mpc.dt / n.imu_period)
     return Navigation(system, error_set_scale(n.error_set_probability), n.imu_period, n_sub, srp_acceleration(scn.truth))
+
+
+def landmark_catalogue(scn: Any, caster: Any | None = None) -> list[Any]:
+    """The landmark catalogue of a scenario (frame A): ``navigation.landmarks`` generated over the
+    controller's shape model, then ``navigation.site_landmarks`` about the site (``caster``: a
+    ``_core.nav.RayCaster`` on ``scn.shape``, built if not given)."""
+    n = scn.config.navigation
+    caster = _core.nav.RayCaster(scn.shape) if caster is None else caster
+    landmarks: list[Any] = _core.nav.generate_landmarks(caster, n.landmarks)
+    if n.site_landmarks > 0 and scn.site is not None:
+        landmarks += site_landmarks(caster, scn.site, n.site_landmarks, n.site_landmark_radius)
+    return landmarks
 
 
 def site_landmarks(caster: Any, site: Any, count: int, radius: float) -> list[Any]:

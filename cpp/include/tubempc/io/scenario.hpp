@@ -62,17 +62,21 @@
 ///     ...
 #pragma once
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
+#include "tubempc/actuators/system.hpp"
 #include "tubempc/control/controller.hpp"
 #include "tubempc/dynamics/propagator.hpp"
 #include "tubempc/dynamics/proximity_model.hpp"
 #include "tubempc/mpc/tube_mpc.hpp"
+#include "tubempc/nav/system.hpp"
 
 namespace tubempc::io {
 
 /// Version of the scenario format this library reads and writes.
-inline constexpr int kScenarioFormatVersion = 3;
+inline constexpr int kScenarioFormatVersion = 4;
 
 /// One 6-DOF model of the scenario: the inputs of gravity::load_shape, gravity::PolyhedronGravity
 /// and dynamics::ProximityModel.
@@ -106,6 +110,32 @@ struct BodyModel {
   }
 };
 
+/// The navigation of a scenario (records `navigation.*`, version 4): what nav::NavigationSystem is
+/// constructed from, and the scale of the estimation-error set the controller's constraints are
+/// tightened by (control::Controller::set_estimation_error).
+struct NavigationScenario {
+  bool enabled{false};               ///< whether the controller flies on the navigation's estimate
+  nav::NavigationSettings settings;  ///< the true sensors, the filter and the sigmas
+  /// The landmark catalogue (frame A): the generated one, then the site's (python/tubempc/navigation.py).
+  std::vector<nav::Landmark> landmarks;
+  std::uint64_t seed{0};  ///< the navigation system's seed (the run's seed + 1000003 in Python)
+  /// c of the estimation-error set {e : e^T (c P_x)^-1 e <= 1} (the chi-square quantile of
+  /// navigation.error_set_probability with 12 degrees of freedom), finite and > 0.
+  double error_set_scale{1.0};
+};
+
+/// The actuators of a scenario (records `actuators.*`, version 4): what actuators::ActuationSystem is
+/// constructed from, the truth's thrusters of one run (nominal geometry, that run's scale and
+/// misalignment errors, faults).
+struct ActuatorScenario {
+  bool enabled{false};                                ///< false: ideal actuators (the input is delivered)
+  std::vector<actuators::ThrusterSpec> thrusters;     ///< the truth's thrusters, 1 to kMaxThrusters
+  std::vector<actuators::ReactionWheelSpec> wheels;   ///< the wheels, 0 to kMaxWheels
+  actuators::MomentumDumpSettings momentum_dump;      ///< the wheels' momentum-dump policy
+  Eigen::VectorXd wheel_momentum;                     ///< the wheels' initial momenta (N m s, one per wheel)
+  actuators::ActuationSettings settings;              ///< mass, modulation and allocation (period = mpc dt)
+};
+
 /// Contents of a scenario file (see the file comment for the format).
 struct ScenarioFile {
   /// Folder of the file read (relative shape paths are relative to it); empty if not read from a file.
@@ -124,6 +154,8 @@ struct ScenarioFile {
   control::ControllerDesigns ffa_designs;    ///< TBMPC-FFA's initial designs and libraries (version 3)
   dynamics::StateVector x0{dynamics::StateVector::Zero()};  ///< initial state (m, m/s, rad, rad/s)
   dynamics::StateVector xf{dynamics::StateVector::Zero()};  ///< target state (same units)
+  NavigationScenario navigation;  ///< the navigation (version 4; disabled in older files)
+  ActuatorScenario actuators;     ///< the actuators (version 4; ideal in older files)
 
   /// @return the mission length T (steps): the number of reference inputs.
   int mission_steps() const { return static_cast<int>(reference.u.cols()); }
@@ -133,7 +165,7 @@ struct ScenarioFile {
   std::string resolve(const std::string& path) const;
 };
 
-/// Reads and validates a scenario file (format version 3, 2 or 1).
+/// Reads and validates a scenario file (format version 4, 3, 2 or 1).
 /// @param path the scenario file.
 /// @return its contents; `directory` is the file's folder. The shape files are not opened.
 /// @throws std::invalid_argument `<path>:<line>: <record>: <what>` for a malformed record (bad header,
@@ -144,7 +176,7 @@ struct ScenarioFile {
 ///         size checks of the reference, the tube and the states.
 ScenarioFile read_scenario(const std::string& path);
 
-/// Writes a scenario file (format version 3) with every record, optional ones included.
+/// Writes a scenario file (format version 4) with every record, optional ones included.
 /// @param path     file to create or overwrite.
 /// @param scenario contents; shape paths are written as they are (relative ones stay relative).
 /// @param comment  optional text written as `#` comment lines after the version line.
