@@ -301,6 +301,21 @@ class Reader {
     }
   }
 
+  // Runs a validate() of the core whose message starts with a field's name ("<field>: <what>"): when
+  // `base` + that name is a record of the file, reports it at the record's (first value) line,
+  // otherwise as validated().
+  template <typename F>
+  void validated_field(const std::string& what, const std::string& base, F&& check) const {
+    try {
+      check();
+    } catch (const std::invalid_argument& e) {
+      const std::string message = e.what();
+      const auto it = records_.find(base + message.substr(0, message.find(':')));
+      if (it == records_.end()) fail(0, what + ": " + message);
+      fail(it->second.row_lines.empty() ? it->second.line : it->second.row_lines[0], base + message);
+    }
+  }
+
   void check_all_used() const {
     for (const auto& [name, rec] : records_) {
       if (!rec.used)
@@ -698,7 +713,23 @@ void read_navigation(Reader& r, double dt, NavigationScenario& n) {
   if (!n.enabled) return;
   using Settings = nav::NavigationSettings;
   Fields<Settings>::each(TableReader<Settings>{r, n.settings, "navigation."});
-  r.validated("navigation.* (NavigationSettings)", [&] { n.settings.validate(); });
+  const nav::NavigationSettings& st = n.settings;
+  // the sensors, then the filter's model of them and its own fields, then the rest: each message names
+  // its record ("camera.period" is navigation.camera.period or navigation.filter.camera.period)
+  r.validated_field("navigation.* (NavigationSettings)", "navigation.", [&] {
+    st.altimeter.validate();
+    st.camera.validate();
+    st.imu.validate();
+    st.star_tracker.validate();
+  });
+  r.validated_field("navigation.filter.* (FilterSettings)", "navigation.filter.", [&] {
+    st.filter.altimeter.validate();
+    st.filter.camera.validate();
+    st.filter.imu.validate();
+    st.filter.star_tracker.validate();
+  });
+  r.validated_field("navigation.filter.* (FilterSettings)", "navigation.", [&] { st.filter.validate(); });
+  r.validated_field("navigation.* (NavigationSettings)", "", [&] { st.validate(); });
   const double h = n.settings.imu.period;
   const double ratio = std::round(dt / h);
   if (!(ratio >= 1.0 && std::abs(ratio * h - dt) <= 1e-9 * dt && ratio <= n.settings.max_samples)) {
@@ -756,14 +787,14 @@ void read_actuators(Reader& r, double dt, ActuatorScenario& a) {
     const std::string prefix = "actuators.thrusters[" + std::to_string(i) + "]";
     actuators::ThrusterSpec& t = a.thrusters[static_cast<std::size_t>(i)];
     Fields<actuators::ThrusterSpec>::each(TableReader<actuators::ThrusterSpec>{r, t, prefix + "."});
-    r.validated(prefix + ".*", [&] { t.validate(prefix); });
+    r.validated_field(prefix + ".*", "", [&] { t.validate(prefix); });
   }
   a.wheels.assign(static_cast<std::size_t>(m), actuators::ReactionWheelSpec{});
   for (int j = 0; j < m; ++j) {
     const std::string prefix = "actuators.wheels[" + std::to_string(j) + "]";
     actuators::ReactionWheelSpec& w = a.wheels[static_cast<std::size_t>(j)];
     Fields<actuators::ReactionWheelSpec>::each(TableReader<actuators::ReactionWheelSpec>{r, w, prefix + "."});
-    r.validated(prefix + ".*", [&] { w.validate(prefix); });
+    r.validated_field(prefix + ".*", "", [&] { w.validate(prefix); });
   }
   using Dump = actuators::MomentumDumpSettings;
   Fields<Dump>::each(TableReader<Dump>{r, a.momentum_dump, "actuators.momentum_dump."});
@@ -771,6 +802,11 @@ void read_actuators(Reader& r, double dt, ActuatorScenario& a) {
   a.wheel_momentum = m == 0 ? Eigen::VectorXd() : Eigen::VectorXd(h->values.col(0));
   using Settings = actuators::ActuationSettings;
   Fields<Settings>::each(TableReader<Settings>{r, a.settings, "actuators."});
+  r.validated_field("actuators.* (ActuationSettings)", "actuators.", [&] {
+    a.momentum_dump.validate();
+    a.settings.modulation.validate();
+    a.settings.allocation.validate();
+  });
   if (a.settings.modulation.period != dt)
     r.fail(r.line_of("actuators.modulation.period"),
            "actuators.modulation.period: must equal mpc.dt = " + format_double(dt) + " s, got " +

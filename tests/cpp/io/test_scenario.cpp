@@ -584,8 +584,18 @@ TEST_F(ScenarioFileTest, NavigationAndActuatorErrorsNameLineAndRecord) {
   // the control period must be a whole number of IMU periods, at most max_samples of them
   expect_error("navigation.max_samples 1 1\n40", "navigation.max_samples 1 1\n10",
                line_of("navigation.imu.period 1 1"), "navigation.imu.period: the control period mpc.dt = 2 s");
-  expect_error("navigation.camera.max_landmarks 1 1\n16", "navigation.camera.max_landmarks 1 1\n0", 0,
-               "navigation.* (NavigationSettings): ");
+  // a value a validate() rejects: at its record's line when the message names it
+  const long landmarks = line_of("navigation.camera.max_landmarks 1 1");
+  expect_error("navigation.camera.max_landmarks 1 1\n16", "navigation.camera.max_landmarks 1 1\n0", landmarks + 1,
+               "navigation.camera.max_landmarks: ");
+  const long filter_landmarks = line_of("navigation.filter.camera.max_landmarks 1 1");
+  expect_error("navigation.filter.camera.max_landmarks 1 1\n16", "navigation.filter.camera.max_landmarks 1 1\n0",
+               filter_landmarks + 1, "navigation.filter.camera.max_landmarks: ");
+  expect_error("navigation.filter.max_step 1 1\n", "navigation.filter.max_step 1 1\n-1\n#",
+               line_of("navigation.filter.max_step 1 1") + 1, "navigation.filter.max_step: must be finite and > 0");
+  expect_error("navigation.camera.period 1 1\n2", "navigation.camera.period 1 1\n2.05",
+               line_of("navigation.camera.period 1 1") + 1,
+               "navigation.camera.period: must be an integer multiple of imu.period");
   expect_error("navigation.filter.innovation_gate 1 1\ninf", "navigation.filter.innovation_gate 1 1\nx",
                line_of("navigation.filter.innovation_gate 1 1") + 1, "bad number 'x'");
   expect_error("navigation.camera.max_range 1 1\n5000", "navigation.camera.max_range 1 1\ninf",
@@ -604,7 +614,11 @@ TEST_F(ScenarioFileTest, NavigationAndActuatorErrorsNameLineAndRecord) {
   expect_error("actuators.thrusters[1].fault text\nfailed_off", "actuators.thrusters[1].fault text\nstuck",
                fault + 1, "actuators.thrusters[1].fault: unknown value 'stuck' (known: 'none', 'failed_off', 'stuck_on')");
   expect_error("actuators.thrusters[0].scale_error_bound 1 1\n0.050000000000000003",
-               "actuators.thrusters[0].scale_error_bound 1 1\n0.001", 0, "actuators.thrusters[0].*: ");
+               "actuators.thrusters[0].scale_error_bound 1 1\n0.001",
+               line_of("actuators.thrusters[0].scale_error 1 1") + 1,
+               "actuators.thrusters[0].scale_error: must be finite with |scale_error| <= scale_error_bound");
+  expect_error("actuators.momentum_dump.stop_fraction 1 1\n", "actuators.momentum_dump.stop_fraction 1 1\n0.9\n#",
+               line_of("actuators.momentum_dump.stop_fraction 1 1") + 1, "actuators.momentum_dump.stop_fraction: ");
   expect_error("actuators.wheel_momentum 1 1\n", "actuators.wheel_momentum 1 1\n-100\n#", 0,
                "actuators.* (ActuationSystem): ");
   expect_error("actuators.modulation.period 1 1\n2", "actuators.modulation.period 1 1\n1",
