@@ -27,7 +27,8 @@ void bind_io(py::module_& m) {
   py::class_<io::NavigationScenario>(s, "NavigationScenario",
                                      "The navigation of a scenario (records navigation.*, version 4)")
       .def(py::init<>())
-      .def_readwrite("enabled", &io::NavigationScenario::enabled, "whether the controller flies on the estimate")
+      .def_readwrite("enabled", &io::NavigationScenario::enabled,
+                     "whether the controller flies on the estimate")
       .def_readwrite("settings", &io::NavigationScenario::settings, "nav.NavigationSettings")
       .def_readwrite("landmarks", &io::NavigationScenario::landmarks, "list of nav.Landmark (frame A)")
       .def_readwrite("seed", &io::NavigationScenario::seed, "the navigation system's seed (<= 2^53)")

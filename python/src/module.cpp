@@ -11,5 +11,6 @@ PYBIND11_MODULE(_core, m) {
   tubempc::python::bind_control(m);   // after bind_mpc (it holds its types)
   tubempc::python::bind_nav(m);       // after bind_gravity and bind_dynamics (it takes Shape, ProximityModel)
   tubempc::python::bind_actuators(m);
-  tubempc::python::bind_io(m);  // after bind_dynamics, bind_mpc, bind_nav and bind_actuators (it holds their types)
+  tubempc::python::bind_io(
+      m);  // after bind_dynamics, bind_mpc, bind_nav and bind_actuators (it holds their types)
 }

@@ -845,12 +845,13 @@ void write_actuators(Writer& w, const ActuatorScenario& a) {
         w, a.thrusters[i], "actuators.thrusters[" + std::to_string(i) + "]."});
   }
   for (std::size_t j = 0; j < a.wheels.size(); ++j) {
-    Fields<actuators::ReactionWheelSpec>::each(
-        TableWriter<actuators::ReactionWheelSpec>{w, a.wheels[j], "actuators.wheels[" + std::to_string(j) + "]."});
+    Fields<actuators::ReactionWheelSpec>::each(TableWriter<actuators::ReactionWheelSpec>{
+        w, a.wheels[j], "actuators.wheels[" + std::to_string(j) + "]."});
   }
   using Dump = actuators::MomentumDumpSettings;
   Fields<Dump>::each(TableWriter<Dump>{w, a.momentum_dump, "actuators.momentum_dump."});
-  w.matrix("actuators.wheel_momentum", a.wheels.empty() ? Eigen::MatrixXd(0, 0) : Eigen::MatrixXd(a.wheel_momentum));
+  w.matrix("actuators.wheel_momentum",
+           a.wheels.empty() ? Eigen::MatrixXd(0, 0) : Eigen::MatrixXd(a.wheel_momentum));
   using Settings = actuators::ActuationSettings;
   Fields<Settings>::each(TableWriter<Settings>{w, a.settings, "actuators."});
 }

@@ -173,7 +173,8 @@ Eigen::Vector3d srp_acceleration(const dynamics::ModelParams& p) {
 
 Flight fly(const io::ScenarioFile& scn, control::Method method,
            const std::shared_ptr<const dynamics::ProximityModel>& model,
-           const dynamics::ProximityModel& truth, const Casters& casters, const Eigen::MatrixXd& disturbance) {
+           const dynamics::ProximityModel& truth, const Casters& casters,
+           const Eigen::MatrixXd& disturbance) {
   Flight f;
   f.method = control::to_string(method);
   const auto t_setup = Clock::now();
@@ -308,8 +309,8 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
       const auto t_nav = Clock::now();
       {
         AllocationWindow window;
-        est = &navigation->step(t_sample, truth_sample, accel_sample,
-                                scn.reference.z.col(k + 1).segment<3>(6));
+        est =
+            &navigation->step(t_sample, truth_sample, accel_sample, scn.reference.z.col(k + 1).segment<3>(6));
         x_hat = est->x_hat;
         P_est.noalias() = ns.error_set_scale * est->P_x;
         f.allocations_navigation += window.count();
@@ -377,8 +378,8 @@ void print_flight(const Flight& f) {
     for (const auto& [name, n] : f.navigation_statuses) std::printf(" %s %d", name.c_str(), n);
   }
   if (!f.actuation_statuses.empty()) {
-    std::printf("\n       actuation (delta-v %.4g m/s, propellant %.4g kg, %ld pulses):", f.delta_v, f.propellant,
-                f.pulses);
+    std::printf("\n       actuation (delta-v %.4g m/s, propellant %.4g kg, %ld pulses):", f.delta_v,
+                f.propellant, f.pulses);
     for (const auto& [name, n] : f.actuation_statuses) std::printf(" %s %d", name.c_str(), n);
   }
   if (tubempc::core::kAllocationCounterEnabled)
@@ -481,7 +482,8 @@ int main(int argc, char** argv) {
                 static_cast<long>(shape.n_faces()));
     if (scn.navigation.enabled) {  // the filter ray-casts the controller's shape, the sensors the truth's
       casters.filter = std::make_shared<nav::RayCaster>(shape);
-      casters.sensor = truth_file == shape_file ? casters.filter : std::make_shared<nav::RayCaster>(truth_shape);
+      casters.sensor =
+          truth_file == shape_file ? casters.filter : std::make_shared<nav::RayCaster>(truth_shape);
       std::printf("navigation: %zu landmarks, IMU period %g s, seed %llu\n", scn.navigation.landmarks.size(),
                   scn.navigation.settings.imu.period, static_cast<unsigned long long>(scn.navigation.seed));
     }
@@ -542,10 +544,9 @@ int main(int argc, char** argv) {
   }
   for (const Flight& fl : flights) {
     if (fl.allocations_controller > 0 || fl.allocations_navigation > 0 || fl.allocations_actuation > 0) {
-      std::fprintf(stderr,
-                   "error: %s: allocations after setup: controller step %ld, navigation %ld, actuation %ld\n",
-                   fl.method.c_str(), fl.allocations_controller, fl.allocations_navigation,
-                   fl.allocations_actuation);
+      std::fprintf(
+          stderr, "error: %s: allocations after setup: controller step %ld, navigation %ld, actuation %ld\n",
+          fl.method.c_str(), fl.allocations_controller, fl.allocations_navigation, fl.allocations_actuation);
       return 1;
     }
   }

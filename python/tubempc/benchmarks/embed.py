@@ -67,7 +67,7 @@ def find_example(explicit: Path | None) -> Path:
     return found[-1]
 
 
-def _navigation(s: Any, controller_model: Any, shapes: tuple[Any, Any], same_shape: bool) -> Any:
+def _navigation(s: Any, controller_model: Any, shapes: tuple[Any, ...], same_shape: bool) -> Any:
     """The scenario's NavigationSystem (None without navigation): the filter ray-casts the controller's
     shape, the sensors the truth's."""
     if not s.navigation.enabled:
@@ -269,7 +269,8 @@ def run(args: argparse.Namespace) -> int:
         f"Python / C++ = {ratio:.3f}"
     )
     print(f"largest difference between the runs' final states: {spread:.3g} (0: every run flew the same trajectory)")
-    worst = {k: max(r[f"allocations_{k}"] for r in runs if r["loop"] == "cpp") for k in ("controller", "navigation", "actuation")}
+    cpp_runs = [r for r in runs if r["loop"] == "cpp"]
+    worst = {k: max(r[f"allocations_{k}"] for r in cpp_runs) for k in ("controller", "navigation", "actuation")}
     print(
         f"C++ example: heap allocations after setup: controller step {worst['controller']}, navigation "
         f"{worst['navigation']}, actuation {worst['actuation']}"

@@ -572,27 +572,31 @@ TEST_F(ScenarioFileTest, ErrorsNameFileLineAndRecord) {
 }
 
 TEST_F(ScenarioFileTest, NavigationAndActuatorErrorsNameLineAndRecord) {
-  expect_error("navigation.enabled 1 1\n1", "navigation.enabled 1 1\n2", line_of("navigation.enabled 1 1") + 1,
-               "navigation.enabled: expected 0 or 1, got 2");
+  expect_error("navigation.enabled 1 1\n1", "navigation.enabled 1 1\n2",
+               line_of("navigation.enabled 1 1") + 1, "navigation.enabled: expected 0 or 1, got 2");
   const long seed = line_of("navigation.seed 1 1");
   expect_error("navigation.seed 1 1\n1099512627779", "navigation.seed 1 1\n-1", seed + 1,
                "navigation.seed: expected an integer in [0, 2^53], got -1");
   expect_error("navigation.seed 1 1\n1099512627779", "navigation.seed 1 1\n1e300", seed + 1,
                "navigation.seed: expected an integer in [0, 2^53]");
   expect_error("navigation.error_set_scale 1 1\n", "navigation.error_set_scale 1 1\n0\n#",
-               line_of("navigation.error_set_scale 1 1") + 1, "navigation.error_set_scale: must be > 0, got 0");
+               line_of("navigation.error_set_scale 1 1") + 1,
+               "navigation.error_set_scale: must be > 0, got 0");
   // the control period must be a whole number of IMU periods, at most max_samples of them
   expect_error("navigation.max_samples 1 1\n40", "navigation.max_samples 1 1\n10",
-               line_of("navigation.imu.period 1 1"), "navigation.imu.period: the control period mpc.dt = 2 s");
+               line_of("navigation.imu.period 1 1"),
+               "navigation.imu.period: the control period mpc.dt = 2 s");
   // a value a validate() rejects: at its record's line when the message names it
   const long landmarks = line_of("navigation.camera.max_landmarks 1 1");
-  expect_error("navigation.camera.max_landmarks 1 1\n16", "navigation.camera.max_landmarks 1 1\n0", landmarks + 1,
-               "navigation.camera.max_landmarks: ");
+  expect_error("navigation.camera.max_landmarks 1 1\n16", "navigation.camera.max_landmarks 1 1\n0",
+               landmarks + 1, "navigation.camera.max_landmarks: ");
   const long filter_landmarks = line_of("navigation.filter.camera.max_landmarks 1 1");
-  expect_error("navigation.filter.camera.max_landmarks 1 1\n16", "navigation.filter.camera.max_landmarks 1 1\n0",
-               filter_landmarks + 1, "navigation.filter.camera.max_landmarks: ");
+  expect_error("navigation.filter.camera.max_landmarks 1 1\n16",
+               "navigation.filter.camera.max_landmarks 1 1\n0", filter_landmarks + 1,
+               "navigation.filter.camera.max_landmarks: ");
   expect_error("navigation.filter.max_step 1 1\n", "navigation.filter.max_step 1 1\n-1\n#",
-               line_of("navigation.filter.max_step 1 1") + 1, "navigation.filter.max_step: must be finite and > 0");
+               line_of("navigation.filter.max_step 1 1") + 1,
+               "navigation.filter.max_step: must be finite and > 0");
   expect_error("navigation.camera.period 1 1\n2", "navigation.camera.period 1 1\n2.05",
                line_of("navigation.camera.period 1 1") + 1,
                "navigation.camera.period: must be an integer multiple of imu.period");
@@ -601,28 +605,34 @@ TEST_F(ScenarioFileTest, NavigationAndActuatorErrorsNameLineAndRecord) {
   expect_error("navigation.camera.max_range 1 1\n5000", "navigation.camera.max_range 1 1\ninf",
                line_of("navigation.camera.max_range 1 1") + 1, "navigation.camera.max_range: infinite value");
   const long lm = line_of("navigation.landmarks 3 7");
-  expect_error(line_at(lm + 2), "1 2 3 1 0 1 7", lm + 2, "navigation.landmarks: row 1: normal_A must be a unit vector");
-  expect_error(line_at(lm + 2), "1 2 3 1 0 0 7.5", lm + 2, "navigation.landmarks: row 1: face must be an integer");
-  expect_error("navigation.landmarks 3 7", "navigation.landmarks 3 6", lm + 1, "row 0: expected 6 values, got 7");
-  expect_error("actuators.thrusters 1 1\n2", "actuators.thrusters 1 1\n40", line_of("actuators.thrusters 1 1"),
-               "actuators.thrusters: expected 1 to 32 thrusters, got 40");
+  expect_error(line_at(lm + 2), "1 2 3 1 0 1 7", lm + 2,
+               "navigation.landmarks: row 1: normal_A must be a unit vector");
+  expect_error(line_at(lm + 2), "1 2 3 1 0 0 7.5", lm + 2,
+               "navigation.landmarks: row 1: face must be an integer");
+  expect_error("navigation.landmarks 3 7", "navigation.landmarks 3 6", lm + 1,
+               "row 0: expected 6 values, got 7");
+  expect_error("actuators.thrusters 1 1\n2", "actuators.thrusters 1 1\n40",
+               line_of("actuators.thrusters 1 1"), "actuators.thrusters: expected 1 to 32 thrusters, got 40");
   expect_error("actuators.thrusters 1 1\n2", "actuators.thrusters 1 1\n3", 0,
                "actuators.thrusters[2].position_B: missing record");
   expect_error("actuators.wheels 1 1\n1", "actuators.wheels 1 1\n0", line_of("actuators.wheel_momentum 1 1"),
                "actuators.wheel_momentum: expected size 0 x 1 (or 0 x 0), got 1 x 1");
   const long fault = line_of("actuators.thrusters[1].fault text");
-  expect_error("actuators.thrusters[1].fault text\nfailed_off", "actuators.thrusters[1].fault text\nstuck",
-               fault + 1, "actuators.thrusters[1].fault: unknown value 'stuck' (known: 'none', 'failed_off', 'stuck_on')");
+  expect_error(
+      "actuators.thrusters[1].fault text\nfailed_off", "actuators.thrusters[1].fault text\nstuck", fault + 1,
+      "actuators.thrusters[1].fault: unknown value 'stuck' (known: 'none', 'failed_off', 'stuck_on')");
   expect_error("actuators.thrusters[0].scale_error_bound 1 1\n0.050000000000000003",
                "actuators.thrusters[0].scale_error_bound 1 1\n0.001",
                line_of("actuators.thrusters[0].scale_error 1 1") + 1,
                "actuators.thrusters[0].scale_error: must be finite with |scale_error| <= scale_error_bound");
-  expect_error("actuators.momentum_dump.stop_fraction 1 1\n", "actuators.momentum_dump.stop_fraction 1 1\n0.9\n#",
-               line_of("actuators.momentum_dump.stop_fraction 1 1") + 1, "actuators.momentum_dump.stop_fraction: ");
+  expect_error(
+      "actuators.momentum_dump.stop_fraction 1 1\n", "actuators.momentum_dump.stop_fraction 1 1\n0.9\n#",
+      line_of("actuators.momentum_dump.stop_fraction 1 1") + 1, "actuators.momentum_dump.stop_fraction: ");
   expect_error("actuators.wheel_momentum 1 1\n", "actuators.wheel_momentum 1 1\n-100\n#", 0,
                "actuators.* (ActuationSystem): ");
   expect_error("actuators.modulation.period 1 1\n2", "actuators.modulation.period 1 1\n1",
-               line_of("actuators.modulation.period 1 1"), "actuators.modulation.period: must equal mpc.dt = 2 s, got 1");
+               line_of("actuators.modulation.period 1 1"),
+               "actuators.modulation.period: must equal mpc.dt = 2 s, got 1");
   expect_error("actuators.allocation.max_iterations 1 1\n77", "actuators.allocation.max_iterations 1 1\n77.5",
                line_of("actuators.allocation.max_iterations 1 1") + 1, "expected an integer, got 77.5");
 }

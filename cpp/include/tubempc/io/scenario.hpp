@@ -146,12 +146,12 @@ struct NavigationScenario {
 /// constructed from, the truth's thrusters of one run (nominal geometry, that run's scale and
 /// misalignment errors, faults).
 struct ActuatorScenario {
-  bool enabled{false};                                ///< false: ideal actuators (the input is delivered)
-  std::vector<actuators::ThrusterSpec> thrusters;     ///< the truth's thrusters, 1 to kMaxThrusters
-  std::vector<actuators::ReactionWheelSpec> wheels;   ///< the wheels, 0 to kMaxWheels
-  actuators::MomentumDumpSettings momentum_dump;      ///< the wheels' momentum-dump policy
-  Eigen::VectorXd wheel_momentum;                     ///< the wheels' initial momenta (N m s, one per wheel)
-  actuators::ActuationSettings settings;              ///< mass, modulation and allocation (period = mpc dt)
+  bool enabled{false};                               ///< false: ideal actuators (the input is delivered)
+  std::vector<actuators::ThrusterSpec> thrusters;    ///< the truth's thrusters, 1 to kMaxThrusters
+  std::vector<actuators::ReactionWheelSpec> wheels;  ///< the wheels, 0 to kMaxWheels
+  actuators::MomentumDumpSettings momentum_dump;     ///< the wheels' momentum-dump policy
+  Eigen::VectorXd wheel_momentum;                    ///< the wheels' initial momenta (N m s, one per wheel)
+  actuators::ActuationSettings settings;             ///< mass, modulation and allocation (period = mpc dt)
 };
 
 /// Contents of a scenario file (see the file comment for the format).
