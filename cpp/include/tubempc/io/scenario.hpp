@@ -128,7 +128,7 @@ struct BodyModel {
   }
 };
 
-/// The navigation of a scenario (records `navigation.*`, version 4): what nav::NavigationSystem is
+/// The navigation of a scenario (version 4: the records navigation.(field)): what nav::NavigationSystem is
 /// constructed from, and the scale of the estimation-error set the controller's constraints are
 /// tightened by (control::Controller::set_estimation_error).
 struct NavigationScenario {
@@ -142,7 +142,7 @@ struct NavigationScenario {
   double error_set_scale{1.0};
 };
 
-/// The actuators of a scenario (records `actuators.*`, version 4): what actuators::ActuationSystem is
+/// The actuators of a scenario (version 4: the records actuators.(field)): what actuators::ActuationSystem is
 /// constructed from, the truth's thrusters of one run (nominal geometry, that run's scale and
 /// misalignment errors, faults).
 struct ActuatorScenario {
