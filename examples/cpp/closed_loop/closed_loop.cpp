@@ -472,18 +472,17 @@ int main(int argc, char** argv) {
     const std::string shape_file = scn.resolve(scn.model.shape);
     gravity::Shape shape = gravity::load_shape(shape_file, scn.model.shape_unit_scale);
     const std::string truth_file = scn.resolve(scn.truth.shape);
+    const bool same_shape =
+        truth_file == shape_file && scn.truth.shape_unit_scale == scn.model.shape_unit_scale;
     gravity::Shape truth_shape =
-        truth_file == shape_file && scn.truth.shape_unit_scale == scn.model.shape_unit_scale
-            ? shape
-            : gravity::load_shape(truth_file, scn.truth.shape_unit_scale);
+        same_shape ? shape : gravity::load_shape(truth_file, scn.truth.shape_unit_scale);
     std::printf("tubempc %s: %s (T = %d steps of %g s, N = %d); shape %s: %ld faces\n",
                 core::build_info().version.c_str(), scenario_path.c_str(), scn.mission_steps(),
                 scn.settings.dt, scn.settings.horizon, shape_file.c_str(),
                 static_cast<long>(shape.n_faces()));
     if (scn.navigation.enabled) {  // the filter ray-casts the controller's shape, the sensors the truth's
       casters.filter = std::make_shared<nav::RayCaster>(shape);
-      casters.sensor =
-          truth_file == shape_file ? casters.filter : std::make_shared<nav::RayCaster>(truth_shape);
+      casters.sensor = same_shape ? casters.filter : std::make_shared<nav::RayCaster>(truth_shape);
       std::printf("navigation: %zu landmarks, IMU period %g s, seed %llu\n", scn.navigation.landmarks.size(),
                   scn.navigation.settings.imu.period, static_cast<unsigned long long>(scn.navigation.seed));
     }

@@ -214,11 +214,13 @@ def reference_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
         ("bennu-tag-nav", "ffa", {}),
         ("bennu-tag-nav", "tbmpc", {}),
         (str(_THRUSTERS), "ffa", {}),
-        # both at once: the thrusters' spacecraft flying on navigation (bennu-tag-nav's lit site and camera)
+        # both at once: the thrusters' spacecraft flying on navigation (bennu-tag-nav's lit site and camera),
+        # the truth on its own shape (truth_shape.obj: the sensors ray-cast it, the filter the controller's)
         (
             str(_THRUSTERS),
             "ffa",
             {
+                "simulation.truth_shape_subdivisions": 11,
                 "navigation.enabled": True,
                 "boundary.site_longitude": "180 deg",
                 "navigation.camera_fov": "44 deg",
@@ -250,6 +252,7 @@ def test_cpp_example_flies_navigation_and_actuators_as_the_python_loop(
     seed = 3
     path = export_scenario(cfg, tmp_path / "scenario", cache_dir=reference_cache, seed=seed)
     s = read_scenario(str(path))
+    assert (s.truth.shape != s.model.shape) == ("simulation.truth_shape_subdivisions" in overrides)
     assert s.navigation.enabled == cfg.navigation.enabled
     assert s.actuators.enabled == (cfg.spacecraft.actuators != "ideal")
     scn = build_scenario(cfg, cache_dir=reference_cache)
