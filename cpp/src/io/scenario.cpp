@@ -96,8 +96,20 @@ class Reader {
   int version() const { return version_; }
 
   [[noreturn]] void fail(long line, const std::string& what) const {
-    throw std::invalid_argument(line > 0 ? path_ + ":" + std::to_string(line) + ": " + what
-                                         : path_ + ": " + what);
+    // What the message quotes from the file is printable ASCII, other bytes written \xNN: the message
+    // stays valid UTF-8 (Python's ValueError) whatever the file holds.
+    std::string text;
+    for (const char ch : what) {
+      const auto byte = static_cast<unsigned char>(ch);
+      if (byte >= 0x20 && byte < 0x7f) {
+        text += ch;
+      } else {
+        static constexpr char kHex[] = "0123456789abcdef";
+        text += {'\\', 'x', kHex[byte >> 4], kHex[byte & 0xf]};
+      }
+    }
+    throw std::invalid_argument(line > 0 ? path_ + ":" + std::to_string(line) + ": " + text
+                                         : path_ + ": " + text);
   }
 
   void parse() {

@@ -509,6 +509,9 @@ TEST_F(ScenarioFileTest, ErrorsNameFileLineAndRecord) {
   const long mu = line_of("model.mu_sun 1 1");
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\n1.3271x", mu + 1,
                "model.mu_sun: row 0, column 0: bad number '1.3271x'");
+  // bytes of the file quoted in a message: printable ASCII, the others \xNN (the message stays UTF-8)
+  expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\n1.3\xae\t", mu + 1,
+               "model.mu_sun: row 0, column 0: bad number '1.3\\xae'");
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\nnan", mu + 1,
                "model.mu_sun: row 0, column 0: NaN");
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\ninf", mu + 1,
