@@ -2,12 +2,13 @@
 silent wrong answers").
 
 Inputs are seed files of every format (OBJ, PDS v/f table, ICQ, ASCII and binary PLY and STL, the
-scenario TOML, the C++ scenario file with navigation and actuators) with 1-3 random mutations: byte flips, insertions and deletions, truncation,
-duplicated, deleted or swapped lines, number tokens replaced by edge cases (0, -1, 2^63, 1e308,
-nan, non-ASCII digits), a vertex moved (possibly through the body) and a shifted copy of the mesh
-appended (two overlapping lobes). Every input is read by ``tubempc.shapes.load_shape`` (and, for
-OBJ and v/f tables, also by the C++ loader ``_core.gravity.load_shape``), by
-``tubempc.config.load_config`` or by ``_core.io.read_scenario``, and classified by :func:`check_input`:
+scenario TOML, the C++ scenario file with navigation and actuators) with 1-3 random mutations: byte
+flips, insertions and deletions, truncation, duplicated, deleted or swapped lines, number tokens
+replaced by edge cases (0, -1, 2^63, 1e308, nan, non-ASCII digits), a vertex moved (possibly through
+the body) and a shifted copy of the mesh appended (two overlapping lobes). Every input is read by
+``tubempc.shapes.load_shape`` (and, for OBJ and v/f tables, also by the C++ loader
+``_core.gravity.load_shape``), by ``tubempc.config.load_config`` or by ``_core.io.read_scenario``, and
+classified by :func:`check_input`:
 
 - ``rejected``: a ``ValueError`` (``ShapeError``, ``ConfigError``, the C++ ``invalid_argument``)
   whose message names the file;
@@ -139,7 +140,8 @@ def _scenario_file() -> bytes:
     thrusters[1].fault, thrusters[1].fault_time = act.FaultKind.from_string("failed_off"), 10.0
     settings = act.ActuationSettings()
     settings.modulation.period = settings.allocation.period = st.dt
-    a.enabled, a.thrusters, a.wheels, a.wheel_momentum, a.settings = True, thrusters, [act.ReactionWheelSpec()], np.zeros(1), settings
+    a.enabled, a.thrusters, a.wheels, a.wheel_momentum = True, thrusters, [act.ReactionWheelSpec()], np.zeros(1)
+    a.settings = settings
     s.actuators = a
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "scenario.txt"
