@@ -82,29 +82,20 @@ def summarise(folder: Path, method: str, nees_runs: int) -> dict[str, Any]:
 
 
 def dispersion_figure(folder: Path, method: str, path: Path) -> None:
-    """The touchdown offsets x_T - x_f in the site's tangent plane (runs that kept them) and their
-    99.7 % ellipse (tubempc.figures.touchdown_dispersion)."""
+    """The touchdown offsets x_T - x_f in the site's tangent plane on the site map, with their 99.7 %
+    ellipse and the 1 m goal (tubempc.analysis.dispersion_figure, as ``tubempc montecarlo`` draws it)."""
     from tubempc import figures
+    from tubempc.analysis import dispersion_figure as draw
     from tubempc.config import load_config
     from tubempc.scenario import build_scenario
 
     scn = build_scenario(load_config(folder / "config.toml"), cache_dir=folder / "cache")
     if scn.site is None:
         raise SystemExit(f"{folder}: the campaign's mission has no landing site")
-    C_AL = np.asarray(scn.model.C_AL(scn.config.mpc.t_f))
-    n_A = np.asarray(scn.site.normal_A, dtype=float)
-    east = np.cross([0.0, 0.0, 1.0], n_A)
-    east /= np.linalg.norm(east)
-    north = np.cross(n_A, east)
-    offsets = []
-    for npz in sorted((folder / "runs").glob("run_*.npz")):
-        with np.load(npz) as d:
-            if f"{method}_nav_touchdown_error" in d.files:
-                dr_A = C_AL @ d[f"{method}_nav_touchdown_error"][:3].astype(float)
-                offsets.append([dr_A @ east, dr_A @ north])
-    if not offsets:
+    fig = draw(scn, folder, method)
+    if fig is None:
         raise SystemExit(f"{folder}: no run kept its touchdown error (campaigns before the navigation arrays)")
-    figures.save(figures.touchdown_dispersion(np.array(offsets), f"{len(offsets)} runs of {method}", sigma_radius=1.0), path)
+    figures.save(fig, path)
 
 
 def main() -> int:

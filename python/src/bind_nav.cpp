@@ -163,7 +163,9 @@ void bind_nav(py::module_& m) {
       .def_readwrite("accel_model_noise", &FilterSettings::accel_model_noise)
       .def_readwrite("altimeter_terrain_sigma", &FilterSettings::altimeter_terrain_sigma)
       .def_readwrite("innovation_gate", &FilterSettings::innovation_gate)
+      .def_readwrite("gravity_relinearization_distance", &FilterSettings::gravity_relinearization_distance)
       .def_readwrite("max_step", &FilterSettings::max_step)
+      .def_readwrite("covariance_step", &FilterSettings::covariance_step)
       .def_readwrite("max_substeps", &FilterSettings::max_substeps)
       .def_readwrite("split", &FilterSettings::split)
       .def("validate", &FilterSettings::validate);
@@ -306,6 +308,7 @@ void bind_nav(py::module_& m) {
       .def_property_readonly("covariance", &NavigationFilter::covariance)
       .def_property_readonly("omega_BL_B", &NavigationFilter::omega_BL_B)
       .def_property_readonly("initialized", &NavigationFilter::initialized)
+      .def_property_readonly("gravity_evaluations", &NavigationFilter::gravity_evaluations)
       .def("model_state", &NavigationFilter::model_state, py::arg("phi_ref"))
       .def("model_covariance", &NavigationFilter::model_covariance, py::arg("phi_ref"))
       .def(
@@ -361,7 +364,10 @@ void bind_nav(py::module_& m) {
       .def_readonly("landmarks_visible", &NavigationStep::landmarks_visible)
       .def_readonly("filter_status", &NavigationStep::filter_status)
       .def_readonly("nis", &NavigationStep::nis)
-      .def_readonly("nis_dof", &NavigationStep::nis_dof);
+      .def_readonly("nis_dof", &NavigationStep::nis_dof)
+      .def_readonly("time_sensors", &NavigationStep::time_sensors)
+      .def_readonly("time_filter", &NavigationStep::time_filter)
+      .def_readonly("gravity_evaluations", &NavigationStep::gravity_evaluations);
   py::class_<NavigationSystem>(s, "NavigationSystem",
                                "The sensors and the filter of a run: one call per control period")
       .def(py::init<std::shared_ptr<const dynamics::ProximityModel>, std::shared_ptr<const RayCaster>,

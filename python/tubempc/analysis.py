@@ -14,11 +14,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from . import figures
 from .campaign import CampaignResult, run_campaign
+from .claims import TOUCHDOWN_GOAL
 from .closed_loop import simulate
 from .config import Config, load_config
+from .landing_site import site_map, tangent_axes
 from .machine import machine_info
 from .pinning import pin_config, shape_record
 from .results import RunRecord, save_record
@@ -35,7 +38,16 @@ from .summaries import (
     write_summary,
 )
 
-__all__ = ["MONTECARLO_METRICS", "Reflight", "montecarlo", "montecarlo_summary", "refly_montecarlo_run", "sweep"]
+__all__ = [
+    "MONTECARLO_METRICS",
+    "Reflight",
+    "dispersion_figure",
+    "montecarlo",
+    "montecarlo_summary",
+    "refly_montecarlo_run",
+    "sweep",
+    "touchdown_offsets",
+]
 
 _SCENARIOS: dict[str, Scenario] = {}
 
@@ -275,7 +287,7 @@ def montecarlo(
     out.mkdir(parents=True, exist_ok=True)
     cfg = pin_config(cfg, out)  # the folder keeps its shape file: it re-flies wherever it is copied
     cache = out / "cache"
-    build_scenario(cfg, cache_dir=cache)  # the reference once, before the workers read it from the cache
+    scn = build_scenario(cfg, cache_dir=cache)  # the reference once, before the workers read it from the cache
     cfg.save(out / "config.toml")
     runs_dir = out / "runs"
     runs_dir.mkdir(exist_ok=True)
@@ -309,7 +321,50 @@ def montecarlo(
     )
     write_summary(out / "summary.json", summary)
     _envelope_figures(cfg, camp, out, tuple(methods))
+    for m in methods:  # a campaign flown on navigation to a site: the touchdown dispersion on the site map
+        fig = dispersion_figure(scn, out, m)
+        if fig is not None:
+            figures.save(fig, out / f"fig21_touchdown_{m}.png")
     return summary
+
+
+def touchdown_offsets(scn: Scenario, out: Path, method: str) -> np.ndarray:
+    """The touchdown offsets of ``method``'s runs in the campaign folder ``out`` (those that kept
+    ``<method>_nav_touchdown_error``, x_T - x_f, in runs/run_<i>.npz: runs flown on navigation):
+    (n, 2) (east, north) (m) in the site's tangent plane (:func:`tubempc.landing_site.tangent_axes`),
+    the position error taken from L to A at t_f. Empty without a site or such runs."""
+    if scn.site is None:
+        return np.zeros((0, 2))
+    C_AL = np.asarray(scn.model.C_AL(scn.config.mpc.t_f))
+    east, north = tangent_axes(scn.site.normal_A)
+    offsets = []
+    for npz in sorted((out / "runs").glob("run_*.npz")):
+        with np.load(npz) as d:
+            key = f"{method}_nav_touchdown_error"
+            if key in d.files:
+                dr_A = C_AL @ d[key][:3].astype(float)
+                offsets.append([dr_A @ east, dr_A @ north])
+    return np.array(offsets).reshape(-1, 2)
+
+
+def dispersion_figure(scn: Scenario, out: Path, method: str, probability: float = 0.997) -> Figure | None:
+    """The touchdown dispersion of ``method`` in the campaign folder ``out`` on the site map
+    (:func:`tubempc.figures.touchdown_dispersion`): the ellipse of ``probability``, the goal circle
+    (:data:`tubempc.claims.TOUCHDOWN_GOAL`), the shape's facets and the camera's landmarks within
+    ``navigation.site_landmark_radius`` (m; wider when the touchdowns spread further). None without a
+    site or runs flown on navigation."""
+    offsets = touchdown_offsets(scn, out, method)
+    if scn.site is None or len(offsets) == 0:
+        return None
+    from .navigation import landmark_catalogue
+
+    radius = max(scn.config.navigation.site_landmark_radius, 2.0 * float(np.max(np.abs(offsets))))
+    landmarks_A = np.array([lm.p_A for lm in landmark_catalogue(scn)])
+    site = site_map(scn.shape, scn.site, radius, landmarks_A)
+    name = {"tbmpc": "TBMPC", "ffa": "TBMPC-FFA"}.get(method, method)
+    return figures.touchdown_dispersion(
+        offsets, f"{name}, {len(offsets)} runs", probability, TOUCHDOWN_GOAL[0], site_map=site
+    )
 
 
 def _envelope_figures(cfg: Config, camp: CampaignResult, out: Path, methods: tuple[str, ...]) -> None:

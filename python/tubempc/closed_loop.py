@@ -273,7 +273,7 @@ def _record_navigation(
     """Step k + 1's estimate into the record (``seconds``: the navigation call's wall time), and the truth's
     gauge in the output-feedback tube z*_1|k (+) Omega_k (+) E_{k+1}; returns the estimate x^_{k+1}."""
     assert plant.nav is not None and rec.navigation is not None
-    rec.navigation.time_step[k] = seconds
+    rec.navigation.time_step[k], rec.navigation.time_filter[k] = seconds, est.time_filter
     x_hat = np.asarray(est.x_hat)
     rec.navigation.add(k + 1, est, x_next, plant.state, plant.nav.system.imu)
     plant.nav_error_set = E = plant.nav.error_set(est.P_x)

@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
-from .landing_site import cone_grid
+from .landing_site import SiteMap, cone_grid
 from .metrics import ConvergenceFit, prior_bound_exceedances
 from .results import RunRecord
 
@@ -456,31 +456,74 @@ def landmarks_visible(results: Mapping[str, RunRecord]) -> Figure:
     return fig
 
 
-def touchdown_dispersion(
-    offsets: np.ndarray, site_label: str, probability: float = 0.997, sigma_radius: float | None = None
-) -> Figure:
-    """Touchdown dispersion on the site map: the runs' horizontal offsets from the target (m, (n, 2), in
-    the site's tangent plane) and the ellipse of the given probability of a Gaussian fit."""
+def _ellipse(offsets: np.ndarray, probability: float, n: int = 240) -> np.ndarray | None:
+    """The closed curve ((n, 2), m) bounding ``probability`` of the Gaussian fitted to ``offsets``
+    (sample mean and covariance): {m + L s : ``||s||`` = c}, P = L L^T, c^2 the chi-square quantile
+    with 2 degrees of freedom; None for fewer than 3 points."""
     from scipy.stats import chi2
 
-    fig, ax = plt.subplots(figsize=(5.5, 5.5))
-    ax.plot(offsets[:, 0], offsets[:, 1], ".", ms=3, color="tab:blue", label=f"{len(offsets)} runs")
-    if len(offsets) > 2:
-        mean, cov = offsets.mean(axis=0), np.cov(offsets.T)
-        w, V = np.linalg.eigh(cov)
-        a = np.linspace(0.0, 2 * np.pi, 200)
-        c = np.sqrt(chi2.ppf(probability, 2))
-        ring = mean[:, None] + V @ (c * np.sqrt(np.maximum(w, 0.0))[:, None] * np.vstack([np.cos(a), np.sin(a)]))
-        ax.plot(ring[0], ring[1], "r-", lw=1.2, label=f"{100 * probability:.1f} % ellipse")
-    if sigma_radius is not None:
-        a = np.linspace(0.0, 2 * np.pi, 200)
-        ax.plot(sigma_radius * np.cos(a), sigma_radius * np.sin(a), "k--", lw=0.8, label=f"{sigma_radius:g} m")
-    ax.plot(0.0, 0.0, "k+", ms=12, label="target")
-    ax.set_aspect("equal")
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
-    ax.set_title(f"Touchdown dispersion, {site_label}")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    if len(offsets) < 3:
+        return None
+    mean, cov = offsets.mean(axis=0), np.cov(offsets.T)
+    w, V = np.linalg.eigh(cov)
+    a = np.linspace(0.0, 2 * np.pi, n)
+    c = np.sqrt(chi2.ppf(probability, 2))
+    return np.asarray(mean + (c * np.sqrt(np.maximum(w, 0.0)) * np.column_stack([np.cos(a), np.sin(a)])) @ V.T)
+
+
+def touchdown_dispersion(
+    offsets: np.ndarray,
+    site_label: str,
+    probability: float = 0.997,
+    goal_radius: float | None = None,
+    *,
+    site_map: SiteMap | None = None,
+) -> Figure:
+    """Touchdown dispersion on the site map: the runs' horizontal offsets from the target (m, (n, 2),
+    (east, north) in the site's tangent plane, :func:`tubempc.landing_site.tangent_axes`), the ellipse
+    holding ``probability`` of a Gaussian fitted to them and the goal circle of ``goal_radius`` (m)
+    about the target. With ``site_map`` (:func:`tubempc.landing_site.site_map`), a first panel draws
+    them over the site's surroundings (the shape's facets coloured by their height above the tangent
+    plane, the camera's landmarks) and a second one zooms on the touchdowns."""
+    from matplotlib.collections import PolyCollection
+
+    offsets = np.asarray(offsets, dtype=float).reshape(-1, 2)
+    ring = _ellipse(offsets, probability)
+    a = np.linspace(0.0, 2 * np.pi, 200)
+    reach = max(
+        [goal_radius or 0.0, float(np.max(np.abs(offsets), initial=0.0))]
+        + ([float(np.max(np.abs(ring)))] if ring is not None else [])
+    )
+    zoom = 1.25 * reach if reach > 0.0 else 1.0
+    panels = 2 if site_map is not None else 1
+    fig, axes = plt.subplots(1, panels, figsize=(5.5 * panels + (1.0 if site_map is not None else 0.0), 5.5), squeeze=False)
+    for j, ax in enumerate(axes[0]):
+        extent = site_map.radius if site_map is not None and j == 0 else zoom
+        if site_map is not None:
+            facets = PolyCollection(
+                list(site_map.facets), array=site_map.heights, cmap="copper", edgecolors="0.35", linewidths=0.4, zorder=1
+            )
+            ax.add_collection(facets)
+            if j == 0:
+                fig.colorbar(facets, ax=ax, shrink=0.8, label="facet height above the tangent plane (m)")
+            if len(site_map.landmarks):
+                ax.plot(*site_map.landmarks.T, "^", color="w", mec="k", mew=0.5, ms=3.5, zorder=2, label="landmarks")
+        ax.plot(offsets[:, 0], offsets[:, 1], ".", ms=3, color="tab:blue", zorder=3, label=f"{len(offsets)} runs")
+        if ring is not None:
+            ax.plot(ring[:, 0], ring[:, 1], "r-", lw=1.4, zorder=4, label=f"{100 * probability:.1f} % ellipse")
+        if goal_radius is not None:
+            ax.plot(
+                goal_radius * np.cos(a), goal_radius * np.sin(a), "k--", lw=1.0, zorder=4, label=f"goal: {goal_radius:g} m"
+            )
+        ax.plot(0.0, 0.0, "k+", ms=12, mew=1.5, zorder=5, label="target")
+        ax.set_xlim(-extent, extent)
+        ax.set_ylim(-extent, extent)
+        ax.set_aspect("equal")
+        ax.set_xlabel("east (m)")
+        ax.set_ylabel("north (m)")
+        ax.grid(alpha=0.3)
+        ax.set_title(("site map" if j == 0 else "zoom on the touchdowns") if site_map is not None else "")
+    axes[0, -1].legend(fontsize=8, loc="upper right")
+    fig.suptitle(f"Touchdown dispersion, {site_label}")
     fig.tight_layout()
     return fig

@@ -21,12 +21,15 @@ from ._core.gravity import Shape
 
 __all__ = [
     "Site",
+    "SiteMap",
     "cone_grid",
     "inside",
     "ray_cast",
     "site_from_lat_lon",
     "site_from_vector",
+    "site_map",
     "surface_normal",
+    "tangent_axes",
     "terminal_state",
 ]
 
@@ -174,3 +177,58 @@ def terminal_state(
     phi = np.asarray(so3.log_map(so3.quat_from_rotation_matrix(R_LB)), dtype=np.float64)
     w_BL_B = R_LB.T @ w_AL_L
     return np.concatenate([r_L, v_L, phi, w_BL_B])
+
+
+def tangent_axes(normal_A: npt.ArrayLike) -> tuple[Array, Array]:
+    """Unit east and north of a site's tangent plane (frame A) for its outward ``normal_A``: east along
+    z_A x n (the spin axis z_A; x_A at a pole, where east is undefined), north = n x east."""
+    n = np.asarray(normal_A, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    east = np.cross([0.0, 0.0, 1.0], n)
+    if np.linalg.norm(east) < 1e-9:
+        east = np.array([1.0, 0.0, 0.0]) - n * n[0]
+    east /= np.linalg.norm(east)
+    return east, np.cross(n, east)
+
+
+@dataclass(frozen=True)
+class SiteMap:
+    """A landing site's surroundings on its tangent plane (east, north; m), the plane through the
+    site's surface point ``site.surface_A`` normal to ``site.normal_A``: the shape's facets within
+    ``radius`` (m) of the site facing outward (their corners' (east, north) and their centroids' height
+    above the plane, m) and the landmarks among ``landmarks_A`` that lie there."""
+
+    site: Site
+    radius: float
+    east_A: Array  #: unit east in A
+    north_A: Array  #: unit north in A
+    facets: Array  #: (m, 3, 2) facet corners (east, north) (m)
+    heights: Array  #: (m,) height of each facet's centroid above the tangent plane (m)
+    landmarks: Array  #: (k, 2) landmarks (east, north) (m)
+
+    def project(self, d_A: npt.ArrayLike) -> Array:
+        """(east, north) (m) of displacements ``d_A`` ((n, 3) or (3,), m, frame A) from the site."""
+        d = np.asarray(d_A, dtype=np.float64)
+        return np.asarray(np.stack([d @ self.east_A, d @ self.north_A], axis=-1), dtype=np.float64)
+
+
+def site_map(shape: Shape, site: Site, radius: float, landmarks_A: npt.ArrayLike | None = None) -> SiteMap:
+    """The :class:`SiteMap` of ``site`` within ``radius`` (m, > 0) on ``shape`` (frame A): the faces with
+    a corner within ``radius`` of the site's surface point (distance along the tangent plane) whose
+    outward normal faces the site's side, and the ``landmarks_A`` ((n, 3), m) within it."""
+    if not radius > 0.0:
+        raise ValueError(f"radius must be > 0, got {radius}")
+    east, north = tangent_axes(site.normal_A)
+    n = np.asarray(site.normal_A, dtype=np.float64)
+    a, b, c = _triangles(shape)
+    corners = np.stack([a, b, c], axis=1) - site.surface_A  # (m, 3, 3)
+    en = np.stack([corners @ east, corners @ north], axis=-1)  # (m, 3, 2)
+    up = np.cross(b - a, c - a) @ n > 0.0
+    height = corners.mean(axis=1) @ n
+    near = up & (np.min(np.linalg.norm(en, axis=2), axis=1) <= radius) & (np.abs(height) < radius)
+    marks = np.zeros((0, 2))
+    if landmarks_A is not None:
+        d = np.asarray(landmarks_A, dtype=np.float64).reshape(-1, 3) - site.surface_A
+        p = np.stack([d @ east, d @ north], axis=-1)
+        marks = p[(np.linalg.norm(p, axis=1) <= radius) & (np.abs(d @ n) < radius)]
+    return SiteMap(site, float(radius), east, north, en[near], height[near], marks)

@@ -32,6 +32,7 @@ __all__ = [
     "navigation_settings",
     "new_navigation",
     "propagate_sampled",
+    "sensor_caster",
     "site_landmarks",
     "srp_acceleration",
     "tube_gauge",
@@ -90,6 +91,8 @@ def navigation_settings(cfg: Config) -> Any:
     filt.altimeter, filt.camera, filt.imu, filt.star_tracker = alt, cam, imu, star
     filt.altimeter_terrain_sigma, filt.accel_model_noise = n.altimeter_terrain_sigma, n.accel_model_noise
     filt.innovation_gate = n.innovation_gate
+    filt.gravity_relinearization_distance = n.gravity_relinearization_distance
+    filt.covariance_step = n.covariance_step
     s.altimeter, s.camera, s.imu, s.star_tracker, s.filter = alt, cam, imu, star, filt
     s.initial_sigma = np.repeat([n.initial_sigma_position, n.initial_sigma_velocity, n.initial_sigma_attitude], 3)
     sigma = np.zeros(9)
@@ -159,27 +162,38 @@ def new_navigation(scn: Any, seed: int) -> Navigation | None:
     n = cfg.navigation
     if not n.enabled:
         return None
-    from .scenario import scenario_shape
-
     settings = navigation_settings(cfg)
     filter_caster = _core.nav.RayCaster(scn.shape)
-    subdivisions = cfg.simulation.truth_shape_subdivisions
-    sensor_caster = filter_caster if subdivisions == 0 else _core.nav.RayCaster(scenario_shape(cfg, subdivisions)[0])
-    landmarks = landmark_catalogue(scn, filter_caster)
     system = _core.nav.NavigationSystem(
-        scn.model.core, sensor_caster, filter_caster, landmarks, settings, int(seed) + NAV_SEED_OFFSET
+        scn.model.core,
+        sensor_caster(scn, filter_caster),
+        filter_caster,
+        landmark_catalogue(scn, filter_caster),
+        settings,
+        int(seed) + NAV_SEED_OFFSET,
     )
     n_sub = round(cfg.mpc.dt / n.imu_period)
     return Navigation(system, error_set_scale(n.error_set_probability), n.imu_period, n_sub, srp_acceleration(scn.truth))
 
 
-def landmark_catalogue(scn: Any, caster: Any | None = None) -> list[Any]:
-    """The landmark catalogue of a scenario (frame A): ``navigation.landmarks`` generated over the
-    controller's shape model, then ``navigation.site_landmarks`` about the site (``caster``: a
-    ``_core.nav.RayCaster`` on ``scn.shape``, built if not given)."""
+def sensor_caster(scn: Any, filter_caster: Any | None = None) -> Any:
+    """The ray caster the sensors of a run cast on (frame A): the truth's shape, which is the
+    controller's (``filter_caster`` when given) unless ``simulation.truth_shape_subdivisions`` > 0."""
+    subdivisions = scn.config.simulation.truth_shape_subdivisions
+    if subdivisions == 0:
+        return filter_caster if filter_caster is not None else _core.nav.RayCaster(scn.shape)
+    from .scenario import scenario_shape
+
+    return _core.nav.RayCaster(scenario_shape(scn.config, subdivisions)[0])
+
+
+def landmark_catalogue(scn: Any, filter_caster: Any | None = None) -> list[Any]:
+    """The navigation camera's landmark catalogue of a scenario (frame A, on the controller's shape):
+    ``navigation.landmarks`` spread over the body, then ``navigation.site_landmarks`` about the site.
+    Deterministic; the index of a landmark is its index in the C++ camera's catalogue."""
     n = scn.config.navigation
-    caster = _core.nav.RayCaster(scn.shape) if caster is None else caster
-    landmarks: list[Any] = _core.nav.generate_landmarks(caster, n.landmarks)
+    caster = filter_caster if filter_caster is not None else _core.nav.RayCaster(scn.shape)
+    landmarks = _core.nav.generate_landmarks(caster, n.landmarks)
     if n.site_landmarks > 0 and scn.site is not None:
         landmarks += site_landmarks(caster, scn.site, n.site_landmarks, n.site_landmark_radius)
     return landmarks
@@ -269,6 +283,7 @@ class NavigationRecord:
     gauge: Array  # (T, 2) true x_{k+1} - z*_1|k in Omega_k (+) E_{k+1} per subsystem (<= 1: inside)
     gauge_estimate: Array  # (T, 2) x^_{k+1} - z*_1|k in Omega_k (the certified part)
     time_step: Array  # (T,) wall time of the navigation call that gave the estimate of step k + 1 (s)
+    time_filter: Array  # (T,) of that call, the onboard estimator's part (C++ clock; sensors excluded) (s)
 
     @classmethod
     def allocate(cls, n_steps: int) -> NavigationRecord:
@@ -286,6 +301,7 @@ class NavigationRecord:
             z((T1, 4)),
             z((n_steps, 2)),
             z((n_steps, 2)),
+            z(n_steps),
             z(n_steps),
         )
 
@@ -309,7 +325,7 @@ class NavigationRecord:
             setattr(self, name, getattr(self, name)[: n_run + 1])
         self.status, self.sensor_status = self.status[: n_run + 1], self.sensor_status[: n_run + 1]
         self.gauge, self.gauge_estimate = self.gauge[:n_run], self.gauge_estimate[:n_run]
-        self.time_step = self.time_step[:n_run]
+        self.time_step, self.time_filter = self.time_step[:n_run], self.time_filter[:n_run]
 
     def campaign_arrays(self) -> dict[str, Array]:
         """What a Monte Carlo run keeps (runs/run_<i>.npz, prefixed by the method): the estimation error
@@ -334,7 +350,7 @@ class NavigationRecord:
             return None
         values: dict[str, Any] = {}
         for f in dataclasses.fields(cls):
-            if f.name == "time_step" and "nav_time_step" not in raw:  # written before the call was timed
+            if f.name in ("time_step", "time_filter") and f"nav_{f.name}" not in raw:  # written before it was timed
                 values[f.name] = np.zeros(len(raw["nav_gauge"]))
                 continue
             v = raw[f"nav_{f.name}"]

@@ -87,10 +87,20 @@ CAPTIONS = {
     "(paper Fig. 14).",
     "fig15_lambda_x": "Error of x and tube half-width against the forgetting factor (paper Fig. 15).",
     "fig16_lambda_phi": "Error of phi_x and tube half-width against the forgetting factor (paper Fig. 16).",
+    "fig15_actuation": "Thruster firings, cumulative delta-v and propellant, and the wheels' momentum.",
+    "fig19_navigation_errors": "Navigation: estimation error x - x^ per axis (position, velocity, attitude) with the "
+    "filter's 3-sigma bounds.",
+    "fig20_landmarks": "Navigation: landmarks in the last camera frame of each control period (crosses: steps whose "
+    "navigation status is not ok).",
 }
 
 
 def _caption(stem: str) -> str:
+    if stem.startswith("fig21_touchdown_"):
+        return (
+            f"{stem.rsplit('_', 1)[-1]}: touchdown dispersion of the campaign on the site map (east, north in the "
+            "site's tangent plane), the 99.7 % ellipse of a Gaussian fit and the 1 m goal."
+        )
     if stem.startswith("fig17") or stem.startswith("fig18"):
         method = stem.rsplit("_", 1)[-1]
         group = "translational" if stem.startswith("fig17") else "rotational"
@@ -128,10 +138,16 @@ def _mission_view(folder: Path, cfg: Config | None, methods: list[str]) -> tuple
         view = mission_view_html(scn, records)
     except Exception as exc:  # the report of the numbers must not depend on the view
         return "", f"No 3D view: {type(exc).__name__}: {exc}"
-    return view, (
+    note = (
         "Interactive in the HTML report (drag to turn, scroll to zoom): the asteroid and the glide-slope cone "
         "at t_f, the reference and the actual trajectories, the translational tubes (true scale) and the site."
     )
+    if cfg.navigation.enabled:
+        note += (
+            " Flown on navigation: the slider shows the navigation camera's footprint at a few times (the asteroid "
+            "as it was then, the field of view's outline and edges, the landmarks in that frame)."
+        )
+    return view, note
 
 
 def _scenario_text(cfg: Config | None, paper: bool) -> str:

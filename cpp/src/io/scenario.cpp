@@ -556,7 +556,9 @@ struct Fields<nav::FilterSettings> {
     v("accel_model_noise", &S::accel_model_noise, false);
     v("altimeter_terrain_sigma", &S::altimeter_terrain_sigma, false);
     v("innovation_gate", &S::innovation_gate, true);  // inf: no gate
+    v("gravity_relinearization_distance", &S::gravity_relinearization_distance, false);
     v("max_step", &S::max_step, false);
+    v("covariance_step", &S::covariance_step, false);
     v("max_substeps", &S::max_substeps, false);
     v("split", &S::split, false);
   }

@@ -74,7 +74,11 @@ void FilterSettings::validate() const {
   if (!(std::isfinite(altimeter_terrain_sigma) && altimeter_terrain_sigma >= 0.0))
     fail("altimeter_terrain_sigma", "must be finite and >= 0");
   if (!(innovation_gate > 0.0)) fail("innovation_gate", "must be > 0");
+  if (!(std::isfinite(gravity_relinearization_distance) && gravity_relinearization_distance >= 0.0))
+    fail("gravity_relinearization_distance", "must be finite and >= 0");
   if (!(std::isfinite(max_step) && max_step > 0.0)) fail("max_step", "must be finite and > 0");
+  if (!(std::isfinite(covariance_step) && covariance_step >= 0.0))
+    fail("covariance_step", "must be finite and >= 0");
   if (max_substeps < 1) fail("max_substeps", "must be >= 1");
 }
 
@@ -92,6 +96,12 @@ NavigationFilter::NavigationFilter(std::shared_ptr<const dynamics::ProximityMode
   const double n = model_->mean_motion();
   D_tidal_ = (n * n * Eigen::Vector3d(3.0, 0.0, -1.0)).asDiagonal();
   omega_LI_L_ = Eigen::Vector3d(0.0, 0.0, n);
+  const ImuSettings& imu_s = settings_.imu;
+  Qc_.block<3, 3>(3, 3).diagonal().setConstant(imu_s.accel_noise_density * imu_s.accel_noise_density +
+                                               settings_.accel_model_noise * settings_.accel_model_noise);
+  Qc_.block<3, 3>(6, 6).diagonal().setConstant(imu_s.gyro_noise_density * imu_s.gyro_noise_density);
+  Qc_.block<3, 3>(9, 9).diagonal().setConstant(imu_s.gyro_bias_random_walk * imu_s.gyro_bias_random_walk);
+  Qc_.block<3, 3>(12, 12).diagonal().setConstant(imu_s.accel_bias_random_walk * imu_s.accel_bias_random_walk);
 }
 
 FilterStatus NavigationFilter::initialize(const NavState& x0, const NavCovariance& P0) {
@@ -102,6 +112,8 @@ FilterStatus NavigationFilter::initialize(const NavState& x0, const NavCovarianc
   x_.q_BL = math::quat_normalize(x0.q_BL);
   P_ = symmetric(P0);
   if (settings_.split) decouple(P_);
+  F_pending_.setZero();
+  pending_span_ = 0.0;
   f_B_ = x_.accel_bias_B;  // no IMU sample yet: zero specific force and rate
   omega_BI_B_ = x_.gyro_bias_B + math::rotation_matrix(x_.q_BL).transpose() * omega_LI_L_;
   initialized_ = true;
@@ -110,6 +122,7 @@ FilterStatus NavigationFilter::initialize(const NavState& x0, const NavCovarianc
 
 FilterStatus NavigationFilter::add_process_noise(const NavCovariance& Q) {
   if (!initialized_ || !Q.allFinite()) return FilterStatus::InvalidInput;
+  propagate_covariance();
   P_ = symmetric(P_ + Q);
   if (settings_.split) decouple(P_);
   return FilterStatus::Ok;
@@ -131,32 +144,47 @@ FilterStatus NavigationFilter::propagate(double t_to, const ImuSample& imu) {
   const int n_sub = std::max(1, static_cast<int>(pieces));
   const double h = span / n_sub;
 
-  const ImuSettings& imu_s = settings_.imu;
-  Mat15 Qc = Mat15::Zero();
-  Qc.block<3, 3>(3, 3).diagonal().setConstant(imu_s.accel_noise_density * imu_s.accel_noise_density +
-                                              settings_.accel_model_noise * settings_.accel_model_noise);
-  Qc.block<3, 3>(6, 6).diagonal().setConstant(imu_s.gyro_noise_density * imu_s.gyro_noise_density);
-  Qc.block<3, 3>(9, 9).diagonal().setConstant(imu_s.gyro_bias_random_walk * imu_s.gyro_bias_random_walk);
-  Qc.block<3, 3>(12, 12).diagonal().setConstant(imu_s.accel_bias_random_walk * imu_s.accel_bias_random_walk);
-
   const NavState x_backup = x_;
   const Mat15 P_backup = P_;
+  const Mat15 F_backup = F_pending_;
+  const double span_backup = pending_span_;
+  const auto undo = [&] {
+    x_ = x_backup;
+    P_ = P_backup;
+    F_pending_ = F_backup;
+    pending_span_ = span_backup;
+  };
+  const double flush_at = settings_.covariance_step * (1.0 - 1e-9);
   const Eigen::Matrix3d coriolis = -2.0 * math::skew(omega_LI_L_);
   for (int s = 0; s < n_sub; ++s) {
     const double t = x_.t;
     const Eigen::Vector3d f_hat = f_B_ - x_.accel_bias_B;
     const Eigen::Vector3d w_BI = omega_BI_B_ - x_.gyro_bias_B;
     const Eigen::Matrix3d C_LB = math::rotation_matrix(x_.q_BL);
-    Eigen::Vector3d a_grav;
-    Eigen::Matrix3d G;
-    try {
-      model_->gravity_L(t, x_.r_L, a_grav, G);
-    } catch (const std::exception&) {  // r = 0 or a non-finite estimate: nothing to propagate
-      x_ = x_backup;
-      P_ = P_backup;
-      return FilterStatus::NumericalFailure;
+    const Eigen::Matrix3d C_AL = model_->C_AL(t);
+    const Eigen::Vector3d r_A = C_AL * x_.r_L;
+    if (!gravity_valid_ || !((r_A - gravity_r0_A_).norm() < settings_.gravity_relinearization_distance)) {
+      gravity::GravitySample g;
+      bool ok = r_A.allFinite();
+      try {
+        if (ok) model_->gravity()->evaluate(r_A, g);
+      } catch (const std::exception&) {  // r = 0: nothing to propagate
+        ok = false;
+      }
+      if (!ok || !g.acceleration.allFinite() || !g.gradient.allFinite()) {
+        undo();
+        return FilterStatus::NumericalFailure;
+      }
+      gravity_r0_A_ = r_A;
+      gravity_a0_A_ = g.acceleration;
+      gravity_G0_A_ = g.gradient;
+      gravity_valid_ = true;
+      ++gravity_evaluations_;
     }
-    // Translation: M1 with the gravity linearised about r^ over the sub-step (exact to O(h^5)).
+    // M42: the first-order expansion about r0, rotated into L at the sub-step's start.
+    const Eigen::Matrix3d G = C_AL.transpose() * gravity_G0_A_ * C_AL;
+    const Eigen::Vector3d a_grav = C_AL.transpose() * (gravity_a0_A_ + gravity_G0_A_ * (r_A - gravity_r0_A_));
+    // Translation: M1 with that affine gravity over the sub-step (exact for it to O(h^5)).
     Mat6 A = Mat6::Zero();
     A.block<3, 3>(0, 3).setIdentity();
     A.block<3, 3>(3, 0) = G + D_tidal_;
@@ -174,28 +202,38 @@ FilterStatus NavigationFilter::propagate(double t_to, const ImuSample& imu) {
     x_.r_L = z.head<3>();
     x_.v_L = z.tail<3>();
     x_.t = (s + 1 == n_sub) ? t_to : t + h;
-    // Error dynamics and the covariance (Taylor series of Phi and Van Loan's integral to h^3).
-    Mat15 F = Mat15::Zero();
-    F.block<6, 6>(0, 0) = A;
-    F.block<3, 3>(3, 6) = -C_LB * math::skew(f_hat);
-    F.block<3, 3>(3, 12) = -C_LB;
-    F.block<3, 3>(6, 6) = -math::skew(w_BI);
-    F.block<3, 3>(6, 9) = -Eigen::Matrix3d::Identity();
-    const Mat15 F2 = F * F;
-    const Mat15 Phi = Mat15::Identity() + h * F + (h * h / 2.0) * F2 + (h * h * h / 6.0) * F2 * F;
-    const Mat15 FQ = F * Qc;
-    const Mat15 FFQ = F * FQ;
-    const Mat15 Qd = h * Qc + (h * h / 2.0) * (FQ + FQ.transpose()) +
-                     (h * h * h / 6.0) * (FFQ + 2.0 * FQ * F.transpose() + FFQ.transpose());
-    P_ = symmetric(Phi * P_ * Phi.transpose() + Qd);
-    if (settings_.split) decouple(P_);
+    // The error dynamics' integral over the sub-step, for the covariance (M30 over the pending span).
+    F_pending_.block<6, 6>(0, 0) += h * A;
+    F_pending_.block<3, 3>(3, 6) -= h * C_LB * math::skew(f_hat);
+    F_pending_.block<3, 3>(3, 12) -= h * C_LB;
+    F_pending_.block<3, 3>(6, 6) -= h * math::skew(w_BI);
+    F_pending_.block<3, 3>(6, 9).diagonal().array() -= h;
+    pending_span_ += h;
+    if (pending_span_ >= flush_at) propagate_covariance();
   }
-  if (!finite(x_) || !P_.allFinite()) {
-    x_ = x_backup;
-    P_ = P_backup;
+  if (!finite(x_) || !P_.allFinite() || !F_pending_.allFinite()) {
+    undo();
     return FilterStatus::NumericalFailure;
   }
   return status;
+}
+
+void NavigationFilter::propagate_covariance() const {
+  if (!(pending_span_ > 0.0)) return;
+  // M30 with F the mean of the sub-steps' error dynamics over the span h (Taylor series of Phi and Van
+  // Loan's integral to h^3).
+  const double h = pending_span_;
+  const Mat15 F = F_pending_ / h;
+  const Mat15 F2 = F * F;
+  const Mat15 Phi = Mat15::Identity() + h * F + (h * h / 2.0) * F2 + (h * h * h / 6.0) * F2 * F;
+  const Mat15 FQ = F * Qc_;
+  const Mat15 FFQ = F * FQ;
+  const Mat15 Qd = h * Qc_ + (h * h / 2.0) * (FQ + FQ.transpose()) +
+                   (h * h * h / 6.0) * (FFQ + 2.0 * FQ * F.transpose() + FFQ.transpose());
+  P_ = symmetric(Phi * P_ * Phi.transpose() + Qd);
+  if (settings_.split) decouple(P_);
+  F_pending_.setZero();
+  pending_span_ = 0.0;
 }
 
 template <int M>
@@ -203,6 +241,7 @@ bool NavigationFilter::fold(const Eigen::Matrix<double, M, 1>& residual,
                             const Eigen::Matrix<double, M, kNavStates>& H,
                             const Eigen::Matrix<double, M, M>& R, UpdateResult& result) {
   using MatM = Eigen::Matrix<double, M, M>;
+  propagate_covariance();
   const Eigen::Matrix<double, M, kNavStates> HP = H * P_;
   const MatM S = HP * H.transpose() + R;
   const Eigen::LLT<MatM> llt(0.5 * (S + S.transpose()));
@@ -393,6 +432,7 @@ dynamics::StateMatrix NavigationFilter::model_covariance(const Eigen::Vector3d& 
   J.block<6, 6>(0, 0).setIdentity();
   J.block<3, 3>(6, 6) = math::right_jacobian_inverse(phi_near(phi_ref));
   J.block<3, 3>(9, 9) = -Eigen::Matrix3d::Identity();
+  propagate_covariance();
   dynamics::StateMatrix C = J * P_ * J.transpose();
   const double g = settings_.imu.gyro_noise_density;
   C.block<3, 3>(9, 9).diagonal().array() += g * g / settings_.imu.period;

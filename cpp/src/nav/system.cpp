@@ -1,5 +1,6 @@
 #include "tubempc/nav/system.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -18,6 +19,12 @@ int ticks(double p, double h) {
   const double r = p / h;
   const double n = std::round(r);
   return n >= 1.0 && std::abs(r - n) <= 1e-9 * n ? static_cast<int>(n) : -1;
+}
+
+using Clock = std::chrono::steady_clock;
+
+double seconds(Clock::time_point from, Clock::time_point to) {
+  return std::chrono::duration<double>(to - from).count();
 }
 
 // The worse of two filter outcomes (numerical failures first).
@@ -119,30 +126,54 @@ void NavigationSystem::count(Sensor s, SensorStatus st) {
 }
 
 void NavigationSystem::propagate_to(const SensorTruth& truth) {
+  const Clock::time_point t0 = Clock::now();
   count(Sensor::Imu, imu_.measure(truth, imu_sample_));
+  const Clock::time_point t1 = Clock::now();
   out_.filter_status = worse(out_.filter_status, filter_.propagate(truth.t, imu_sample_));
+  out_.time_sensors += seconds(t0, t1);
+  out_.time_filter += seconds(t1, Clock::now());
 }
 
 void NavigationSystem::sample(const SensorTruth& truth, bool all) {
   const auto due = [&](Sensor s) { return all || tick_ % every_[static_cast<int>(s)] == 0; };
+  // Each sensor: its simulation (timed as the sensors'), then the filter's update (the filter's).
+  Clock::time_point t0 = Clock::now(), t1 = t0;
+  const auto split = [&] {
+    t1 = Clock::now();
+    out_.time_sensors += seconds(t0, t1);
+  };
+  const auto done = [&] {
+    t0 = Clock::now();
+    out_.time_filter += seconds(t1, t0);
+  };
   if (due(Sensor::StarTracker)) {
     count(Sensor::StarTracker, star_tracker_.measure(truth, star_));
+    split();
     if (star_.status == SensorStatus::Ok) record(filter_.update_star_tracker(star_), Sensor::StarTracker);
+    done();
   }
   if (due(Sensor::Altimeter)) {
     count(Sensor::Altimeter, altimeter_.measure(truth, alt_));
+    split();
     if (alt_.status == SensorStatus::Ok) record(filter_.update_altimeter(alt_), Sensor::Altimeter);
+    done();
   }
   if (due(Sensor::Camera)) {
     count(Sensor::Camera, camera_.measure(truth, frame_));
     out_.landmarks_visible = frame_.status == SensorStatus::Ok ? frame_.count : 0;
+    split();
     if (frame_.status == SensorStatus::Ok) record(filter_.update_camera(frame_), Sensor::Camera);
+    done();
   }
+  out_.time_sensors += seconds(t0, Clock::now());
 }
 
 void NavigationSystem::finish(const Eigen::Vector3d& phi_ref) {
+  const Clock::time_point t0 = Clock::now();
   const dynamics::StateVector x = filter_.model_state(phi_ref);
   const dynamics::StateMatrix P = filter_.model_covariance(phi_ref);
+  out_.gravity_evaluations = static_cast<int>(filter_.gravity_evaluations() - gravity_evaluations_before_);
+  out_.time_filter += seconds(t0, Clock::now());
   out_.t = filter_.state().t;
   out_.estimate = filter_.state();
   out_.covariance = filter_.covariance();
@@ -172,6 +203,9 @@ void NavigationSystem::clear_step() {
   out_.nis_dof = 0;
   out_.landmarks_visible = 0;
   out_.filter_status = FilterStatus::Ok;
+  out_.time_sensors = out_.time_filter = 0.0;
+  out_.gravity_evaluations = 0;
+  gravity_evaluations_before_ = filter_.gravity_evaluations();
 }
 
 const NavigationStep& NavigationSystem::initialize(double t0, const dynamics::TruthState& truth,

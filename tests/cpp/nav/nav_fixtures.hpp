@@ -90,6 +90,8 @@ struct RunResult {
   int filter_failures{0};
   bool finite{true};
   double trace_P0{0.0}, trace_P_final{0.0};
+  nav::NavCovariance P_final{nav::NavCovariance::Zero()};
+  long gravity_evaluations{0};
   nav::NavState estimate, truth;
 };
 
@@ -172,8 +174,9 @@ inline RunResult run(const World& w, const RunSettings& rs, std::uint64_t seed) 
     const nav::FilterStatus fst = filter.propagate(t + T, sample);
     out.filter_failures += fst != nav::FilterStatus::Ok;
     s = dynamics::propagate(*w.model, t, s, u, T, {}, ps).state;
-    out.finite = out.finite && filter.state().r_L.allFinite() && filter.covariance().allFinite();
-  }
+    out.finite = out.finite && filter.state().r_L.allFinite();  // P is read at the end: reading it
+  }                                                             // would propagate it at every sample
+  out.finite = out.finite && filter.covariance().allFinite();
   out.estimate = filter.state();
   out.truth.t = steps * T;
   out.truth.r_L = s.segment<3>(0);
@@ -183,6 +186,8 @@ inline RunResult run(const World& w, const RunSettings& rs, std::uint64_t seed) 
   out.truth.accel_bias_B = imu.accel_bias();
   out.nees_final = nav::nees(out.estimate, filter.covariance(), out.truth);
   out.trace_P_final = filter.covariance().trace();
+  out.P_final = filter.covariance();
+  out.gravity_evaluations = filter.gravity_evaluations();
   return out;
 }
 

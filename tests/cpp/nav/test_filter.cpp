@@ -117,6 +117,79 @@ TEST(NavigationFilter, NoiseFreePredictionFollowsTheTruth) {
   EXPECT_GT(Eigen::SelfAdjointEigenSolver<dynamics::StateMatrix>(C).eigenvalues().minCoeff(), 0.0);
 }
 
+TEST(NavigationFilter, HeldGravityExpansionMatchesAnEvaluationPerSubStep) {
+  // M42: the expansion about the last evaluation point, re-evaluated after 1 m, against an evaluation at
+  // every 0.1 s sub-step (gravity_relinearization_distance = 0), over the same 60 s of sensors and
+  // updates. The expansion's error (half the third derivative of U times 1 m^2, ~1e-10 m/s^2 here)
+  // moves the estimate by far less than its sigma; the evaluations follow the distance flown.
+  const nav_test::World w = nav_test::make_world();
+  nav_test::RunSettings rs;
+  rs.v0_L = Eigen::Vector3d(0.2, -0.3, 0.1);  // 22 m in 60 s
+  rs.filter.gravity_relinearization_distance = 0.0;
+  const nav_test::RunResult every = nav_test::run(w, rs, 11);
+  rs.filter.gravity_relinearization_distance = 1.0;
+  const nav_test::RunResult held = nav_test::run(w, rs, 11);
+  EXPECT_EQ(every.gravity_evaluations, 600);
+  const double path = 60.0 * rs.v0_L.norm();
+  EXPECT_GE(held.gravity_evaluations,
+            static_cast<long>(path / 1.0 / 2.0));  // the estimate's path, +- its jumps
+  EXPECT_LE(held.gravity_evaluations, static_cast<long>(path / 1.0 * 2.0));
+  const nav::NavErrorVector d = nav::nav_error(every.estimate, held.estimate);
+  const nav::NavErrorVector sigma = every.P_final.diagonal().cwiseSqrt();
+  std::printf("evaluations %ld against %ld; largest |difference| / sigma %.3g\n", held.gravity_evaluations,
+              every.gravity_evaluations, d.cwiseQuotient(sigma).cwiseAbs().maxCoeff());
+  EXPECT_LT(d.cwiseQuotient(sigma).cwiseAbs().maxCoeff(), 1e-3);
+  EXPECT_LT((held.P_final - every.P_final).cwiseAbs().maxCoeff(), 1e-6 * every.P_final.diagonal().maxCoeff());
+}
+
+TEST(NavigationFilter, CovarianceOverASpanMatchesOnePerSample) {
+  // M30 over spans of covariance_step = 1 s with the span's mean F, against a propagation at every
+  // 0.1 s IMU sample (covariance_step = 0), over 60 s of sensors and updates with a turning spacecraft.
+  const nav_test::World w = nav_test::make_world();
+  nav_test::RunSettings rs;
+  rs.omega0_BL_B = Eigen::Vector3d(2e-3, -1e-3, 3e-3);
+  rs.filter.covariance_step = 0.0;
+  const nav_test::RunResult every = nav_test::run(w, rs, 12);
+  rs.filter.covariance_step = 1.0;
+  const nav_test::RunResult span = nav_test::run(w, rs, 12);
+  const nav::NavErrorVector sigma_every = every.P_final.diagonal().cwiseSqrt();
+  const nav::NavErrorVector sigma_span = span.P_final.diagonal().cwiseSqrt();
+  const double sigma_rel = (sigma_span - sigma_every).cwiseQuotient(sigma_every).cwiseAbs().maxCoeff();
+  const nav::NavErrorVector d = nav::nav_error(every.estimate, span.estimate);
+  const double est_rel = d.cwiseQuotient(sigma_every).cwiseAbs().maxCoeff();
+  std::printf("largest relative sigma difference %.3g; estimate difference / sigma %.3g\n", sigma_rel,
+              est_rel);
+  EXPECT_LT(sigma_rel, 1e-3);
+  EXPECT_LT(est_rel, 1e-2);
+  // A longer span without measurements: 2 s of prediction alone, read once, against 20 sub-steps, from
+  // the run's initial sigmas. The mean F drops the turn of C_LB within the span (a Magnus commutator
+  // term of order omega h): the correlations move by about 1e-8 here.
+  nav::FilterSettings fs;
+  fs.covariance_step = 0.0;
+  nav::NavigationFilter a(w.model, w.caster, w.landmarks, fs);
+  fs.covariance_step = 5.0;
+  nav::NavigationFilter b(w.model, w.caster, w.landmarks, fs);
+  nav::NavState x0 = start_state();
+  nav::NavCovariance P0 = nav::NavCovariance::Zero();
+  P0.diagonal() = rs.sigma0.cwiseAbs2();
+  ASSERT_EQ(a.initialize(x0, P0), nav::FilterStatus::Ok);
+  ASSERT_EQ(b.initialize(x0, P0), nav::FilterStatus::Ok);
+  nav::ImuSample imu;
+  imu.t = x0.t;
+  imu.specific_force_B = Eigen::Vector3d(1e-3, -2e-3, 5e-3);
+  imu.omega_BI_B = Eigen::Vector3d(2e-3, -1e-3, 3e-3);
+  for (int k = 1; k <= 20; ++k) {
+    ASSERT_EQ(a.propagate(x0.t + 0.1 * k, imu), nav::FilterStatus::Ok);
+    ASSERT_EQ(b.propagate(x0.t + 0.1 * k, imu), nav::FilterStatus::Ok);
+  }
+  const nav::NavCovariance Pa = a.covariance(), Pb = b.covariance();
+  const nav::NavErrorVector sa = Pa.diagonal().cwiseSqrt();
+  const nav::NavCovariance corr = (Pa - Pb).cwiseQuotient(sa * sa.transpose());
+  std::printf("2 s span: largest correlation difference %.3g\n", corr.cwiseAbs().maxCoeff());
+  EXPECT_LT(corr.cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_GT((Pa - P0).cwiseQuotient(sa * sa.transpose()).cwiseAbs().maxCoeff(), 1e-2);  // it did move
+}
+
 TEST(NavigationFilter, NeesAndNisInsideChiSquareBounds) {
   const nav_test::World w = nav_test::make_world();
   nav_test::RunSettings rs;

@@ -2,6 +2,7 @@
 // by one, broken sensors, bad input and settings.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -108,6 +109,7 @@ TEST(NavigationSystem, StepMatchesTheSensorsAndTheFilterCalledOneByOne) {
   for (int k = 0; k < 6; ++k) {
     const Period p = truth_period(w, 2.0 * k, s, 20, 0.1);
     const nav::NavigationStep& out = sys.step(p.t, p.x, p.a, phi_ref);
+    const long evaluations_before = filter.gravity_evaluations();
     for (int j = 0; j < 20; ++j) {
       const nav::SensorTruth truth = nav_test::sensor_truth(*w.model, p.t(j), p.x.row(j).transpose());
       imu.measure(truth, sample);
@@ -127,6 +129,10 @@ TEST(NavigationSystem, StepMatchesTheSensorsAndTheFilterCalledOneByOne) {
     EXPECT_EQ((out.covariance - filter.covariance()).norm(), 0.0);
     EXPECT_EQ((out.x_hat - filter.model_state(phi_ref)).norm(), 0.0);
     EXPECT_EQ((out.P_x - filter.model_covariance(phi_ref)).norm(), 0.0);
+    // The call's own counts: the filter's gravity evaluations, and its two clocks.
+    EXPECT_EQ(out.gravity_evaluations, filter.gravity_evaluations() - evaluations_before);
+    EXPECT_TRUE(out.time_filter > 0.0 && std::isfinite(out.time_filter));
+    EXPECT_TRUE(out.time_sensors > 0.0 && std::isfinite(out.time_sensors));
   }
   EXPECT_GT(camera_ok, 3);
   // And the estimate converged from its 2 m initial error.

@@ -72,8 +72,19 @@ struct FilterSettings {
   /// the truth leaves the linearisation (docs/decisions.md, "Navigation").
   double altimeter_terrain_sigma{0.1};
   double innovation_gate{1e4};  ///< largest accepted NIS of one measurement, > 0 (inf: no gate)
-  double max_step{0.5};         ///< longest propagation sub-step (s), > 0
-  int max_substeps{64};         ///< most sub-steps of one propagate call, >= 1 (a longer call is refused)
+  /// Distance (m, >= 0) the estimate may move in frame A from the point where the filter last evaluated
+  /// the polyhedral gravity and its gradient before it evaluates them again; in between, the gravity is
+  /// the first-order expansion about that point, a = a(r0) + G(r0) (r - r0), whose error is bounded by
+  /// half the largest third derivative of U times the distance squared (docs/model.md M42). 0: an
+  /// evaluation at every sub-step.
+  double gravity_relinearization_distance{1.0};
+  double max_step{0.5};  ///< longest propagation sub-step (s), > 0
+  /// Longest span (s, >= 0) over which the covariance waits for its propagation: the sub-steps' error
+  /// dynamics are integrated as they come and P is propagated once over the span with their mean
+  /// (M30), when the span reaches this length and before any use of P (an update, added noise, a read).
+  /// 0: at every sub-step.
+  double covariance_step{1.0};
+  int max_substeps{64};  ///< most sub-steps of one propagate call, >= 1 (a longer call is refused)
   /// Emulate two separate filters (translation [r, v, b_a], attitude [theta, b_g]) instead of the joint
   /// one: the cross-covariances between the two are dropped after every step and the altimeter's and the
   /// camera's attitude Jacobians are dropped (the translation filter takes the attitude as known). The
@@ -132,8 +143,9 @@ class NavigationFilter {
 
   /// Propagates from the filter's time to t_to holding the IMU sample (taken at the filter's time)
   /// over the interval, in sub-steps of at most max_step: attitude by the gyro's rate, translation
-  /// by M1 with the polyhedral gravity linearised over each sub-step plus the measured specific
-  /// force, covariance by the Taylor series of the error dynamics to third order.
+  /// by M1 with the polyhedral gravity's first-order expansion (about the last evaluation point, see
+  /// FilterSettings::gravity_relinearization_distance) plus the measured specific force, covariance by
+  /// the Taylor series of the error dynamics to third order.
   /// @param t_to time to reach (s), >= the filter's time.
   /// @param imu  the IMU sample; if its status is not Ok the last good sample is used (ImuHeld).
   /// @return Ok, ImuHeld, StepTooLong, InvalidInput or NumericalFailure (the last three: unchanged).
@@ -160,8 +172,12 @@ class NavigationFilter {
 
   /// @return the estimate.
   const NavState& state() const { return x_; }
-  /// @return the error-state covariance P (symmetric positive semi-definite).
-  const NavCovariance& covariance() const { return P_; }
+  /// @return the error-state covariance P (symmetric positive semi-definite) at the filter's time
+  ///         (a pending propagation, FilterSettings::covariance_step, is done first).
+  const NavCovariance& covariance() const {
+    propagate_covariance();
+    return P_;
+  }
   /// @return the estimate of omega_BL_B from the last good gyro sample (rad/s).
   Eigen::Vector3d omega_BL_B() const;
   /// The controller's state x = [r_L, v_L, phi, omega_BL_B] from the estimate.
@@ -191,12 +207,16 @@ class NavigationFilter {
   const FilterSettings& settings() const { return settings_; }
   /// @return whether initialize has succeeded.
   bool initialized() const { return initialized_; }
+  /// @return evaluations of the polyhedral gravity (with its gradient) since construction.
+  long gravity_evaluations() const { return gravity_evaluations_; }
 
  private:
   template <int M>
   bool fold(const Eigen::Matrix<double, M, 1>& residual, const Eigen::Matrix<double, M, kNavStates>& H,
             const Eigen::Matrix<double, M, M>& R, UpdateResult& result);
   void inject(const NavErrorVector& dx);
+  // Propagates P over the pending span (FilterSettings::covariance_step); nothing when there is none.
+  void propagate_covariance() const;
   bool pixel_model(int landmark, Eigen::Vector2d& pixel, Eigen::Matrix<double, 2, kNavStates>* H) const;
   Eigen::Vector3d phi_near(const Eigen::Vector3d& phi_ref) const;
 
@@ -208,9 +228,20 @@ class NavigationFilter {
   Eigen::Matrix3d D_tidal_;  // n^2 diag(3, 0, -1) (1/s^2)
   Eigen::Vector3d omega_LI_L_;
   NavState x_;
-  NavCovariance P_{NavCovariance::Identity()};
-  Eigen::Vector3d f_B_{Eigen::Vector3d::Zero()};         // last good specific force (m/s^2)
+  // P and the integral of the error dynamics F over the span P has not been propagated across yet: the
+  // covariance is brought up to the filter's time lazily, also by const readers.
+  mutable NavCovariance P_{NavCovariance::Identity()};
+  mutable NavCovariance F_pending_{NavCovariance::Zero()};
+  mutable double pending_span_{0.0};
+  NavCovariance Qc_{NavCovariance::Zero()};       // continuous process noise density (units of dx^2 / s)
+  Eigen::Vector3d f_B_{Eigen::Vector3d::Zero()};  // last good specific force (m/s^2)
   Eigen::Vector3d omega_BI_B_{Eigen::Vector3d::Zero()};  // last good gyro rate (rad/s)
+  // The gravity's expansion point r0 in A (m), a(r0) (m/s^2) and G(r0) (1/s^2), in A.
+  Eigen::Vector3d gravity_r0_A_{Eigen::Vector3d::Zero()};
+  Eigen::Vector3d gravity_a0_A_{Eigen::Vector3d::Zero()};
+  Eigen::Matrix3d gravity_G0_A_{Eigen::Matrix3d::Zero()};
+  bool gravity_valid_{false};
+  long gravity_evaluations_{0};
   bool initialized_{false};
 };
 

@@ -93,6 +93,12 @@ struct NavigationStep {
   FilterStatus filter_status{FilterStatus::Ok};  ///< the worst filter outcome of the call (Ok if none failed)
   double nis{0.0};                               ///< sum of the accepted measurements' NIS in this call
   int nis_dof{0};                                ///< its degrees of freedom
+  /// Wall time of the call's sensor simulation (s): the truth side, which flight hardware replaces.
+  double time_sensors{0.0};
+  /// Wall time of the call's onboard estimator (s): the filter's propagation and updates, and the
+  /// estimate's conversion to the controller's state.
+  double time_filter{0.0};
+  int gravity_evaluations{0};  ///< the filter's polyhedral gravity evaluations in this call
 };
 
 /// The navigation system (see the file comment). Lifecycle: construct (allocates), `initialize` at
@@ -175,6 +181,7 @@ class NavigationSystem {
   CameraFrame frame_{};
   StarTrackerMeasurement star_{};
   NavCovariance Q_period_{NavCovariance::Zero()};
+  long gravity_evaluations_before_{0};  // the filter's count when the call started
   bool initialized_{false};
   NavigationStep out_{};
 };
