@@ -1,6 +1,7 @@
 // Bindings of the scenario file (tubempc::io, cpp/include/tubempc/io/scenario.hpp) as tubempc._core.io.
-// The member types (ModelParams, PropagatorSettings, mpc::Settings, Reference, Tube) are bound by
-// bind_dynamics and bind_mpc, which must run first.
+// The member types (ModelParams, PropagatorSettings, mpc::Settings, Reference, Tube, the nav and
+// actuators settings) are bound by bind_dynamics, bind_mpc, bind_nav and bind_actuators, which must
+// run first.
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
 
@@ -14,7 +15,7 @@ namespace py = pybind11;
 namespace tubempc::python {
 
 void bind_io(py::module_& m) {
-  auto s = m.def_submodule("io", "Scenario files (format 'tubempc-scenario 3'; see tubempc/io/scenario.hpp)");
+  auto s = m.def_submodule("io", "Scenario files (format 'tubempc-scenario 4'; see tubempc/io/scenario.hpp)");
   s.attr("FORMAT_VERSION") = io::kScenarioFormatVersion;
 
   py::class_<io::BodyModel> body(s, "BodyModel",
@@ -22,6 +23,28 @@ void bind_io(py::module_& m) {
   body.def(py::init<>()).def_readwrite("params", &io::BodyModel::params, "dynamics.ModelParams (SI)");
   bind_fields(body);
   body.def("validate", &io::BodyModel::validate, "ValueError naming the first bad field.");
+
+  py::class_<io::NavigationScenario>(s, "NavigationScenario",
+                                     "The navigation of a scenario (records navigation.*, version 4)")
+      .def(py::init<>())
+      .def_readwrite("enabled", &io::NavigationScenario::enabled,
+                     "whether the controller flies on the estimate")
+      .def_readwrite("settings", &io::NavigationScenario::settings, "nav.NavigationSettings")
+      .def_readwrite("landmarks", &io::NavigationScenario::landmarks, "list of nav.Landmark (frame A)")
+      .def_readwrite("seed", &io::NavigationScenario::seed, "the navigation system's seed (<= 2^53)")
+      .def_readwrite("error_set_scale", &io::NavigationScenario::error_set_scale,
+                     "c of the estimation-error set {e : e^T (c P_x)^-1 e <= 1}");
+  py::class_<io::ActuatorScenario>(s, "ActuatorScenario",
+                                   "The actuators of a scenario (records actuators.*, version 4)")
+      .def(py::init<>())
+      .def_readwrite("enabled", &io::ActuatorScenario::enabled, "false: ideal actuators")
+      .def_readwrite("thrusters", &io::ActuatorScenario::thrusters,
+                     "list of actuators.ThrusterSpec: the truth's (nominal geometry, run errors, faults)")
+      .def_readwrite("wheels", &io::ActuatorScenario::wheels, "list of actuators.ReactionWheelSpec")
+      .def_readwrite("momentum_dump", &io::ActuatorScenario::momentum_dump, "actuators.MomentumDumpSettings")
+      .def_readwrite("wheel_momentum", &io::ActuatorScenario::wheel_momentum,
+                     "the wheels' initial momenta (N m s, one per wheel)")
+      .def_readwrite("settings", &io::ActuatorScenario::settings, "actuators.ActuationSettings");
 
   py::class_<io::ScenarioFile>(s, "ScenarioFile", "Contents of a scenario file (see tubempc/io/scenario.hpp)")
       .def(py::init<>())
@@ -40,6 +63,8 @@ void bind_io(py::module_& m) {
       .def_readwrite("ffa_designs", &io::ScenarioFile::ffa_designs, "control.ControllerDesigns of TBMPC-FFA")
       .def_readwrite("x0", &io::ScenarioFile::x0, "initial state (12): m, m/s, rad, rad/s")
       .def_readwrite("xf", &io::ScenarioFile::xf, "target state (12)")
+      .def_readwrite("navigation", &io::ScenarioFile::navigation, "NavigationScenario (version 4)")
+      .def_readwrite("actuators", &io::ScenarioFile::actuators, "ActuatorScenario (version 4)")
       .def_property_readonly("mission_steps", &io::ScenarioFile::mission_steps, "T (steps)")
       .def("resolve", &io::ScenarioFile::resolve, py::arg("path"),
            "path relative to directory (unless absolute)");

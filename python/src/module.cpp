@@ -9,7 +9,8 @@ PYBIND11_MODULE(_core, m) {
   tubempc::python::bind_dynamics(m);  // after bind_gravity (it uses GravityModel)
   tubempc::python::bind_mpc(m);       // after bind_dynamics (it accepts its models)
   tubempc::python::bind_control(m);   // after bind_mpc (it holds its types)
-  tubempc::python::bind_io(m);        // after bind_dynamics and bind_mpc (it holds their types)
   tubempc::python::bind_nav(m);       // after bind_gravity and bind_dynamics (it takes Shape, ProximityModel)
   tubempc::python::bind_actuators(m);
+  tubempc::python::bind_io(
+      m);  // after bind_dynamics, bind_mpc, bind_nav and bind_actuators (it holds their types)
 }

@@ -3,13 +3,23 @@
 import numpy as np
 import numpy.typing as npt
 
+from ._actuators import ActuationSettings, MomentumDumpSettings, ReactionWheelSpec, ThrusterSpec
 from ._control import ControllerDesigns, ControllerSettings
 from ._dynamics import ModelParams, PropagatorSettings
 from ._mpc import Reference, Settings, Tube
+from ._nav import Landmark, NavigationSettings
 
 _Arr = npt.NDArray[np.float64]
 
-__all__ = ["FORMAT_VERSION", "BodyModel", "ScenarioFile", "read_scenario", "write_scenario"]
+__all__ = [
+    "FORMAT_VERSION",
+    "ActuatorScenario",
+    "BodyModel",
+    "NavigationScenario",
+    "ScenarioFile",
+    "read_scenario",
+    "write_scenario",
+]
 
 FORMAT_VERSION: int
 
@@ -22,6 +32,23 @@ class BodyModel:
     shape: str
     shape_unit_scale: float
     def validate(self) -> None: ...
+
+class NavigationScenario:
+    enabled: bool
+    settings: NavigationSettings
+    landmarks: list[Landmark]
+    seed: int
+    error_set_scale: float
+    def __init__(self) -> None: ...
+
+class ActuatorScenario:
+    enabled: bool
+    thrusters: list[ThrusterSpec]
+    wheels: list[ReactionWheelSpec]
+    momentum_dump: MomentumDumpSettings
+    wheel_momentum: _Arr
+    settings: ActuationSettings
+    def __init__(self) -> None: ...
 
 class ScenarioFile:
     directory: str
@@ -37,6 +64,8 @@ class ScenarioFile:
     ffa_designs: ControllerDesigns
     x0: _Arr
     xf: _Arr
+    navigation: NavigationScenario
+    actuators: ActuatorScenario
     def __init__(self) -> None: ...
     @property
     def mission_steps(self) -> int: ...

@@ -15,8 +15,15 @@ one writer) and reads it (:func:`read_scenario`, the one reader).
 - ``shape.obj`` (and ``truth_shape.obj`` if the truth's shape differs): the meshes in metres;
 - ``config.toml``: the configuration it came from.
 
-The simulated disturbance and actuator mismatch are not part of the file (the C++ example flies
-the undisturbed mission). A C++ program has no background LMI designs: it flies what
+With ``navigation.enabled`` the file carries the navigation system of the run with seed ``seed``
+(``navigation.*``: the sensors, the filter, the sigmas, the landmark catalogue of
+:func:`tubempc.navigation.landmark_catalogue`, the system's seed ``seed + NAV_SEED_OFFSET`` and the
+error set's chi-square scale); with ``spacecraft.actuators`` other than "ideal", the actuators of that
+run (``actuators.*``: the truth's thrusters with the run's scale and misalignment errors and faults, the
+wheels, the momentum dump, the modulation and allocation settings) and the certified actuation-error
+sets of the controller. The simulated additive disturbance and the ideal actuators' mismatch
+(``[disturbance]``) are not part of the file (the C++ example flies the undisturbed mission, or the
+disturbance given with ``--disturbance``). A C++ program has no background LMI designs: it flies what
 ``tube.design_worker = "none"`` flies in Python (the library stands in at a due design).
 """
 
@@ -30,7 +37,8 @@ import numpy as np
 from . import _core
 from .config import Config
 from .dynamics import ProximityModel
-from .scenario import ScenarioError, build_scenario, mpc_settings, propagator_settings
+from .navigation import NAV_SEED_OFFSET, error_set_scale, landmark_catalogue, navigation_settings
+from .scenario import Scenario, build_scenario, mpc_settings, propagator_settings
 from .shapes import Shape, save_shape
 from .tube_library import controller_designs, controller_settings
 
@@ -53,22 +61,49 @@ def _body(model: ProximityModel, shape_file: str) -> Any:
     return body
 
 
-def export_scenario(cfg: Config, out_dir: str | Path, *, cache_dir: str | Path | None = None) -> Path:
+def _navigation(scn: Scenario, seed: int) -> Any:
+    """The ``navigation.*`` records: what :func:`tubempc.navigation.new_navigation` builds for ``seed``."""
+    n = _core.io.NavigationScenario()
+    cfg = scn.config
+    n.enabled = cfg.navigation.enabled
+    if n.enabled:
+        n.settings = navigation_settings(cfg)
+        n.landmarks = landmark_catalogue(scn)
+        n.seed = int(seed) + NAV_SEED_OFFSET
+        n.error_set_scale = error_set_scale(cfg.navigation.error_set_probability)
+    return n
+
+
+def _actuators(scn: Scenario, seed: int) -> Any:
+    """The ``actuators.*`` records: the actuation system a run with ``seed`` flies
+    (:meth:`tubempc.actuators.ScenarioActuation.system`, as :func:`tubempc.closed_loop.simulate` builds it)."""
+    a = _core.io.ActuatorScenario()
+    a.enabled = scn.actuation is not None
+    if scn.actuation is not None:
+        system = scn.actuation.system(int(seed) + 1)
+        cluster, wheels = system.cluster, system.wheels
+        a.thrusters = [cluster.thruster(i) for i in range(len(cluster))]
+        a.wheels = [wheels.wheel(j) for j in range(len(wheels))]
+        a.momentum_dump = wheels.dump_settings
+        a.wheel_momentum = np.asarray(wheels.momentum, dtype=float)
+        a.settings = system.settings
+    return a
+
+
+def export_scenario(
+    cfg: Config, out_dir: str | Path, *, cache_dir: str | Path | None = None, seed: int | None = None
+) -> Path:
     """Writes ``scenario.txt``, ``shape.obj`` (+ ``truth_shape.obj``) and ``config.toml`` for ``cfg``
     into ``out_dir`` (created if needed) and returns the path of ``scenario.txt``.
 
-    ``cache_dir``: reference-trajectory cache (:func:`tubempc.scenario.build_scenario`).
+    ``cache_dir``: reference-trajectory cache (:func:`tubempc.scenario.build_scenario`); ``seed``: the run
+    whose navigation system (its sensors' noise) and actuators (the truth's thruster errors, random
+    faults) the file carries, as :func:`tubempc.closed_loop.simulate` with that seed builds them (default:
+    ``disturbance.seed``, as ``tubempc run``).
     """
     from . import __version__
-    from .config import ConfigError
 
-    if cfg.spacecraft.actuators != "ideal":
-        raise ScenarioError(
-            f"{cfg.source}: spacecraft.actuators: the scenario file carries no actuator model yet; export with "
-            '"ideal" (a C++ program would fly the ideal input)'
-        )
-    if cfg.navigation.enabled:  # the scenario file has no [navigation] records yet: a C++ program flies the truth
-        raise ConfigError(f"{cfg.source}: navigation.enabled: the C++ scenario file does not carry [navigation] yet")
+    seed = cfg.disturbance.seed if seed is None else int(seed)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     scn = build_scenario(cfg, cache_dir=cache_dir)
@@ -90,9 +125,10 @@ def export_scenario(cfg: Config, out_dir: str | Path, *, cache_dir: str | Path |
     s.controller = controller_settings(scn, "ffa")
     s.tbmpc_designs, s.ffa_designs = controller_designs(scn, "tbmpc"), controller_designs(scn, "ffa")
     s.x0, s.xf = scn.x0, scn.xf
+    s.navigation, s.actuators = _navigation(scn, seed), _actuators(scn, seed)
     path = out / "scenario.txt"
     comment = (
-        f"exported by tubempc {__version__} from {cfg.source} (config sha256 {cfg.hash()})\n"
+        f"exported by tubempc {__version__} from {cfg.source} (config sha256 {cfg.hash()}), run seed {seed}\n"
         f"shape: {scn.shape_source}; mission: T = {scn.n_steps} steps of {cfg.mpc.dt} s; "
         "controller: TBMPC's and TBMPC-FFA's LMI designs of k = 0 and TBMPC-FFA's library"
     )

@@ -1,16 +1,19 @@
-"""Fuzz harness of the shape loaders and the config reader (issue #22, "no silent wrong answers").
+"""Fuzz harness of the shape loaders, the config reader and the scenario-file reader (issue #22, "no
+silent wrong answers").
 
 Inputs are seed files of every format (OBJ, PDS v/f table, ICQ, ASCII and binary PLY and STL, the
-scenario TOML) with 1-3 random mutations: byte flips, insertions and deletions, truncation,
-duplicated, deleted or swapped lines, number tokens replaced by edge cases (0, -1, 2^63, 1e308,
-nan, non-ASCII digits), a vertex moved (possibly through the body) and a shifted copy of the mesh
-appended (two overlapping lobes). Every input is read by ``tubempc.shapes.load_shape`` (and, for
-OBJ and v/f tables, also by the C++ loader ``_core.gravity.load_shape``) or by
-``tubempc.config.load_config``, and classified by :func:`check_input`:
+scenario TOML, the C++ scenario file with navigation and actuators) with 1-3 random mutations: byte
+flips, insertions and deletions, truncation, duplicated, deleted or swapped lines, number tokens
+replaced by edge cases (0, -1, 2^63, 1e308, nan, non-ASCII digits), a vertex moved (possibly through
+the body) and a shifted copy of the mesh appended (two overlapping lobes). Every input is read by
+``tubempc.shapes.load_shape`` (and, for OBJ and v/f tables, also by the C++ loader
+``_core.gravity.load_shape``), by ``tubempc.config.load_config`` or by ``_core.io.read_scenario``, and
+classified by :func:`check_input`:
 
 - ``rejected``: a ``ValueError`` (``ShapeError``, ``ConfigError``, the C++ ``invalid_argument``)
   whose message names the file;
-- ``accepted``: a mesh that the independent check :func:`mesh_problems` finds valid (or a config);
+- ``accepted``: a mesh that the independent check :func:`mesh_problems` finds valid (or a config, or a
+  scenario file);
 - ``broken_accepted``: an accepted mesh that :func:`mesh_problems` finds broken;
 - ``no_location``: a ``ValueError`` whose message does not name the file;
 - ``crash``: any other exception (or, in :func:`run_campaign`, a dead worker process);
@@ -56,8 +59,9 @@ __all__ = [
     "table",
 ]
 
-#: Formats of the fuzzed inputs (file extension without the dot; "toml" is the scenario config).
-FORMATS = ("obj", "tab", "icq", "ply", "stl", "toml")
+#: Formats of the fuzzed inputs (file extension without the dot; "toml" is the scenario config, "txt" the
+#: C++ scenario file of ``tubempc export-scenario``).
+FORMATS = ("obj", "tab", "icq", "ply", "stl", "toml", "txt")
 #: Outcome classes of one input (see the module docstring).
 OUTCOMES = ("rejected", "accepted", "broken_accepted", "no_location", "crash", "hang")
 
@@ -96,6 +100,55 @@ def _bytes(exported: Any) -> bytes:
     return exported.encode() if isinstance(exported, str) else bytes(exported)
 
 
+def _scenario_file() -> bytes:
+    """A small valid scenario file (format ``_core.io.FORMAT_VERSION``) with every section: a 2-step
+    mission, both methods' designs and a library, navigation (one landmark) and actuators (six thrusters,
+    one failed, one wheel). Its shape file is not read."""
+    from . import _core
+
+    io, act, nav = _core.io, _core.actuators, _core.nav
+    s = io.ScenarioFile()
+    for body in (s.model, s.truth):
+        body.shape = "shape.obj"
+    st = _core.mpc.Settings()
+    st.horizon, st.dt = 3, 2.0
+    st.Q, st.R, st.u_max = np.eye(12), np.eye(6), np.full(6, 0.5)
+    s.settings = st
+    s.reference = _core.mpc.Reference(np.zeros((12, 3)), np.zeros((6, 2)), 0.0)
+    s.has_controller = True
+    c = _core.control.ControllerSettings()
+    for ident in (c.identification_p, c.identification_r):
+        ident.w0, ident.S0 = np.zeros(6), 1e-4 * np.eye(6)
+    s.controller = c
+    d = _core.control.SubsystemDesign(-0.1 * np.hstack([np.eye(3), np.eye(3)]), 0.5, 1e-4 * np.eye(6), np.eye(6))
+    designs = _core.control.ControllerDesigns()
+    designs.initial_p = designs.initial_r = d
+    designs.library_p = [d]
+    s.tbmpc_designs = s.ffa_designs = designs
+    s.x0, s.xf = np.ones(12), np.zeros(12)
+    n = io.NavigationScenario()
+    landmark = nav.Landmark()
+    landmark.p_A, landmark.normal_A, landmark.face = np.array([250.0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0]), 3
+    n.enabled, n.landmarks, n.seed, n.error_set_scale = True, [landmark], 1_000_003, 26.2
+    s.navigation = n
+    a = io.ActuatorScenario()
+    thrusters = []
+    for axis in np.vstack([np.eye(3), -np.eye(3)]):
+        t = act.ThrusterSpec()
+        t.position_B, t.direction_B = np.roll(axis, 1), axis
+        thrusters.append(t)
+    thrusters[1].fault, thrusters[1].fault_time = act.FaultKind.from_string("failed_off"), 10.0
+    settings = act.ActuationSettings()
+    settings.modulation.period = settings.allocation.period = st.dt
+    a.enabled, a.thrusters, a.wheels, a.wheel_momentum = True, thrusters, [act.ReactionWheelSpec()], np.zeros(1)
+    a.settings = settings
+    s.actuators = a
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "scenario.txt"
+        io.write_scenario(str(path), s, "fuzz seed")
+        return path.read_bytes()
+
+
 def seed_files() -> dict[str, list[bytes]]:
     """The valid seed inputs of every format."""
     import trimesh
@@ -117,6 +170,7 @@ def seed_files() -> dict[str, list[bytes]]:
         ],
         "stl": [_bytes(mesh.export(file_type="stl_ascii")), _bytes(mesh.export(file_type="stl"))],
         "toml": [toml],
+        "txt": [_scenario_file()],
     }
 
 
@@ -351,6 +405,8 @@ def check_input(fmt: str, data: bytes, folder: Path | None = None) -> tuple[str,
         readers: list[tuple[str, Callable[[], Any]]]
         if fmt == "toml":
             readers = [("load_config", lambda: load_config(path))]
+        elif fmt == "txt":
+            readers = [("read_scenario", lambda: _core.io.read_scenario(str(path)))]
         else:
             readers = [("load_shape", lambda: load_shape(path, unit="m"))]
             if fmt in ("obj", "tab"):
@@ -366,7 +422,7 @@ def check_input(fmt: str, data: bytes, folder: Path | None = None) -> tuple[str,
                 continue
             except Exception as exc:  # the harness's purpose: anything else is a crash
                 return "crash", f"{name}: {type(exc).__name__}: {exc}"[:300]
-            if fmt != "toml":
+            if fmt not in ("toml", "txt"):
                 problems = mesh_problems(result.vertices, result.faces)
                 if problems:
                     return "broken_accepted", f"{name}: {', '.join(problems)}"

@@ -147,7 +147,10 @@ def scenario_records() -> frozenset[str]:
     from tubempc import _core
 
     text = _read(ROOT / "cpp" / "include" / "tubempc" / "io" / "scenario.hpp")
-    named = re.findall(r"`((?:model|truth|propagator|mpc|reference|tube|mission)\.[a-z_A-Z0-9]+)`", text)
+    named = re.findall(
+        r"`((?:model|truth|propagator|mpc|reference|tube|mission|controller|navigation|actuators)\.[a-z_A-Z0-9.]+)`",
+        text,
+    )
     body = [*_core.dynamics.ModelParams.field_names(), *_core.io.BodyModel.field_names()]
     tables = [f"mpc.{f}" for f in _core.mpc.Settings.field_names()]
     tables += [f"{m}.{f}" for m in ("model", "truth") for f in body]

@@ -96,8 +96,20 @@ class Reader {
   int version() const { return version_; }
 
   [[noreturn]] void fail(long line, const std::string& what) const {
-    throw std::invalid_argument(line > 0 ? path_ + ":" + std::to_string(line) + ": " + what
-                                         : path_ + ": " + what);
+    // What the message quotes from the file is printable ASCII, other bytes written \xNN: the message
+    // stays valid UTF-8 (Python's ValueError) whatever the file holds.
+    std::string text;
+    for (const char ch : what) {
+      const auto byte = static_cast<unsigned char>(ch);
+      if (byte >= 0x20 && byte < 0x7f) {
+        text += ch;
+      } else {
+        static constexpr char kHex[] = "0123456789abcdef";
+        text += {'\\', 'x', kHex[byte >> 4], kHex[byte & 0xf]};
+      }
+    }
+    throw std::invalid_argument(line > 0 ? path_ + ":" + std::to_string(line) + ": " + text
+                                         : path_ + ": " + text);
   }
 
   void parse() {
@@ -301,6 +313,21 @@ class Reader {
     }
   }
 
+  // Runs a validate() of the core whose message starts with a field's name ("<field>: <what>"): when
+  // `base` + that name is a record of the file, reports it at the record's (first value) line,
+  // otherwise as validated().
+  template <typename F>
+  void validated_field(const std::string& what, const std::string& base, F&& check) const {
+    try {
+      check();
+    } catch (const std::invalid_argument& e) {
+      const std::string message = e.what();
+      const auto it = records_.find(base + message.substr(0, message.find(':')));
+      if (it == records_.end()) fail(0, what + ": " + message);
+      fail(it->second.row_lines.empty() ? it->second.line : it->second.row_lines[0], base + message);
+    }
+  }
+
   void check_all_used() const {
     for (const auto& [name, rec] : records_) {
       if (!rec.used)
@@ -405,8 +432,9 @@ std::vector<control::SubsystemDesign> read_library(Reader& r, const std::string&
 
 // TBMPC's block-diagonal tube from its two subsystem designs.
 mpc::Tube block_tube(const control::ControllerDesigns& d) {
-  mpc::Tube t{Eigen::MatrixXd::Zero(dynamics::kNu, dynamics::kNx),
-              Eigen::MatrixXd::Zero(dynamics::kNx, dynamics::kNx)};
+  mpc::Tube t;
+  t.K = Eigen::MatrixXd::Zero(dynamics::kNu, dynamics::kNx);
+  t.Pe = Eigen::MatrixXd::Zero(dynamics::kNx, dynamics::kNx);
   t.K.block<3, 6>(0, 0) = d.initial_p.K;
   t.K.block<3, 6>(3, 6) = d.initial_r.K;
   t.Pe.block<6, 6>(0, 0) = d.initial_p.Pe;
@@ -444,6 +472,403 @@ class Writer {
  private:
   std::ostream& out_;
 };
+
+// ---- navigation and actuator records (version 4) ---------------------------------------------
+// The settings structs of nav and actuators, field by field, under their C++ names: Fields<S>::each
+// calls visit(name, member pointer, infinity allowed) per member. A member whose type has a table
+// is a nested section (`<prefix><name>.<field>`); the others are records of their type's size.
+template <typename S>
+struct Fields;
+
+template <>
+struct Fields<nav::AltimeterSettings> {
+  template <typename V>
+  static void each(V&& v) {
+    using S = nav::AltimeterSettings;
+    v("boresight_B", &S::boresight_B, false);
+    v("sigma", &S::sigma, false);
+    v("bias", &S::bias, false);
+    v("min_range", &S::min_range, false);
+    v("max_range", &S::max_range, false);
+    v("period", &S::period, false);
+    v("dropout_probability", &S::dropout_probability, false);
+  }
+};
+
+template <>
+struct Fields<nav::CameraSettings> {
+  template <typename V>
+  static void each(V&& v) {
+    using S = nav::CameraSettings;
+    v("focal_length_px", &S::focal_length_px, false);
+    v("width_px", &S::width_px, false);
+    v("height_px", &S::height_px, false);
+    v("pixel_sigma", &S::pixel_sigma, false);
+    v("pixel_bias", &S::pixel_bias, false);
+    v("C_BC", &S::C_BC, false);
+    v("max_emission_angle", &S::max_emission_angle, false);
+    v("max_incidence_angle", &S::max_incidence_angle, false);
+    v("min_range", &S::min_range, false);
+    v("max_range", &S::max_range, false);
+    v("max_landmarks", &S::max_landmarks, false);
+    v("period", &S::period, false);
+    v("dropout_probability", &S::dropout_probability, false);
+  }
+};
+
+template <>
+struct Fields<nav::ImuSettings> {
+  template <typename V>
+  static void each(V&& v) {
+    using S = nav::ImuSettings;
+    v("period", &S::period, false);
+    v("gyro_noise_density", &S::gyro_noise_density, false);
+    v("gyro_bias_sigma", &S::gyro_bias_sigma, false);
+    v("gyro_bias_random_walk", &S::gyro_bias_random_walk, false);
+    v("accel_noise_density", &S::accel_noise_density, false);
+    v("accel_bias_sigma", &S::accel_bias_sigma, false);
+    v("accel_bias_random_walk", &S::accel_bias_random_walk, false);
+    v("dropout_probability", &S::dropout_probability, false);
+  }
+};
+
+template <>
+struct Fields<nav::StarTrackerSettings> {
+  template <typename V>
+  static void each(V&& v) {
+    using S = nav::StarTrackerSettings;
+    v("period", &S::period, false);
+    v("sigma_B", &S::sigma_B, false);
+    v("misalignment_B", &S::misalignment_B, false);
+    v("dropout_probability", &S::dropout_probability, false);
+  }
+};
+
+template <>
+struct Fields<nav::FilterSettings> {
+  template <typename V>
+  static void each(V&& v) {
+    using S = nav::FilterSettings;
+    v("altimeter", &S::altimeter, false);
+    v("camera", &S::camera, false);
+    v("star_tracker", &S::star_tracker, false);
+    v("imu", &S::imu, false);
+    v("accel_model_noise", &S::accel_model_noise, false);
+    v("altimeter_terrain_sigma", &S::altimeter_terrain_sigma, false);
+    v("innovation_gate", &S::innovation_gate, true);  // inf: no gate
+    v("gravity_relinearization_distance", &S::gravity_relinearization_distance, false);
+    v("max_step", &S::max_step, false);
+    v("covariance_step", &S::covariance_step, false);
+    v("max_substeps", &S::max_substeps, false);
+    v("split", &S::split, false);
+  }
+};
+
+template <>
+struct Fields<nav::NavigationSettings> {
+  template <typename V>
+  static void each(V&& v) {
+    using S = nav::NavigationSettings;
+    v("altimeter", &S::altimeter, false);
+    v("camera", &S::camera, false);
+    v("imu", &S::imu, false);
+    v("star_tracker", &S::star_tracker, false);
+    v("filter", &S::filter, false);
+    v("initial_sigma", &S::initial_sigma, false);
+    v("period_noise_sigma", &S::period_noise_sigma, false);
+    v("max_samples", &S::max_samples, false);
+  }
+};
+
+template <>
+struct Fields<actuators::ThrusterSpec> {
+  template <typename V>
+  static void each(V&& v) {
+    using S = actuators::ThrusterSpec;
+    v("position_B", &S::position_B, false);
+    v("direction_B", &S::direction_B, false);
+    v("max_thrust", &S::max_thrust, false);
+    v("min_on_time", &S::min_on_time, false);
+    v("isp", &S::isp, false);
+    v("scale_error", &S::scale_error, false);
+    v("misalignment_B", &S::misalignment_B, false);
+    v("scale_error_bound", &S::scale_error_bound, false);
+    v("misalignment_bound", &S::misalignment_bound, false);
+    v("fault", &S::fault, false);
+    v("fault_time", &S::fault_time, false);
+  }
+};
+
+template <>
+struct Fields<actuators::ReactionWheelSpec> {
+  template <typename V>
+  static void each(V&& v) {
+    using S = actuators::ReactionWheelSpec;
+    v("axis_B", &S::axis_B, false);
+    v("max_torque", &S::max_torque, false);
+    v("max_momentum", &S::max_momentum, false);
+  }
+};
+
+template <>
+struct Fields<actuators::MomentumDumpSettings> {
+  template <typename V>
+  static void each(V&& v) {
+    using S = actuators::MomentumDumpSettings;
+    v("enabled", &S::enabled, false);
+    v("start_fraction", &S::start_fraction, false);
+    v("stop_fraction", &S::stop_fraction, false);
+    v("time_constant", &S::time_constant, false);
+  }
+};
+
+template <>
+struct Fields<actuators::ModulationSettings> {
+  template <typename V>
+  static void each(V&& v) {
+    using S = actuators::ModulationSettings;
+    v("period", &S::period, false);
+    v("on_time_resolution", &S::on_time_resolution, false);
+  }
+};
+
+template <>
+struct Fields<actuators::AllocationSettings> {
+  template <typename V>
+  static void each(V&& v) {
+    using S = actuators::AllocationSettings;
+    v("period", &S::period, false);
+    v("residual_weight", &S::residual_weight, false);
+    v("thrust_weight", &S::thrust_weight, false);
+    v("wheel_weight", &S::wheel_weight, false);
+    v("dump_weight", &S::dump_weight, false);
+    v("max_iterations", &S::max_iterations, false);
+    v("optimality_tolerance", &S::optimality_tolerance, false);
+    v("remainder_tolerance", &S::remainder_tolerance, false);
+    v("cone_test_scale", &S::cone_test_scale, false);
+  }
+};
+
+template <>
+struct Fields<actuators::ActuationSettings> {
+  template <typename V>
+  static void each(V&& v) {
+    using S = actuators::ActuationSettings;
+    v("mass", &S::mass, false);
+    v("modulation", &S::modulation, false);
+    v("allocation", &S::allocation, false);
+  }
+};
+
+template <typename T, typename = void>
+struct has_fields : std::false_type {};
+template <typename T>
+struct has_fields<T, std::void_t<decltype(sizeof(Fields<T>))>> : std::true_type {};
+
+// Reads the records `prefix<name>` of a struct with a Fields table (every one required).
+template <typename S>
+struct TableReader {
+  Reader& r;
+  S& s;
+  std::string prefix;
+
+  template <typename T>
+  void operator()(const char* field, T S::*member, bool allow_infinite) const {
+    const std::string name = prefix + field;
+    T& value = s.*member;
+    if constexpr (has_fields<T>::value) {
+      Fields<T>::each(TableReader<T>{r, value, name + "."});
+    } else if constexpr (std::is_same_v<T, int>) {
+      r.integer(name, value);
+    } else if constexpr (std::is_same_v<T, bool>) {
+      r.flag(name, value);
+    } else if constexpr (std::is_same_v<T, double>) {
+      value = r.numeric(name, 1, 1, true, false, allow_infinite)->values(0, 0);
+    } else if constexpr (std::is_enum_v<T>) {
+      r.option(name, value, true);
+    } else {  // a fixed-size Eigen matrix or vector
+      value = r.matrix(name, T::RowsAtCompileTime, T::ColsAtCompileTime);
+    }
+  }
+};
+
+// Writes the records `prefix<name>` of a struct with a Fields table.
+template <typename S>
+struct TableWriter {
+  Writer& w;
+  const S& s;
+  std::string prefix;
+
+  template <typename T>
+  void operator()(const char* field, T S::*member, bool /*allow_infinite*/) const {
+    const std::string name = prefix + field;
+    const T& value = s.*member;
+    if constexpr (has_fields<T>::value) {
+      Fields<T>::each(TableWriter<T>{w, value, name + "."});
+    } else if constexpr (std::is_same_v<T, bool>) {
+      w.scalar(name, value ? 1.0 : 0.0);
+    } else if constexpr (std::is_arithmetic_v<T>) {
+      w.scalar(name, value);
+    } else if constexpr (std::is_enum_v<T>) {
+      w.text(name, option_name(value));
+    } else {
+      w.matrix(name, value);
+    }
+  }
+};
+
+// 2^53: the largest integer a double holds exactly (the navigation's seed is written as a number).
+constexpr double kMaxExactInteger = 9007199254740992.0;
+// Landmark rows: p_A (3), normal_A (3), face.
+constexpr Eigen::Index kLandmarkColumns = 7;
+
+void read_navigation(Reader& r, double dt, NavigationScenario& n) {
+  r.flag("navigation.enabled", n.enabled);
+  if (!n.enabled) return;
+  using Settings = nav::NavigationSettings;
+  Fields<Settings>::each(TableReader<Settings>{r, n.settings, "navigation."});
+  const nav::NavigationSettings& st = n.settings;
+  // the sensors, then the filter's model of them and its own fields, then the rest: each message names
+  // its record ("camera.period" is navigation.camera.period or navigation.filter.camera.period)
+  r.validated_field("navigation.* (NavigationSettings)", "navigation.", [&] {
+    st.altimeter.validate();
+    st.camera.validate();
+    st.imu.validate();
+    st.star_tracker.validate();
+  });
+  r.validated_field("navigation.filter.* (FilterSettings)", "navigation.filter.", [&] {
+    st.filter.altimeter.validate();
+    st.filter.camera.validate();
+    st.filter.imu.validate();
+    st.filter.star_tracker.validate();
+  });
+  r.validated_field("navigation.filter.* (FilterSettings)", "navigation.", [&] { st.filter.validate(); });
+  r.validated_field("navigation.* (NavigationSettings)", "", [&] { st.validate(); });
+  const double h = n.settings.imu.period;
+  const double ratio = std::round(dt / h);
+  if (!(ratio >= 1.0 && std::abs(ratio * h - dt) <= 1e-9 * dt && ratio <= n.settings.max_samples)) {
+    r.fail(r.line_of("navigation.imu.period"),
+           "navigation.imu.period: the control period mpc.dt = " + format_double(dt) +
+               " s must be a whole number (at most navigation.max_samples = " +
+               std::to_string(n.settings.max_samples) + ") of IMU periods, got " + format_double(h) + " s");
+  }
+  const Record* lm = r.numeric("navigation.landmarks", -1, kLandmarkColumns);
+  const Eigen::Index L = lm->values.rows();
+  if (L == 0) r.fail(lm->line, "navigation.landmarks: the catalogue is empty");
+  n.landmarks.assign(static_cast<std::size_t>(L), nav::Landmark{});
+  for (Eigen::Index i = 0; i < L; ++i) {
+    nav::Landmark& l = n.landmarks[static_cast<std::size_t>(i)];
+    const auto row = lm->values.row(i);
+    l.p_A = row.segment<3>(0).transpose();
+    l.normal_A = row.segment<3>(3).transpose();
+    const double face = row(6);
+    const std::string where = "navigation.landmarks: row " + std::to_string(i) + ": ";
+    if (std::abs(l.normal_A.norm() - 1.0) > 1e-9)
+      r.fail(lm->row_lines[static_cast<std::size_t>(i)], where + "normal_A must be a unit vector");
+    if (!(face >= 0.0 && face == std::floor(face) && face <= std::numeric_limits<int>::max()))
+      r.fail(lm->row_lines[static_cast<std::size_t>(i)],
+             where + "face must be an integer >= 0, got " + format_double(face));
+    l.face = static_cast<Eigen::Index>(face);
+  }
+  const Record* seed = r.numeric("navigation.seed", 1, 1);
+  const double s = seed->values(0, 0);
+  if (!(s >= 0.0 && s == std::floor(s) && s <= kMaxExactInteger))
+    r.fail(seed->row_lines[0], "navigation.seed: expected an integer in [0, 2^53], got " + format_double(s));
+  n.seed = static_cast<std::uint64_t>(s);
+  const Record* scale = r.numeric("navigation.error_set_scale", 1, 1);
+  n.error_set_scale = scale->values(0, 0);
+  if (!(n.error_set_scale > 0.0))
+    r.fail(scale->row_lines[0],
+           "navigation.error_set_scale: must be > 0, got " + format_double(n.error_set_scale));
+}
+
+void read_actuators(Reader& r, double dt, ActuatorScenario& a) {
+  r.flag("actuators.enabled", a.enabled);
+  if (!a.enabled) return;
+  int n = 0, m = 0;
+  r.integer("actuators.thrusters", n);
+  if (n < 1 || n > actuators::kMaxThrusters)
+    r.fail(r.line_of("actuators.thrusters"), "actuators.thrusters: expected 1 to " +
+                                                 std::to_string(actuators::kMaxThrusters) +
+                                                 " thrusters, got " + std::to_string(n));
+  r.integer("actuators.wheels", m);
+  if (m < 0 || m > actuators::kMaxWheels)
+    r.fail(r.line_of("actuators.wheels"), "actuators.wheels: expected 0 to " +
+                                              std::to_string(actuators::kMaxWheels) + " wheels, got " +
+                                              std::to_string(m));
+  a.thrusters.assign(static_cast<std::size_t>(n), actuators::ThrusterSpec{});
+  for (int i = 0; i < n; ++i) {
+    const std::string prefix = "actuators.thrusters[" + std::to_string(i) + "]";
+    actuators::ThrusterSpec& t = a.thrusters[static_cast<std::size_t>(i)];
+    Fields<actuators::ThrusterSpec>::each(TableReader<actuators::ThrusterSpec>{r, t, prefix + "."});
+    r.validated_field(prefix + ".*", "", [&] { t.validate(prefix); });
+  }
+  a.wheels.assign(static_cast<std::size_t>(m), actuators::ReactionWheelSpec{});
+  for (int j = 0; j < m; ++j) {
+    const std::string prefix = "actuators.wheels[" + std::to_string(j) + "]";
+    actuators::ReactionWheelSpec& w = a.wheels[static_cast<std::size_t>(j)];
+    Fields<actuators::ReactionWheelSpec>::each(TableReader<actuators::ReactionWheelSpec>{r, w, prefix + "."});
+    r.validated_field(prefix + ".*", "", [&] { w.validate(prefix); });
+  }
+  using Dump = actuators::MomentumDumpSettings;
+  Fields<Dump>::each(TableReader<Dump>{r, a.momentum_dump, "actuators.momentum_dump."});
+  const Record* h = r.numeric("actuators.wheel_momentum", m, 1, true, m == 0);
+  a.wheel_momentum = m == 0 ? Eigen::VectorXd() : Eigen::VectorXd(h->values.col(0));
+  using Settings = actuators::ActuationSettings;
+  Fields<Settings>::each(TableReader<Settings>{r, a.settings, "actuators."});
+  r.validated_field("actuators.* (ActuationSettings)", "actuators.", [&] {
+    a.momentum_dump.validate();
+    a.settings.modulation.validate();
+    a.settings.allocation.validate();
+  });
+  if (a.settings.modulation.period != dt)
+    r.fail(r.line_of("actuators.modulation.period"),
+           "actuators.modulation.period: must equal mpc.dt = " + format_double(dt) + " s, got " +
+               format_double(a.settings.modulation.period));
+  // Everything ActuationSystem's construction checks (sizes, momenta within limits, minimum on-times
+  // within the period, the settings), against the file.
+  r.validated("actuators.* (ActuationSystem)", [&] {
+    actuators::ReactionWheels wheels(a.wheels, a.momentum_dump);
+    wheels.set_momentum(a.wheel_momentum);
+    const actuators::ActuationSystem system(actuators::ThrusterCluster(a.thrusters), wheels, a.settings);
+  });
+}
+
+void write_navigation(Writer& w, const NavigationScenario& n) {
+  w.scalar("navigation.enabled", n.enabled ? 1.0 : 0.0);
+  if (!n.enabled) return;
+  using Settings = nav::NavigationSettings;
+  Fields<Settings>::each(TableWriter<Settings>{w, n.settings, "navigation."});
+  Eigen::MatrixXd L(static_cast<Eigen::Index>(n.landmarks.size()), kLandmarkColumns);
+  for (Eigen::Index i = 0; i < L.rows(); ++i) {
+    const nav::Landmark& l = n.landmarks[static_cast<std::size_t>(i)];
+    L.row(i) << l.p_A.transpose(), l.normal_A.transpose(), static_cast<double>(l.face);
+  }
+  w.matrix("navigation.landmarks", L);
+  w.scalar("navigation.seed", static_cast<double>(n.seed));
+  w.scalar("navigation.error_set_scale", n.error_set_scale);
+}
+
+void write_actuators(Writer& w, const ActuatorScenario& a) {
+  w.scalar("actuators.enabled", a.enabled ? 1.0 : 0.0);
+  if (!a.enabled) return;
+  w.scalar("actuators.thrusters", static_cast<double>(a.thrusters.size()));
+  w.scalar("actuators.wheels", static_cast<double>(a.wheels.size()));
+  for (std::size_t i = 0; i < a.thrusters.size(); ++i) {
+    Fields<actuators::ThrusterSpec>::each(TableWriter<actuators::ThrusterSpec>{
+        w, a.thrusters[i], "actuators.thrusters[" + std::to_string(i) + "]."});
+  }
+  for (std::size_t j = 0; j < a.wheels.size(); ++j) {
+    Fields<actuators::ReactionWheelSpec>::each(TableWriter<actuators::ReactionWheelSpec>{
+        w, a.wheels[j], "actuators.wheels[" + std::to_string(j) + "]."});
+  }
+  using Dump = actuators::MomentumDumpSettings;
+  Fields<Dump>::each(TableWriter<Dump>{w, a.momentum_dump, "actuators.momentum_dump."});
+  w.matrix("actuators.wheel_momentum",
+           a.wheels.empty() ? Eigen::MatrixXd(0, 0) : Eigen::MatrixXd(a.wheel_momentum));
+  using Settings = actuators::ActuationSettings;
+  Fields<Settings>::each(TableWriter<Settings>{w, a.settings, "actuators."});
+}
 
 // The records `prefix<name>` of the fields of a struct described by for_each_field (core::FieldInfo).
 template <typename S>
@@ -556,6 +981,10 @@ ScenarioFile read_scenario(const std::string& path) {
     s.has_controller = true;
     control::ControllerSettings& c = s.controller;
     r.option("controller.measured_input", c.measured_input, true);
+    if (r.version() >= 4) {
+      c.actuation_error[0] = r.matrix("controller.actuation_error_p", 3, 3);
+      c.actuation_error[1] = r.matrix("controller.actuation_error_r", 3, 3);
+    }
     using Identifier = control::IdentifierSettings;
     Identifier::for_each_field(FieldReader<Identifier>{r, c.identification_p, "identification_p."});
     Identifier::for_each_field(FieldReader<Identifier>{r, c.identification_r, "identification_r."});
@@ -572,6 +1001,10 @@ ScenarioFile read_scenario(const std::string& path) {
   }
   s.x0 = r.vector<dynamics::kNx>("mission.x0");
   s.xf = r.vector<dynamics::kNx>("mission.xf");
+  if (r.version() >= 4) {
+    read_navigation(r, s.settings.dt, s.navigation);
+    read_actuators(r, s.settings.dt, s.actuators);
+  }
   r.check_all_used();
   return s;
 }
@@ -586,6 +1019,14 @@ void write_scenario(const std::string& path, const ScenarioFile& s, const std::s
   if (!s.has_controller)
     throw std::invalid_argument(
         "write_scenario: the scenario carries no controller (has_controller is false)");
+
+  if (s.navigation.enabled && s.navigation.landmarks.empty())
+    throw std::invalid_argument("write_scenario: navigation.landmarks: the catalogue is empty");
+  if (s.navigation.enabled && static_cast<double>(s.navigation.seed) > kMaxExactInteger)
+    throw std::invalid_argument("write_scenario: navigation.seed: must be at most 2^53");
+  if (s.actuators.enabled &&
+      s.actuators.wheel_momentum.size() != static_cast<Eigen::Index>(s.actuators.wheels.size()))
+    throw std::invalid_argument("write_scenario: actuators.wheel_momentum: one momentum per wheel is needed");
 
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) throw std::runtime_error(path + ": cannot open for writing (" + std::strerror(errno) + ")");
@@ -608,6 +1049,8 @@ void write_scenario(const std::string& path, const ScenarioFile& s, const std::s
   w.matrix("reference.u", s.reference.u.transpose());
   const control::ControllerSettings& c = s.controller;
   w.text("controller.measured_input", option_name(c.measured_input));
+  w.matrix("controller.actuation_error_p", c.actuation_error[0]);
+  w.matrix("controller.actuation_error_r", c.actuation_error[1]);
   using Identifier = control::IdentifierSettings;
   Identifier::for_each_field(FieldWriter<Identifier>{w, c.identification_p, "identification_p."});
   Identifier::for_each_field(FieldWriter<Identifier>{w, c.identification_r, "identification_r."});
@@ -621,6 +1064,8 @@ void write_scenario(const std::string& path, const ScenarioFile& s, const std::s
   write_library(w, "library_r.", s.ffa_designs.library_r);
   w.matrix("mission.x0", s.x0);
   w.matrix("mission.xf", s.xf);
+  write_navigation(w, s.navigation);
+  write_actuators(w, s.actuators);
   out.close();
   if (!out) throw std::runtime_error(path + ": write failed (" + std::strerror(errno) + ")");
 }

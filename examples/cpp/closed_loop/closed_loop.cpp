@@ -9,11 +9,20 @@
 // --disturbance gives a file of T rows of 12 values, e.g. a Python run's w_true) and the truth
 // continues from state_to_truth(x_{k+1}).
 //
+// When the scenario file carries navigation (records navigation.*), the controller flies on the
+// estimate of nav::NavigationSystem, as tubempc.closed_loop does with [navigation]: the truth is
+// propagated in sub-steps of the IMU's period, each sub-step's end (the last one after w_k) and its
+// non-gravitational acceleration (the delivered u_p plus the truth's SRP) handed to
+// NavigationSystem::step, and the controller's constraints are tightened by the estimation-error set
+// c P_x (Controller::set_estimation_error). When it carries actuators (records actuators.*), each
+// command goes through actuators::ActuationSystem (allocation, pulse modulation, the truth's thruster
+// errors and faults, the wheels) and the plant receives the delivered input.
+//
 // Prints per method the summary of `tubempc run` (J_p, J_r, terminal error, steps outside the tube,
 // tube statuses, fallbacks), per-step wall times (median, p99, max) of the controller step and its
 // parts, and the heap allocations made after setup (counted by interposing malloc and operator new,
-// glibc only, not with sanitizers). Exit status: 0 success, 1 an allocation inside a controller step,
-// 2 bad arguments or input, 3 a failed truth propagation.
+// glibc only, not with sanitizers). Exit status: 0 success, 1 an allocation inside a controller,
+// navigation or actuation step, 2 bad arguments or input, 3 a failed truth propagation.
 //
 //   closed_loop SCENARIO_FILE [--method tbmpc|ffa|both] [--disturbance W.txt] [--json OUT.json]
 #include <algorithm>
@@ -30,6 +39,7 @@
 #include <string>
 #include <vector>
 
+#include "tubempc/actuators/system.hpp"
 #include "tubempc/control/controller.hpp"
 #include "tubempc/core/build_info.hpp"
 #include "tubempc/dynamics/linearized_proximity.hpp"
@@ -40,6 +50,8 @@
 #include "tubempc/io/scenario.hpp"
 #include "tubempc/math/so3.hpp"
 #include "tubempc/mpc/tube_mpc.hpp"
+#include "tubempc/nav/ray_caster.hpp"
+#include "tubempc/nav/system.hpp"
 
 // ---- allocation counter ------------------------------------------------------------------------
 // Every malloc-family call and every operator new/delete inside an AllocationWindow is counted
@@ -129,8 +141,14 @@ struct Flight {
   double max_excursion[2] = {0.0, 0.0};
   double setup_s = 0.0;
   long allocations_controller = 0, allocations_truth = 0;
+  long allocations_navigation = 0, allocations_actuation = 0;  // with navigation / actuators
   std::map<std::string, int> statuses, tube_statuses;
+  std::map<std::string, int> navigation_statuses, actuation_statuses;  // with navigation / actuators
   std::vector<double> time_controller, time_identify, time_tube, time_mpc;
+  std::vector<double> time_navigation, time_actuation;  // per step, with navigation / actuators (s)
+  double delta_v = 0.0, propellant = 0.0;               // actuators' totals (m/s, kg)
+  long pulses = 0;
+  double nav_error_position = 0.0;  // |r_L - r^_L| at the end (m), with navigation
   int exit_code = 0;
 };
 
@@ -141,9 +159,22 @@ double excursion(const Eigen::MatrixXd& Pe, const dynamics::StateVector& x, cons
   return e.dot(P.ldlt().solve(e));
 }
 
+// The ray casters of the navigation's sensors (on the truth's shape) and filter (on the controller's).
+struct Casters {
+  std::shared_ptr<const nav::RayCaster> sensor, filter;
+};
+
+// The truth's non-gravitational acceleration besides the input: its SRP in L (M1), as
+// tubempc.navigation.srp_acceleration.
+Eigen::Vector3d srp_acceleration(const dynamics::ModelParams& p) {
+  const double a = p.srp_enabled ? p.beta_srp / std::pow(p.orbit_radius, 2.0) : 0.0;
+  return {a, 0.0, 0.0};
+}
+
 Flight fly(const io::ScenarioFile& scn, control::Method method,
            const std::shared_ptr<const dynamics::ProximityModel>& model,
-           const dynamics::ProximityModel& truth, const Eigen::MatrixXd& disturbance) {
+           const dynamics::ProximityModel& truth, const Casters& casters,
+           const Eigen::MatrixXd& disturbance) {
   Flight f;
   f.method = control::to_string(method);
   const auto t_setup = Clock::now();
@@ -157,18 +188,57 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
   const double dt = scn.settings.dt;
   for (auto* v : {&f.time_controller, &f.time_identify, &f.time_tube, &f.time_mpc})
     v->resize(static_cast<std::size_t>(T));
-  f.setup_s = std::chrono::duration<double>(Clock::now() - t_setup).count();
   dynamics::StateVector x = scn.x0;
   dynamics::TruthState state = dynamics::state_to_truth(x);
   Eigen::VectorXd z1(dynamics::kNx);
   Eigen::MatrixXd Pe(dynamics::kNx, dynamics::kNx);
+
+  // Navigation: the system of the run, the period's truth samples and the estimation-error set.
+  const io::NavigationScenario& ns = scn.navigation;
+  std::unique_ptr<nav::NavigationSystem> navigation;
+  dynamics::StateVector x_hat = x;  // the state the controller is given
+  Eigen::MatrixXd P_est(dynamics::kNx, dynamics::kNx);
+  int n_sub = 1;
+  double h = dt;
+  Eigen::VectorXd t_sample;
+  Eigen::Matrix<double, Eigen::Dynamic, dynamics::kNtruth, Eigen::RowMajor> truth_sample;
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> accel_sample;
+  const Eigen::Vector3d srp_L = srp_acceleration(scn.truth.params);
+  if (ns.enabled) {
+    navigation = std::make_unique<nav::NavigationSystem>(model, casters.sensor, casters.filter, ns.landmarks,
+                                                         ns.settings, ns.seed);
+    h = navigation->base_period();
+    n_sub = static_cast<int>(std::lround(dt / h));
+    t_sample.resize(n_sub);
+    truth_sample.resize(n_sub, dynamics::kNtruth);
+    accel_sample.resize(n_sub, 3);
+    f.time_navigation.resize(static_cast<std::size_t>(T));
+    const nav::NavigationStep& est =
+        navigation->initialize(scn.reference.t0, state, srp_L, scn.reference.z.col(0).segment<3>(6));
+    ++f.navigation_statuses[nav::to_string(est.status)];
+    x_hat = est.x_hat;
+    P_est.noalias() = ns.error_set_scale * est.P_x;
+    controller.set_estimation_error(P_est);  // the first call sizes the controller's storage
+  }
+  // Actuators: the run's actuation system (the truth's thrusters, the wheels at their initial momenta).
+  const io::ActuatorScenario& as = scn.actuators;
+  std::unique_ptr<actuators::ActuationSystem> actuation;
+  if (as.enabled) {
+    actuators::ReactionWheels wheels(as.wheels, as.momentum_dump);
+    wheels.set_momentum(as.wheel_momentum);
+    actuation = std::make_unique<actuators::ActuationSystem>(actuators::ThrusterCluster(as.thrusters), wheels,
+                                                             as.settings);
+    f.time_actuation.resize(static_cast<std::size_t>(T));
+  }
+  f.setup_s = std::chrono::duration<double>(Clock::now() - t_setup).count();
   for (int k = 0; k < T; ++k) {
     const double t_k = scn.reference.t0 + k * dt;
     dynamics::InputVector u;
     const control::ControlStep* step = nullptr;
     {
       AllocationWindow window;
-      step = &controller.step(k, x);
+      if (navigation) controller.set_estimation_error(P_est);
+      step = &controller.step(k, x_hat);
       f.allocations_controller += window.count();
     }
     // the bookkeeping (strings, maps) is outside the counted window
@@ -191,13 +261,40 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
     const dynamics::StateVector e = x - scn.reference.z.col(k);
     f.J_p += e.head<6>().squaredNorm() + u.head<3>().squaredNorm();
     f.J_r += e.tail<6>().squaredNorm() + u.tail<3>().squaredNorm();
+    dynamics::InputVector u_applied = u;
+    if (actuation) {
+      const actuators::ActuationStep* a = nullptr;
+      const auto t_act = Clock::now();
+      {
+        AllocationWindow window;
+        const Eigen::Matrix3d C_BL = math::rotation_matrix(state.segment<4>(6)).transpose();
+        a = &actuation->step(t_k, u, C_BL);
+        u_applied = a->u_delivered;
+        f.allocations_actuation += window.count();
+      }
+      f.time_actuation[i] = std::chrono::duration<double>(Clock::now() - t_act).count();
+      ++f.actuation_statuses[actuators::to_string(a->status)];
+    }
     dynamics::PropagationResult p;
     {
       AllocationWindow window;
-      p = dynamics::propagate(truth, t_k, state, u, dt, {}, scn.propagator);
-      x = dynamics::truth_to_state(p.state, scn.reference.z.col(k + 1).segment<3>(6));
-      if (disturbance.size() > 0) x += disturbance.col(k);
-      state = dynamics::state_to_truth(x);
+      // with navigation: n_sub sub-steps of h, each one's end a sample of the sensors (tubempc.navigation.propagate_sampled)
+      for (int j = 0; j < n_sub; ++j) {
+        p = navigation ? dynamics::propagate(truth, t_k + j * h, state, u_applied, h, {}, scn.propagator)
+                       : dynamics::propagate(truth, t_k, state, u_applied, dt, {}, scn.propagator);
+        if (p.status != dynamics::PropagationStatus::Success) break;
+        state = p.state;
+        if (navigation) {
+          t_sample(j) = t_k + (j + 1) * h;
+          truth_sample.row(j) = state.transpose();
+          accel_sample.row(j) = (u_applied.head<3>() + srp_L).transpose();
+        }
+      }
+      if (p.status == dynamics::PropagationStatus::Success) {
+        x = dynamics::truth_to_state(state, scn.reference.z.col(k + 1).segment<3>(6));
+        if (disturbance.size() > 0) x += disturbance.col(k);
+        state = dynamics::state_to_truth(x);
+      }
       f.allocations_truth += window.count();
     }
     if (p.status != dynamics::PropagationStatus::Success) {
@@ -206,9 +303,27 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
       f.exit_code = 3;
       return f;
     }
+    if (navigation) {
+      truth_sample.row(n_sub - 1) = state.transpose();  // the last sample is after the disturbance
+      const nav::NavigationStep* est = nullptr;
+      const auto t_nav = Clock::now();
+      {
+        AllocationWindow window;
+        est =
+            &navigation->step(t_sample, truth_sample, accel_sample, scn.reference.z.col(k + 1).segment<3>(6));
+        x_hat = est->x_hat;
+        P_est.noalias() = ns.error_set_scale * est->P_x;
+        f.allocations_navigation += window.count();
+      }
+      f.time_navigation[i] = std::chrono::duration<double>(Clock::now() - t_nav).count();
+      ++f.navigation_statuses[nav::to_string(est->status)];
+    } else {
+      x_hat = x;
+    }
+    // the excursion of the state the controller flies (with navigation: the estimate, in the certified tube)
     bool outside = false;
     for (int s = 0; s < 2; ++s) {
-      const double ex = excursion(Pe, x, z1, s);
+      const double ex = excursion(Pe, x_hat, z1, s);
       f.max_excursion[s] = std::max(f.max_excursion[s], ex);
       outside = outside || ex > 1.0 + 1e-9;
     }
@@ -216,6 +331,12 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
   }
   const dynamics::StateVector& xf = scn.xf;
   f.x_final = x;
+  f.nav_error_position = (x.head<3>() - x_hat.head<3>()).norm();
+  if (actuation) {
+    f.delta_v = actuation->totals().delta_v;
+    f.propellant = actuation->totals().propellant;
+    f.pulses = actuation->totals().pulses;
+  }
   f.error_position = (x.segment<3>(0) - xf.segment<3>(0)).norm();
   f.error_velocity = (x.segment<3>(3) - xf.segment<3>(3)).norm();
   f.error_attitude =  // angle of the rotation from the target attitude to the final one (rad)
@@ -242,13 +363,30 @@ void print_flight(const Flight& f) {
     const Stats st = stats(*v);
     std::printf("       %-28s %10.3f %10.3f %10.3f\n", name, 1e3 * st.median, 1e3 * st.p99, 1e3 * st.max);
   }
+  for (const auto& [name, v] :
+       {std::pair{"navigation", &f.time_navigation}, std::pair{"actuation", &f.time_actuation}}) {
+    if (v->empty()) continue;
+    const Stats st = stats(*v);
+    std::printf("       %-28s %10.3f %10.3f %10.3f\n", name, 1e3 * st.median, 1e3 * st.p99, 1e3 * st.max);
+  }
   std::printf("       statuses:");
   for (const auto& [name, n] : f.statuses) std::printf(" %s %d", name.c_str(), n);
   std::printf("; tube statuses:");
   for (const auto& [name, n] : f.tube_statuses) std::printf(" %s %d", name.c_str(), n);
+  if (!f.navigation_statuses.empty()) {
+    std::printf("\n       navigation (final |r - r^| %.3g m):", f.nav_error_position);
+    for (const auto& [name, n] : f.navigation_statuses) std::printf(" %s %d", name.c_str(), n);
+  }
+  if (!f.actuation_statuses.empty()) {
+    std::printf("\n       actuation (delta-v %.4g m/s, propellant %.4g kg, %ld pulses):", f.delta_v,
+                f.propellant, f.pulses);
+    for (const auto& [name, n] : f.actuation_statuses) std::printf(" %s %d", name.c_str(), n);
+  }
   if (tubempc::core::kAllocationCounterEnabled)
-    std::printf("\n       heap allocations after setup: controller step %ld, truth propagation %ld\n",
-                f.allocations_controller, f.allocations_truth);
+    std::printf(
+        "\n       heap allocations after setup: controller step %ld, navigation %ld, actuation %ld, truth "
+        "propagation %ld\n",
+        f.allocations_controller, f.allocations_navigation, f.allocations_actuation, f.allocations_truth);
   else
     std::printf("\n       heap allocations: not counted (needs glibc and no sanitizer)\n");
 }
@@ -277,13 +415,20 @@ void write_flight(std::FILE* out, const Flight& f, bool last) {
   std::fprintf(out, "      \"setup_s\": %.17g,\n", f.setup_s);
   std::fprintf(out, "      \"allocations_controller\": %ld,\n      \"allocations_truth\": %ld,\n",
                f.allocations_controller, f.allocations_truth);
+  std::fprintf(out, "      \"allocations_navigation\": %ld,\n      \"allocations_actuation\": %ld,\n",
+               f.allocations_navigation, f.allocations_actuation);
+  std::fprintf(out, "      \"delta_v\": %.17g,\n      \"propellant\": %.17g,\n      \"pulses\": %ld,\n",
+               f.delta_v, f.propellant, f.pulses);
   write_counts(out, "statuses", f.statuses);
   write_counts(out, "tube_statuses", f.tube_statuses);
+  write_counts(out, "navigation_statuses", f.navigation_statuses);
+  write_counts(out, "actuation_statuses", f.actuation_statuses);
   std::fprintf(out, "  ");
   write_array(out, "final_state", f.x_final.data(), dynamics::kNx);
   for (const auto& [name, v] :
        {std::pair{"time_controller_s", &f.time_controller}, std::pair{"time_identify_s", &f.time_identify},
-        std::pair{"time_tube_s", &f.time_tube}}) {
+        std::pair{"time_tube_s", &f.time_tube}, std::pair{"time_navigation_s", &f.time_navigation},
+        std::pair{"time_actuation_s", &f.time_actuation}}) {
     std::fprintf(out, "  ");
     write_array(out, name, v->data(), v->size());
   }
@@ -316,6 +461,7 @@ int main(int argc, char** argv) {
   io::ScenarioFile scn;
   std::shared_ptr<const dynamics::ProximityModel> model;
   std::shared_ptr<const dynamics::ProximityModel> truth;
+  Casters casters;
   Eigen::MatrixXd disturbance;
   try {
     scn = io::read_scenario(scenario_path);
@@ -326,14 +472,23 @@ int main(int argc, char** argv) {
     const std::string shape_file = scn.resolve(scn.model.shape);
     gravity::Shape shape = gravity::load_shape(shape_file, scn.model.shape_unit_scale);
     const std::string truth_file = scn.resolve(scn.truth.shape);
+    const bool same_shape =
+        truth_file == shape_file && scn.truth.shape_unit_scale == scn.model.shape_unit_scale;
     gravity::Shape truth_shape =
-        truth_file == shape_file && scn.truth.shape_unit_scale == scn.model.shape_unit_scale
-            ? shape
-            : gravity::load_shape(truth_file, scn.truth.shape_unit_scale);
+        same_shape ? shape : gravity::load_shape(truth_file, scn.truth.shape_unit_scale);
     std::printf("tubempc %s: %s (T = %d steps of %g s, N = %d); shape %s: %ld faces\n",
                 core::build_info().version.c_str(), scenario_path.c_str(), scn.mission_steps(),
                 scn.settings.dt, scn.settings.horizon, shape_file.c_str(),
                 static_cast<long>(shape.n_faces()));
+    if (scn.navigation.enabled) {  // the filter ray-casts the controller's shape, the sensors the truth's
+      casters.filter = std::make_shared<nav::RayCaster>(shape);
+      casters.sensor = same_shape ? casters.filter : std::make_shared<nav::RayCaster>(truth_shape);
+      std::printf("navigation: %zu landmarks, IMU period %g s, seed %llu\n", scn.navigation.landmarks.size(),
+                  scn.navigation.settings.imu.period, static_cast<unsigned long long>(scn.navigation.seed));
+    }
+    if (scn.actuators.enabled)
+      std::printf("actuators: %zu thrusters, %zu wheels, mass %g kg\n", scn.actuators.thrusters.size(),
+                  scn.actuators.wheels.size(), scn.actuators.settings.mass);
     model = std::make_shared<dynamics::ProximityModel>(
         std::make_shared<gravity::PolyhedronGravity>(std::move(shape), scn.model.density), scn.model.params);
     truth = std::make_shared<dynamics::ProximityModel>(
@@ -361,7 +516,7 @@ int main(int argc, char** argv) {
   for (const control::Method m : {control::Method::Tbmpc, control::Method::Ffa}) {
     if (method_arg != "both" && method_arg != control::to_string(m)) continue;
     try {
-      flights.push_back(fly(scn, m, model, *truth, disturbance));
+      flights.push_back(fly(scn, m, model, *truth, casters, disturbance));
     } catch (const std::exception& e) {
       std::fprintf(stderr, "error: %s: %s\n", control::to_string(m), e.what());
       return 2;
@@ -387,9 +542,10 @@ int main(int argc, char** argv) {
     std::fclose(f);
   }
   for (const Flight& fl : flights) {
-    if (fl.allocations_controller > 0) {
-      std::fprintf(stderr, "error: %s: the controller step allocated %ld times after setup\n",
-                   fl.method.c_str(), fl.allocations_controller);
+    if (fl.allocations_controller > 0 || fl.allocations_navigation > 0 || fl.allocations_actuation > 0) {
+      std::fprintf(
+          stderr, "error: %s: allocations after setup: controller step %ld, navigation %ld, actuation %ld\n",
+          fl.method.c_str(), fl.allocations_controller, fl.allocations_navigation, fl.allocations_actuation);
       return 1;
     }
   }

@@ -2,9 +2,11 @@
 flown with TBMPC-FFA by the C++ example (``examples/cpp/closed_loop``, the core embedded through CMake)
 and by the same loop written in Python over the bindings (``_core.control.Controller.step`` and the
 truth propagation ``_core.dynamics.ProximityModel.propagate``, same settings, no disturbance, no
-background designs). Both read the one scenario file, so they fly the same mission with the same code;
-the per-step times show what the bindings add (argument conversion, the result copy, the GIL) and
-should otherwise match within the machine's noise. The two loops run alternately ``--repeats`` times.
+background designs; with navigation in the scenario, ``_core.nav.NavigationSystem`` on IMU sub-steps and
+the controller on its estimate; with actuators, ``_core.actuators.ActuationSystem``). Both read the one
+scenario file, so they fly the same mission with the same code (the final states agree to the bit); the
+per-step times show what the bindings add (argument conversion, the result copy, the GIL) and should
+otherwise match within the machine's noise. The two loops run alternately ``--repeats`` times.
 """
 
 from __future__ import annotations
@@ -27,7 +29,12 @@ _EXAMPLE = Path("examples") / "cpp" / "closed_loop" / "closed_loop"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--config", help="scenario TOML (default: the packaged paper scenario)")
+    source = parser.add_mutually_exclusive_group()
+    source.add_argument("--config", help="scenario TOML (default: the packaged paper scenario)")
+    source.add_argument("--scenario", help="a packaged scenario by name (e.g. bennu-tag-nav)")
+    parser.add_argument(
+        "--seed", type=int, help="the run whose navigation and actuators are exported (default: the config's)"
+    )
     parser.add_argument(
         "--example",
         type=Path,
@@ -60,52 +67,103 @@ def find_example(explicit: Path | None) -> Path:
     return found[-1]
 
 
+def _navigation(s: Any, controller_model: Any, shapes: tuple[Any, ...], same_shape: bool) -> Any:
+    """The scenario's NavigationSystem (None without navigation): the filter ray-casts the controller's
+    shape, the sensors the truth's."""
+    if not s.navigation.enabled:
+        return None
+    filter_caster = _core.nav.RayCaster(shapes[0])
+    sensor_caster = filter_caster if same_shape else _core.nav.RayCaster(shapes[1])
+    n = s.navigation
+    return _core.nav.NavigationSystem(controller_model, sensor_caster, filter_caster, n.landmarks, n.settings, n.seed)
+
+
+def _actuation(s: Any) -> Any:
+    """The scenario's ActuationSystem (None: ideal actuators)."""
+    a = s.actuators
+    if not a.enabled:
+        return None
+    wheels = _core.actuators.ReactionWheels(a.wheels, a.momentum_dump)
+    wheels.set_momentum(a.wheel_momentum)
+    return _core.actuators.ActuationSystem(_core.actuators.ThrusterCluster(a.thrusters), wheels, a.settings)
+
+
 def python_loop(scenario_path: str | Path) -> dict[str, Any]:
     """The loop of ``examples/cpp/closed_loop`` (TBMPC-FFA) written over the bindings; times in s per step:
     the controller's own split and the wall time of the call through the bindings."""
-    s = _core.io.read_scenario(str(scenario_path))
+    from ..navigation import srp_acceleration
 
-    def model(body: Any) -> Any:
-        shape = _core.gravity.load_shape(s.resolve(body.shape), body.shape_unit_scale)
+    s = _core.io.read_scenario(str(scenario_path))
+    files = [(s.resolve(b.shape), b.shape_unit_scale) for b in (s.model, s.truth)]
+    shapes = tuple(_core.gravity.load_shape(*f) for f in files)
+
+    def model(body: Any, shape: Any) -> Any:
         return _core.dynamics.ProximityModel(_core.gravity.PolyhedronGravity(shape, body.density), body.params)
 
-    controller_model, truth = model(s.model), model(s.truth)
+    controller_model, truth = model(s.model, shapes[0]), model(s.truth, shapes[1])
     t_setup = time.perf_counter()
     settings = s.controller
     settings.method = _core.control.Method.Ffa
     ctrl = _core.control.Controller(_core.mpc.LinearizedProximityModel(controller_model), s.settings, settings)
     ctrl.setup(s.reference, s.ffa_designs)
-    setup_s = time.perf_counter() - t_setup
     T, dt, t0 = s.mission_steps, s.settings.dt, s.reference.t0
     p, zbar = s.propagator, np.asarray(s.reference.z)
     no_disturbance = np.zeros(6)
     x = np.asarray(s.x0, dtype=np.float64)
     state = _core.dynamics.state_to_truth(x)
+    nav = _navigation(s, controller_model, shapes, files[0] == files[1])
+    actuation = _actuation(s)
+    x_hat, h, n_sub, E = x, dt, 1, None
+    srp_L = srp_acceleration(truth)
+    if nav is not None:  # the IMU's sub-steps and the controller on the estimate (tubempc.closed_loop)
+        h = nav.base_period
+        n_sub = round(dt / h)
+    samples = (np.zeros(n_sub), np.zeros((n_sub, 13)), np.zeros((n_sub, 3)))  # t, truth, accel_nongrav_L
+    if nav is not None:
+        est = nav.initialize(t0, state, srp_L, zbar[6:9, 0])
+        x_hat, E = np.asarray(est.x_hat), s.navigation.error_set_scale * np.asarray(est.P_x)
+    setup_s = time.perf_counter() - t_setup
     time_call, time_controller, time_mpc = np.zeros(T), np.zeros(T), np.zeros(T)
     statuses: dict[str, int] = {}
     scp = 0
     for k in range(T):
+        t_k = t0 + k * dt
         a = time.perf_counter()
-        r = ctrl.step(k, x)
+        if E is not None:
+            ctrl.set_estimation_error(E)
+        r = ctrl.step(k, x_hat)
         time_call[k] = time.perf_counter() - a
-        prop = truth.propagate(
-            t0 + k * dt,
-            state,
-            r.u,
-            dt,
-            p.method,
-            p.substeps,
-            p.rtol,
-            p.atol,
-            p.max_steps,
-            p.initial_step,
-            no_disturbance,
-            None,
-        )
-        x = _core.dynamics.truth_to_state(prop.state, zbar[6:9, k + 1])
+        u = np.asarray(r.u)
+        if actuation is not None:
+            C_BL = np.asarray(_core.so3.rotation_matrix(state[6:10])).T
+            u = np.asarray(actuation.step(t_k, u, C_BL).u_delivered)
+        for j in range(n_sub):
+            prop = truth.propagate(
+                t_k + j * h if nav is not None else t_k,
+                state,
+                u,
+                h,
+                p.method,
+                p.substeps,
+                p.rtol,
+                p.atol,
+                p.max_steps,
+                p.initial_step,
+                no_disturbance,
+                None,
+            )
+            if prop.status != _core.dynamics.PropagationStatus.Success:
+                raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
+            state = np.asarray(prop.state)
+            if nav is not None:
+                samples[0][j], samples[1][j], samples[2][j] = t_k + (j + 1) * h, state, u[:3] + srp_L
+        x = _core.dynamics.truth_to_state(state, zbar[6:9, k + 1])
         state = _core.dynamics.state_to_truth(x)
-        if prop.status != _core.dynamics.PropagationStatus.Success:
-            raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
+        x_hat = x
+        if nav is not None:
+            samples[1][-1] = state  # the last sample is after the (here zero) disturbance
+            est = nav.step(*samples, zbar[6:9, k + 1])
+            x_hat, E = np.asarray(est.x_hat), s.navigation.error_set_scale * np.asarray(est.P_x)
         time_controller[k], time_mpc[k] = r.timings.total, r.timings.mpc
         statuses[str(r.mpc.status)] = statuses.get(str(r.mpc.status), 0) + 1
         scp += r.mpc.scp_iterations
@@ -152,8 +210,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"machine: {info['cpu']} ({info['cores']} cores), Python {info['python']}")
     example = find_example(args.example)
     out: Path = args.out
-    cfg = load_config(args.config)
-    scenario = export_scenario(cfg, out / "scenario", cache_dir=args.cache_dir or out / "cache")
+    cfg = load_config(args.config, scenario=args.scenario)
+    scenario = export_scenario(cfg, out / "scenario", cache_dir=args.cache_dir or out / "cache", seed=args.seed)
     print(f"scenario: {scenario}; example: {example}")
     runs: list[dict[str, Any]] = []
     for i in range(args.repeats):
@@ -170,7 +228,15 @@ def run(args: argparse.Namespace) -> int:
                     "controller": _stats(r["time_controller_s"]),
                     "mpc": _stats(r["time_mpc_s"]),
                     **(
-                        {"allocations_controller": r["allocations_controller"], "allocations_truth": r["allocations_truth"]}
+                        {
+                            key: r[key]
+                            for key in (
+                                "allocations_controller",
+                                "allocations_navigation",
+                                "allocations_actuation",
+                                "allocations_truth",
+                            )
+                        }
                         if loop == "cpp"
                         else {}
                     ),
@@ -203,8 +269,12 @@ def run(args: argparse.Namespace) -> int:
         f"Python / C++ = {ratio:.3f}"
     )
     print(f"largest difference between the runs' final states: {spread:.3g} (0: every run flew the same trajectory)")
-    allocations = [r["allocations_controller"] for r in runs if r["loop"] == "cpp"]
-    print(f"C++ example: heap allocations in the controller step after setup: {max(allocations)}")
+    cpp_runs = [r for r in runs if r["loop"] == "cpp"]
+    worst = {k: max(r[f"allocations_{k}"] for r in cpp_runs) for k in ("controller", "navigation", "actuation")}
+    print(
+        f"C++ example: heap allocations after setup: controller step {worst['controller']}, navigation "
+        f"{worst['navigation']}, actuation {worst['actuation']}"
+    )
     result = {
         "machine": info,
         "config": str(out / "scenario" / "config.toml"),

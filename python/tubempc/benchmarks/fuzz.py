@@ -1,9 +1,9 @@
-"""Fuzzing of the shape loaders and the config reader (``tubempc.fuzz``): N mutated inputs of every
-format (OBJ, PDS v/f table, ICQ, PLY, STL, scenario TOML), each read in a worker process with a time
-limit and classified as rejected (a clean error naming the file), accepted (a mesh the independent
-check finds valid), broken mesh accepted, error without the file, crash or hang. Prints the table and
-writes it with examples of every non-clean outcome to OUT/fuzz.json. Exit code 1 when any input is
-neither rejected cleanly nor accepted valid.
+"""Fuzzing of the shape loaders, the config reader and the scenario-file reader (``tubempc.fuzz``): N
+mutated inputs of every format (OBJ, PDS v/f table, ICQ, PLY, STL, scenario TOML, C++ scenario file),
+each read in a worker process with a time limit and classified as rejected (a clean error naming the
+file), accepted (a mesh the independent check finds valid), broken mesh accepted, error without the
+file, crash or hang. Prints the table and writes it with examples of every non-clean outcome to
+OUT/fuzz.json. Exit code 1 when any input is neither rejected cleanly nor accepted valid.
 """
 
 from __future__ import annotations
@@ -15,7 +15,10 @@ from pathlib import Path
 
 from ..machine import machine_info
 
-DESCRIPTION = "fuzz the shape loaders and the config reader: crashes, hangs, errors without a file, broken meshes"
+DESCRIPTION = (
+    "fuzz the shape loaders, the config reader and the scenario-file reader: crashes, hangs, errors without a "
+    "file, broken meshes"
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -95,6 +95,63 @@ ScenarioFile sample(int T) {
   s.x0 = filled(12, 1, 4.0, 1.0);
   s.x0(0) = -0.0;
   s.xf = filled(12, 1, 5.0, 1e-300);
+  // version 4: the actuation-error sets, the navigation and the actuators, none at their defaults
+  s.controller.actuation_error[0] = Eigen::Vector3d(1e-6, 2e-6, 1.0 / 3.0 * 1e-6).asDiagonal();
+  s.controller.actuation_error[1] = Eigen::Vector3d(0.1, 0.2, 1.0 / 3.0).asDiagonal();
+  tubempc::io::NavigationScenario& n = s.navigation;
+  n.enabled = true;
+  n.settings.altimeter.sigma = 1.0 / 3.0;
+  n.settings.camera.C_BC << 0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 1.0;
+  n.settings.camera.pixel_bias = Eigen::Vector2d(0.25, -1.0 / 7.0);
+  n.settings.camera.width_px = 640;
+  n.settings.imu.gyro_bias_sigma = 3e-6;
+  n.settings.star_tracker.misalignment_B = Eigen::Vector3d(1e-5, -2e-5, 1.0 / 3.0 * 1e-5);
+  n.settings.filter.camera.focal_length_px = 1000.0 / 3.0;
+  n.settings.filter.innovation_gate = std::numeric_limits<double>::infinity();  // inf: no gate
+  n.settings.filter.split = true;
+  n.settings.filter.max_substeps = 9;
+  n.settings.filter.gravity_relinearization_distance = 2.5;
+  n.settings.filter.covariance_step = 1.0 / 3.0;
+  n.settings.initial_sigma = filled(9, 1, 3.0, 1.0).cwiseAbs();
+  n.settings.period_noise_sigma = filled(9, 1, 13.0, 1e-3).cwiseAbs();
+  n.settings.max_samples = 40;
+  n.landmarks.resize(3);
+  for (int i = 0; i < 3; ++i) {
+    n.landmarks[static_cast<std::size_t>(i)].p_A = filled(3, 1, 20.0 + i, 250.0);
+    n.landmarks[static_cast<std::size_t>(i)].normal_A = filled(3, 1, 30.0 + i, 1.0).normalized();
+    n.landmarks[static_cast<std::size_t>(i)].face = 100 * i + 7;
+  }
+  n.seed = (std::uint64_t{1} << 40) + 1000003;
+  n.error_set_scale = 26.217029655218103;
+  tubempc::io::ActuatorScenario& a = s.actuators;
+  a.enabled = true;
+  a.thrusters.resize(2);
+  for (int i = 0; i < 2; ++i) {
+    tubempc::actuators::ThrusterSpec& t = a.thrusters[static_cast<std::size_t>(i)];
+    t.position_B = filled(3, 1, 40.0 + i, 1.5);
+    t.direction_B = filled(3, 1, 50.0 + i, 1.0).normalized();
+    t.max_thrust = 22.0 / 3.0;
+    t.min_on_time = 0.02;
+    t.isp = 229.5;
+    t.scale_error_bound = 0.05;
+    t.scale_error = 0.05 / 3.0 * (i == 0 ? 1.0 : -1.0);
+    t.misalignment_bound = 0.01;
+    t.misalignment_B = Eigen::Vector3d(0.003, -0.001, 1.0 / 3.0 * 0.01);
+  }
+  a.thrusters[1].fault = tubempc::actuators::FaultKind::FailedOff;
+  a.thrusters[1].fault_time = 37.5;
+  a.wheels.resize(1);
+  a.wheels[0].axis_B = Eigen::Vector3d(1.0, 1.0, 1.0).normalized();
+  a.wheels[0].max_torque = 0.2;
+  a.wheels[0].max_momentum = 50.0 / 3.0;
+  a.momentum_dump.enabled = false;
+  a.momentum_dump.time_constant = 100.0 / 3.0;
+  a.wheel_momentum = Eigen::VectorXd::Constant(1, -1.0 / 3.0);
+  a.settings.mass = 1500.0 / 7.0;
+  a.settings.modulation.period = a.settings.allocation.period = s.settings.dt;
+  a.settings.modulation.on_time_resolution = 1e-4;
+  a.settings.allocation.residual_weight = filled(6, 1, 60.0, 1.0).cwiseAbs();
+  a.settings.allocation.max_iterations = 77;
   return s;
 }
 
@@ -162,6 +219,22 @@ class ScenarioFileTest : public ::testing::Test {
       EXPECT_EQ(msg.rfind(prefix, 0), 0u) << "expected the prefix '" << prefix << "' in: " << msg;
       EXPECT_NE(msg.find(needle), std::string::npos) << "expected '" << needle << "' in: " << msg;
     }
+  }
+
+  // The written file as version 3 wrote it: without the actuation-error sets, the navigation and the
+  // actuators (the last records).
+  std::string version_three() const {
+    std::string text = text_;
+    const auto cut = [&text](const std::string& from, const std::string& to) {
+      const std::size_t a = text.find(from), b = to.empty() ? text.size() : text.find(to);
+      ASSERT_NE(a, std::string::npos) << from;
+      ASSERT_NE(b, std::string::npos) << to;
+      text.erase(a, b - a);
+    };
+    cut("controller.actuation_error_p 3 3\n", "identification_p.");
+    cut("navigation.enabled 1 1\n", "");
+    text.replace(text.find("tubempc-scenario 4"), 18, "tubempc-scenario 3");
+    return text;
   }
 
   fs::path dir_;
@@ -270,6 +343,66 @@ TEST_F(ScenarioFileTest, RoundTripIsBitExact) {
   for (std::size_t i = 0; i < 2; ++i) same_design(a.ffa_designs.library_p[i], b.ffa_designs.library_p[i]);
   expect_same_bits(a.x0, b.x0, "x0");
   expect_same_bits(a.xf, b.xf, "xf");
+  for (int i = 0; i < 2; ++i)
+    expect_same_bits(a.controller.actuation_error[static_cast<std::size_t>(i)],
+                     b.controller.actuation_error[static_cast<std::size_t>(i)], "actuation_error");
+  // navigation: a sample of each section (the text comparison below covers every record)
+  const tubempc::io::NavigationScenario &na = a.navigation, &nb = b.navigation;
+  ASSERT_TRUE(nb.enabled);
+  EXPECT_EQ(nb.settings.altimeter.sigma, na.settings.altimeter.sigma);
+  expect_same_bits(na.settings.camera.C_BC, nb.settings.camera.C_BC, "camera.C_BC");
+  expect_same_bits(na.settings.camera.pixel_bias, nb.settings.camera.pixel_bias, "camera.pixel_bias");
+  EXPECT_EQ(nb.settings.camera.width_px, 640);
+  EXPECT_EQ(nb.settings.imu.gyro_bias_sigma, na.settings.imu.gyro_bias_sigma);
+  expect_same_bits(na.settings.star_tracker.misalignment_B, nb.settings.star_tracker.misalignment_B,
+                   "star_tracker.misalignment_B");
+  EXPECT_EQ(nb.settings.filter.camera.focal_length_px, na.settings.filter.camera.focal_length_px);
+  EXPECT_EQ(nb.settings.filter.innovation_gate, std::numeric_limits<double>::infinity());
+  EXPECT_TRUE(nb.settings.filter.split);
+  EXPECT_EQ(nb.settings.filter.max_substeps, 9);
+  EXPECT_EQ(nb.settings.filter.gravity_relinearization_distance, 2.5);
+  EXPECT_EQ(nb.settings.filter.covariance_step, 1.0 / 3.0);
+  expect_same_bits(na.settings.initial_sigma, nb.settings.initial_sigma, "initial_sigma");
+  expect_same_bits(na.settings.period_noise_sigma, nb.settings.period_noise_sigma, "period_noise_sigma");
+  EXPECT_EQ(nb.settings.max_samples, 40);
+  ASSERT_EQ(nb.landmarks.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    expect_same_bits(na.landmarks[i].p_A, nb.landmarks[i].p_A, "landmark p_A");
+    expect_same_bits(na.landmarks[i].normal_A, nb.landmarks[i].normal_A, "landmark normal_A");
+    EXPECT_EQ(nb.landmarks[i].face, na.landmarks[i].face);
+  }
+  EXPECT_EQ(nb.seed, na.seed);
+  EXPECT_EQ(nb.error_set_scale, na.error_set_scale);
+  // actuators
+  const tubempc::io::ActuatorScenario &aa = a.actuators, &ab = b.actuators;
+  ASSERT_TRUE(ab.enabled);
+  ASSERT_EQ(ab.thrusters.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const auto &x = aa.thrusters[i], &y = ab.thrusters[i];
+    expect_same_bits(x.position_B, y.position_B, "position_B");
+    expect_same_bits(x.direction_B, y.direction_B, "direction_B");
+    expect_same_bits(x.misalignment_B, y.misalignment_B, "misalignment_B");
+    EXPECT_EQ(y.max_thrust, x.max_thrust);
+    EXPECT_EQ(y.min_on_time, x.min_on_time);
+    EXPECT_EQ(y.isp, x.isp);
+    EXPECT_EQ(y.scale_error, x.scale_error);
+    EXPECT_EQ(y.scale_error_bound, x.scale_error_bound);
+    EXPECT_EQ(y.misalignment_bound, x.misalignment_bound);
+    EXPECT_EQ(y.fault, x.fault);
+    EXPECT_EQ(y.fault_time, x.fault_time);
+  }
+  EXPECT_EQ(ab.thrusters[1].fault, tubempc::actuators::FaultKind::FailedOff);
+  ASSERT_EQ(ab.wheels.size(), 1u);
+  expect_same_bits(aa.wheels[0].axis_B, ab.wheels[0].axis_B, "axis_B");
+  EXPECT_EQ(ab.wheels[0].max_momentum, aa.wheels[0].max_momentum);
+  EXPECT_FALSE(ab.momentum_dump.enabled);
+  EXPECT_EQ(ab.momentum_dump.time_constant, aa.momentum_dump.time_constant);
+  expect_same_bits(aa.wheel_momentum, ab.wheel_momentum, "wheel_momentum");
+  EXPECT_EQ(ab.settings.mass, aa.settings.mass);
+  EXPECT_EQ(ab.settings.modulation.on_time_resolution, 1e-4);
+  expect_same_bits(aa.settings.allocation.residual_weight, ab.settings.allocation.residual_weight,
+                   "residual_weight");
+  EXPECT_EQ(ab.settings.allocation.max_iterations, 77);
 
   // Writing what was read reproduces the file (the comment aside).
   const std::string again = (dir_ / "again.txt").string();
@@ -299,9 +432,35 @@ TEST_F(ScenarioFileTest, OptionalRecordsTakeDefaults) {
   EXPECT_EQ(s.model.params.glide_slope_apex_A, tubempc::dynamics::ModelParams{}.glide_slope_apex_A);
 }
 
+// A version-3 file (no actuation-error sets, navigation or actuators) reads with ideal actuators and
+// without navigation; a version-4 record is unknown there.
+TEST_F(ScenarioFileTest, VersionThreeFilesAreRead) {
+  const std::string text = version_three();
+  ASSERT_EQ(text.find("navigation."), std::string::npos);
+  const std::string path = (dir_ / "v3.txt").string();
+  std::ofstream(path, std::ios::binary) << text;
+  const ScenarioFile fresh = read_scenario(path_), old = read_scenario(path);
+  EXPECT_TRUE(old.has_controller);
+  EXPECT_FALSE(old.navigation.enabled);
+  EXPECT_FALSE(old.actuators.enabled);
+  EXPECT_TRUE(old.controller.actuation_error[0].isZero(0.0) && old.controller.actuation_error[1].isZero(0.0));
+  EXPECT_EQ(old.controller.identification_p.lambda, fresh.controller.identification_p.lambda);
+  expect_same_bits(old.ffa_designs.initial_r.Pe, fresh.ffa_designs.initial_r.Pe, "ffa_r.Pe");
+  expect_same_bits(old.xf, fresh.xf, "xf");
+  std::ofstream(path, std::ios::binary) << text << "navigation.enabled 1 1\n0\n";
+  try {
+    read_scenario(path);
+    ADD_FAILURE() << "accepted a version-4 record in a version-3 file";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("navigation.enabled: unknown record name (format version 3)"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 // A version-1 file (the option names before the one-name-per-option change) reads to the same scenario.
 TEST_F(ScenarioFileTest, VersionOneFilesAreRead) {
-  std::string text = text_;
+  std::string text = version_three();
   const auto replace = [&text](const std::string& from, const std::string& to) {
     const std::size_t at = text.find(from);
     ASSERT_NE(at, std::string::npos) << from;
@@ -349,11 +508,14 @@ TEST_F(ScenarioFileTest, VersionOneFilesAreRead) {
 }
 
 TEST_F(ScenarioFileTest, ErrorsNameFileLineAndRecord) {
-  expect_error("tubempc-scenario 3", "tubempc-scenario 4", 1, "format version 4 is not supported");
-  expect_error("tubempc-scenario 3", "tubempc 3", 1, "not a tubempc scenario file");
+  expect_error("tubempc-scenario 4", "tubempc-scenario 5", 1, "format version 5 is not supported");
+  expect_error("tubempc-scenario 4", "tubempc 4", 1, "not a tubempc scenario file");
   const long mu = line_of("model.mu_sun 1 1");
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\n1.3271x", mu + 1,
                "model.mu_sun: row 0, column 0: bad number '1.3271x'");
+  // bytes of the file quoted in a message: printable ASCII, the others \xNN (the message stays UTF-8)
+  expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\n1.3\xae\t", mu + 1,
+               "model.mu_sun: row 0, column 0: bad number '1.3\\xae'");
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\nnan", mu + 1,
                "model.mu_sun: row 0, column 0: NaN");
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\ninf", mu + 1,
@@ -411,8 +573,75 @@ TEST_F(ScenarioFileTest, ErrorsNameFileLineAndRecord) {
                "tube.alpha_search_period: must be >= 1");
   expect_error("mission.x0 12 1", "mission.x0 13 1", line_of("mission.xf 12 1"),
                "mission.x0: row 12: expected 1 values, got 3");
-  const long xf = line_of("mission.xf 12 1");
-  expect_error("mission.xf 12 1", "mission.xf 13 1", xf, "mission.xf: the file ends after 12 of 13 rows");
+  const long last = line_of("actuators.allocation.cone_test_scale 1 1");
+  expect_error("actuators.allocation.cone_test_scale 1 1", "actuators.allocation.cone_test_scale 2 1", last,
+               "actuators.allocation.cone_test_scale: the file ends after 1 of 2 rows");
+}
+
+TEST_F(ScenarioFileTest, NavigationAndActuatorErrorsNameLineAndRecord) {
+  expect_error("navigation.enabled 1 1\n1", "navigation.enabled 1 1\n2",
+               line_of("navigation.enabled 1 1") + 1, "navigation.enabled: expected 0 or 1, got 2");
+  const long seed = line_of("navigation.seed 1 1");
+  expect_error("navigation.seed 1 1\n1099512627779", "navigation.seed 1 1\n-1", seed + 1,
+               "navigation.seed: expected an integer in [0, 2^53], got -1");
+  expect_error("navigation.seed 1 1\n1099512627779", "navigation.seed 1 1\n1e300", seed + 1,
+               "navigation.seed: expected an integer in [0, 2^53]");
+  expect_error("navigation.error_set_scale 1 1\n", "navigation.error_set_scale 1 1\n0\n#",
+               line_of("navigation.error_set_scale 1 1") + 1,
+               "navigation.error_set_scale: must be > 0, got 0");
+  // the control period must be a whole number of IMU periods, at most max_samples of them
+  expect_error("navigation.max_samples 1 1\n40", "navigation.max_samples 1 1\n10",
+               line_of("navigation.imu.period 1 1"),
+               "navigation.imu.period: the control period mpc.dt = 2 s");
+  // a value a validate() rejects: at its record's line when the message names it
+  const long landmarks = line_of("navigation.camera.max_landmarks 1 1");
+  expect_error("navigation.camera.max_landmarks 1 1\n16", "navigation.camera.max_landmarks 1 1\n0",
+               landmarks + 1, "navigation.camera.max_landmarks: ");
+  const long filter_landmarks = line_of("navigation.filter.camera.max_landmarks 1 1");
+  expect_error("navigation.filter.camera.max_landmarks 1 1\n16",
+               "navigation.filter.camera.max_landmarks 1 1\n0", filter_landmarks + 1,
+               "navigation.filter.camera.max_landmarks: ");
+  expect_error("navigation.filter.max_step 1 1\n", "navigation.filter.max_step 1 1\n-1\n#",
+               line_of("navigation.filter.max_step 1 1") + 1,
+               "navigation.filter.max_step: must be finite and > 0");
+  expect_error("navigation.camera.period 1 1\n2", "navigation.camera.period 1 1\n2.05",
+               line_of("navigation.camera.period 1 1") + 1,
+               "navigation.camera.period: must be an integer multiple of imu.period");
+  expect_error("navigation.filter.innovation_gate 1 1\ninf", "navigation.filter.innovation_gate 1 1\nx",
+               line_of("navigation.filter.innovation_gate 1 1") + 1, "bad number 'x'");
+  expect_error("navigation.camera.max_range 1 1\n5000", "navigation.camera.max_range 1 1\ninf",
+               line_of("navigation.camera.max_range 1 1") + 1, "navigation.camera.max_range: infinite value");
+  const long lm = line_of("navigation.landmarks 3 7");
+  expect_error(line_at(lm + 2), "1 2 3 1 0 1 7", lm + 2,
+               "navigation.landmarks: row 1: normal_A must be a unit vector");
+  expect_error(line_at(lm + 2), "1 2 3 1 0 0 7.5", lm + 2,
+               "navigation.landmarks: row 1: face must be an integer");
+  expect_error("navigation.landmarks 3 7", "navigation.landmarks 3 6", lm + 1,
+               "row 0: expected 6 values, got 7");
+  expect_error("actuators.thrusters 1 1\n2", "actuators.thrusters 1 1\n40",
+               line_of("actuators.thrusters 1 1"), "actuators.thrusters: expected 1 to 32 thrusters, got 40");
+  expect_error("actuators.thrusters 1 1\n2", "actuators.thrusters 1 1\n3", 0,
+               "actuators.thrusters[2].position_B: missing record");
+  expect_error("actuators.wheels 1 1\n1", "actuators.wheels 1 1\n0", line_of("actuators.wheel_momentum 1 1"),
+               "actuators.wheel_momentum: expected size 0 x 1 (or 0 x 0), got 1 x 1");
+  const long fault = line_of("actuators.thrusters[1].fault text");
+  expect_error(
+      "actuators.thrusters[1].fault text\nfailed_off", "actuators.thrusters[1].fault text\nstuck", fault + 1,
+      "actuators.thrusters[1].fault: unknown value 'stuck' (known: 'none', 'failed_off', 'stuck_on')");
+  expect_error("actuators.thrusters[0].scale_error_bound 1 1\n0.050000000000000003",
+               "actuators.thrusters[0].scale_error_bound 1 1\n0.001",
+               line_of("actuators.thrusters[0].scale_error 1 1") + 1,
+               "actuators.thrusters[0].scale_error: must be finite with |scale_error| <= scale_error_bound");
+  expect_error(
+      "actuators.momentum_dump.stop_fraction 1 1\n", "actuators.momentum_dump.stop_fraction 1 1\n0.9\n#",
+      line_of("actuators.momentum_dump.stop_fraction 1 1") + 1, "actuators.momentum_dump.stop_fraction: ");
+  expect_error("actuators.wheel_momentum 1 1\n", "actuators.wheel_momentum 1 1\n-100\n#", 0,
+               "actuators.* (ActuationSystem): ");
+  expect_error("actuators.modulation.period 1 1\n2", "actuators.modulation.period 1 1\n1",
+               line_of("actuators.modulation.period 1 1"),
+               "actuators.modulation.period: must equal mpc.dt = 2 s, got 1");
+  expect_error("actuators.allocation.max_iterations 1 1\n77", "actuators.allocation.max_iterations 1 1\n77.5",
+               line_of("actuators.allocation.max_iterations 1 1") + 1, "expected an integer, got 77.5");
 }
 
 TEST(ScenarioFileErrors, MissingFileAndEmptyFile) {

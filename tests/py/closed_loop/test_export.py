@@ -197,3 +197,87 @@ def test_bindings_loop_flies_the_exported_mission(exported: tuple[Path, Scenario
     assert np.all(np.asarray(r["time_call_s"]) >= np.asarray(r["time_controller_s"]))
     with pytest.raises(FileNotFoundError, match="no such file"):
         find_example(path.parent / "no_such_binary")
+
+
+_REPO = Path(__file__).resolve().parents[3]
+_THRUSTERS = _REPO / "examples" / "actuators" / "bennu_tag_thrusters.toml"
+
+
+@pytest.fixture(scope="module")
+def reference_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return tmp_path_factory.mktemp("reference_cache")
+
+
+@pytest.mark.parametrize(
+    ("source", "method", "overrides"),
+    [
+        ("bennu-tag-nav", "ffa", {}),
+        ("bennu-tag-nav", "tbmpc", {}),
+        (str(_THRUSTERS), "ffa", {}),
+        # both at once: the thrusters' spacecraft flying on navigation (bennu-tag-nav's lit site and camera),
+        # the truth on its own shape (truth_shape.obj: the sensors ray-cast it, the filter the controller's)
+        (
+            str(_THRUSTERS),
+            "ffa",
+            {
+                "simulation.truth_shape_subdivisions": 11,
+                "navigation.enabled": True,
+                "boundary.site_longitude": "180 deg",
+                "navigation.camera_fov": "44 deg",
+                "navigation.site_landmarks": 300,
+                "navigation.site_landmark_radius": "30 m",
+            },
+        ),
+    ],
+    ids=["nav-ffa", "nav-tbmpc", "thrusters-ffa", "thrusters-nav-ffa"],
+)
+def test_cpp_example_flies_navigation_and_actuators_as_the_python_loop(
+    reference_cache: Path, tmp_path: Path, source: str, method: str, overrides: dict[str, Any]
+) -> None:
+    """The scenario file carries [navigation] and the actuators of the run with seed 3: the C++ example flies
+    the estimate of its NavigationSystem (IMU sub-steps, the error set) and the commands through its
+    ActuationSystem to the Python run's final state (<= 1e-9; the same bits in practice) and J_p, with no heap
+    allocation in the controller, navigation or actuation step. A file carrying the seed's run wrongly (another
+    seed's sensor noise or thruster errors) fails this."""
+    from tubempc.benchmarks.embed import find_example
+    from tubempc.export import export_scenario
+    from tubempc.metrics import run_metrics
+
+    try:
+        example = find_example(None)
+    except FileNotFoundError as exc:
+        pytest.skip(f"no built C++ example: {exc}")
+    cfg = load_config(source) if source.endswith(".toml") else load_config(scenario=source)
+    cfg = cfg.with_overrides(overrides) if overrides else cfg
+    seed = 3
+    path = export_scenario(cfg, tmp_path / "scenario", cache_dir=reference_cache, seed=seed)
+    s = read_scenario(str(path))
+    assert (s.truth.shape != s.model.shape) == ("simulation.truth_shape_subdivisions" in overrides)
+    assert s.navigation.enabled == cfg.navigation.enabled
+    assert s.actuators.enabled == (cfg.spacecraft.actuators != "ideal")
+    scn = build_scenario(cfg, cache_dir=reference_cache)
+    rec = simulate(scn, method, seed=seed, design_worker="none")
+    w = tmp_path / "w.txt"
+    np.savetxt(w, rec.w_true, fmt="%.17g")
+    out = tmp_path / "cpp.json"
+    proc = subprocess.run(
+        [str(example), str(path), "--method", method, "--disturbance", str(w), "--json", str(out)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    cpp = json.loads(out.read_text())["methods"][method]
+    m = run_metrics(rec, scn.config.mpc.dt, scn.xf)
+    np.testing.assert_allclose(cpp["final_state"], rec.x[-1], rtol=0, atol=1e-9)
+    assert cpp["J_p"] == pytest.approx(m.J_p, rel=1e-9) and cpp["J_r"] == pytest.approx(m.J_r, rel=1e-9)
+    assert cpp["steps_outside_tube"] == m.steps_outside_tube
+    assert (cpp["allocations_controller"], cpp["allocations_navigation"], cpp["allocations_actuation"]) == (0, 0, 0)
+    if cfg.navigation.enabled:
+        assert rec.navigation is not None
+        assert sum(cpp["navigation_statuses"].values()) == scn.n_steps + 1
+        assert cpp["navigation_statuses"].get("ok", 0) == rec.navigation.status.count("ok")
+    if s.actuators.enabled:
+        assert sum(cpp["actuation_statuses"].values()) == scn.n_steps
+        assert cpp["pulses"] == int(rec.pulses.sum()) > 0
+        assert cpp["delta_v"] == pytest.approx(float(rec.delta_v.sum()), rel=1e-12)

@@ -161,10 +161,3 @@ def test_claims_table_gets_navigation_rows_only_for_a_run_on_navigation(tmp_path
     rec.navigation = None
     save_record(tmp_path / "nav" / "ffa.h5", rec, config=cfg.to_dict())
     assert not [c for c in paper_claims(tmp_path / "nav") if "on navigation" in c.claim]
-
-
-def test_export_refuses_a_scenario_flown_on_navigation(tmp_path: Path) -> None:
-    from tubempc.export import export_scenario
-
-    with pytest.raises(ConfigError, match=r"navigation\.enabled"):
-        export_scenario(load_config(scenario="bennu-tag-nav"), tmp_path)

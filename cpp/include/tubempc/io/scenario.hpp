@@ -1,13 +1,14 @@
 /// @file scenario.hpp
 /// The scenario file: everything a C++ program needs to fly the closed loop the Python package sets
 /// up (`tubempc export-scenario`, python/tubempc/export.py): the controller's and the truth's 6-DOF
-/// models, the tube MPC's settings, the reference trajectory, TBMPC's fixed tube, the initial and
-/// target states and the truth propagator's settings. Plain text, versioned, exact (every double
-/// written with 17 significant digits, so reading gives back the same bits).
+/// models, the tube MPC's settings, the reference trajectory, the whole controller of both methods,
+/// the initial and target states, the truth propagator's settings, and (version 4) the navigation
+/// system and the actuators of one run. Plain text, versioned, exact (every double written with 17
+/// significant digits, so reading gives back the same bits).
 ///
-/// Format, version 3 (versions 1 and 2 are read too; see below)
+/// Format, version 4 (versions 1 to 3 are read too; see below)
 /// -------------------------------------------------------------
-/// - Line 1: `tubempc-scenario 3`. Lines starting with `#` (after optional blanks) and blank lines
+/// - Line 1: `tubempc-scenario 4`. Lines starting with `#` (after optional blanks) and blank lines
 ///   are comments anywhere else.
 /// - Then records in any order, each name at most once:
 ///   - numeric: a header line `<name> <rows> <cols>` followed by `rows` lines of `cols` numbers each
@@ -39,9 +40,26 @@
 ///   | `library_<s>.K`, `.alpha`, `.P_W`, `.Pe` | 3L 6, L 1, 6L 6, 6L 6 | TBMPC-FFA's library of L designs of subsystem `<s>`, stacked (`0 0` for L = 0) |
 ///   | `mission.x0` | 12 1 | initial state [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)] |
 ///   | `mission.xf` | 12 1 | target state, same units |
+///   | `controller.actuation_error_p`, `controller.actuation_error_r` | 3 3 each | control::ControllerSettings::actuation_error ((m/s^2)^2, (N m)^2) |
+///   | `navigation.enabled` | 1 1 | flag (NavigationScenario::enabled); the `navigation.*` records below only when 1 |
+///   | `navigation.<sensor>.<field>` | | the true sensors: every field of nav::AltimeterSettings, CameraSettings, ImuSettings, StarTrackerSettings (`<sensor>` = `altimeter`, `camera`, `imu`, `star_tracker`), under their C++ names and sizes (integers and flags 1 1) |
+///   | `navigation.filter.<sensor>.<field>`, `navigation.filter.<field>` | | nav::FilterSettings: its model of the four sensors, then `accel_model_noise`, `altimeter_terrain_sigma`, `innovation_gate` (may be `inf`), `gravity_relinearization_distance`, `max_step`, `covariance_step`, `max_substeps`, `split` |
+///   | `navigation.initial_sigma`, `navigation.period_noise_sigma`, `navigation.max_samples` | 9 1, 9 1, 1 1 | the rest of nav::NavigationSettings |
+///   | `navigation.landmarks` | L 7 | the catalogue (frame A), one landmark per row: p_A (m), normal_A (unit), face (integer >= 0); L >= 1 |
+///   | `navigation.seed` | 1 1 | NavigationScenario::seed, an integer in [0, 2^53] |
+///   | `navigation.error_set_scale` | 1 1 | NavigationScenario::error_set_scale (> 0) |
+///   | `actuators.enabled` | 1 1 | flag (ActuatorScenario::enabled); the `actuators.*` records below only when 1 |
+///   | `actuators.thrusters`, `actuators.wheels` | 1 1 each | n (1 to kMaxThrusters) and m (0 to kMaxWheels) |
+///   | `actuators.thrusters[<i>].<field>` | | every field of actuators::ThrusterSpec of thruster i = 0..n-1 (`fault` text: `none`, `failed_off`, `stuck_on`) |
+///   | `actuators.wheels[<j>].<field>` | | every field of actuators::ReactionWheelSpec of wheel j = 0..m-1 |
+///   | `actuators.momentum_dump.<field>` | | actuators::MomentumDumpSettings |
+///   | `actuators.wheel_momentum` | m 1 | the wheels' initial momenta (N m s); `0 0` for m = 0 |
+///   | `actuators.mass`, `actuators.modulation.<field>`, `actuators.allocation.<field>` | | actuators::ActuationSettings (both periods equal to `mpc.dt`) |
 ///
 ///   Optional records default to mpc::Settings' defaults (the structures to dense). Everything else
 ///   is required; unknown names are errors (a later version adds names and bumps the number).
+///   Version 4 adds the actuation-error sets, the navigation and the actuators; version-3 files read
+///   with zero actuation-error sets, navigation and actuators disabled.
 ///   Version 3 adds the whole controller (control::Controller: identification, tube policy, designs and
 ///   libraries) and drops `tube.K`/`tube.Pe` (TBMPC's tube is `designs.tbmpc_*`). Version 2 files carry
 ///   TBMPC's tube only: ScenarioFile::has_controller is false for them.
@@ -51,7 +69,7 @@
 ///
 /// Example (abridged):
 ///
-///     tubempc-scenario 3
+///     tubempc-scenario 4
 ///     # exported by tubempc 0.1.0
 ///     model.mu_sun 1 1
 ///     1.32712440018e+20
@@ -62,17 +80,21 @@
 ///     ...
 #pragma once
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
+#include "tubempc/actuators/system.hpp"
 #include "tubempc/control/controller.hpp"
 #include "tubempc/dynamics/propagator.hpp"
 #include "tubempc/dynamics/proximity_model.hpp"
 #include "tubempc/mpc/tube_mpc.hpp"
+#include "tubempc/nav/system.hpp"
 
 namespace tubempc::io {
 
 /// Version of the scenario format this library reads and writes.
-inline constexpr int kScenarioFormatVersion = 3;
+inline constexpr int kScenarioFormatVersion = 4;
 
 /// One 6-DOF model of the scenario: the inputs of gravity::load_shape, gravity::PolyhedronGravity
 /// and dynamics::ProximityModel.
@@ -106,6 +128,32 @@ struct BodyModel {
   }
 };
 
+/// The navigation of a scenario (version 4: the records navigation.(field)): what nav::NavigationSystem is
+/// constructed from, and the scale of the estimation-error set the controller's constraints are
+/// tightened by (control::Controller::set_estimation_error).
+struct NavigationScenario {
+  bool enabled{false};               ///< whether the controller flies on the navigation's estimate
+  nav::NavigationSettings settings;  ///< the true sensors, the filter and the sigmas
+  /// The landmark catalogue (frame A): the generated one, then the site's (python/tubempc/navigation.py).
+  std::vector<nav::Landmark> landmarks;
+  std::uint64_t seed{0};  ///< the navigation system's seed (the run's seed + 1000003 in Python)
+  /// c of the estimation-error set {e : e^T (c P_x)^-1 e <= 1} (the chi-square quantile of
+  /// navigation.error_set_probability with 12 degrees of freedom), finite and > 0.
+  double error_set_scale{1.0};
+};
+
+/// The actuators of a scenario (version 4: the records actuators.(field)): what actuators::ActuationSystem is
+/// constructed from, the truth's thrusters of one run (nominal geometry, that run's scale and
+/// misalignment errors, faults).
+struct ActuatorScenario {
+  bool enabled{false};                               ///< false: ideal actuators (the input is delivered)
+  std::vector<actuators::ThrusterSpec> thrusters;    ///< the truth's thrusters, 1 to kMaxThrusters
+  std::vector<actuators::ReactionWheelSpec> wheels;  ///< the wheels, 0 to kMaxWheels
+  actuators::MomentumDumpSettings momentum_dump;     ///< the wheels' momentum-dump policy
+  Eigen::VectorXd wheel_momentum;                    ///< the wheels' initial momenta (N m s, one per wheel)
+  actuators::ActuationSettings settings;             ///< mass, modulation and allocation (period = mpc dt)
+};
+
 /// Contents of a scenario file (see the file comment for the format).
 struct ScenarioFile {
   /// Folder of the file read (relative shape paths are relative to it); empty if not read from a file.
@@ -124,6 +172,8 @@ struct ScenarioFile {
   control::ControllerDesigns ffa_designs;    ///< TBMPC-FFA's initial designs and libraries (version 3)
   dynamics::StateVector x0{dynamics::StateVector::Zero()};  ///< initial state (m, m/s, rad, rad/s)
   dynamics::StateVector xf{dynamics::StateVector::Zero()};  ///< target state (same units)
+  NavigationScenario navigation;  ///< the navigation (version 4; disabled in older files)
+  ActuatorScenario actuators;     ///< the actuators (version 4; ideal in older files)
 
   /// @return the mission length T (steps): the number of reference inputs.
   int mission_steps() const { return static_cast<int>(reference.u.cols()); }
@@ -133,24 +183,29 @@ struct ScenarioFile {
   std::string resolve(const std::string& path) const;
 };
 
-/// Reads and validates a scenario file (format version 3, 2 or 1).
+/// Reads and validates a scenario file (format version 4, 3, 2 or 1).
 /// @param path the scenario file.
-/// @return its contents; `directory` is the file's folder. The shape files are not opened.
+/// @return its contents; `directory` is the file's folder. The shape files are not opened. The
+///         navigation's and the actuators' settings are those their constructors accept (an
+///         actuators::ActuationSystem is built to check them), the control period a whole number of
+///         IMU periods (at most NavigationSettings::max_samples).
 /// @throws std::invalid_argument `<path>:<line>: <record>: <what>` for a malformed record (bad header,
 ///         number or size, NaN, an infinity where none is allowed, a non-integer or out-of-range
 ///         integer, a flag other than 0/1, an unknown option, an unknown or repeated name), and
 ///         `<path>: <record>: <what>` for a missing record, an unreadable file, or values rejected by
 ///         ModelParams::validate, PropagatorSettings::validate, mpc::Settings::validate or the
-///         size checks of the reference, the tube and the states.
+///         size checks of the reference, the tube and the states; a navigation or actuator value a
+///         validate() rejects is reported at its record's line.
 ScenarioFile read_scenario(const std::string& path);
 
-/// Writes a scenario file (format version 3) with every record, optional ones included.
+/// Writes a scenario file (format version 4) with every record, optional ones included.
 /// @param path     file to create or overwrite.
 /// @param scenario contents; shape paths are written as they are (relative ones stay relative).
 /// @param comment  optional text written as `#` comment lines after the version line.
 /// @throws std::invalid_argument if the contents have the wrong sizes for the format (12 states,
-///         6 inputs) or carry no controller (has_controller false); std::runtime_error naming the path
-///         when the file cannot be written.
+///         6 inputs), carry no controller (has_controller false), an enabled navigation without
+///         landmarks or with a seed above 2^53, or enabled actuators without one momentum per wheel;
+///         std::runtime_error naming the path when the file cannot be written.
 void write_scenario(const std::string& path, const ScenarioFile& scenario, const std::string& comment = "");
 
 }  // namespace tubempc::io
