@@ -357,6 +357,10 @@ class SimulationSection:
 _PROBABILITY = (lambda v: 0.0 <= v <= 1.0, "in [0, 1]")
 _OPEN_PROBABILITY = (lambda v: 0.0 < v < 1.0, "in (0, 1)")
 _RIGHT_ANGLE = (lambda v: 0.0 < v <= math.pi / 2, "in (0, 90] deg")
+_FRAME_CAPACITY = (
+    lambda v: 1 <= v <= _core.nav.MAX_LANDMARKS_PER_FRAME,
+    f"in [1, {_core.nav.MAX_LANDMARKS_PER_FRAME}] (nav::kMaxLandmarksPerFrame)",
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -402,7 +406,7 @@ class NavigationSection:
     )
     camera_min_range: float = field(metadata=_q("m", "length", check=_NONNEG))
     camera_max_range: float = field(metadata=_q("m", "length", check=_POS))
-    camera_max_landmarks: int = field(metadata=_int(check=(lambda v: 1 <= v <= 32, "in [1, 32]")))
+    camera_max_landmarks: int = field(metadata=_int(check=_FRAME_CAPACITY))
     camera_dropout: float = field(metadata=_num(check=_PROBABILITY))
     landmarks: int = field(metadata=_int(check=_GE1))
     site_landmarks: int = field(metadata=_int(check=(lambda v: v >= 0, ">= 0")))

@@ -5,6 +5,8 @@ sensors, the output-feedback tube's gauge and the record's round trip."""
 from __future__ import annotations
 
 import dataclasses
+import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -154,13 +156,24 @@ def test_claims_table_gets_navigation_rows_only_for_a_run_on_navigation(tmp_path
 
     cfg = load_config(scenario="bennu-tag-nav").with_overrides({"tube.design_worker": "none"})
     run_methods(cfg, ["ffa"], 0, tmp_path / "nav", progress=False, cache_dir=tmp_path / "cache", make_figures=False)
-    rows = [c for c in paper_claims(tmp_path / "nav") if "on navigation" in c.claim]
+    rows = [c for c in paper_claims(tmp_path / "nav") if "on navigation" in c.claim.lower()]
     assert len(rows) == 3 and all(c.verdict == "yes" for c in rows), [(c.claim, c.measured) for c in rows]
+    # both methods on navigation: the J_p reduction row (issue #30's 80 %) against the summary's J_p
+    summary = json.loads((tmp_path / "nav" / "summary.json").read_text())
+    shutil.copytree(tmp_path / "nav", tmp_path / "both")
+    shutil.copy(tmp_path / "nav" / "ffa.h5", tmp_path / "both" / "tbmpc.h5")
+    for factor, verdict in ((5.5, "yes"), (4.5, "no")):
+        ffa = summary["methods"]["ffa"]
+        summary["methods"]["tbmpc"] = {**ffa, "J_p": factor * ffa["J_p"]}
+        (tmp_path / "both" / "summary.json").write_text(json.dumps(summary))
+        row = [c for c in paper_claims(tmp_path / "both") if c.claim.startswith("On navigation")]
+        assert len(row) == 1 and row[0].verdict == verdict, (factor, row)
+        assert f"{100 * (1 - 1 / factor):.1f} %" in row[0].measured
     # the same folder with the records of a run on the true state (no nav_* arrays): no navigation row
     rec, _ = load_record(tmp_path / "nav" / "ffa.h5")
     rec.navigation = None
     save_record(tmp_path / "nav" / "ffa.h5", rec, config=cfg.to_dict())
-    assert not [c for c in paper_claims(tmp_path / "nav") if "on navigation" in c.claim]
+    assert not [c for c in paper_claims(tmp_path / "nav") if "on navigation" in c.claim.lower()]
 
 
 def test_export_refuses_a_scenario_flown_on_navigation(tmp_path: Path) -> None:
