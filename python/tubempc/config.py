@@ -867,10 +867,6 @@ SCENARIOS: dict[str, tuple[str, str]] = {
         "scenarios/bennu_paper_within_prior.toml",
         "the paper's landing with a stationary attitude disturbance inside the prior's 3-sigma bound",
     ),
-    "bennu-paper-nav": (
-        "scenarios/bennu_paper_nav.toml",
-        "the paper's landing flown on navigation: a thermal-infrared camera and an altimeter mounted to see the body",
-    ),
     "bennu-equator": (
         "scenarios/bennu_equator.toml",
         "a site near Bennu's equator, approached from hovering 500 m above it; the cone turns with Bennu",
@@ -882,6 +878,10 @@ SCENARIOS: dict[str, tuple[str, str]] = {
     "bennu-tag-nav": (
         "scenarios/bennu_tag_nav.toml",
         "bennu-tag flown on navigation (camera, altimeter, IMU, star tracker, EKF), a lit site at 180 deg",
+    ),
+    "bennu-paper-nav": (
+        "scenarios/bennu_paper_nav.toml",
+        "the paper's landing flown on navigation: a thermal-infrared camera and an altimeter mounted to see the body",
     ),
     "itokawa-like": (
         "scenarios/itokawa_like.toml",
