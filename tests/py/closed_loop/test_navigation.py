@@ -14,6 +14,7 @@ import pytest
 import scipy.optimize
 import scipy.special
 
+from tubempc import _core
 from tubempc.closed_loop import simulate
 from tubempc.config import ConfigError, load_config
 from tubempc.navigation import error_set_scale, navigation_settings, tube_gauge
@@ -39,6 +40,12 @@ def test_navigation_is_off_by_default_and_bad_fields_are_named() -> None:
         cfg.with_overrides({"navigation.altimeter_max_range": "0.5 m"})
     with pytest.raises(ConfigError, match=r"navigation\.enabled: expected true or false"):
         cfg.with_overrides({"navigation.enabled": "yes"})
+    capacity = _core.nav.MAX_LANDMARKS_PER_FRAME
+    with pytest.raises(ConfigError, match=rf"navigation\.camera_max_landmarks: expected in \[1, {capacity}\]"):
+        cfg.with_overrides({"navigation.camera_max_landmarks": capacity + 1})
+    for sensor in ("camera", "altimeter"):
+        with pytest.raises(ConfigError, match=rf"navigation\.{sensor}_boresight_B: expected non-zero"):
+            cfg.with_overrides({f"navigation.{sensor}_boresight_B": [0.0, 0.0, 0.0]})
     # the C++ settings take the section's values (the camera's focal length from its field of view)
     s = navigation_settings(cfg)
     assert s.camera.focal_length_px == pytest.approx(1024 / (2 * np.tan(cfg.navigation.camera_fov / 2)))
