@@ -357,6 +357,10 @@ class SimulationSection:
 _PROBABILITY = (lambda v: 0.0 <= v <= 1.0, "in [0, 1]")
 _OPEN_PROBABILITY = (lambda v: 0.0 < v < 1.0, "in (0, 1)")
 _RIGHT_ANGLE = (lambda v: 0.0 < v <= math.pi / 2, "in (0, 90] deg")
+_FRAME_CAPACITY = (
+    lambda v: 1 <= v <= _core.nav.MAX_LANDMARKS_PER_FRAME,
+    f"in [1, {_core.nav.MAX_LANDMARKS_PER_FRAME}] (nav::kMaxLandmarksPerFrame)",
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -369,7 +373,9 @@ class NavigationSection:
     site map, as OSIRIS-REx's natural-feature catalogue), the filter's estimate is what the controller flies on, and
     the state constraints are also tightened by the estimation-error set: the filter covariance's
     chi-square ellipsoid of probability error_set_probability (a probabilistic bound). The sensors'
-    noise is also the filter's model of it. period_noise: "disturbance" (the filter adds the covariance
+    noise is also the filter's model of it. altimeter_boresight_B and camera_boresight_B: the beam and
+    the optical axis in B (a file that leaves one out gets spacecraft.boresight_B:
+    :data:`BORESIGHT_DEFAULTS`). period_noise: "disturbance" (the filter adds the covariance
     of the [disturbance] draw, at its largest growth, times period_noise_scale^2 at each period's end)
     or "none". Seeded from the run's seed."""
 
@@ -382,12 +388,14 @@ class NavigationSection:
     accel_bias_sigma: float = field(metadata=_q("m/s^2", "acceleration", check=_NONNEG))
     accel_bias_random_walk: float = field(metadata=_q("m/s^3/Hz^0.5", "acceleration random walk", check=_NONNEG))
     imu_dropout: float = field(metadata=_num(check=_PROBABILITY))
+    altimeter_boresight_B: FloatArray = field(metadata=_num((3,), _NONZERO))
     altimeter_period: float = field(metadata=_q("s", "time", check=_POS))
     altimeter_sigma: float = field(metadata=_q("m", "length", check=_NONNEG))
     altimeter_bias: float = field(metadata=_q("m", "length"))
     altimeter_min_range: float = field(metadata=_q("m", "length", check=_NONNEG))
     altimeter_max_range: float = field(metadata=_q("m", "length", check=_POS))
     altimeter_dropout: float = field(metadata=_num(check=_PROBABILITY))
+    camera_boresight_B: FloatArray = field(metadata=_num((3,), _NONZERO))
     camera_period: float = field(metadata=_q("s", "time", check=_POS))
     camera_fov: float = field(metadata=_q("rad", "angle", check=_HALF_TURN))
     camera_pixels: int = field(metadata=_int(check=_GE1))
@@ -398,7 +406,7 @@ class NavigationSection:
     )
     camera_min_range: float = field(metadata=_q("m", "length", check=_NONNEG))
     camera_max_range: float = field(metadata=_q("m", "length", check=_POS))
-    camera_max_landmarks: int = field(metadata=_int(check=(lambda v: 1 <= v <= 32, "in [1, 32]")))
+    camera_max_landmarks: int = field(metadata=_int(check=_FRAME_CAPACITY))
     camera_dropout: float = field(metadata=_num(check=_PROBABILITY))
     landmarks: int = field(metadata=_int(check=_GE1))
     site_landmarks: int = field(metadata=_int(check=(lambda v: v >= 0, ">= 0")))
@@ -478,6 +486,10 @@ class Config:
                 raise ConfigError(f"{self.source} (override): {key}: unknown field")
             spec = _spec_of(_SECTIONS[section], name)
             data[section][name] = _encode(spec, value) if _is_si(spec, value) else value
+        if "spacecraft.boresight_B" in overrides:  # a sensor left out of the file follows the boresight
+            for section, name in BORESIGHT_DEFAULTS:
+                if f"{section}.{name}" in self.defaulted and f"{section}.{name}" not in overrides:
+                    data[section][name] = data["spacecraft"]["boresight_B"]
         changed = _parse(data, f"{self.source} (override)")
         return Config(
             **{name: getattr(changed, name) for name in _SECTIONS}, source=changed.source, defaulted=self.defaulted
@@ -727,6 +739,26 @@ OWN_MISSION_DEFAULTS: dict[tuple[str, str], Any] = {
 }
 
 
+#: Fields that a file leaving them out takes from its own spacecraft.boresight_B (not from the packaged
+#: file): the altimeter's beam and the camera's optical axis lie along the boresight unless mounted otherwise.
+BORESIGHT_DEFAULTS: tuple[tuple[str, str], ...] = (
+    ("navigation", "altimeter_boresight_B"),
+    ("navigation", "camera_boresight_B"),
+)
+
+
+def _with_boresight_defaults(data: Mapping[str, Any], defaults: Mapping[str, Any]) -> dict[str, Any]:
+    """``defaults`` with the :data:`BORESIGHT_DEFAULTS` fields set to the boresight of ``data`` (the
+    file's spacecraft.boresight_B, else the default's)."""
+    spacecraft = data.get("spacecraft", {})
+    given = spacecraft.get("boresight_B") if isinstance(spacecraft, Mapping) else None
+    boresight = defaults["spacecraft"]["boresight_B"] if given is None else given
+    out = {name: dict(section) for name, section in defaults.items()}
+    for section, name in BORESIGHT_DEFAULTS:
+        out[section][name] = boresight
+    return out
+
+
 def _packaged_defaults() -> dict[str, Any]:
     """The defaults of partial files: the packaged paper scenario's raw TOML content with
     :data:`OWN_MISSION_DEFAULTS` in place of the paper's engineered disturbance growth."""
@@ -760,6 +792,8 @@ def _parse(data: Mapping[str, Any], source: str, defaults: Mapping[str, Any] | N
     missing = [s for s in _SECTIONS if s not in data]
     if missing and defaults is None:
         raise ConfigError(f"{source}: {missing[0]}: missing section")
+    if defaults is not None:
+        defaults = _with_boresight_defaults(data, defaults)
     defaulted: list[str] = []
     sections: dict[str, Any] = {
         name: _parse_section(
@@ -851,6 +885,10 @@ SCENARIOS: dict[str, tuple[str, str]] = {
         "scenarios/bennu_tag_osirisrex.toml",
         "bennu-tag over the real TAG's 20 min, flown by the OSIRIS-REx-like thrusters and wheels (5 s period)",
     ),
+    "bennu-paper-nav": (
+        "scenarios/bennu_paper_nav.toml",
+        "the paper's landing flown on navigation: a thermal-infrared camera and an altimeter mounted to see the body",
+    ),
     "itokawa-like": (
         "scenarios/itokawa_like.toml",
         "a generated 535 x 294 x 209 m contact binary (1900 kg/m^3, 12.13 h), a site on its smaller lobe",
@@ -896,6 +934,7 @@ def load_config(path: str | Path | None = None, *, scenario: str | None = None) 
 
 
 __all__ = [
+    "BORESIGHT_DEFAULTS",
     "OWN_MISSION_DEFAULTS",
     "REMOVED_FIELDS",
     "RENAMED_FIELDS",

@@ -71,13 +71,13 @@ def navigation_settings(cfg: Config) -> Any:
     imu.accel_noise_density, imu.accel_bias_sigma = n.accel_noise_density, n.accel_bias_sigma
     imu.accel_bias_random_walk, imu.dropout_probability = n.accel_bias_random_walk, n.imu_dropout
     alt = nav.AltimeterSettings()
-    alt.boresight_B = np.asarray(cfg.spacecraft.boresight_B, dtype=float)
+    alt.boresight_B = np.asarray(n.altimeter_boresight_B, dtype=float)
     alt.sigma, alt.bias, alt.period = n.altimeter_sigma, n.altimeter_bias, n.altimeter_period
     alt.min_range, alt.max_range, alt.dropout_probability = n.altimeter_min_range, n.altimeter_max_range, n.altimeter_dropout
     cam = nav.CameraSettings()
     cam.width_px = cam.height_px = n.camera_pixels
     cam.focal_length_px = nav.CameraSettings.focal_length_from_fov(n.camera_fov, n.camera_pixels)
-    cam.C_BC = _camera_axes(np.asarray(cfg.spacecraft.boresight_B, dtype=float))
+    cam.C_BC = _camera_axes(np.asarray(n.camera_boresight_B, dtype=float))
     cam.pixel_sigma, cam.period, cam.dropout_probability = n.camera_pixel_sigma, n.camera_period, n.camera_dropout
     cam.max_emission_angle, cam.max_incidence_angle = n.camera_max_emission_angle, n.camera_max_incidence_angle
     cam.min_range, cam.max_range, cam.max_landmarks = n.camera_min_range, n.camera_max_range, n.camera_max_landmarks
@@ -108,7 +108,7 @@ def navigation_settings(cfg: Config) -> Any:
 
 
 def _camera_axes(boresight_B: Array) -> Array:
-    """C_BC of a camera whose z_C is the boresight (x_C the B axis least aligned with it, made orthogonal)."""
+    """C_BC of a camera whose z_C is its boresight (x_C the B axis least aligned with it, made orthogonal)."""
     z = boresight_B / np.linalg.norm(boresight_B)
     seed = np.eye(3)[int(np.argmin(np.abs(z)))]
     x = seed - z * float(seed @ z)

@@ -5,6 +5,8 @@ sensors, the output-feedback tube's gauge and the record's round trip."""
 from __future__ import annotations
 
 import dataclasses
+import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +14,7 @@ import pytest
 import scipy.optimize
 import scipy.special
 
+from tubempc import _core
 from tubempc.closed_loop import simulate
 from tubempc.config import ConfigError, load_config
 from tubempc.navigation import error_set_scale, navigation_settings, tube_gauge
@@ -37,6 +40,12 @@ def test_navigation_is_off_by_default_and_bad_fields_are_named() -> None:
         cfg.with_overrides({"navigation.altimeter_max_range": "0.5 m"})
     with pytest.raises(ConfigError, match=r"navigation\.enabled: expected true or false"):
         cfg.with_overrides({"navigation.enabled": "yes"})
+    capacity = _core.nav.MAX_LANDMARKS_PER_FRAME
+    with pytest.raises(ConfigError, match=rf"navigation\.camera_max_landmarks: expected in \[1, {capacity}\]"):
+        cfg.with_overrides({"navigation.camera_max_landmarks": capacity + 1})
+    for sensor in ("camera", "altimeter"):
+        with pytest.raises(ConfigError, match=rf"navigation\.{sensor}_boresight_B: expected non-zero"):
+            cfg.with_overrides({f"navigation.{sensor}_boresight_B": [0.0, 0.0, 0.0]})
     # the C++ settings take the section's values (the camera's focal length from its field of view)
     s = navigation_settings(cfg)
     assert s.camera.focal_length_px == pytest.approx(1024 / (2 * np.tan(cfg.navigation.camera_fov / 2)))
@@ -154,10 +163,21 @@ def test_claims_table_gets_navigation_rows_only_for_a_run_on_navigation(tmp_path
 
     cfg = load_config(scenario="bennu-tag-nav").with_overrides({"tube.design_worker": "none"})
     run_methods(cfg, ["ffa"], 0, tmp_path / "nav", progress=False, cache_dir=tmp_path / "cache", make_figures=False)
-    rows = [c for c in paper_claims(tmp_path / "nav") if "on navigation" in c.claim]
+    rows = [c for c in paper_claims(tmp_path / "nav") if "on navigation" in c.claim.lower()]
     assert len(rows) == 3 and all(c.verdict == "yes" for c in rows), [(c.claim, c.measured) for c in rows]
+    # both methods on navigation: the J_p reduction row (issue #30's 80 %) against the summary's J_p
+    summary = json.loads((tmp_path / "nav" / "summary.json").read_text())
+    shutil.copytree(tmp_path / "nav", tmp_path / "both")
+    shutil.copy(tmp_path / "nav" / "ffa.h5", tmp_path / "both" / "tbmpc.h5")
+    for factor, verdict in ((5.5, "yes"), (4.5, "no")):
+        ffa = summary["methods"]["ffa"]
+        summary["methods"]["tbmpc"] = {**ffa, "J_p": factor * ffa["J_p"]}
+        (tmp_path / "both" / "summary.json").write_text(json.dumps(summary))
+        row = [c for c in paper_claims(tmp_path / "both") if c.claim.startswith("On navigation")]
+        assert len(row) == 1 and row[0].verdict == verdict, (factor, row)
+        assert f"{100 * (1 - 1 / factor):.1f} %" in row[0].measured
     # the same folder with the records of a run on the true state (no nav_* arrays): no navigation row
     rec, _ = load_record(tmp_path / "nav" / "ffa.h5")
     rec.navigation = None
     save_record(tmp_path / "nav" / "ffa.h5", rec, config=cfg.to_dict())
-    assert not [c for c in paper_claims(tmp_path / "nav") if "on navigation" in c.claim]
+    assert not [c for c in paper_claims(tmp_path / "nav") if "on navigation" in c.claim.lower()]

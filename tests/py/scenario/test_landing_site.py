@@ -109,6 +109,7 @@ def test_packaged_scenarios_load_and_the_default_is_the_papers() -> None:
         "bennu-tag",
         "bennu-tag-nav",
         "bennu-tag-osirisrex",
+        "bennu-paper-nav",
         "itokawa-like",
     ]
     within = load_config(scenario="bennu-paper-within-prior")

@@ -115,7 +115,7 @@ struct Landmark {
 std::vector<Landmark> generate_landmarks(const RayCaster& caster, int count);
 
 /// Most landmarks one camera frame can hold (the fixed capacity of CameraFrame).
-inline constexpr int kMaxLandmarksPerFrame = 32;
+inline constexpr int kMaxLandmarksPerFrame = 64;
 
 /// Navigation camera settings (pinhole model).
 struct CameraSettings {
