@@ -203,6 +203,18 @@ _REPO = Path(__file__).resolve().parents[3]
 _THRUSTERS = _REPO / "examples" / "actuators" / "bennu_tag_thrusters.toml"
 
 
+def _missing_records(text: str, prefix: str, settings: Any) -> list[str]:
+    """The bound data fields of a settings object with no record ``<prefix>.<field>`` (or a nested one) in a
+    scenario file's text."""
+    names = {line.split(maxsplit=1)[0] for line in text.splitlines() if line.strip()}
+    fields = [a for a in dir(settings) if not a.startswith("_") and not callable(getattr(settings, a))]
+    return [
+        f"{prefix}.{a}"
+        for a in fields
+        if f"{prefix}.{a}" not in names and not any(n.startswith(f"{prefix}.{a}.") for n in names)
+    ]
+
+
 @pytest.fixture(scope="module")
 def reference_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return tmp_path_factory.mktemp("reference_cache")
@@ -254,6 +266,15 @@ def test_cpp_example_flies_navigation_and_actuators_as_the_python_loop(
     s = read_scenario(str(path))
     assert (s.truth.shape != s.model.shape) == ("simulation.truth_shape_subdivisions" in overrides)
     assert s.navigation.enabled == cfg.navigation.enabled
+    if cfg.navigation.enabled:  # every field of the navigation settings has its record (one name per option)
+        from tubempc.navigation import navigation_settings
+
+        nav, text = navigation_settings(cfg), path.read_text()
+        groups = [("navigation", nav), ("navigation.filter", nav.filter)]
+        for sensor in ("altimeter", "camera", "imu", "star_tracker"):
+            groups += [(f"navigation.{sensor}", getattr(nav, sensor))]
+            groups += [(f"navigation.filter.{sensor}", getattr(nav.filter, sensor))]
+        assert not [m for prefix, obj in groups for m in _missing_records(text, prefix, obj)]
     assert s.actuators.enabled == (cfg.spacecraft.actuators != "ideal")
     scn = build_scenario(cfg, cache_dir=reference_cache)
     rec = simulate(scn, method, seed=seed, design_worker="none")
