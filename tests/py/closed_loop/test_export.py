@@ -250,7 +250,8 @@ def test_cpp_example_flies_navigation_and_actuators_as_the_python_loop(
     the estimate of its NavigationSystem (IMU sub-steps, the error set) and the commands through its
     ActuationSystem to the Python run's final state (<= 1e-9; the same bits in practice) and J_p, with no heap
     allocation in the controller, navigation or actuation step. A file carrying the seed's run wrongly (another
-    seed's sensor noise or thruster errors) fails this."""
+    seed's sensor noise or thruster errors) fails this, and so does a settings field (navigation, sensors,
+    filter, modulation, allocation, dumping, thruster or wheel) without its record in the file."""
     from tubempc.benchmarks.embed import find_example
     from tubempc.export import export_scenario
     from tubempc.metrics import run_metrics
@@ -277,6 +278,19 @@ def test_cpp_example_flies_navigation_and_actuators_as_the_python_loop(
         assert not [m for prefix, obj in groups for m in _missing_records(text, prefix, obj)]
     assert s.actuators.enabled == (cfg.spacecraft.actuators != "ideal")
     scn = build_scenario(cfg, cache_dir=reference_cache)
+    if scn.actuation is not None:  # and every field of the actuators' settings and specs
+        from tubempc.actuators import actuation_settings
+
+        suite, text = scn.actuation.suite, path.read_text()
+        groups = [
+            ("actuators", actuation_settings(suite)),
+            ("actuators.modulation", suite.modulation),
+            ("actuators.allocation", suite.allocation),
+            ("actuators.momentum_dump", suite.wheels.dump_settings),
+            ("actuators.thrusters[0]", suite.cluster.thruster(0)),
+            ("actuators.wheels[0]", suite.wheels.wheel(0)),
+        ]
+        assert not [m for prefix, obj in groups for m in _missing_records(text, prefix, obj)]
     rec = simulate(scn, method, seed=seed, design_worker="none")
     w = tmp_path / "w.txt"
     np.savetxt(w, rec.w_true, fmt="%.17g")
