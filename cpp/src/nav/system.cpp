@@ -273,7 +273,11 @@ const NavigationStep& NavigationSystem::step(
     const SensorTruth st = sensor_truth(t(j), s, accel_nongrav_L.row(j).transpose());
     propagate_to(st);
     ++tick_;
-    if (j + 1 == n) out_.filter_status = worse(out_.filter_status, filter_.add_process_noise(Q_period_));
+    if (j + 1 == n) {
+      const Clock::time_point t0 = Clock::now();
+      out_.filter_status = worse(out_.filter_status, filter_.add_process_noise(Q_period_));
+      out_.time_filter += seconds(t0, Clock::now());
+    }
     sample(st, false);
   }
   finish(phi_ref);

@@ -25,6 +25,23 @@ def _same_bits(a: Any, b: Any) -> bool:
     return x.shape == y.shape and x.tobytes() == y.tobytes()
 
 
+def _fly_example(example: Path, path: Path, method: str, w_true: np.ndarray, tmp_path: Path) -> dict[str, Any]:
+    """The C++ example's figures for ``method`` flying the scenario file ``path`` under the disturbances
+    ``w_true`` of a Python run (it must exit 0)."""
+    w = tmp_path / "w.txt"
+    np.savetxt(w, w_true, fmt="%.17g")
+    out = tmp_path / "cpp.json"
+    proc = subprocess.run(
+        [str(example), str(path), "--method", method, "--disturbance", str(w), "--json", str(out)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    result: dict[str, Any] = json.loads(out.read_text())["methods"][method]
+    return result
+
+
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Scenario]:
     cache = tmp_path_factory.mktemp("cache")
@@ -128,17 +145,7 @@ def test_cpp_example_flies_the_python_run(exported: tuple[Path, Scenario], tmp_p
         pytest.skip(f"no built C++ example: {exc}")
     path, scn = exported
     rec = simulate(scn, method, seed=0, design_worker="none")
-    w = tmp_path / "w.txt"
-    np.savetxt(w, rec.w_true, fmt="%.17g")
-    out = tmp_path / "cpp.json"
-    proc = subprocess.run(
-        [str(example), str(path), "--method", method, "--disturbance", str(w), "--json", str(out)],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    assert proc.returncode == 0, proc.stdout + proc.stderr
-    cpp = json.loads(out.read_text())["methods"][method]
+    cpp = _fly_example(example, path, method, rec.w_true, tmp_path)
     m = run_metrics(rec, scn.config.mpc.dt, scn.xf)
     np.testing.assert_allclose(cpp["final_state"], rec.x[-1], rtol=0, atol=1e-9)
     assert cpp["J_p"] == pytest.approx(m.J_p, rel=1e-9) and cpp["J_r"] == pytest.approx(m.J_r, rel=1e-9)
@@ -292,17 +299,7 @@ def test_cpp_example_flies_navigation_and_actuators_as_the_python_loop(
         ]
         assert not [m for prefix, obj in groups for m in _missing_records(text, prefix, obj)]
     rec = simulate(scn, method, seed=seed, design_worker="none")
-    w = tmp_path / "w.txt"
-    np.savetxt(w, rec.w_true, fmt="%.17g")
-    out = tmp_path / "cpp.json"
-    proc = subprocess.run(
-        [str(example), str(path), "--method", method, "--disturbance", str(w), "--json", str(out)],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    assert proc.returncode == 0, proc.stdout + proc.stderr
-    cpp = json.loads(out.read_text())["methods"][method]
+    cpp = _fly_example(example, path, method, rec.w_true, tmp_path)
     m = run_metrics(rec, scn.config.mpc.dt, scn.xf)
     np.testing.assert_allclose(cpp["final_state"], rec.x[-1], rtol=0, atol=1e-9)
     assert cpp["J_p"] == pytest.approx(m.J_p, rel=1e-9) and cpp["J_r"] == pytest.approx(m.J_r, rel=1e-9)
