@@ -1,6 +1,7 @@
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
 
+#include <limits>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -29,6 +30,7 @@ void bind_actuators(py::module_& m) {
   s.attr("STANDARD_GRAVITY") = kStandardGravity;
 
   bind_named_enum<FaultKind>(s, "FaultKind", "A thruster's fault");
+  bind_named_enum<PulseRounding>(s, "PulseRounding", "How the modulator rounds a commanded on-time");
 
   py::class_<ThrusterSpec>(s, "ThrusterSpec",
                            "One thruster (nominal geometry, truth errors and their bounds, fault)")
@@ -64,6 +66,7 @@ void bind_actuators(py::module_& m) {
       .def(py::init<>())
       .def_readwrite("period", &ModulationSettings::period)
       .def_readwrite("on_time_resolution", &ModulationSettings::on_time_resolution)
+      .def_readwrite("rounding", &ModulationSettings::rounding)
       .def("validate", &ModulationSettings::validate);
 
   py::class_<Firing>(s, "Firing", "One period's firing (a copy)")
@@ -85,6 +88,7 @@ void bind_actuators(py::module_& m) {
       .def("reset", &PulseModulator::reset)
       .def_property_readonly("remainder", &PulseModulator::remainder)
       .def("remainder_bound", &PulseModulator::remainder_bound, py::arg("cluster"), py::arg("j"))
+      .def("on_time_error_bound", &PulseModulator::on_time_error_bound, py::arg("cluster"), py::arg("j"))
       .def("effective_min_on_time", &PulseModulator::effective_min_on_time, py::arg("cluster"), py::arg("j"))
       .def_property_readonly("pulse_counts", &PulseModulator::pulse_counts)
       .def_property_readonly("propellant", &PulseModulator::propellant)
@@ -230,9 +234,11 @@ void bind_actuators(py::module_& m) {
         py::arg("cluster"), py::arg("modulator"), py::arg("mass"), "The actuation-error box for any command");
   s.def("actuation_error_bound",
         py::overload_cast<const ThrusterCluster&, const PulseModulator&, double, const ReactionWheels&,
-                          const AllocationSettings&, const Vector6&, double, bool>(&actuation_error_bound),
+                          const AllocationSettings&, const Vector6&, double, bool, double>(
+            &actuation_error_bound),
         py::arg("cluster"), py::arg("modulator"), py::arg("mass"), py::arg("wheels"), py::arg("allocation"),
         py::arg("command_half_width_B"), py::arg("t") = 0.0, py::arg("tolerate_one_failure") = true,
+        py::arg("command_force_norm") = std::numeric_limits<double>::infinity(),
         "The actuation-error box for commands inside a wrench box (the allocation's thrust norm bounded)");
   s.def("disturbance_with_actuation_error", &disturbance_with_actuation_error, py::arg("P_W"), py::arg("B"),
         py::arg("E"),

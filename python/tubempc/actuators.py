@@ -50,7 +50,7 @@ _SECTION_KEYS = {
     "thruster_defaults": set(_THRUSTER_FIELDS) | {"misalignment_B"},
     "wheels": {"max_torque", "max_momentum", "axes_B"},
     "momentum_dump": {"enabled", "start_fraction", "stop_fraction", "time_constant"},
-    "modulation": {"on_time_resolution"},
+    "modulation": {"on_time_resolution", "rounding"},
 }
 
 
@@ -276,6 +276,11 @@ def load_actuators(source: str | Path, period: float, *, seed: int = 0) -> Actua
     mod = raw.get("modulation", {})
     if "on_time_resolution" in mod:
         modulation.on_time_resolution = _quantity(mod["on_time_resolution"], "s", f"{where}.modulation.on_time_resolution")
+    if "rounding" in mod:
+        names = _act.PulseRounding.names()
+        if mod["rounding"] not in names:
+            raise ActuatorConfigError(f"{where}.modulation.rounding: expected one of {names}, got {mod['rounding']!r}")
+        modulation.rounding = _act.PulseRounding.from_string(mod["rounding"])
     allocation = _act.AllocationSettings()
     allocation.period = period
     try:
@@ -386,10 +391,19 @@ def scenario_actuation(
         raise ActuatorConfigError(f"{source}: the actuators cannot deliver every direction with one thruster failed")
     half = np.asarray(box.input_half_width)
     u_max, T_max = min(u_max, float(half[:3].min())), min(T_max, float(half[3:].min()))
-    # The wrenches the MPC can command: |u_p,i| <= u_max in L is a force within sqrt(3) m u_max in B.
+    # The wrenches the MPC can command: |u_p,i| <= u_max in L is a force of norm at most sqrt(3) m u_max, so
+    # within that in each B axis too, at any attitude.
     command = np.minimum(np.r_[[math.sqrt(3.0) * suite.mass * u_max] * 3, [T_max] * 3], box.half_width_B)
     error = _act.actuation_error_bound(
-        suite.cluster, suite.modulator(), suite.mass, suite.wheels, suite.allocation, command, 0.0, True
+        suite.cluster,
+        suite.modulator(),
+        suite.mass,
+        suite.wheels,
+        suite.allocation,
+        command,
+        0.0,
+        True,
+        math.sqrt(3.0) * suite.mass * u_max,
     )
     return ScenarioActuation(source, suite, box, error, u_max, T_max)
 

@@ -24,6 +24,37 @@ double projected_error(const Eigen::Vector3d& d, const Eigen::Vector3d& e, doubl
   return worst;
 }
 
+// Vertices of the force box |F_i| <= h_i cut by the octahedron |F_x| + |F_y| + |F_z| <= c (c = +inf: the box's
+// eight corners). Every vertex has three independent active constraints among the box's six faces and the
+// octahedron's eight: all 364 triples are solved and the feasible points kept (duplicates are harmless).
+std::vector<Eigen::Vector3d> force_vertices(const Eigen::Vector3d& h, double c) {
+  std::vector<Eigen::Vector3d> out;
+  if (!std::isfinite(c) || c >= h.sum()) {
+    for (int v = 0; v < 8; ++v)
+      out.emplace_back((v & 1 ? 1.0 : -1.0) * h(0), (v & 2 ? 1.0 : -1.0) * h(1), (v & 4 ? 1.0 : -1.0) * h(2));
+    return out;
+  }
+  std::vector<std::pair<Eigen::Vector3d, double>> planes;  // a . F = b
+  for (int i = 0; i < 3; ++i)
+    for (const double s : {1.0, -1.0}) planes.emplace_back(s * Eigen::Vector3d::Unit(i), h(i));
+  for (int v = 0; v < 8; ++v)
+    planes.emplace_back(Eigen::Vector3d((v & 1 ? 1.0 : -1.0), (v & 2 ? 1.0 : -1.0), (v & 4 ? 1.0 : -1.0)), c);
+  const double tol = 1e-12 * std::max(c, h.maxCoeff());
+  const int n = static_cast<int>(planes.size());
+  for (int a = 0; a < n; ++a)
+    for (int b = a + 1; b < n; ++b)
+      for (int d = b + 1; d < n; ++d) {
+        Eigen::Matrix3d M;
+        M << planes[a].first.transpose(), planes[b].first.transpose(), planes[d].first.transpose();
+        Eigen::FullPivLU<Eigen::Matrix3d> lu(M);
+        if (lu.rank() < 3) continue;
+        const Eigen::Vector3d F =
+            lu.solve(Eigen::Vector3d(planes[a].second, planes[b].second, planes[d].second));
+        if ((F.cwiseAbs() - h).maxCoeff() <= tol && F.cwiseAbs().sum() <= c + tol) out.push_back(F);
+      }
+  return out;
+}
+
 }  // namespace
 
 void AchievableBoxSettings::validate() const {
@@ -159,7 +190,8 @@ ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const 
   const Eigen::Matrix<double, 6, Eigen::Dynamic> a = misalignment_gains(cluster);
   for (int j = 0; j < cluster.size(); ++j) {
     const double F = cluster.max_thrust()(j);
-    e.modulation_B += cluster.mapping().col(j).cwiseAbs() * (F * modulator.remainder_bound(cluster, j) / dt);
+    e.modulation_B +=
+        cluster.mapping().col(j).cwiseAbs() * (F * modulator.on_time_error_bound(cluster, j) / dt);
     e.misalignment_B += a.col(j) * F;
   }
   e.thrust_norm = cluster.max_thrust().norm();
@@ -171,11 +203,15 @@ ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const 
                                           double mass, const ReactionWheels& wheels,
                                           const AllocationSettings& allocation,
                                           const Vector6& command_half_width_B, double t,
-                                          bool tolerate_one_failure) {
+                                          bool tolerate_one_failure, double command_force_norm) {
   check_common(cluster, modulator, mass);
   if (!(command_half_width_B.allFinite() && command_half_width_B.minCoeff() >= 0.0))
     throw std::invalid_argument("actuation_error_bound.command_half_width_B: must be finite and >= 0");
+  if (!(command_force_norm > 0.0))
+    throw std::invalid_argument("actuation_error_bound.command_force_norm: must be > 0 (N; inf: none)");
   ActuationErrorBound e = actuation_error_bound(cluster, modulator, mass);
+  const std::vector<Eigen::Vector3d> forces =
+      force_vertices(command_half_width_B.head<3>(), std::sqrt(3.0) * command_force_norm);
   // The thruster-only allocation (no wheels), its objective's maximum over the vertices of the box plus every
   // wheel torque.
   MomentumDumpSettings no_dump;
@@ -187,15 +223,17 @@ ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const 
   const double eps2 = allocation.thrust_weight * allocation.thrust_weight;
   double J_max = 0.0;
   auto sweep = [&]() {
-    for (long v = 0; v < (64L << m); ++v) {
-      Vector6 w;
-      for (int i = 0; i < 6; ++i) w(i) = ((v >> i) & 1 ? 1.0 : -1.0) * command_half_width_B(i);
-      for (int j = 0; j < m; ++j)
-        w.tail<3>() -= ((v >> (6 + j)) & 1 ? 1.0 : -1.0) * wheels.max_torque()(j) * wheels.axes_B().col(j);
-      const AllocationResult& r = alloc.solve(cluster, none, t, w);
-      if (r.info.status == AllocationStatus::MaxIterations) return false;
-      J_max = std::max(J_max, wr.cwiseProduct(r.remainder_B).squaredNorm() + eps2 * r.thrust.squaredNorm());
-    }
+    for (const Eigen::Vector3d& force : forces)
+      for (long v = 0; v < (8L << m); ++v) {
+        Vector6 w;
+        w.head<3>() = force;
+        for (int i = 0; i < 3; ++i) w(3 + i) = ((v >> i) & 1 ? 1.0 : -1.0) * command_half_width_B(3 + i);
+        for (int j = 0; j < m; ++j)
+          w.tail<3>() -= ((v >> (3 + j)) & 1 ? 1.0 : -1.0) * wheels.max_torque()(j) * wheels.axes_B().col(j);
+        const AllocationResult& r = alloc.solve(cluster, none, t, w);
+        if (r.info.status == AllocationStatus::MaxIterations) return false;
+        J_max = std::max(J_max, wr.cwiseProduct(r.remainder_B).squaredNorm() + eps2 * r.thrust.squaredNorm());
+      }
     return true;
   };
   bool converged = sweep();
@@ -213,7 +251,7 @@ ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const 
   const double dt = modulator.settings().period;
   Eigen::VectorXd carried(cluster.size());
   for (int j = 0; j < cluster.size(); ++j)
-    carried(j) = cluster.max_thrust()(j) * modulator.remainder_bound(cluster, j) / dt;
+    carried(j) = cluster.max_thrust()(j) * modulator.on_time_error_bound(cluster, j) / dt;
   const Eigen::Matrix<double, 6, Eigen::Dynamic> a = misalignment_gains(cluster);
   for (int i = 0; i < 6; ++i)
     e.misalignment_B(i) = std::min(e.misalignment_B(i), a.row(i).norm() * (e.thrust_norm + carried.norm()));

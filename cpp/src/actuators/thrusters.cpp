@@ -25,6 +25,7 @@ Eigen::Vector3d true_direction(const ThrusterSpec& s) {
 }  // namespace
 
 std::string to_string(FaultKind kind) { return core::enum_name(kind); }
+std::string to_string(PulseRounding rounding) { return core::enum_name(rounding); }
 
 FaultKind fault_kind_from_string(const std::string& name) {
   FaultKind kind = FaultKind::None;
@@ -98,6 +99,7 @@ void ModulationSettings::validate() const {
     throw std::invalid_argument("modulation.period: must be finite and > 0 (s)");
   if (!(std::isfinite(on_time_resolution) && on_time_resolution >= 0.0 && on_time_resolution <= period))
     throw std::invalid_argument("modulation.on_time_resolution: must be in [0, period] (s)");
+  if (!core::is_named(rounding)) throw std::invalid_argument("modulation.rounding: not a known rounding");
 }
 
 PulseModulator::PulseModulator(const ThrusterCluster& cluster, const ModulationSettings& settings)
@@ -131,6 +133,11 @@ double PulseModulator::remainder_bound(const ThrusterCluster& cluster, int j) co
   return std::max(effective_min_on_time(cluster, j), settings_.on_time_resolution);
 }
 
+double PulseModulator::on_time_error_bound(const ThrusterCluster& cluster, int j) const {
+  const double r_max = remainder_bound(cluster, j);
+  return settings_.rounding == PulseRounding::Nearest ? 0.5 * r_max : r_max;
+}
+
 const Firing& PulseModulator::modulate(const ThrusterCluster& cluster, double t,
                                        const Eigen::Ref<const Eigen::VectorXd>& thrust_cmd) {
   const int n = static_cast<int>(r_.size());
@@ -156,11 +163,21 @@ const Firing& PulseModulator::modulate(const ThrusterCluster& cluster, double t,
         r_(j) = 0.0;
         break;
       case FaultKind::None: {
+        const double t_min = effective_min_on_time(cluster, j);
+        if (settings_.rounding == PulseRounding::Nearest) {
+          const double tau_c = f * dt / f_max(j);
+          if (tau_c >= t_min)
+            tau = q > 0.0 ? std::max(std::round(tau_c / q) * q, t_min) : tau_c;
+          else
+            tau = tau_c >= 0.5 * t_min ? t_min : 0.0;
+          tau = std::min(tau, dt);
+          break;
+        }
         const double total = f * dt / f_max(j) + r_(j);
         double fire = q > 0.0 ? std::floor(total / q) * q : total;
         // A floor a rounding short of a whole multiple: take the multiple (keeps the remainder >= 0 exact).
         if (q > 0.0 && total - fire >= q) fire += q;
-        if (fire < effective_min_on_time(cluster, j)) fire = 0.0;
+        if (fire < t_min) fire = 0.0;
         tau = std::min(fire, dt);
         r_(j) = std::max(total - tau, 0.0);
         break;

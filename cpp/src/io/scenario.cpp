@@ -629,6 +629,7 @@ struct Fields<actuators::ModulationSettings> {
     using S = actuators::ModulationSettings;
     v("period", &S::period, false);
     v("on_time_resolution", &S::on_time_resolution, false);
+    v("rounding", &S::rounding, false);
   }
 };
 

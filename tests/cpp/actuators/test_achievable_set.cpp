@@ -171,6 +171,40 @@ TEST(ActuationErrorBound, InABoxBoundsTheThrustNormAndTheErrors) {
   }
   EXPECT_GT(dumping, 10);
   EXPECT_GT(worst.maxCoeff(), 0.1);
+  // Forces of norm <= rho (the octahedral cut of the force box): a smaller thrust norm, which still bounds the
+  // allocation of every such command, and errors within the cut bound.
+  const double rho = half.head<3>().minCoeff();
+  Vector6 cut_half = half;
+  cut_half.head<3>().setConstant(rho);
+  cut_half.tail<3>() *= 0.1;  // torques small: the forces set the thrust norm
+  const ActuationErrorBound boxed = actuation_error_bound(c, mod, 800.0, w, as, cut_half, 0.0, false);
+  const ActuationErrorBound cut = actuation_error_bound(c, mod, 800.0, w, as, cut_half, 0.0, false, rho);
+  EXPECT_LT(cut.thrust_norm, 0.9 * boxed.thrust_norm);
+  for (int i = 0; i < 6; ++i) EXPECT_LE(cut.wrench_B(i), boxed.wrench_B(i));
+  std::normal_distribution<double> g(0.0, 1.0);
+  double nearest_norm = 0.0;
+  for (int k = 0; k < 600; ++k) {
+    Vector6 cmd;
+    cmd.head<3>() = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized() * rho * std::cbrt(std::abs(u(rng)));
+    for (int i = 3; i < 6; ++i) cmd(i) = u(rng) * cut_half(i);
+    const AllocationResult& r = a.solve(c, w, 600 + k, cmd);
+    ASSERT_EQ(r.info.status, AllocationStatus::Ok);
+    ASSERT_LE(r.thrust.norm(), cut.thrust_norm) << k;
+    nearest_norm = std::max(nearest_norm, r.thrust.norm() / cut.thrust_norm);
+    const Firing& f = mod.modulate(c, 600 + k, r.thrust);
+    w.apply(r.wheel_torque, 1.0);
+    const Vector6 e = f.commanded_B - f.delivered_B;
+    for (int i = 0; i < 6; ++i)
+      ASSERT_LE(std::abs(e(i)), cut.wrench_B(i)) << "component " << i << " step " << k;
+  }
+  EXPECT_GT(nearest_norm, 0.5);
+  // Nearest rounding halves the modulation part exactly; the misalignment part keeps its thrust norm.
+  ms.rounding = PulseRounding::Nearest;
+  const ActuationErrorBound nearest =
+      actuation_error_bound(c, PulseModulator(c, ms), 800.0, w, as, half, 0.0, false);
+  EXPECT_TRUE(nearest.modulation_B.isApprox(0.5 * in_box.modulation_B, 1e-14));
+  EXPECT_NEAR(nearest.thrust_norm, in_box.thrust_norm, 1e-12);
+  for (int i = 0; i < 6; ++i) EXPECT_LE(nearest.misalignment_B(i), in_box.misalignment_B(i));
 }
 
 // The box tolerating one failure is the smallest of the boxes with each thruster failed in turn; a stuck-on

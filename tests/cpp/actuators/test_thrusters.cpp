@@ -118,6 +118,55 @@ TEST(PulseModulator, DeliveredImpulseMatchesTheCommandUpToTheRemainder) {
   EXPECT_NEAR(mod.remainder_bound(c, 0), 0.02, 1e-15);
 }
 
+// Nearest rounding: the levels by hand (tau_min 0.02 s, q 0.004 s), nothing carried.
+TEST(PulseModulator, NearestRoundingFiresTheNearestLevel) {
+  const ThrusterCluster c = actuator_test::cube_cluster(4.5, 0.02);
+  ModulationSettings ms;
+  ms.period = 0.5;
+  ms.on_time_resolution = 0.004;
+  ms.rounding = PulseRounding::Nearest;
+  PulseModulator mod(c, ms);
+  const std::vector<std::pair<double, double>> cases = {{0.0, 0.0},    {0.009, 0.0},    {0.0101, 0.02},
+                                                        {0.019, 0.02}, {0.0291, 0.028}, {0.0301, 0.032},
+                                                        {0.4999, 0.5}, {0.5, 0.5}};
+  for (const auto& [tau_c, tau] : cases) {
+    Eigen::VectorXd f = Eigen::VectorXd::Zero(c.size());
+    f(0) = 4.5 * tau_c / ms.period;
+    const Firing& fr = mod.modulate(c, 0.0, f);
+    EXPECT_NEAR(fr.on_time(0), tau, 1e-15) << tau_c;
+    EXPECT_EQ(mod.remainder()(0), 0.0);
+  }
+  EXPECT_NEAR(mod.on_time_error_bound(c, 0), 0.01, 1e-15);
+  ms.rounding = PulseRounding::Carry;
+  EXPECT_NEAR(PulseModulator(c, ms).on_time_error_bound(c, 0), 0.02, 1e-15);
+}
+
+// Per period, |tau - tau_c| <= on_time_error_bound for both roundings, and Nearest reaches its bound.
+TEST(PulseModulator, OnePeriodsOnTimeErrorIsWithinItsBound) {
+  const ThrusterCluster c = actuator_test::cube_cluster(4.5, 0.02);
+  for (const PulseRounding rounding : {PulseRounding::Carry, PulseRounding::Nearest}) {
+    ModulationSettings ms;
+    ms.period = 0.5;
+    ms.on_time_resolution = 0.004;
+    ms.rounding = rounding;
+    PulseModulator mod(c, ms);
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    Eigen::VectorXd f(c.size());
+    double worst = 0.0;
+    for (int k = 0; k < 500; ++k) {
+      for (int j = 0; j < c.size(); ++j) f(j) = 4.5 * std::pow(u(rng), 3.0);
+      const Firing& fr = mod.modulate(c, 0.5 * k, f);
+      for (int j = 0; j < c.size(); ++j) {
+        const double err = std::abs(fr.on_time(j) - f(j) * ms.period / 4.5);
+        EXPECT_LE(err, mod.on_time_error_bound(c, j) + 1e-15) << to_string(rounding) << " " << k;
+        worst = std::max(worst, err / mod.on_time_error_bound(c, j));
+      }
+    }
+    EXPECT_GT(worst, 0.9) << to_string(rounding);
+  }
+}
+
 TEST(PulseModulator, FaultsOverrideTheCommandFromTheirTime) {
   ThrusterCluster c = actuator_test::cube_cluster();
   c.set_fault(0, FaultKind::StuckOn, 10.0);

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from tubempc import actuators as A
+from tubempc.benchmarks.actuation import nominal_input_fraction
 from tubempc.closed_loop import simulate
 from tubempc.config import ConfigError, load_config
 from tubempc.metrics import run_metrics
@@ -100,6 +101,13 @@ def test_short_run_with_thrusters_and_wheels_stays_in_its_certified_tube(tmp_pat
     rec = simulate(scn, "ffa", 0, max_steps=30, design_worker="none")
     assert np.all(rec.excursion <= 1.0)
     assert set(rec.actuation_statuses) == {"ok"}
+    # The nominal inputs stay inside the input bound the tube leaves them (bench actuation's figure), and
+    # some step plans against it, so the fraction is the MPC's tightening, not a looser one (to the QPs'
+    # tolerance: a few 1e-7 m/s^2 here).
+    room = nominal_input_fraction(rec, u_max)
+    assert np.all((room > 0.0) & (room < 1.0))
+    slack = room * u_max - np.abs(rec.v[:, :3]).max(axis=1)
+    assert abs(slack.min()) <= 1e-3 * u_max
     assert all(s.startswith(("initial", "lyapunov", "library")) for s in rec.tube_statuses)  # certified
     assert rec.propellant.sum() > 0.0 and rec.pulses.sum() > 0
     # The delivered input differs from the command by the modulation and the truth's errors, within the
@@ -142,6 +150,8 @@ def test_a_preset_over_its_base_changes_only_the_fields_it_gives(tmp_path: Path)
         assert np.array_equal(c.position_B, b.position_B) and np.array_equal(c.direction_B, b.direction_B)
     assert np.array_equal(cal.wheels.axes_B, base.wheels.axes_B)
     assert np.array_equal(cal.wheels.max_momentum, base.wheels.max_momentum)
+    assert (base.modulation.rounding, cal.modulation.rounding) == (A._act.PulseRounding.Carry, A._act.PulseRounding.Nearest)
+    assert cal.modulation.on_time_resolution == base.modulation.on_time_resolution  # the field not given is the base's
     (tmp_path / "own.toml").write_text('base = "osiris_rex_like_calibrated"\n[modulation]\non_time_resolution = "2 ms"\n')
     own = A.load_actuators(tmp_path / "own.toml", 5.0)
     assert own.name == "own" and own.modulation.on_time_resolution == 0.002
@@ -153,6 +163,9 @@ def test_a_preset_over_its_base_changes_only_the_fields_it_gives(tmp_path: Path)
     (tmp_path / "c.toml").write_text('base = "osiris_rex_like"\n[thruster_defaults]\nscale_error_bnd = 0.01\n')
     with pytest.raises(A.ActuatorConfigError, match=r"c\.toml\.thruster_defaults: unknown field.*scale_error_bnd"):
         A.load_actuators(tmp_path / "c.toml", 5.0)
+    (tmp_path / "d.toml").write_text('base = "osiris_rex_like"\n[modulation]\nrounding = "round"\n')
+    with pytest.raises(A.ActuatorConfigError, match=r"d\.toml\.modulation\.rounding: expected one of \['carry', 'nearest'\]"):
+        A.load_actuators(tmp_path / "d.toml", 5.0)
 
 
 def test_the_osiris_rex_like_tag_fits_the_preset_s_authority_with_its_certified_error(cache: Path) -> None:
@@ -170,9 +183,9 @@ def test_the_osiris_rex_like_tag_fits_the_preset_s_authority_with_its_certified_
     # 16 thrusters of 1 lbf on 1500 kg: the box is below what all of them give along one axis
     assert u_max < 8 * 4.4482216152605 / 1500.0
     peak = float(np.abs(scn.reference.u[:, :3]).max())
-    assert peak <= 0.4 * u_max * (1.0 + 1e-9)
+    assert peak <= 0.2 * u_max * (1.0 + 1e-9)
     E_p, _ = scn.actuation.error_shapes()
     radius = float(np.sqrt(E_p[0, 0]))
     assert peak + radius < 0.7 * u_max
     raw = A.scenario_actuation("osiris_rex_like", A.PRESET_DIR, 5.0, 1.0, 3.0)
-    assert float(np.sqrt(raw.error_shapes()[0][0, 0])) > 0.9 * raw.u_max
+    assert float(np.sqrt(raw.error_shapes()[0][0, 0])) > 0.8 * raw.u_max

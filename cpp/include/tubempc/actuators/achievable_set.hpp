@@ -6,6 +6,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <limits>
 
 #include "tubempc/actuators/allocation.hpp"
 #include "tubempc/actuators/reaction_wheels.hpp"
@@ -60,16 +61,17 @@ AchievableBox achievable_box(const ThrusterCluster& cluster, const ReactionWheel
 /// A box containing every actuation error e = M x - w_delivered of a period: the allocated nominal wrench
 /// minus the truth's period-average delivered wrench. Certified (deterministic) for: commanded thrusts in
 /// [0, F_j] with the cluster's faults known to the allocation, the modulator's remainders in [0, r_max_j)
-/// (true from a reset), and truth errors within the thrusters' scale_error_bound and misalignment_bound.
+/// (true from a reset; none with PulseRounding::Nearest), and truth errors within the thrusters' scale_error_bound and misalignment_bound.
 /// The wheels deliver their allocated torque exactly (their bounds are the allocation's).
 struct ActuationErrorBound {
-  /// Part from pulse modulation: sum_j |D_ij| F_j r_max_j / dt (N, N m).
+  /// Part from pulse modulation: sum_j |D_ij| F_j e_j / dt, e_j the modulator's on-time error bound
+  /// (PulseModulator::on_time_error_bound: r_max_j, or r_max_j / 2 with PulseRounding::Nearest) (N, N m).
   Vector6 modulation_B = Vector6::Zero();
   /// Part from scale and misalignment errors: sum_j a_ij f_j over the delivered thrusts f_j, a_ij = max |v_j .
   /// c_ij| with v_j = (1 + s) R d_j - d_j over |s| <= s_j and rotations by at most theta_j, c_ij = e_i for
   /// force rows and e_i x p_j for torque rows (exact per thruster). For any command it is sum_j a_ij F_j
   /// (every thruster at full thrust); for commands in a box, min(sum_j a_ij F_j, ||a_i||_2 (thrust_norm +
-  /// ||F_j r_max_j / dt||_2)) (N, N m).
+  /// ||F_j e_j / dt||_2)) (N, N m).
   Vector6 misalignment_B = Vector6::Zero();
   /// Bound on ||f||_2 of the commanded thrusts used by misalignment_B (N): sqrt(sum_j F_j^2) for any command.
   double thrust_norm = 0.0;
@@ -110,12 +112,16 @@ ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const 
 /// @param command_half_width_B half-widths of the command box (N, N m; >= 0).
 /// @param t time at which the cluster's faults are read (s).
 /// @param tolerate_one_failure whether the bound must hold with any one more thruster failed off.
+/// @param command_force_norm a bound on the command's force norm ||F_B||_2 as well (N, > 0; +inf: none), e.g.
+/// sqrt(3) m u_max for |u_p,i| <= u_max in L at any attitude. The force part of the box is then cut by the
+/// octahedron |F_x| + |F_y| + |F_z| <= sqrt(3) command_force_norm, which contains that ball, and J's maximum
+/// is taken at the vertices of the cut box instead (fewer and shorter forces than the box's corners).
 /// @return the bound.
-ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const PulseModulator& modulator,
-                                          double mass, const ReactionWheels& wheels,
-                                          const AllocationSettings& allocation,
-                                          const Vector6& command_half_width_B, double t = 0.0,
-                                          bool tolerate_one_failure = true);
+ActuationErrorBound actuation_error_bound(
+    const ThrusterCluster& cluster, const PulseModulator& modulator, double mass,
+    const ReactionWheels& wheels, const AllocationSettings& allocation, const Vector6& command_half_width_B,
+    double t = 0.0, bool tolerate_one_failure = true,
+    double command_force_norm = std::numeric_limits<double>::infinity());
 
 /// The disturbance set of a subsystem's tube design with the actuation error added (docs/model.md M38): an
 /// ellipsoid {w : w^T P^-1 w <= 1} containing W (+) B E, the Minkowski sum of W = {w : w^T P_W^-1 w <= 1} and

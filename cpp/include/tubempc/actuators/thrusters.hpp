@@ -115,10 +115,27 @@ class ThrusterCluster {
   Eigen::VectorXd f_max_;
 };
 
+/// How the modulator turns a commanded on-time into one the valves fire (docs/decisions.md "Thruster pulse
+/// modulation").
+enum class PulseRounding {
+  /// Down to the resolution, the rest carried to the next period (remainder carry-over; default): over any
+  /// number of periods the delivered impulse follows the commanded one to within one remainder, and one
+  /// period's on-time error is below r_max = max(tau_min, q).
+  Carry,
+  /// To the nearest level the valves can fire (0, the minimum on-time, or a multiple of the resolution above
+  /// it), nothing carried: one period's on-time error is at most r_max / 2, half the carry-over's, but the
+  /// errors of successive periods do not cancel (a command below tau_min / 2 is never delivered).
+  Nearest,
+};
+
+/// Name of a pulse rounding ("carry", "nearest"; core::EnumNames<PulseRounding>).
+std::string to_string(PulseRounding rounding);
+
 /// Settings of the pulse modulation.
 struct ModulationSettings {
   double period = 1.0;  ///< Control period dt over which a commanded thrust is averaged (s, > 0).
   double on_time_resolution = 1e-3;  ///< On-times are whole multiples of this (s, >= 0; 0: continuous).
+  PulseRounding rounding = PulseRounding::Carry;  ///< Carry-over or nearest level.
 
   /// Throws std::invalid_argument naming the field.
   void validate() const;
@@ -136,12 +153,15 @@ struct Firing {
   int pulses = 0;           ///< Thrusters fired in the period.
 };
 
-/// Pulse-width modulation with remainder carry-over: each period, thruster j is asked for the on-time
+/// Pulse-width modulation, by default with remainder carry-over (PulseRounding::Carry): each period, thruster j is asked for the on-time
 /// tau_c = f_j dt / F_j plus its carried remainder r_j; the sum is rounded down to the resolution q; it
 /// fires if that reaches the minimum on-time (rounded up to q), at most for the whole period; what was not
 /// fired is carried: r_j' = tau_c + r_j - tau_j. The remainder stays in [0, r_max_j), r_max_j =
 /// max(tau_min_j, q) (tau_min rounded up to q), so over any number of periods the delivered nominal impulse
 /// differs from the commanded one by less than F_j r_max_j, and in one period by less than that too.
+/// With PulseRounding::Nearest the commanded on-time itself is rounded to the nearest level it can fire (0
+/// below half the minimum on-time, the minimum on-time up to it, the nearest multiple of q above it, at most
+/// the period) and nothing is carried (the remainders stay 0).
 /// A failed-off thruster fires 0, a stuck-on one the whole period (their remainders are cleared).
 /// Allocation-free after construction.
 class PulseModulator {
@@ -169,6 +189,11 @@ class PulseModulator {
   /// @param cluster the thrusters.
   /// @param j thruster index.
   double remainder_bound(const ThrusterCluster& cluster, int j) const;
+  /// @return the bound on |tau_j - tau_c,j| in one period of a healthy thruster, tau_c,j = f_j dt / F_j the
+  /// commanded on-time (s): r_max_j with PulseRounding::Carry (strict), r_max_j / 2 with Nearest.
+  /// @param cluster the thrusters.
+  /// @param j thruster index.
+  double on_time_error_bound(const ThrusterCluster& cluster, int j) const;
   /// @return thruster j's minimum on-time rounded up to the resolution (s).
   /// @param cluster the thrusters.
   /// @param j thruster index.
@@ -200,6 +225,14 @@ struct EnumNames<actuators::FaultKind> {
       {{actuators::FaultKind::None, "None", "none"},
        {actuators::FaultKind::FailedOff, "FailedOff", "failed_off"},
        {actuators::FaultKind::StuckOn, "StuckOn", "stuck_on"}}};
+};
+/// Names of actuators::PulseRounding.
+template <>
+struct EnumNames<actuators::PulseRounding> {
+  /// The values, their identifiers and names.
+  static constexpr std::array<EnumName<actuators::PulseRounding>, 2> values{
+      {{actuators::PulseRounding::Carry, "Carry", "carry"},
+       {actuators::PulseRounding::Nearest, "Nearest", "nearest"}}};
 };
 
 }  // namespace tubempc::core
