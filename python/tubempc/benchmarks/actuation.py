@@ -4,7 +4,8 @@ Flies a scenario whose ``spacecraft.actuators`` is a thruster-and-wheel model, a
 ideal actuators and the same input bounds (``spacecraft.u_max`` and ``T_max`` set to the actuators' bounds,
 so that the reference trajectory is the same), each method with the same seed. Reports per method: steps
 outside the tube, terminal position error, net delta-v (sum |u_p delivered| dt), the thrusters' delta-v
-(sum of impulses / m) and propellant, pulses, the wheels' largest momentum, and the controller step's p99
+(sum of impulses / m) and propellant, pulses, the wheels' largest momentum, the share of the input bound the
+tube leaves the nominal input and the plan's largest offset from the reference, and the controller step's p99
 with and without the actuation call in the same run (and the ideal run's). The JSON carries the machine and
 both configurations.
 """
@@ -139,7 +140,8 @@ def run(args: argparse.Namespace) -> int:
             f"{act['thruster_delta_v_m_s']:.4g} m/s, propellant {act['propellant_kg']:.4g} kg, {act['pulses']} pulses; "
             f"p99 {act['controller_p99_ms']:.3g} ms -> {act['controller_and_actuation_p99_ms']:.3g} ms with the "
             f"actuation (+{row['p99_growth_ms']:.3g} ms); the tube leaves the nominal input "
-            f"{act['nominal_input_fraction_median']:.2f} of u_max (median; ideal {base['nominal_input_fraction_median']:.2f}), "
+            f"{act['nominal_input_fraction_median']:.2f} of u_max (median; ideal "
+            f"{base['nominal_input_fraction_median']:.2f}), "
             f"plan off the reference by up to {act['max_plan_offset_m']:.3g} m (ideal {base['max_plan_offset_m']:.3g} m)"
         )
     write_json(args.json, out)
