@@ -105,6 +105,7 @@ def test_report_compares_a_run_with_actuators_with_the_ideal_actuator_run(tmp_pa
         "mpc.t_f": "200 s",
         "boundary.touchdown_speed": "0.05 m/s",
         "tube.design_worker": "inline",
+        "simulation.reference_input_fraction": 0.4,  # 10 m in 200 s
     }
     cfg = load_config(scenario="bennu-tag-osirisrex").with_overrides(short)
     out = tmp_path / "run"
