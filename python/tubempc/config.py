@@ -399,7 +399,7 @@ class NavigationSection:
     camera_period: float = field(metadata=_q("s", "time", check=_POS))
     camera_fov: float = field(metadata=_q("rad", "angle", check=_HALF_TURN))
     camera_pixels: int = field(metadata=_int(check=_GE1))
-    camera_pixel_sigma: float = field(metadata=_num(check=_NONNEG))
+    camera_pixel_sigma: float = field(metadata=_num(check=_POS))
     camera_max_emission_angle: float = field(metadata=_q("rad", "angle", check=_RIGHT_ANGLE))
     camera_max_incidence_angle: float = field(
         metadata=_q("rad", "angle", check=(lambda v: 0.0 < v <= math.pi, "in (0, 180] deg"))

@@ -35,6 +35,48 @@ void decouple(Mat15& P) {
   P.block<6, 3>(6, 12).setZero();
 }
 
+// The columns of dx a landmark's pixel depends on: dr (0..2) and dtheta (6..8).
+using Mat2x6 = Eigen::Matrix<double, 2, 6>;
+using Mat15x6 = Eigen::Matrix<double, kNavStates, 6>;
+
+// The rotations a frame's landmarks share: C_LA = C_AL^T and C_CL = C_BC^T C_LB^T (camera from L).
+struct CameraView {
+  Eigen::Matrix3d C_LA;
+  Eigen::Matrix3d C_CL;
+  Eigen::Matrix3d C_CB;
+};
+
+CameraView camera_view(const dynamics::ProximityModel& model, const CameraSettings& cam, const NavState& x) {
+  CameraView view;
+  view.C_LA = model.C_AL(x.t).transpose();
+  view.C_CB = cam.C_BC.transpose();
+  view.C_CL = view.C_CB * math::rotation_matrix(x.q_BL).transpose();
+  return view;
+}
+
+// Pixel of the landmark p_A seen from r_L and its Jacobian on [dr, dtheta] (2 x 6; the dtheta part zero
+// for the split filter); false when it is behind the camera.
+bool project(const CameraSettings& cam, const CameraView& view, const Eigen::Vector3d& r_L,
+             const Eigen::Vector3d& p_A, bool split, Eigen::Vector2d& pixel, Mat2x6* H) {
+  const Eigen::Vector3d s_L = view.C_LA * p_A - r_L;
+  const Eigen::Vector3d s_C = view.C_CL * s_L;
+  if (!(s_C.z() > 1e-6 * s_C.norm())) return false;
+  const double f = cam.focal_length_px, iz = 1.0 / s_C.z();
+  pixel << 0.5 * cam.width_px + f * s_C.x() * iz, 0.5 * cam.height_px + f * s_C.y() * iz;
+  if (H != nullptr) {
+    Eigen::Matrix<double, 2, 3> J;
+    J << f * iz, 0.0, -f * s_C.x() * iz * iz, 0.0, f * iz, -f * s_C.y() * iz * iz;
+    H->leftCols<3>().noalias() = -J * view.C_CL;
+    if (split) {
+      H->rightCols<3>().setZero();
+    } else {
+      const Eigen::Vector3d s_B = view.C_CB.transpose() * s_C;
+      H->rightCols<3>().noalias() = J * view.C_CB * math::skew(s_B);
+    }
+  }
+  return true;
+}
+
 // An update call's status from its counts: Ok when anything was folded in, else NumericalFailure when a
 // measurement failed for numerics, else Rejected (the gate).
 FilterStatus outcome(const UpdateResult& r) {
@@ -67,6 +109,8 @@ double nees(const NavState& estimate, const NavCovariance& covariance, const Nav
 void FilterSettings::validate() const {
   altimeter.validate();
   camera.validate();
+  if (!(camera.pixel_sigma > 0.0))
+    fail("camera.pixel_sigma", "must be > 0 (a frame's landmarks are folded in as information, R^-1)");
   star_tracker.validate();
   imu.validate();
   if (!(std::isfinite(accel_model_noise) && accel_model_noise >= 0.0))
@@ -333,31 +377,20 @@ UpdateResult NavigationFilter::update_altimeter(const AltimeterMeasurement& m) {
   return result;
 }
 
-bool NavigationFilter::pixel_model(int landmark, Eigen::Vector2d& pixel,
-                                   Eigen::Matrix<double, 2, kNavStates>* H) const {
-  if (landmark < 0 || landmark >= static_cast<int>(landmarks_.size())) return false;
-  const CameraSettings& cam = settings_.camera;
-  const Eigen::Matrix3d C_LB = math::rotation_matrix(x_.q_BL);
-  const Eigen::Matrix3d C_AL = model_->C_AL(x_.t);
-  const Eigen::Vector3d s_L = C_AL.transpose() * landmarks_[static_cast<std::size_t>(landmark)].p_A - x_.r_L;
-  const Eigen::Vector3d s_B = C_LB.transpose() * s_L;
-  const Eigen::Vector3d s_C = cam.C_BC.transpose() * s_B;
-  if (!(s_C.z() > 1e-6 * s_C.norm())) return false;
-  const double f = cam.focal_length_px, iz = 1.0 / s_C.z();
-  pixel << 0.5 * cam.width_px + f * s_C.x() * iz, 0.5 * cam.height_px + f * s_C.y() * iz;
-  if (H != nullptr) {
-    Eigen::Matrix<double, 2, 3> J;
-    J << f * iz, 0.0, -f * s_C.x() * iz * iz, 0.0, f * iz, -f * s_C.y() * iz * iz;
-    H->setZero();
-    H->block<2, 3>(0, 0) = -J * cam.C_BC.transpose() * C_LB.transpose();
-    if (!settings_.split) H->block<2, 3>(0, 6) = J * cam.C_BC.transpose() * math::skew(s_B);
-  }
-  return true;
-}
-
 bool NavigationFilter::predict_pixel(int landmark, Eigen::Vector2d& pixel,
                                      Eigen::Matrix<double, 2, kNavStates>* H) const {
-  return initialized_ && pixel_model(landmark, pixel, H);
+  if (!initialized_ || landmark < 0 || landmark >= static_cast<int>(landmarks_.size())) return false;
+  Mat2x6 H6;
+  if (!project(settings_.camera, camera_view(*model_, settings_.camera, x_), x_.r_L,
+               landmarks_[static_cast<std::size_t>(landmark)].p_A, settings_.split, pixel,
+               H != nullptr ? &H6 : nullptr))
+    return false;
+  if (H != nullptr) {
+    H->setZero();
+    H->block<2, 3>(0, 0) = H6.leftCols<3>();
+    H->block<2, 3>(0, 6) = H6.rightCols<3>();
+  }
+  return true;
 }
 
 UpdateResult NavigationFilter::update_camera(const CameraFrame& frame) {
@@ -365,23 +398,83 @@ UpdateResult NavigationFilter::update_camera(const CameraFrame& frame) {
   if (!initialized_) return result.status = FilterStatus::InvalidInput, result;
   if (frame.status != SensorStatus::Ok) return result.status = FilterStatus::NoMeasurement, result;
   if (!same_time(frame.t, x_.t)) return result.status = FilterStatus::TimeMismatch, result;
+  propagate_covariance();
+  const CameraView view = camera_view(*model_, settings_.camera, x_);
+  // The frame's prior covariance on the columns E = [dr, dtheta] the pixels touch: P E and E^T P E.
+  Mat15x6 PE;
+  PE << P_.middleCols<3>(0), P_.middleCols<3>(6);
+  Mat6 P_ee;
+  P_ee << PE.middleRows<3>(0), PE.middleRows<3>(6);
   const double var = settings_.camera.pixel_sigma * settings_.camera.pixel_sigma;
   const Eigen::Matrix2d R = Eigen::Vector2d::Constant(var).asDiagonal();
-  Eigen::Matrix<double, 2, kNavStates> H;
+  // Each landmark is gated against the frame's prior (its NIS with S_i = H_i P H_i^T + R); the accepted
+  // ones' information H^T R^-1 H and H^T R^-1 y is accumulated on E.
+  Mat6 info = Mat6::Zero();
+  Vec6 b = Vec6::Zero();
+  double yRy = 0.0;
+  Mat2x6 H;
   Eigen::Vector2d pixel;
   bool predicted = false;
+  int accepted = 0;
   const int count = std::min(std::max(frame.count, 0), kMaxLandmarksPerFrame);
   for (int i = 0; i < count; ++i) {
     const LandmarkObservation& o = frame.observations[static_cast<std::size_t>(i)];
-    if (!pixel_model(o.landmark, pixel, &H)) {
+    if (o.landmark < 0 || o.landmark >= static_cast<int>(landmarks_.size()) ||
+        !project(settings_.camera, view, x_.r_L, landmarks_[static_cast<std::size_t>(o.landmark)].p_A,
+                 settings_.split, pixel, &H)) {
       ++result.rejected;
       continue;
     }
     predicted = true;
     const Eigen::Vector2d y = o.pixel - settings_.camera.pixel_bias - pixel;
-    fold<2>(y, H, R, result);
+    const Eigen::Matrix2d S = H * P_ee * H.transpose() + R;
+    const Eigen::LLT<Eigen::Matrix2d> llt(0.5 * (S + S.transpose()));
+    if (llt.info() != Eigen::Success || !y.allFinite()) {
+      ++result.rejected;
+      ++result.failed;
+      continue;
+    }
+    if (!(y.dot(llt.solve(y)) <= settings_.innovation_gate)) {
+      ++result.rejected;
+      continue;
+    }
+    info.noalias() += H.transpose() * H / var;
+    b.noalias() += H.transpose() * y / var;
+    yRy += y.squaredNorm() / var;
+    ++accepted;
   }
-  result.status = predicted ? outcome(result) : FilterStatus::NoPrediction;
+  if (!predicted) return result.status = FilterStatus::NoPrediction, result;
+  if (accepted == 0) return result.status = outcome(result), result;
+  // The stacked Kalman update of the accepted landmarks from their information on E (Woodbury):
+  // K = P H^T (H P H^T + R)^-1 = P E M^-1 E^T H^T R^-1 with M = I + info P_ee (its eigenvalues >= 1),
+  // dx = P E M^-1 b, K H = P E M^-1 info E^T, K R K^T = P E M^-1 info M^-T E^T P; P in Joseph form.
+  const Mat6 M = Mat6::Identity() + info * P_ee;
+  const Eigen::PartialPivLU<Mat6> lu(M.transpose());
+  const Mat15x6 PEMinv = lu.solve(PE.transpose()).transpose();  // P E M^-1
+  const Mat15x6 KH_E = PEMinv * info;                           // K H restricted to E's columns
+  const NavErrorVector dx = PEMinv * b;
+  // The frame's NIS y^T S^-1 y = y^T R^-1 y - b^T (P+)_EE b, with (P+) E = P E M^-1.
+  Vec6 dx_e;
+  dx_e << dx.segment<3>(0), dx.segment<3>(6);
+  const double nis = yRy - b.dot(dx_e);
+  const NavState x_backup = x_;
+  const Mat15 P_backup = P_;
+  const Mat15 KHP = KH_E * PE.transpose();
+  P_ = symmetric(P_ - KHP - KHP.transpose() + KH_E * P_ee * KH_E.transpose() +
+                 PEMinv * info * PEMinv.transpose());
+  inject(dx);
+  if (settings_.split) decouple(P_);
+  if (!finite(x_) || !P_.allFinite() || !std::isfinite(nis)) {
+    x_ = x_backup;
+    P_ = P_backup;
+    result.rejected += accepted;
+    result.failed += accepted;
+    return result.status = FilterStatus::NumericalFailure, result;
+  }
+  result.accepted = accepted;
+  result.nis = nis;
+  result.dof = 2 * accepted;
+  result.status = FilterStatus::Ok;
   return result;
 }
 

@@ -4,8 +4,9 @@
 /// multiplicative error), with the gyro and accelerometer biases. The IMU drives the prediction: the
 /// gyro's rate propagates the attitude, the accelerometer's specific force (thrust, SRP) is added to
 /// the modelled accelerations of M1 (polyhedral gravity, Coriolis and tidal terms of L); the
-/// altimeter, the camera's landmarks and the star tracker correct it, one measurement at a time
-/// (sequential scalar, 2-D and 3-D updates), in Joseph form. Fixed-size Eigen matrices throughout:
+/// altimeter and the star tracker correct it one measurement at a time (scalar and 3-D updates), a
+/// camera frame's landmarks in one stacked update from their information (docs/model.md M31), all in
+/// Joseph form. Fixed-size Eigen matrices throughout:
 /// after construction no call allocates, and every call reports a FilterStatus instead of throwing.
 ///
 /// Error state (15): dx = [dr_L (m), dv_L (m/s), dtheta (rad), db_g (rad/s), db_a (m/s^2)] with
@@ -71,7 +72,9 @@ struct FilterSettings {
   /// is piecewise linear in the state, and a beam that crosses a facet edge between the estimate and
   /// the truth leaves the linearisation (docs/decisions.md, "Navigation").
   double altimeter_terrain_sigma{0.1};
-  double innovation_gate{1e4};  ///< largest accepted NIS of one measurement, > 0 (inf: no gate)
+  /// Largest accepted NIS of one measurement, > 0 (inf: no gate); a landmark's is taken against the
+  /// frame's prior covariance.
+  double innovation_gate{1e4};
   /// Distance (m, >= 0) the estimate may move in frame A from the point where the filter last evaluated
   /// the polyhedral gravity and its gradient before it evaluates them again; in between, the gravity is
   /// the first-order expansion about that point, a = a(r0) + G(r0) (r - r0), whose error is bounded by
@@ -116,9 +119,11 @@ struct UpdateResult {
   FilterStatus status{FilterStatus::Ok};  ///< outcome (Ok when at least one measurement was folded in)
   int accepted{0};                        ///< scalar, 2-D or 3-D measurements folded in
   int rejected{0};                        ///< measurements refused (gate, no prediction, numerics)
-  int failed{0};    ///< of those, refused for numerics (S not positive definite, non-finite result)
-  double nis{0.0};  ///< sum of the accepted measurements' NIS
-  int dof{0};       ///< degrees of freedom of that sum (components accepted)
+  int failed{0};  ///< of those, refused for numerics (S not positive definite, non-finite result)
+  /// NIS of the accepted measurements, y^T S^-1 y of their stacked innovation (a frame's landmarks
+  /// together; for one measurement, its own).
+  double nis{0.0};
+  int dof{0};  ///< degrees of freedom of that sum (components accepted)
 };
 
 /// The joint error-state EKF. Lifecycle: construct (set-up, may allocate), `initialize`, then per IMU
@@ -161,7 +166,9 @@ class NavigationFilter {
   /// @param m the sample, at the filter's time.
   /// @return the result.
   UpdateResult update_altimeter(const AltimeterMeasurement& m);
-  /// Folds a camera frame in: one 2-D pixel update per landmark.
+  /// Folds a camera frame in: each landmark's 2-D pixel is gated against the frame's prior covariance,
+  /// the accepted ones are folded in together (one stacked update, computed from their information on
+  /// the position and attitude errors; docs/model.md M31).
   /// @param frame the frame, at the filter's time.
   /// @return the result.
   UpdateResult update_camera(const CameraFrame& frame);
@@ -217,7 +224,6 @@ class NavigationFilter {
   void inject(const NavErrorVector& dx);
   // Propagates P over the pending span (FilterSettings::covariance_step); nothing when there is none.
   void propagate_covariance() const;
-  bool pixel_model(int landmark, Eigen::Vector2d& pixel, Eigen::Matrix<double, 2, kNavStates>* H) const;
   Eigen::Vector3d phi_near(const Eigen::Vector3d& phi_ref) const;
 
   std::shared_ptr<const dynamics::ProximityModel> model_;
