@@ -164,6 +164,7 @@ void bind_nav(py::module_& m) {
       .def_readwrite("altimeter_terrain_sigma", &FilterSettings::altimeter_terrain_sigma)
       .def_readwrite("innovation_gate", &FilterSettings::innovation_gate)
       .def_readwrite("gravity_relinearization_distance", &FilterSettings::gravity_relinearization_distance)
+      .def_readwrite("gravity_expansion_tolerance", &FilterSettings::gravity_expansion_tolerance)
       .def_readwrite("max_step", &FilterSettings::max_step)
       .def_readwrite("covariance_step", &FilterSettings::covariance_step)
       .def_readwrite("max_substeps", &FilterSettings::max_substeps)
@@ -309,6 +310,7 @@ void bind_nav(py::module_& m) {
       .def_property_readonly("omega_BL_B", &NavigationFilter::omega_BL_B)
       .def_property_readonly("initialized", &NavigationFilter::initialized)
       .def_property_readonly("gravity_evaluations", &NavigationFilter::gravity_evaluations)
+      .def_property_readonly("gravity_expansion_error", &NavigationFilter::gravity_expansion_error)
       .def("model_state", &NavigationFilter::model_state, py::arg("phi_ref"))
       .def("model_covariance", &NavigationFilter::model_covariance, py::arg("phi_ref"))
       .def(

@@ -418,6 +418,7 @@ class NavigationSection:
     accel_model_noise: float = field(metadata=_q("m/s^2/Hz^0.5", "velocity random walk", check=_NONNEG))
     innovation_gate: float = field(metadata=_num(check=_POS))
     gravity_relinearization_distance: float = field(metadata=_q("m", "length", check=_NONNEG))
+    gravity_expansion_tolerance: float = field(metadata=_q("m/s^2", "acceleration", check=_NONNEG))
     covariance_step: float = field(metadata=_q("s", "time", check=_NONNEG))
     initial_sigma_position: float = field(metadata=_q("m", "length", check=_NONNEG))
     initial_sigma_velocity: float = field(metadata=_q("m/s", "velocity", check=_NONNEG))

@@ -92,6 +92,7 @@ def navigation_settings(cfg: Config) -> Any:
     filt.altimeter_terrain_sigma, filt.accel_model_noise = n.altimeter_terrain_sigma, n.accel_model_noise
     filt.innovation_gate = n.innovation_gate
     filt.gravity_relinearization_distance = n.gravity_relinearization_distance
+    filt.gravity_expansion_tolerance = n.gravity_expansion_tolerance
     filt.covariance_step = n.covariance_step
     s.altimeter, s.camera, s.imu, s.star_tracker, s.filter = alt, cam, imu, star, filt
     s.initial_sigma = np.repeat([n.initial_sigma_position, n.initial_sigma_velocity, n.initial_sigma_attitude], 3)

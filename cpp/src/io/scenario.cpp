@@ -557,6 +557,7 @@ struct Fields<nav::FilterSettings> {
     v("altimeter_terrain_sigma", &S::altimeter_terrain_sigma, false);
     v("innovation_gate", &S::innovation_gate, true);  // inf: no gate
     v("gravity_relinearization_distance", &S::gravity_relinearization_distance, false);
+    v("gravity_expansion_tolerance", &S::gravity_expansion_tolerance, false);
     v("max_step", &S::max_step, false);
     v("covariance_step", &S::covariance_step, false);
     v("max_substeps", &S::max_substeps, false);

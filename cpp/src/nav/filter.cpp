@@ -10,6 +10,7 @@ namespace tubempc::nav {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+constexpr double kInf = std::numeric_limits<double>::infinity();
 using Mat15 = NavCovariance;
 using Mat6 = Eigen::Matrix<double, 6, 6>;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
@@ -120,6 +121,8 @@ void FilterSettings::validate() const {
   if (!(innovation_gate > 0.0)) fail("innovation_gate", "must be > 0");
   if (!(std::isfinite(gravity_relinearization_distance) && gravity_relinearization_distance >= 0.0))
     fail("gravity_relinearization_distance", "must be finite and >= 0");
+  if (!(std::isfinite(gravity_expansion_tolerance) && gravity_expansion_tolerance >= 0.0))
+    fail("gravity_expansion_tolerance", "must be finite and >= 0");
   if (!(std::isfinite(max_step) && max_step > 0.0)) fail("max_step", "must be finite and > 0");
   if (!(std::isfinite(covariance_step) && covariance_step >= 0.0))
     fail("covariance_step", "must be finite and >= 0");
@@ -207,7 +210,7 @@ FilterStatus NavigationFilter::propagate(double t_to, const ImuSample& imu) {
     const Eigen::Matrix3d C_LB = math::rotation_matrix(x_.q_BL);
     const Eigen::Matrix3d C_AL = model_->C_AL(t);
     const Eigen::Vector3d r_A = C_AL * x_.r_L;
-    if (!gravity_valid_ || !((r_A - gravity_r0_A_).norm() < settings_.gravity_relinearization_distance)) {
+    if (!gravity_valid_ || !((r_A - gravity_r0_A_).norm() < gravity_hold_)) {
       gravity::GravitySample g;
       bool ok = r_A.allFinite();
       try {
@@ -219,11 +222,7 @@ FilterStatus NavigationFilter::propagate(double t_to, const ImuSample& imu) {
         undo();
         return FilterStatus::NumericalFailure;
       }
-      gravity_r0_A_ = r_A;
-      gravity_a0_A_ = g.acceleration;
-      gravity_G0_A_ = g.gradient;
-      gravity_valid_ = true;
-      ++gravity_evaluations_;
+      hold_gravity(r_A, g);
     }
     // M42: the first-order expansion about r0, rotated into L at the sub-step's start.
     const Eigen::Matrix3d G = C_AL.transpose() * gravity_G0_A_ * C_AL;
@@ -260,6 +259,28 @@ FilterStatus NavigationFilter::propagate(double t_to, const ImuSample& imu) {
     return FilterStatus::NumericalFailure;
   }
   return status;
+}
+
+void NavigationFilter::hold_gravity(const Eigen::Vector3d& r_A, const gravity::GravitySample& g) {
+  // M42: the hold distance from the tolerance and the gradient's change since the last evaluation.
+  double hold = settings_.gravity_relinearization_distance;
+  if (gravity_valid_) {
+    const Eigen::Vector3d step = r_A - gravity_r0_A_;
+    const double d = step.norm();
+    const Eigen::Vector3d error = g.acceleration - gravity_a0_A_ - gravity_G0_A_ * step;
+    // An update's jump past the hold is not a distance the expansion was used over.
+    if (d < 2.0 * gravity_hold_) gravity_expansion_error_ = std::max(gravity_expansion_error_, error.norm());
+    const double c = (g.gradient - gravity_G0_A_).norm() / d;
+    const double tol = settings_.gravity_expansion_tolerance;
+    if (tol > 0.0 && d > 0.0 && std::isfinite(c))
+      hold = std::max(hold, std::min(c > 0.0 ? std::sqrt(2.0 * tol / c) : kInf, r_A.norm() / 8.0));
+  }
+  gravity_r0_A_ = r_A;
+  gravity_a0_A_ = g.acceleration;
+  gravity_G0_A_ = g.gradient;
+  gravity_hold_ = hold;
+  gravity_valid_ = true;
+  ++gravity_evaluations_;
 }
 
 void NavigationFilter::propagate_covariance() const {

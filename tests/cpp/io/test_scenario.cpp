@@ -111,6 +111,7 @@ ScenarioFile sample(int T) {
   n.settings.filter.split = true;
   n.settings.filter.max_substeps = 9;
   n.settings.filter.gravity_relinearization_distance = 2.5;
+  n.settings.filter.gravity_expansion_tolerance = 3e-8;
   n.settings.filter.covariance_step = 1.0 / 3.0;
   n.settings.initial_sigma = filled(9, 1, 3.0, 1.0).cwiseAbs();
   n.settings.period_noise_sigma = filled(9, 1, 13.0, 1e-3).cwiseAbs();
@@ -361,6 +362,7 @@ TEST_F(ScenarioFileTest, RoundTripIsBitExact) {
   EXPECT_TRUE(nb.settings.filter.split);
   EXPECT_EQ(nb.settings.filter.max_substeps, 9);
   EXPECT_EQ(nb.settings.filter.gravity_relinearization_distance, 2.5);
+  EXPECT_EQ(nb.settings.filter.gravity_expansion_tolerance, 3e-8);
   EXPECT_EQ(nb.settings.filter.covariance_step, 1.0 / 3.0);
   expect_same_bits(na.settings.initial_sigma, nb.settings.initial_sigma, "initial_sigma");
   expect_same_bits(na.settings.period_noise_sigma, nb.settings.period_noise_sigma, "period_noise_sigma");

@@ -92,6 +92,7 @@ struct RunResult {
   double trace_P0{0.0}, trace_P_final{0.0};
   nav::NavCovariance P_final{nav::NavCovariance::Zero()};
   long gravity_evaluations{0};
+  double gravity_expansion_error{0.0};  // m/s^2
   nav::NavState estimate, truth;
 };
 
@@ -188,6 +189,7 @@ inline RunResult run(const World& w, const RunSettings& rs, std::uint64_t seed) 
   out.trace_P_final = filter.covariance().trace();
   out.P_final = filter.covariance();
   out.gravity_evaluations = filter.gravity_evaluations();
+  out.gravity_expansion_error = filter.gravity_expansion_error();
   return out;
 }
 

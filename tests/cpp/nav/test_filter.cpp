@@ -294,6 +294,7 @@ TEST(NavigationFilter, HeldGravityExpansionMatchesAnEvaluationPerSubStep) {
   nav_test::RunSettings rs;
   rs.v0_L = Eigen::Vector3d(0.2, -0.3, 0.1);  // 22 m in 60 s
   rs.filter.gravity_relinearization_distance = 0.0;
+  rs.filter.gravity_expansion_tolerance = 0.0;
   const nav_test::RunResult every = nav_test::run(w, rs, 11);
   rs.filter.gravity_relinearization_distance = 1.0;
   const nav_test::RunResult held = nav_test::run(w, rs, 11);
@@ -302,12 +303,31 @@ TEST(NavigationFilter, HeldGravityExpansionMatchesAnEvaluationPerSubStep) {
   EXPECT_GE(held.gravity_evaluations,
             static_cast<long>(path / 1.0 / 2.0));  // the estimate's path, +- its jumps
   EXPECT_LE(held.gravity_evaluations, static_cast<long>(path / 1.0 * 2.0));
-  const nav::NavErrorVector d = nav::nav_error(every.estimate, held.estimate);
   const nav::NavErrorVector sigma = every.P_final.diagonal().cwiseSqrt();
-  std::printf("evaluations %ld against %ld; largest |difference| / sigma %.3g\n", held.gravity_evaluations,
-              every.gravity_evaluations, d.cwiseQuotient(sigma).cwiseAbs().maxCoeff());
+  const nav::NavErrorVector d = nav::nav_error(every.estimate, held.estimate);
+  std::printf("evaluations %ld against %ld; largest |difference| / sigma %.3g; expansion error %.3g m/s^2\n",
+              held.gravity_evaluations, every.gravity_evaluations,
+              d.cwiseQuotient(sigma).cwiseAbs().maxCoeff(), held.gravity_expansion_error);
   EXPECT_LT(d.cwiseQuotient(sigma).cwiseAbs().maxCoeff(), 1e-3);
   EXPECT_LT((held.P_final - every.P_final).cwiseAbs().maxCoeff(), 1e-6 * every.P_final.diagonal().maxCoeff());
+  EXPECT_GT(held.gravity_expansion_error, 0.0);
+
+  // The hold from a tolerance above the 1 m expansion's error: the evaluations fall, the expansion's
+  // error found at each re-evaluation stays near the tolerance.
+  for (const double tol : {1e-9, 1e-8}) {
+    rs.filter.gravity_expansion_tolerance = tol;
+    const nav_test::RunResult adaptive = nav_test::run(w, rs, 11);
+    const nav::NavErrorVector da = nav::nav_error(every.estimate, adaptive.estimate);
+    std::printf(
+        "tolerance %.3g m/s^2: evaluations %ld, largest expansion error %.3g m/s^2, |difference| / sigma "
+        "%.3g\n",
+        tol, adaptive.gravity_evaluations, adaptive.gravity_expansion_error,
+        da.cwiseQuotient(sigma).cwiseAbs().maxCoeff());
+    EXPECT_LT(adaptive.gravity_evaluations, held.gravity_evaluations);
+    EXPECT_LT(adaptive.gravity_expansion_error, 2.0 * tol);
+    EXPECT_GT(adaptive.gravity_expansion_error, 0.25 * tol);  // not needlessly short
+    EXPECT_LT(da.cwiseQuotient(sigma).cwiseAbs().maxCoeff(), 1e-3);
+  }
 }
 
 TEST(NavigationFilter, CovarianceOverASpanMatchesOnePerSample) {

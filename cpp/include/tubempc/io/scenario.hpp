@@ -43,7 +43,7 @@
 ///   | `controller.actuation_error_p`, `controller.actuation_error_r` | 3 3 each | control::ControllerSettings::actuation_error ((m/s^2)^2, (N m)^2) |
 ///   | `navigation.enabled` | 1 1 | flag (NavigationScenario::enabled); the `navigation.*` records below only when 1 |
 ///   | `navigation.<sensor>.<field>` | | the true sensors: every field of nav::AltimeterSettings, CameraSettings, ImuSettings, StarTrackerSettings (`<sensor>` = `altimeter`, `camera`, `imu`, `star_tracker`), under their C++ names and sizes (integers and flags 1 1) |
-///   | `navigation.filter.<sensor>.<field>`, `navigation.filter.<field>` | | nav::FilterSettings: its model of the four sensors, then `accel_model_noise`, `altimeter_terrain_sigma`, `innovation_gate` (may be `inf`), `gravity_relinearization_distance`, `max_step`, `covariance_step`, `max_substeps`, `split` |
+///   | `navigation.filter.<sensor>.<field>`, `navigation.filter.<field>` | | nav::FilterSettings: its model of the four sensors, then `accel_model_noise`, `altimeter_terrain_sigma`, `innovation_gate` (may be `inf`), `gravity_relinearization_distance`, `gravity_expansion_tolerance`, `max_step`, `covariance_step`, `max_substeps`, `split` |
 ///   | `navigation.initial_sigma`, `navigation.period_noise_sigma`, `navigation.max_samples` | 9 1, 9 1, 1 1 | the rest of nav::NavigationSettings |
 ///   | `navigation.landmarks` | L 7 | the catalogue (frame A), one landmark per row: p_A (m), normal_A (unit), face (integer >= 0); L >= 1 |
 ///   | `navigation.seed` | 1 1 | NavigationScenario::seed, an integer in [0, 2^53] |

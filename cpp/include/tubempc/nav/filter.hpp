@@ -21,6 +21,7 @@
 
 #include "tubempc/core/fields.hpp"
 #include "tubempc/dynamics/proximity_model.hpp"
+#include "tubempc/gravity/gravity_model.hpp"
 #include "tubempc/math/so3.hpp"
 #include "tubempc/nav/ray_caster.hpp"
 #include "tubempc/nav/sensors.hpp"
@@ -75,12 +76,17 @@ struct FilterSettings {
   /// Largest accepted NIS of one measurement, > 0 (inf: no gate); a landmark's is taken against the
   /// frame's prior covariance.
   double innovation_gate{1e4};
-  /// Distance (m, >= 0) the estimate may move in frame A from the point where the filter last evaluated
-  /// the polyhedral gravity and its gradient before it evaluates them again; in between, the gravity is
-  /// the first-order expansion about that point, a = a(r0) + G(r0) (r - r0), whose error is bounded by
-  /// half the largest third derivative of U times the distance squared (docs/model.md M42). 0: an
-  /// evaluation at every sub-step.
+  /// Shortest distance (m, >= 0) the estimate may move in frame A from the point where the filter last
+  /// evaluated the polyhedral gravity and its gradient before it evaluates them again; in between, the
+  /// gravity is the first-order expansion about that point, a = a(r0) + G(r0) (r - r0), whose error is
+  /// about half the third derivative of U times the distance squared (docs/model.md M42). 0 (with a
+  /// zero gravity_expansion_tolerance): an evaluation at every sub-step.
   double gravity_relinearization_distance{1.0};
+  /// The expansion's error tolerance (m/s^2, >= 0): the hold distance is lengthened to
+  /// sqrt(2 tol / c), c = |G(r1) - G(r0)|_F / |r1 - r0| from the last two evaluations (the third
+  /// derivative of U along the path), at most |r1| / 8 (r1 the new point in A, from the body's centre
+  /// of mass) and never below gravity_relinearization_distance (M42). 0: the fixed distance.
+  double gravity_expansion_tolerance{1e-7};
   double max_step{0.5};  ///< longest propagation sub-step (s), > 0
   /// Longest span (s, >= 0) over which the covariance waits for its propagation: the sub-steps' error
   /// dynamics are integrated as they come and P is propagated once over the span with their mean
@@ -216,6 +222,10 @@ class NavigationFilter {
   bool initialized() const { return initialized_; }
   /// @return evaluations of the polyhedral gravity (with its gradient) since construction.
   long gravity_evaluations() const { return gravity_evaluations_; }
+  /// @return the largest error of the gravity's expansion found at a re-evaluation since construction,
+  ///         |a(r1) - a(r0) - G(r0) (r1 - r0)| at the new point r1 (m/s^2): the expansion's error at
+  ///         the end of its hold (re-evaluations after an update's jump past twice the hold left out).
+  double gravity_expansion_error() const { return gravity_expansion_error_; }
 
  private:
   template <int M>
@@ -224,6 +234,8 @@ class NavigationFilter {
   void inject(const NavErrorVector& dx);
   // Propagates P over the pending span (FilterSettings::covariance_step); nothing when there is none.
   void propagate_covariance() const;
+  // Takes the evaluation g at r_A (frame A) as the expansion's new point and sets its hold distance.
+  void hold_gravity(const Eigen::Vector3d& r_A, const gravity::GravitySample& g);
   Eigen::Vector3d phi_near(const Eigen::Vector3d& phi_ref) const;
 
   std::shared_ptr<const dynamics::ProximityModel> model_;
@@ -247,7 +259,9 @@ class NavigationFilter {
   Eigen::Vector3d gravity_a0_A_{Eigen::Vector3d::Zero()};
   Eigen::Matrix3d gravity_G0_A_{Eigen::Matrix3d::Zero()};
   bool gravity_valid_{false};
+  double gravity_hold_{0.0};  // distance the expansion is held over (m): FilterSettings, M42
   long gravity_evaluations_{0};
+  double gravity_expansion_error_{0.0};
   bool initialized_{false};
 };
 
