@@ -183,6 +183,14 @@ def _sweep(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     return rows
 
 
+def _per_flight(d: dict[str, Any], r: dict[str, Any]) -> str:
+    """The pooled flights of a `--repeats` run and each flight's own ratio."""
+    each = r.get("estimator_p99_ratio_per_flight", [])
+    if d.get("repeats", 1) <= 1 or not each:
+        return ""
+    return f"; step times of {d['repeats']} flights pooled, each flight's ratio " + ", ".join(f"{x:.3g}x" for x in each)
+
+
 def _controller(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     rows = []
     for m, r in d["methods"].items():
@@ -207,7 +215,7 @@ def _controller(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
                     f"{ce['p99_ms']:.3g} ms = {r['estimator_p99_ratio']:.3g}x the full-state controller's p99 "
                     f"({b['p99_ms']:.3g} ms, the same scenario on the true state); the whole navigation call with the "
                     f"sensors' simulation median {n['median_ms']:.3g} ms, p99 {n['p99_ms']:.3g} ms "
-                    f"({r['navigation_p99_ratio']:.3g}x)",
+                    f"({r['navigation_p99_ratio']:.3g}x)" + _per_flight(d, r),
                 )
             )
     return rows

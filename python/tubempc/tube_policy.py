@@ -6,9 +6,7 @@ step). When a new design is due (``ControlStep.design_due``: every ``alpha_searc
 after a step that could not keep the margin), :class:`BackgroundDesigns` runs the LMI design of each
 subsystem from that step's (A, B, (1 + margin) P_W) off the critical path, in the ``worker``:
 "process" (a separate Python process, started with ``python -m tubempc.tube_policy``, so that the cvxpy
-work never holds the control loop's GIL and the caller's ``__main__`` is never imported again; it runs
-one BLAS thread at a lower priority, ``_DESIGN_NICENESS``, so that it takes no core from the control
-step: the background task of a flight computer),
+work never holds the control loop's GIL and the caller's ``__main__`` is never imported again),
 "thread" (a background thread) or "inline" (at the step itself, for campaigns whose processes
 already fill every core). A design started at step k0 is offered to the controller
 (``Controller.adopt``) before step k0 + ``delay``, a deterministic step, so a run is reproducible and
@@ -22,7 +20,6 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import itertools
-import os
 import pickle
 import signal
 import struct
@@ -60,22 +57,14 @@ def _receive(stream: IO[bytes]) -> Any:
     return pickle.loads(stream.read(n))
 
 
-#: Thread counts of the numerical libraries the design process imports, set to one: spinning BLAS threads
-#: would take the control step's core on a small machine.
-_ONE_THREAD = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-#: The design process's niceness (POSIX): below the control loop's priority.
-_DESIGN_NICENESS = 5
-
-
 class _DesignProcess:
     """The process that runs background designs: one per Python process, started on first use and shared
     by every run (its start-up, mostly importing cvxpy, is paid once); it keeps the designers it built
     from their spec. It ends when its standard input closes (the parent exited or was killed)."""
 
     def __init__(self) -> None:
-        env = {**os.environ, **{name: "1" for name in _ONE_THREAD}}
         self._proc = subprocess.Popen(
-            [sys.executable, "-m", "tubempc.tube_policy"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env
+            [sys.executable, "-m", "tubempc.tube_policy"], stdin=subprocess.PIPE, stdout=subprocess.PIPE
         )
         self._ids = itertools.count()
         self._futures: dict[int, cf.Future[Any]] = {}
@@ -155,8 +144,6 @@ def shutdown_design_worker(wait: bool = True) -> None:
 def _worker_main() -> None:
     """The design process: reads (id, spec, A, B, P_W, alpha_prev) jobs from stdin, writes (id, ok, result)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
-    if hasattr(os, "nice"):
-        os.nice(_DESIGN_NICENESS)
     designers: dict[bytes, TubeDesigner] = {}
     stdin, stdout = sys.stdin.buffer, sys.stdout.buffer
     sys.stdout = sys.stderr  # nothing printed by a library may enter the protocol
