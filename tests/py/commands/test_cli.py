@@ -11,6 +11,7 @@ import pytest
 
 from tubempc.cli import main
 from tubempc.commands import EXIT_GUARANTEE_LOST, EXIT_INPUT, EXIT_OK
+from tubempc.config import load_config
 
 
 def test_bad_option_value_names_the_option(capsys: pytest.CaptureFixture[str]) -> None:
@@ -176,3 +177,23 @@ def test_bench_actuators_agrees_with_scipy_and_contains_the_errors(tmp_path: Pat
     assert max(e["worst_sampled_over_bound"]) <= 1.0
     healthy, failed = d["achievable_box"]["healthy_half_width_B"], d["achievable_box"]["one_failure_half_width_B"]
     assert all(0.0 < f <= h for f, h in zip(failed, healthy, strict=True))
+
+
+def test_bench_controller_pools_repeated_flights_on_navigation(tmp_path: Path) -> None:
+    """--repeats flies the same steps again: each distribution pools the flights, and every flight's own ratio
+    of controller + estimator to the full-state controller is reported beside the pooled one."""
+    short = {"mpc.t_f": "80 s", "boundary.hover_altitude": "10 m", "tube.design_worker": "inline"}
+    cfg = load_config(scenario="bennu-tag-nav").with_overrides(short)
+    cfg.save(tmp_path / "short.toml")
+    out = tmp_path / "controller.json"
+    argv = ["bench", "controller", "--config", str(tmp_path / "short.toml"), "--method", "ffa", "--repeats", "2"]
+    assert main([*argv, "--json", str(out)]) == EXIT_OK
+    d = json.loads(out.read_text())
+    row = d["methods"]["ffa"]
+    assert d["repeats"] == 2 and len(row["estimator_p99_ratio_per_flight"]) == 2
+    assert all(0.0 < r < 100.0 for r in row["estimator_p99_ratio_per_flight"])
+    ce, c, e = row["controller_and_estimator"], row["controller"], row["estimator"]
+    assert ce["max_ms"] <= c["max_ms"] + e["max_ms"] + 1e-9 and ce["median_ms"] >= c["median_ms"]
+    assert row["estimator_p99_ratio"] == ce["p99_ms"] / row["full_state_controller"]["p99_ms"]
+    with pytest.raises(SystemExit, match="--repeats must be >= 1"):
+        main(["bench", "controller", "--repeats", "0"])
