@@ -58,13 +58,10 @@ def ideal_counterpart(cfg: Config, scn: Scenario, cache_dir: str | Path | None =
 
 def nominal_input_fraction(rec: Any, u_max: float) -> np.ndarray:
     """Per step, the fraction of the translational input bound the tube leaves to the nominal input: min_i
-    1 - sqrt(K_i Pe K_i^T) / u_max over the three force rows of K, Pe = diag(Pe_p, Pe_r) (the MPC's input
-    tightening, docs/model.md "Tube MPC")."""
-    K = np.asarray(rec.K)[:, :3, :]
-    T = K.shape[0]
-    Pe = np.zeros((T, 12, 12))
-    Pe[:, :6, :6], Pe[:, 6:, 6:] = rec.Pe_p, rec.Pe_r
-    feedback = np.sqrt(np.maximum(np.einsum("kij,kjl,kil->ki", K, Pe, K), 0.0))
+    1 - sqrt(K_i Pe K_i^T) / u_max over the three force rows of K (the MPC's input tightening, docs/model.md
+    "Tube MPC"; K is block-diagonal, so its force rows see the translational Pe_p only)."""
+    K = np.asarray(rec.K)[:, :3, :6]
+    feedback = np.sqrt(np.maximum(np.einsum("kij,kjl,kil->ki", K, np.asarray(rec.Pe_p), K), 0.0))
     return np.asarray(1.0 - feedback.max(axis=1) / u_max)
 
 

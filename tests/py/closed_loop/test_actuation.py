@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from tubempc import _core
 from tubempc import actuators as A
 from tubempc.benchmarks.actuation import nominal_input_fraction
 from tubempc.closed_loop import simulate
@@ -150,7 +151,8 @@ def test_a_preset_over_its_base_changes_only_the_fields_it_gives(tmp_path: Path)
         assert np.array_equal(c.position_B, b.position_B) and np.array_equal(c.direction_B, b.direction_B)
     assert np.array_equal(cal.wheels.axes_B, base.wheels.axes_B)
     assert np.array_equal(cal.wheels.max_momentum, base.wheels.max_momentum)
-    assert (base.modulation.rounding, cal.modulation.rounding) == (A._act.PulseRounding.Carry, A._act.PulseRounding.Nearest)
+    rounding = _core.actuators.PulseRounding
+    assert (base.modulation.rounding, cal.modulation.rounding) == (rounding.Carry, rounding.Nearest)
     assert cal.modulation.on_time_resolution == base.modulation.on_time_resolution  # the field not given is the base's
     (tmp_path / "own.toml").write_text('base = "osiris_rex_like_calibrated"\n[modulation]\non_time_resolution = "2 ms"\n')
     own = A.load_actuators(tmp_path / "own.toml", 5.0)
