@@ -67,6 +67,7 @@ void bind_actuators(py::module_& m) {
       .def_readwrite("period", &ModulationSettings::period)
       .def_readwrite("on_time_resolution", &ModulationSettings::on_time_resolution)
       .def_readwrite("rounding", &ModulationSettings::rounding)
+      .def_readwrite("opposed_pairs", &ModulationSettings::opposed_pairs)
       .def("validate", &ModulationSettings::validate);
 
   py::class_<Firing>(s, "Firing", "One period's firing (a copy)")
@@ -89,6 +90,8 @@ void bind_actuators(py::module_& m) {
       .def_property_readonly("remainder", &PulseModulator::remainder)
       .def("remainder_bound", &PulseModulator::remainder_bound, py::arg("cluster"), py::arg("j"))
       .def("on_time_error_bound", &PulseModulator::on_time_error_bound, py::arg("cluster"), py::arg("j"))
+      .def("on_time_excess_bound", &PulseModulator::on_time_excess_bound, py::arg("cluster"), py::arg("j"))
+      .def("partner", &PulseModulator::partner, py::arg("j"))
       .def("effective_min_on_time", &PulseModulator::effective_min_on_time, py::arg("cluster"), py::arg("j"))
       .def_property_readonly("pulse_counts", &PulseModulator::pulse_counts)
       .def_property_readonly("propellant", &PulseModulator::propellant)

@@ -90,6 +90,8 @@ void bind_control(py::module_& m) {
       "(Certification, SubsystemTube or None): the certified Lyapunov update of a design's (K, alpha)");
   s.def("cover_ratio", &cover_ratio, py::arg("P"), py::arg("P_cover"),
         "lambda_max(P_cover^-1 P): <= 1 iff the ellipsoid of P lies in that of P_cover");
+  s.def("input_error_with_feedforward", &input_error_with_feedforward, py::arg("E"), py::arg("rho"),
+        "The input-error set E (+) the feed-forward's box |u_ff,i| <= rho_i (M43)");
 
   py::class_<TubePolicySettings> tube_policy_settings(s, "TubePolicySettings",
                                                       "The tube update policy's settings");
@@ -121,6 +123,10 @@ void bind_control(py::module_& m) {
       .def_readwrite(
           "actuation_error", &ControllerSettings::actuation_error,
           "[E_p ((m/s^2)^2), E_r ((N m)^2)]: certified input-error sets added to P_W (zero: ideal)")
+      .def_readwrite("feedforward", &ControllerSettings::feedforward,
+                     "TBMPC-FFA: cancel the identified mean input through the command (M43)")
+      .def_readwrite("feedforward_limit", &ControllerSettings::feedforward_limit,
+                     "largest feed-forward per component, a fraction of the MPC's input bound")
       .def("validate", &ControllerSettings::validate);
 
   py::class_<ControllerDesigns>(s, "ControllerDesigns", "Initial designs and libraries of both subsystems")
@@ -149,6 +155,7 @@ void bind_control(py::module_& m) {
       .def_readonly("P_W", &ControlStep::P_W)
       .def_readonly("identified", &ControlStep::identified)
       .def_readonly("w_measured", &ControlStep::w_measured)
+      .def_readonly("u_feedforward", &ControlStep::u_feedforward)
       .def_readonly("mpc", &StepCopy::mpc_result)
       .def_readonly("timings", &ControlStep::timings);
 

@@ -15,7 +15,7 @@ namespace py = pybind11;
 namespace tubempc::python {
 
 void bind_io(py::module_& m) {
-  auto s = m.def_submodule("io", "Scenario files (format 'tubempc-scenario 4'; see tubempc/io/scenario.hpp)");
+  auto s = m.def_submodule("io", "Scenario files (format 'tubempc-scenario 5'; see tubempc/io/scenario.hpp)");
   s.attr("FORMAT_VERSION") = io::kScenarioFormatVersion;
 
   py::class_<io::BodyModel> body(s, "BodyModel",

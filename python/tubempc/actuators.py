@@ -50,7 +50,7 @@ _SECTION_KEYS = {
     "thruster_defaults": set(_THRUSTER_FIELDS) | {"misalignment_B"},
     "wheels": {"max_torque", "max_momentum", "axes_B"},
     "momentum_dump": {"enabled", "start_fraction", "stop_fraction", "time_constant"},
-    "modulation": {"on_time_resolution", "rounding"},
+    "modulation": {"on_time_resolution", "rounding", "opposed_pairs"},
 }
 
 
@@ -281,6 +281,11 @@ def load_actuators(source: str | Path, period: float, *, seed: int = 0) -> Actua
         if mod["rounding"] not in names:
             raise ActuatorConfigError(f"{where}.modulation.rounding: expected one of {names}, got {mod['rounding']!r}")
         modulation.rounding = _act.PulseRounding.from_string(mod["rounding"])
+    if "opposed_pairs" in mod:
+        pairs = mod["opposed_pairs"]
+        if not isinstance(pairs, bool):
+            raise ActuatorConfigError(f"{where}.modulation.opposed_pairs: expected true or false, got {pairs!r}")
+        modulation.opposed_pairs = pairs
     allocation = _act.AllocationSettings()
     allocation.period = period
     try:

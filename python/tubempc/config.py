@@ -238,8 +238,11 @@ class IdentificationSection:
     q / (1 - q), q = e^(lam - 1): 1 (default) counts the prior as one full memory, forgotten like
     every measurement at the rate q per step; 0 = the paper's literal recursion (forgotten at once);
     see identification.py and docs/decisions.md;
-    pw_scale: P_W = pw_scale * S^; eig_floor: see ForgettingFactorIdentifier. Priors per
-    3-axis block: w0_* the mean, S0_* the per-axis variances (Table 1).
+    pw_scale: P_W = pw_scale * S^; eig_floor: see ForgettingFactorIdentifier;
+    feedforward: TBMPC-FFA cancels the identified mean input through its command (docs/model.md M43;
+    false, the paper's method, by default), each component within feedforward_limit of the input bound
+    (a box the tube's input-error set carries). Priors per 3-axis block: w0_* the mean, S0_* the per-axis
+    variances (Table 1).
     """
 
     lambda_p: float = field(metadata=_num(check=_UNIT_INTERVAL))
@@ -248,6 +251,8 @@ class IdentificationSection:
     prior_memory: float = field(metadata=_num(check=_NONNEG))
     pw_scale: float = field(metadata=_num(check=_POS))
     eig_floor: float = field(metadata=_num(check=_POS))
+    feedforward: bool = field(metadata=_bool())
+    feedforward_limit: float = field(metadata=_num(check=_UNIT_INTERVAL))
     w0_p_position: FloatArray = field(metadata=_q("m", "length", (3,)))
     w0_p_velocity: FloatArray = field(metadata=_q("m/s", "velocity", (3,)))
     w0_r_attitude: FloatArray = field(metadata=_q("rad", "angle", (3,)))

@@ -52,13 +52,30 @@ def subsystem_design(res: DesignResult, P_W: Array) -> Any:
     return _core.control.SubsystemDesign(res.K, res.alpha, P_W, res.Pe)
 
 
-def _prior_P_W(scn: Scenario) -> tuple[Array, Array]:
-    """The prior's P_W per subsystem; with an actuator model, grown by B E (M38) about the first node."""
+def input_error_shapes(scn: Scenario, method: str) -> tuple[Array, Array] | None:
+    """The input-error sets ``method``'s tube carries per subsystem (``ControllerSettings.actuation_error``): the
+    actuators' certified ones (M38), with TBMPC-FFA's feed-forward box added when it is on (M43, the call the
+    controller makes itself); None for ideal actuators without a feed-forward."""
+    ident = scn.config.identification
+    E = scn.actuation.error_shapes() if scn.actuation is not None else None
+    if method != "ffa" or not ident.feedforward:
+        return E
+    u_max, T_max = scn.input_bounds
+    base = E if E is not None else (np.zeros((3, 3)), np.zeros((3, 3)))
+    return tuple(  # type: ignore[return-value]
+        np.asarray(_core.control.input_error_with_feedforward(E_s, np.full(3, ident.feedforward_limit * bound)))
+        for E_s, bound in zip(base, (u_max, T_max), strict=True)
+    )
+
+
+def _prior_P_W(scn: Scenario, method: str) -> tuple[Array, Array]:
+    """The prior's P_W per subsystem; with input-error sets (actuators, feed-forward), grown by B E (M38) about
+    the first node."""
     ident = scn.config.identification
     priors = ident.pw_scale * np.asarray(ident.S0_p), ident.pw_scale * np.asarray(ident.S0_r)
-    if scn.actuation is None:
+    E = input_error_shapes(scn, method)
+    if E is None:
         return priors
-    E = scn.actuation.error_shapes()
     grown = (
         np.asarray(_core.actuators.disturbance_with_actuation_error(P, B, E_s))
         for P, (_, B), E_s in zip(priors, _node0(scn), E, strict=True)
@@ -119,7 +136,7 @@ def controller_designs(scn: Scenario, method: str) -> Any:
         t = scn.config.tube
         designers = tube_designers(scn.config, scn.input_bounds)
         nodes = _node0(scn)
-        priors = _prior_P_W(scn)
+        priors = _prior_P_W(scn, method)
         d = _core.control.ControllerDesigns()
         if method == "tbmpc":
             d.initial_p, d.initial_r = (
@@ -164,6 +181,8 @@ def controller_settings(
     s = _core.control.ControllerSettings()
     s.method = _core.control.Method.from_string(method)
     s.measured_input = _core.control.MeasuredInput.from_string(ident.measured_input)
+    s.feedforward = ident.feedforward
+    s.feedforward_limit = ident.feedforward_limit
     common = (ident.prior_memory, ident.eig_floor, ident.pw_scale)
     s.identification_p = _identifier_settings(lambda_p or ident.lambda_p, ident.w0_p, ident.S0_p, *common)
     s.identification_r = _identifier_settings(lambda_r or ident.lambda_r, ident.w0_r, ident.S0_r, *common)
@@ -172,7 +191,7 @@ def controller_settings(
     tube.alpha_search_period = t.alpha_search_period
     tube.background_designs = background_designs
     s.tube = tube
-    if scn.actuation is not None:
+    if scn.actuation is not None:  # the controller adds the feed-forward's box itself
         s.actuation_error = list(scn.actuation.error_shapes())
     return s
 

@@ -251,7 +251,7 @@ ActuationErrorBound actuation_error_bound(const ThrusterCluster& cluster, const 
   const double dt = modulator.settings().period;
   Eigen::VectorXd carried(cluster.size());
   for (int j = 0; j < cluster.size(); ++j)
-    carried(j) = cluster.max_thrust()(j) * modulator.on_time_error_bound(cluster, j) / dt;
+    carried(j) = cluster.max_thrust()(j) * modulator.on_time_excess_bound(cluster, j) / dt;
   const Eigen::Matrix<double, 6, Eigen::Dynamic> a = misalignment_gains(cluster);
   for (int i = 0; i < 6; ++i)
     e.misalignment_B(i) = std::min(e.misalignment_B(i), a.row(i).norm() * (e.thrust_norm + carried.norm()));

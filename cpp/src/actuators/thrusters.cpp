@@ -100,6 +100,8 @@ void ModulationSettings::validate() const {
   if (!(std::isfinite(on_time_resolution) && on_time_resolution >= 0.0 && on_time_resolution <= period))
     throw std::invalid_argument("modulation.on_time_resolution: must be in [0, period] (s)");
   if (!core::is_named(rounding)) throw std::invalid_argument("modulation.rounding: not a known rounding");
+  if (opposed_pairs && rounding != PulseRounding::Nearest)
+    throw std::invalid_argument("modulation.opposed_pairs: needs rounding = \"nearest\"");
 }
 
 PulseModulator::PulseModulator(const ThrusterCluster& cluster, const ModulationSettings& settings)
@@ -112,7 +114,33 @@ PulseModulator::PulseModulator(const ThrusterCluster& cluster, const ModulationS
           "thrusters[" + std::to_string(j) +
           "].min_on_time: longer than the modulation's period (rounded up to its resolution)");
   r_ = Eigen::VectorXd::Zero(thrusters);
+  f_cmd_ = Eigen::VectorXd::Zero(thrusters);
   pulses_ = Eigen::VectorXi::Zero(thrusters);
+  partner_ = Eigen::VectorXi::Constant(thrusters, -1);
+  if (settings_.opposed_pairs) {
+    // Pairs in index order: D_p = -D_j (one line of action), the same thrust and minimum on-time.
+    bool any = false;
+    for (int j = 0; j < thrusters; ++j)
+      for (int p = j + 1; p < thrusters && partner_(j) < 0; ++p) {
+        const ThrusterSpec &a = cluster.thruster(j), &b = cluster.thruster(p);
+        if (partner_(p) >= 0 ||
+            (cluster.mapping().col(j) + cluster.mapping().col(p)).cwiseAbs().maxCoeff() > 1e-9 ||
+            a.max_thrust != b.max_thrust || a.min_on_time != b.min_on_time)
+          continue;
+        if (2.0 * effective_min_on_time(cluster, j) > settings_.period)
+          throw std::invalid_argument(
+              "modulation.opposed_pairs: thrusters[" + std::to_string(j) + "] and [" + std::to_string(p) +
+              "] need twice the minimum on-time (rounded up to the resolution) within "
+              "the period");
+        partner_(j) = p;
+        partner_(p) = j;
+        any = true;
+      }
+    if (!any)
+      throw std::invalid_argument(
+          "modulation.opposed_pairs: no two thrusters are opposed on one line of action with the same thrust "
+          "and minimum on-time");
+  }
   firing_.on_time = Eigen::VectorXd::Zero(thrusters);
   firing_.impulse = Eigen::VectorXd::Zero(thrusters);
 }
@@ -138,6 +166,21 @@ double PulseModulator::on_time_error_bound(const ThrusterCluster& cluster, int j
   return settings_.rounding == PulseRounding::Nearest ? 0.5 * r_max : r_max;
 }
 
+double PulseModulator::on_time_excess_bound(const ThrusterCluster& cluster, int j) const {
+  if (partner_(j) < 0) return on_time_error_bound(cluster, j);
+  return effective_min_on_time(cluster, j) + 0.5 * settings_.on_time_resolution;
+}
+
+double PulseModulator::nearest_level(double tau_c, double t_min) const {
+  const double q = settings_.on_time_resolution;
+  double tau = 0.0;
+  if (tau_c >= t_min)
+    tau = q > 0.0 ? std::max(std::round(tau_c / q) * q, t_min) : tau_c;
+  else
+    tau = tau_c >= 0.5 * t_min ? t_min : 0.0;
+  return std::min(tau, settings_.period);
+}
+
 const Firing& PulseModulator::modulate(const ThrusterCluster& cluster, double t,
                                        const Eigen::Ref<const Eigen::VectorXd>& thrust_cmd) {
   const int n = static_cast<int>(r_.size());
@@ -152,6 +195,7 @@ const Firing& PulseModulator::modulate(const ThrusterCluster& cluster, double t,
   firing_.pulses = 0;
   for (int j = 0; j < n; ++j) {
     const double f = std::isfinite(thrust_cmd(j)) ? std::clamp(thrust_cmd(j), 0.0, f_max(j)) : 0.0;
+    f_cmd_(j) = f;
     firing_.commanded_B += cluster.mapping().col(j) * f;
     double tau = 0.0;
     switch (cluster.fault_at(j, t)) {
@@ -165,12 +209,7 @@ const Firing& PulseModulator::modulate(const ThrusterCluster& cluster, double t,
       case FaultKind::None: {
         const double t_min = effective_min_on_time(cluster, j);
         if (settings_.rounding == PulseRounding::Nearest) {
-          const double tau_c = f * dt / f_max(j);
-          if (tau_c >= t_min)
-            tau = q > 0.0 ? std::max(std::round(tau_c / q) * q, t_min) : tau_c;
-          else
-            tau = tau_c >= 0.5 * t_min ? t_min : 0.0;
-          tau = std::min(tau, dt);
+          tau = nearest_level(f * dt / f_max(j), t_min);
           break;
         }
         const double total = f * dt / f_max(j) + r_(j);
@@ -184,6 +223,26 @@ const Firing& PulseModulator::modulate(const ThrusterCluster& cluster, double t,
       }
     }
     firing_.on_time(j) = tau;
+  }
+  // Opposed pairs, both healthy: the net command, fired by the thruster it points along (M34'').
+  for (int j = 0; j < n; ++j) {
+    const int p = partner_(j);
+    if (p < j || cluster.fault_at(j, t) != FaultKind::None || cluster.fault_at(p, t) != FaultKind::None)
+      continue;
+    const double net = (f_cmd_(j) - f_cmd_(p)) * dt / f_max(j), t_min = effective_min_on_time(cluster, j);
+    const int a = net >= 0.0 ? j : p, b = net >= 0.0 ? p : j;
+    const double d = std::abs(net);
+    if (d >= t_min) {
+      firing_.on_time(a) = nearest_level(d, t_min);
+      firing_.on_time(b) = 0.0;
+    } else {
+      const double d_q = q > 0.0 ? std::round(d / q) * q : d;
+      firing_.on_time(a) = d_q > 0.0 ? t_min + d_q : 0.0;
+      firing_.on_time(b) = d_q > 0.0 ? t_min : 0.0;
+    }
+  }
+  for (int j = 0; j < n; ++j) {
+    const double tau = firing_.on_time(j);
     const double impulse =
         cluster.true_mapping().col(j).head<3>().norm() * f_max(j) * tau;  // |(1+s) R d| F tau
     firing_.impulse(j) = impulse;

@@ -1,6 +1,8 @@
 #include "tubempc/control/controller.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -26,10 +28,21 @@ const char* to_string(Method m) { return core::enum_name(m); }
 
 const char* to_string(MeasuredInput m) { return core::enum_name(m); }
 
+Eigen::Matrix3d input_error_with_feedforward(const Eigen::Matrix3d& E, const Eigen::Vector3d& rho) {
+  const Eigen::Matrix3d box = 3.0 * rho.cwiseAbs2().asDiagonal().toDenseMatrix();
+  const double a = E.trace(), b = box.trace();
+  if (!(b > 0.0)) return E;
+  if (!(a > 0.0)) return box;
+  const double beta = std::sqrt(a / b);  // minimises the trace
+  return (1.0 + 1.0 / beta) * E + (1.0 + beta) * box;
+}
+
 void ControllerSettings::validate() const {
   identification_p.validate("identification_p");
   identification_r.validate("identification_r");
   tube.validate();
+  if (!(std::isfinite(feedforward_limit) && feedforward_limit > 0.0 && feedforward_limit < 1.0))
+    throw std::invalid_argument("feedforward_limit: must be in (0, 1)");
   for (int s = 0; s < 2; ++s) {
     const Eigen::Matrix3d& E = actuation_error[s];
     const char* name = s == 0 ? "actuation_error[0]" : "actuation_error[1]";
@@ -52,6 +65,10 @@ Controller::Controller(std::shared_ptr<const mpc::LinearizedModel> model, mpc::S
   mpc_ = std::make_unique<mpc::TubeMPC>(model_, std::move(mpc_settings));
   const Eigen::VectorXd& u_max = mpc_->settings().u_max;
   u_max_ = {u_max.head(3).minCoeff(), u_max.tail(3).minCoeff()};
+  if (settings_.feedforward && settings_.method == Method::Ffa)
+    for (int s = 0; s < 2; ++s)
+      settings_.actuation_error[s] = input_error_with_feedforward(
+          settings_.actuation_error[s], settings_.feedforward_limit * u_max.segment<3>(3 * s));
   identifiers_ = {ForgettingFactorIdentifier(settings_.identification_p),
                   ForgettingFactorIdentifier(settings_.identification_r)};
   out_.u = Eigen::VectorXd::Zero(kNu);
@@ -132,6 +149,27 @@ void Controller::predict(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k) {
   predicted_ = x_pred_.allFinite();
 }
 
+void Controller::feedforward() {
+  out_.u_feedforward.setZero();
+  if (!settings_.feedforward || settings_.method != Method::Ffa) return;
+  const Eigen::VectorXd& u_max = mpc_->settings().u_max;
+  for (int s = 0; s < 2; ++s) {
+    const SubInputMatrix& B = out_.B[s];
+    const Eigen::Matrix3d BtB = B.transpose() * B;
+    const Eigen::Vector3d u_ff = -BtB.ldlt().solve(B.transpose() * identifiers_[s].w_hat());
+    if (!u_ff.allFinite()) continue;
+    for (int i = 0; i < 3; ++i) {
+      const int j = 3 * s + i;
+      const double rho = settings_.feedforward_limit * u_max(j);
+      // Within its limit and the bounds, never further out than the MPC's own command.
+      const double lo = std::max(-rho, std::min(-u_max(j) - out_.u(j), 0.0));
+      const double hi = std::min(rho, std::max(u_max(j) - out_.u(j), 0.0));
+      out_.u_feedforward(j) = std::clamp(u_ff(i), lo, hi);
+      out_.u(j) += out_.u_feedforward(j);
+    }
+  }
+}
+
 void Controller::set_estimation_error(const Eigen::Ref<const Eigen::MatrixXd>& P_est) {
   if (P_est.size() == 0) {
     out_.tube.P_est.resize(0, 0);
@@ -180,6 +218,7 @@ const ControlStep& Controller::step(int k, const Eigen::Ref<const Eigen::VectorX
   const mpc::StepResult& r = mpc_->step(k, x_k, out_.tube);
   out_.mpc = &r;
   out_.u = r.u;
+  feedforward();
   const auto t3 = Clock::now();
 
   predict(k, x_k);

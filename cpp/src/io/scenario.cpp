@@ -631,6 +631,7 @@ struct Fields<actuators::ModulationSettings> {
     v("period", &S::period, false);
     v("on_time_resolution", &S::on_time_resolution, false);
     v("rounding", &S::rounding, false);
+    v("opposed_pairs", &S::opposed_pairs, false);
   }
 };
 
@@ -987,6 +988,10 @@ ScenarioFile read_scenario(const std::string& path) {
       c.actuation_error[0] = r.matrix("controller.actuation_error_p", 3, 3);
       c.actuation_error[1] = r.matrix("controller.actuation_error_r", 3, 3);
     }
+    if (r.version() >= 5) {
+      r.flag("controller.feedforward", c.feedforward);
+      c.feedforward_limit = r.scalar("controller.feedforward_limit");
+    }
     using Identifier = control::IdentifierSettings;
     Identifier::for_each_field(FieldReader<Identifier>{r, c.identification_p, "identification_p."});
     Identifier::for_each_field(FieldReader<Identifier>{r, c.identification_r, "identification_r."});
@@ -1053,6 +1058,8 @@ void write_scenario(const std::string& path, const ScenarioFile& s, const std::s
   w.text("controller.measured_input", option_name(c.measured_input));
   w.matrix("controller.actuation_error_p", c.actuation_error[0]);
   w.matrix("controller.actuation_error_r", c.actuation_error[1]);
+  w.scalar("controller.feedforward", c.feedforward ? 1.0 : 0.0);
+  w.scalar("controller.feedforward_limit", c.feedforward_limit);
   using Identifier = control::IdentifierSettings;
   Identifier::for_each_field(FieldWriter<Identifier>{w, c.identification_p, "identification_p."});
   Identifier::for_each_field(FieldWriter<Identifier>{w, c.identification_r, "identification_r."});

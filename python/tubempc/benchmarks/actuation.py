@@ -6,8 +6,10 @@ so that the reference trajectory is the same), each method with the same seed. R
 outside the tube, terminal position error, net delta-v (sum |u_p delivered| dt), the thrusters' delta-v
 (sum of impulses / m) and propellant, pulses, the wheels' largest momentum, the share of the input bound the
 tube leaves the nominal input and the plan's largest offset from the reference, and the controller step's p99
-with and without the actuation call in the same run (and the ideal run's). The JSON carries the machine and
-both configurations.
+with and without the actuation call in the same run (and the ideal run's). With ``--seeds N`` each method also
+flies the seeds ``seed + 1 .. seed + N - 1`` both ways and reports the terminal-error ratio over all N seeds
+(one seed's ratio compares two errors of the environment's noise size). The JSON carries the machine and both
+configurations.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--config", help='scenario TOML with spacecraft.actuators (not "ideal")')
     group.add_argument("--scenario", help="a packaged scenario")
     parser.add_argument("--actuators", help="override spacecraft.actuators (a preset name or a TOML path)")
+    parser.add_argument("--seeds", type=int, default=1, help="seeds flown per method for the terminal-error ratio")
     add_flight_arguments(parser)
 
 
@@ -88,6 +91,22 @@ def _figures(rec: Any, xf: np.ndarray, dt: float, u_max: float) -> dict[str, Any
     }
 
 
+def seed_statistics(actuated: list[float], ideal: list[float]) -> dict[str, Any]:
+    """The terminal position errors (m) of the same seeds with actuators and with ideal actuators: each seed's
+    ratio, their median, the share of seeds within 2x, and the ratios of the errors' median and RMS."""
+    a, i = np.asarray(actuated, dtype=float), np.asarray(ideal, dtype=float)
+    ratio = a / i
+    return {
+        "terminal_position_error_m": a.tolist(),
+        "ideal_terminal_position_error_m": i.tolist(),
+        "terminal_error_ratio": ratio.tolist(),
+        "terminal_error_ratio_median": float(np.median(ratio)),
+        "share_within_2x": float(np.mean(ratio <= 2.0)),
+        "median_error_ratio": float(np.median(a) / np.median(i)),
+        "rms_error_ratio": float(np.sqrt(np.mean(a**2) / np.mean(i**2))),
+    }
+
+
 def run(args: argparse.Namespace) -> int:
     from ..closed_loop import simulate
     from ..config import load_config
@@ -104,6 +123,8 @@ def run(args: argparse.Namespace) -> int:
         ideal_cfg, ideal = ideal_counterpart(cfg, scn)
     except ValueError as exc:
         raise SystemExit(f"bench actuation: {exc}") from exc
+    if args.seeds < 1:
+        raise SystemExit("bench actuation: --seeds must be >= 1")
     methods = ["tbmpc", "ffa"] if args.method == "both" else [args.method]
     dt = cfg.mpc.dt
     out: dict[str, Any] = {
@@ -114,6 +135,7 @@ def run(args: argparse.Namespace) -> int:
         "u_max": u_max,
         "T_max": T_max,
         "seed": args.seed,
+        "seeds": args.seeds,
         "design_worker": args.design_worker or cfg.tube.design_worker,
         "methods": {},
     }
@@ -129,6 +151,13 @@ def run(args: argparse.Namespace) -> int:
             "thruster_delta_v_over_ideal": act["thruster_delta_v_m_s"] / base["net_delta_v_m_s"],
             "p99_growth_ms": act["controller_and_actuation_p99_ms"] - act["controller_p99_ms"],
         }
+        if args.seeds > 1:
+            errors = ([act["terminal_position_error_m"]], [base["terminal_position_error_m"]])
+            for seed in range(args.seed + 1, args.seed + args.seeds):
+                for e, sc in zip(errors, (scn, ideal), strict=True):
+                    rec = simulate(sc, m, seed, design_worker=args.design_worker)
+                    e.append(float(np.linalg.norm(rec.x[-1, :3] - sc.xf[:3])))
+            row["over_seeds"] = seed_statistics(*errors)
         out["methods"][m] = row
         print(
             f"  {m:6s} outside {act['steps_outside_tube']} (ideal {base['steps_outside_tube']}); terminal "
@@ -141,5 +170,12 @@ def run(args: argparse.Namespace) -> int:
             f"{base['nominal_input_fraction_median']:.2f}), "
             f"plan off the reference by up to {act['max_plan_offset_m']:.3g} m (ideal {base['max_plan_offset_m']:.3g} m)"
         )
+        if "over_seeds" in row:
+            o = row["over_seeds"]
+            print(
+                f"         over {args.seeds} seeds: terminal error {o['terminal_error_ratio_median']:.3g}x ideal (median "
+                f"ratio), within 2x in {o['share_within_2x']:.0%}; median errors {o['median_error_ratio']:.3g}x, "
+                f"RMS {o['rms_error_ratio']:.3g}x"
+            )
     write_json(args.json, out)
     return 0

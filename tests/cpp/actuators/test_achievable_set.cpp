@@ -205,6 +205,28 @@ TEST(ActuationErrorBound, InABoxBoundsTheThrustNormAndTheErrors) {
   EXPECT_TRUE(nearest.modulation_B.isApprox(0.5 * in_box.modulation_B, 1e-14));
   EXPECT_NEAR(nearest.thrust_norm, in_box.thrust_norm, 1e-12);
   for (int i = 0; i < 6; ++i) EXPECT_LE(nearest.misalignment_B(i), in_box.misalignment_B(i));
+  // Opposed pairs: the same modulation part, a larger misalignment part (a pair fires tau_min against a
+  // sub-minimum net), and every sampled error within the bound.
+  ms.opposed_pairs = true;
+  PulseModulator paired(c, ms);
+  const ActuationErrorBound pairs = actuation_error_bound(c, paired, 800.0, w, as, half, 0.0, false);
+  EXPECT_TRUE(pairs.modulation_B.isApprox(nearest.modulation_B, 1e-14));
+  for (int i = 0; i < 6; ++i) EXPECT_GE(pairs.misalignment_B(i), nearest.misalignment_B(i));
+  worst.setZero();
+  for (int k = 0; k < 600; ++k) {
+    Vector6 cmd;
+    for (int i = 0; i < 6; ++i) cmd(i) = u(rng) * half(i) * (k % 2 ? 1.0 : 0.01);
+    const AllocationResult& r = a.solve(c, w, 1200 + k, cmd);
+    ASSERT_EQ(r.info.status, AllocationStatus::Ok);
+    const Firing& f = paired.modulate(c, 1200 + k, r.thrust);
+    w.apply(r.wheel_torque, 1.0);
+    const Vector6 e = f.commanded_B - f.delivered_B;
+    for (int i = 0; i < 6; ++i) {
+      ASSERT_LE(std::abs(e(i)), pairs.wrench_B(i)) << "component " << i << " step " << k;
+      worst(i) = std::max(worst(i), std::abs(e(i)) / pairs.wrench_B(i));
+    }
+  }
+  EXPECT_GT(worst.maxCoeff(), 0.05);
 }
 
 // The box tolerating one failure is the smallest of the boxes with each thruster failed in turn; a stuck-on

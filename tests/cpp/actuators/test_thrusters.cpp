@@ -167,6 +167,105 @@ TEST(PulseModulator, OnePeriodsOnTimeErrorIsWithinItsBound) {
   }
 }
 
+// Opposed pairs (the cube cluster's thrusters 0 and 2 push along +-x on one line): the net command by hand
+// (tau_min 0.02 s, q 0.001 s, dt 0.5 s), a sub-minimum net fired as tau_min + d against tau_min.
+TEST(PulseModulator, OpposedPairsFireTheNetCommand) {
+  const ThrusterCluster c = actuator_test::cube_cluster(4.5, 0.02);
+  ModulationSettings ms;
+  ms.period = 0.5;
+  ms.on_time_resolution = 0.001;
+  ms.rounding = PulseRounding::Nearest;
+  ms.opposed_pairs = true;
+  PulseModulator mod(c, ms);
+  for (int j = 0; j < c.size(); ++j) {
+    ASSERT_GE(mod.partner(j), 0) << j;
+    EXPECT_EQ(mod.partner(mod.partner(j)), j);
+    EXPECT_TRUE(c.mapping().col(j).isApprox(-c.mapping().col(mod.partner(j)))) << j;
+  }
+  ASSERT_EQ(mod.partner(0), 2);
+  // {tau_c of 0, tau_c of 2} -> {tau of 0, tau of 2}.
+  const std::vector<std::array<double, 4>> cases = {
+      {0.0, 0.0, 0.0, 0.0},       {0.0004, 0.0, 0.0, 0.0},   {0.0123, 0.0, 0.032, 0.02},
+      {0.0, 0.0019, 0.02, 0.022}, {0.0507, 0.0, 0.051, 0.0}, {0.3, 0.29, 0.03, 0.02},
+      {0.1, 0.35, 0.0, 0.25},     {0.0196, 0.0, 0.04, 0.02}, {0.5, 0.0, 0.5, 0.0}};
+  for (const auto& [tc0, tc2, t0, t2] : cases) {
+    Eigen::VectorXd f = Eigen::VectorXd::Zero(c.size());
+    f(0) = 4.5 * tc0 / ms.period;
+    f(2) = 4.5 * tc2 / ms.period;
+    const Firing& fr = mod.modulate(c, 0.0, f);
+    EXPECT_NEAR(fr.on_time(0), t0, 1e-15) << tc0 << " " << tc2;
+    EXPECT_NEAR(fr.on_time(2), t2, 1e-15) << tc0 << " " << tc2;
+  }
+  EXPECT_NEAR(mod.on_time_excess_bound(c, 0), 0.0205, 1e-15);
+  // A failed partner: the other rounds alone to its nearest level.
+  ThrusterCluster failed = c;
+  failed.set_fault(2, FaultKind::FailedOff, 1.0);
+  Eigen::VectorXd f = Eigen::VectorXd::Zero(c.size());
+  f(0) = 4.5 * 0.0123 / ms.period;
+  EXPECT_NEAR(mod.modulate(failed, 0.5, f).on_time(0), 0.032, 1e-15);
+  EXPECT_NEAR(mod.modulate(failed, 1.0, f).on_time(0), 0.02, 1e-15);
+  EXPECT_EQ(mod.modulate(failed, 1.0, f).on_time(2), 0.0);
+  // Set-up errors name the field.
+  ms.rounding = PulseRounding::Carry;
+  EXPECT_THROW(ms.validate(), std::invalid_argument);
+  ms.rounding = PulseRounding::Nearest;
+  ms.period = 0.039;
+  try {
+    PulseModulator too_short(c, ms);
+    ADD_FAILURE() << "2 tau_min > period accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("modulation.opposed_pairs"), std::string::npos) << e.what();
+  }
+  ms.period = 0.5;
+  // The +-x thrusters only (pairs 0-2 and 1-3), the -x ones weaker: no pair.
+  auto specs = actuator_test::cube_specs(4.5, 0.02);
+  specs.resize(4);
+  specs[2].max_thrust = specs[3].max_thrust = 4.4;
+  EXPECT_THROW(PulseModulator(ThrusterCluster(specs), ms), std::invalid_argument);
+  specs[3].max_thrust = 4.5;
+  EXPECT_EQ(PulseModulator(ThrusterCluster(specs), ms).partner(1), 3);
+}
+
+// With opposed pairs, per period and pair the net on-time error is at most q / 2, each thruster's on-time
+// exceeds its command by at most on_time_excess_bound, and the nominal wrench error is within the modulation
+// part of the error bound (M36).
+TEST(PulseModulator, OpposedPairsErrorsAreWithinTheirBounds) {
+  const ThrusterCluster c = actuator_test::cube_cluster(4.5, 0.02);
+  ModulationSettings ms;
+  ms.period = 0.5;
+  ms.on_time_resolution = 0.004;
+  ms.rounding = PulseRounding::Nearest;
+  ms.opposed_pairs = true;
+  PulseModulator mod(c, ms);
+  Vector6 mod_bound = Vector6::Zero();
+  for (int j = 0; j < c.size(); ++j)
+    mod_bound += c.mapping().col(j).cwiseAbs() * (4.5 * mod.on_time_error_bound(c, j) / ms.period);
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Eigen::VectorXd f(c.size());
+  double worst_net = 0.0, worst_excess = 0.0;
+  for (int k = 0; k < 2000; ++k) {
+    // Mostly sub-minimum commands, some large, often both of a pair.
+    for (int j = 0; j < c.size(); ++j) f(j) = 4.5 * std::pow(u(rng), k % 2 ? 6.0 : 1.5) * (u(rng) < 0.7);
+    const Firing& fr = mod.modulate(c, 0.5 * k, f);
+    const Eigen::VectorXd tau_c = f * ms.period / 4.5;
+    for (int j = 0; j < c.size(); ++j) {
+      const int p = mod.partner(j);
+      const double net = std::abs((fr.on_time(j) - fr.on_time(p)) - (tau_c(j) - tau_c(p)));
+      ASSERT_LE(net, 0.5 * ms.on_time_resolution + 1e-15) << k;
+      worst_net = std::max(worst_net, net / (0.5 * ms.on_time_resolution));
+      const double excess = fr.on_time(j) - tau_c(j);
+      ASSERT_LE(excess, mod.on_time_excess_bound(c, j) + 1e-15) << k;
+      worst_excess = std::max(worst_excess, excess / mod.on_time_excess_bound(c, j));
+      ASSERT_TRUE(fr.on_time(j) == 0.0 || fr.on_time(j) >= 0.02 - 1e-15) << k;
+    }
+    const Vector6 e = (fr.commanded_B - c.mapping() * (fr.on_time * 4.5 / ms.period)).cwiseAbs();
+    for (int i = 0; i < 6; ++i) ASSERT_LE(e(i), mod_bound(i) + 1e-12) << k;
+  }
+  EXPECT_GT(worst_net, 0.9);
+  EXPECT_GT(worst_excess, 0.9);
+}
+
 TEST(PulseModulator, FaultsOverrideTheCommandFromTheirTime) {
   ThrusterCluster c = actuator_test::cube_cluster();
   c.set_fault(0, FaultKind::StuckOn, 10.0);

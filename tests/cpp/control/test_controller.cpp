@@ -144,3 +144,89 @@ TEST(Controller, BadInputIsAStatusOrAClearError) {
   Controller other(m.model, m.mpc, m.settings);
   EXPECT_THROW(other.setup(m.ref, no_design), std::invalid_argument);
 }
+
+// The feed-forward's input-error set: the ball case by hand, the degenerate cases, and every sum of a point of E
+// and of the box inside it.
+TEST(Controller, InputErrorWithFeedforwardContainsTheSum) {
+  const Eigen::Matrix3d ball =
+      input_error_with_feedforward(4.0 * Eigen::Matrix3d::Identity(), Eigen::Vector3d::Constant(0.5));
+  EXPECT_TRUE(ball.isApprox(std::pow(2.0 + std::sqrt(3.0) * 0.5, 2) * Eigen::Matrix3d::Identity(), 1e-14));
+  const Eigen::Vector3d rho(0.1, 0.2, 0.3);
+  EXPECT_TRUE(input_error_with_feedforward(Eigen::Matrix3d::Zero(), rho)
+                  .isApprox(3.0 * rho.cwiseAbs2().asDiagonal().toDenseMatrix(), 1e-15));
+  Eigen::Matrix3d E;
+  E << 2.0, 0.3, -0.1, 0.3, 1.0, 0.2, -0.1, 0.2, 0.5;
+  EXPECT_EQ(input_error_with_feedforward(E, Eigen::Vector3d::Zero()), E);
+  const Eigen::Matrix3d G = input_error_with_feedforward(E, rho);
+  const Eigen::LLT<Eigen::Matrix3d> E_llt(E), G_llt(G);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n(0.0, 1.0);
+  double worst = 0.0;
+  for (int k = 0; k < 20000; ++k) {
+    Eigen::Vector3d y(n(rng), n(rng), n(rng));
+    const Eigen::Vector3d e = E_llt.matrixL() * y.normalized();  // on E's boundary
+    Eigen::Vector3d z;
+    for (int i = 0; i < 3; ++i) z(i) = (n(rng) > 0.0 ? 1.0 : -1.0) * rho(i);  // a corner of the box
+    const Eigen::Vector3d v = e + z;
+    const double level = v.dot(G_llt.solve(v));
+    ASSERT_LE(level, 1.0 + 1e-12) << k;
+    worst = std::max(worst, level);
+  }
+  EXPECT_GT(worst, 0.7);
+}
+
+// The feed-forward (ControllerSettings::feedforward) is -(B^T B)^-1 B^T w^ of each subsystem, within its limit and
+// clipped so that the command stays within u_max; the controller carries its box in the input-error sets;
+// against a constant input bias it removes most of the offset the tube's feedback leaves; TBMPC ignores it.
+TEST(Controller, FeedforwardCancelsAnInputBias) {
+  const Eigen::VectorXd bias = (Eigen::VectorXd(6) << 0.02, -0.01, 0.015, 0.05, -0.02, 0.03).finished();
+  auto fly = [&bias](Method method, bool feedforward, double& offset) {
+    Mission m(method);
+    m.settings.feedforward = feedforward;
+    m.settings.feedforward_limit = 0.2;  // room for the bias
+    Controller ctrl(m.model, m.mpc, m.settings);
+    ctrl.setup(m.ref, m.designs);
+    for (int s = 0; s < 2;
+         ++s) {  // the feed-forward's box in the tube's input-error set (ideal actuators: E = 0)
+      const Eigen::Matrix3d want =
+          feedforward && method == Method::Ffa
+              ? input_error_with_feedforward(Eigen::Matrix3d::Zero(), 0.2 * m.mpc.u_max.segment<3>(3 * s))
+              : Eigen::Matrix3d::Zero();
+      EXPECT_EQ(ctrl.settings().actuation_error[s], want);
+    }
+    Eigen::VectorXd x = m.ref.z.col(0);
+    Eigen::MatrixXd A(12, 12), B(12, 6);
+    Eigen::VectorXd c(12);
+    bool fed = false;
+    offset = 0.0;
+    for (int k = 0; k < kT; ++k) {
+      const ControlStep& r = ctrl.step(k, x);
+      ASSERT_TRUE(r.u.allFinite());
+      Eigen::Matrix<double, 6, 1> want = Eigen::Matrix<double, 6, 1>::Zero();
+      if (feedforward && method == Method::Ffa)
+        for (int s = 0; s < 2; ++s)
+          want.segment<3>(3 * s) =
+              -(r.B[s].transpose() * r.B[s]).ldlt().solve(r.B[s].transpose() * ctrl.identifier(s).w_hat());
+      for (int j = 0; j < 6; ++j) {
+        const double u_mpc = r.u(j) - r.u_feedforward(j), rho = m.settings.feedforward_limit * m.mpc.u_max(j);
+        ASSERT_LE(std::abs(r.u(j)), std::max(m.mpc.u_max(j), std::abs(u_mpc)) + 1e-15) << k;
+        ASSERT_LE(std::abs(r.u_feedforward(j)), rho * (1.0 + 1e-15)) << k;
+        // Unclipped, the feed-forward is the formula; clipped, at its limit or the command at its bound.
+        if (std::abs(r.u(j)) < m.mpc.u_max(j) * (1.0 - 1e-12) &&
+            std::abs(r.u_feedforward(j)) < rho * (1.0 - 1e-12))
+          EXPECT_NEAR(r.u_feedforward(j), want(j), 1e-12 * (1.0 + std::abs(want(j)))) << k << " " << j;
+      }
+      fed = fed || r.u_feedforward.norm() > 0.0;
+      m.model->discretize(0.0, kDt, x, r.u, A, B, c);
+      x = A * x + B * (r.u + bias) + c;
+      if (k >= kT - 5) offset = std::max(offset, (x - m.ref.z.col(k + 1)).head<3>().norm());
+    }
+    EXPECT_EQ(fed, feedforward && method == Method::Ffa);
+  };
+  double with = 0.0, without = 0.0, tbmpc = 0.0;
+  fly(Method::Ffa, true, with);
+  fly(Method::Ffa, false, without);
+  fly(Method::Tbmpc, true, tbmpc);
+  EXPECT_GT(without, 0.0);
+  EXPECT_LT(with, 0.5 * without) << with << " " << without;
+}

@@ -39,6 +39,7 @@ TEST(ControllerAllocation, StepDoesNotAllocateAfterSetup) {
   settings.tube.alpha_search_period = 3;  // many due designs: the library path runs often
   // An actuation-error set per subsystem: every step grows P_W by B E (its Minkowski bound runs in the step).
   settings.actuation_error = {Eigen::Matrix3d::Identity() * 1e-6, Eigen::Matrix3d::Identity() * 1e-4};
+  settings.feedforward = true;  // the identified mean's feed-forward runs in the step too
   ControllerDesigns designs;
   SubMatrix A;
   SubInputMatrix B;
@@ -61,7 +62,7 @@ TEST(ControllerAllocation, StepDoesNotAllocateAfterSetup) {
   std::mt19937 rng(2);
   std::normal_distribution<double> n(0.0, 1.0);
   long allocations = 0;
-  int library_steps = 0, grown = 0;
+  int library_steps = 0, grown = 0, fed = 0;
   for (int k = 0; k < T; ++k) {
     {
       AllocationWindow window;
@@ -71,6 +72,7 @@ TEST(ControllerAllocation, StepDoesNotAllocateAfterSetup) {
       x_next.noalias() += Bd * r.u;
       library_steps += r.tube_status[0] == TubeStatus::Library || r.tube_status[1] == TubeStatus::Library;
       allocations += window.count();
+      fed += r.u_feedforward.norm() > 0.0;
       for (int s = 0; s < 2; ++s) grown += (r.P_W[s] - ctrl.identifier(s).P_W()).trace() > 0.0;
     }
     for (int i = 0; i < 12; ++i) x_next(i) += c(i) + n(rng) * (i < 6 ? 1e-2 : 1e-4 * (1 + k));
@@ -84,4 +86,5 @@ TEST(ControllerAllocation, StepDoesNotAllocateAfterSetup) {
   EXPECT_EQ(allocations, 0);
   EXPECT_GT(library_steps, 0);  // the library path was exercised too
   EXPECT_EQ(grown, 2 * T);      // every step certified its tube for the grown set
+  EXPECT_GT(fed, 0);            // and fed the identified mean forward
 }

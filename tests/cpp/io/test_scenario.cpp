@@ -98,6 +98,8 @@ ScenarioFile sample(int T) {
   // version 4: the actuation-error sets, the navigation and the actuators, none at their defaults
   s.controller.actuation_error[0] = Eigen::Vector3d(1e-6, 2e-6, 1.0 / 3.0 * 1e-6).asDiagonal();
   s.controller.actuation_error[1] = Eigen::Vector3d(0.1, 0.2, 1.0 / 3.0).asDiagonal();
+  s.controller.feedforward = true;  // version 5
+  s.controller.feedforward_limit = 0.0123;
   tubempc::io::NavigationScenario& n = s.navigation;
   n.enabled = true;
   n.settings.altimeter.sigma = 1.0 / 3.0;
@@ -234,7 +236,7 @@ class ScenarioFileTest : public ::testing::Test {
     };
     cut("controller.actuation_error_p 3 3\n", "identification_p.");
     cut("navigation.enabled 1 1\n", "");
-    text.replace(text.find("tubempc-scenario 4"), 18, "tubempc-scenario 3");
+    text.replace(text.find("tubempc-scenario 5"), 18, "tubempc-scenario 3");
     return text;
   }
 
@@ -347,6 +349,8 @@ TEST_F(ScenarioFileTest, RoundTripIsBitExact) {
   for (int i = 0; i < 2; ++i)
     expect_same_bits(a.controller.actuation_error[static_cast<std::size_t>(i)],
                      b.controller.actuation_error[static_cast<std::size_t>(i)], "actuation_error");
+  EXPECT_TRUE(b.controller.feedforward);
+  EXPECT_EQ(b.controller.feedforward_limit, 0.0123);
   // navigation: a sample of each section (the text comparison below covers every record)
   const tubempc::io::NavigationScenario &na = a.navigation, &nb = b.navigation;
   ASSERT_TRUE(nb.enabled);
@@ -446,6 +450,7 @@ TEST_F(ScenarioFileTest, VersionThreeFilesAreRead) {
   EXPECT_FALSE(old.navigation.enabled);
   EXPECT_FALSE(old.actuators.enabled);
   EXPECT_TRUE(old.controller.actuation_error[0].isZero(0.0) && old.controller.actuation_error[1].isZero(0.0));
+  EXPECT_FALSE(old.controller.feedforward);
   EXPECT_EQ(old.controller.identification_p.lambda, fresh.controller.identification_p.lambda);
   expect_same_bits(old.ffa_designs.initial_r.Pe, fresh.ffa_designs.initial_r.Pe, "ffa_r.Pe");
   expect_same_bits(old.xf, fresh.xf, "xf");
@@ -510,8 +515,8 @@ TEST_F(ScenarioFileTest, VersionOneFilesAreRead) {
 }
 
 TEST_F(ScenarioFileTest, ErrorsNameFileLineAndRecord) {
-  expect_error("tubempc-scenario 4", "tubempc-scenario 5", 1, "format version 5 is not supported");
-  expect_error("tubempc-scenario 4", "tubempc 4", 1, "not a tubempc scenario file");
+  expect_error("tubempc-scenario 5", "tubempc-scenario 6", 1, "format version 6 is not supported");
+  expect_error("tubempc-scenario 5", "tubempc 5", 1, "not a tubempc scenario file");
   const long mu = line_of("model.mu_sun 1 1");
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\n1.3271x", mu + 1,
                "model.mu_sun: row 0, column 0: bad number '1.3271x'");

@@ -73,9 +73,10 @@ def test_ideal_actuators_leave_every_input_of_the_default_run_as_it_was(cache: P
     assert scn.input_bounds == (s.u_max, s.T_max)
     assert np.array_equal(np.asarray(mpc_settings(scn).u_max), np.r_[[s.u_max] * 3, [s.T_max] * 3])
     ident = scn.config.identification
-    P_p, P_r = _prior_P_W(scn)
-    assert np.array_equal(P_p, ident.pw_scale * np.asarray(ident.S0_p))
-    assert np.array_equal(P_r, ident.pw_scale * np.asarray(ident.S0_r))
+    for method in ("tbmpc", "ffa"):
+        P_p, P_r = _prior_P_W(scn, method)
+        assert np.array_equal(P_p, ident.pw_scale * np.asarray(ident.S0_p))
+        assert np.array_equal(P_r, ident.pw_scale * np.asarray(ident.S0_r))
     assert all(not np.asarray(E).any() for E in controller_settings(scn, "ffa").actuation_error)
     rec = simulate(scn, "ffa", 3, max_steps=3, design_worker="none")
     mismatch = scn.loop.actuators(3)
@@ -153,6 +154,13 @@ def test_a_preset_over_its_base_changes_only_the_fields_it_gives(tmp_path: Path)
     assert np.array_equal(cal.wheels.max_momentum, base.wheels.max_momentum)
     rounding = _core.actuators.PulseRounding
     assert (base.modulation.rounding, cal.modulation.rounding) == (rounding.Carry, rounding.Nearest)
+    assert (base.modulation.opposed_pairs, cal.modulation.opposed_pairs) == (False, True)
+    # The layout's opposed pairs: +-z and +-t at each corner, on one line of action.
+    mod = _core.actuators.PulseModulator(cal.cluster, cal.modulation)
+    D = np.asarray(cal.cluster.mapping)
+    partners = [mod.partner(j) for j in range(len(cal.cluster))]
+    assert partners == [1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14]
+    assert all(np.allclose(D[:, j], -D[:, p], atol=1e-12) for j, p in enumerate(partners))
     assert cal.modulation.on_time_resolution == base.modulation.on_time_resolution  # the field not given is the base's
     (tmp_path / "own.toml").write_text('base = "osiris_rex_like_calibrated"\n[modulation]\non_time_resolution = "2 ms"\n')
     own = A.load_actuators(tmp_path / "own.toml", 5.0)
@@ -168,6 +176,12 @@ def test_a_preset_over_its_base_changes_only_the_fields_it_gives(tmp_path: Path)
     (tmp_path / "d.toml").write_text('base = "osiris_rex_like"\n[modulation]\nrounding = "round"\n')
     with pytest.raises(A.ActuatorConfigError, match=r"d\.toml\.modulation\.rounding: expected one of \['carry', '"):
         A.load_actuators(tmp_path / "d.toml", 5.0)
+    (tmp_path / "e.toml").write_text('base = "osiris_rex_like"\n[modulation]\nopposed_pairs = "yes"\n')
+    with pytest.raises(A.ActuatorConfigError, match=r"e\.toml\.modulation\.opposed_pairs: expected true or false"):
+        A.load_actuators(tmp_path / "e.toml", 5.0)
+    (tmp_path / "f.toml").write_text('base = "osiris_rex_like"\n[modulation]\nopposed_pairs = true\n')  # carry-over
+    with pytest.raises(A.ActuatorConfigError, match=r"f\.toml: modulation\.opposed_pairs: needs rounding = \"nearest\""):
+        A.load_actuators(tmp_path / "f.toml", 5.0)
 
 
 def test_the_osiris_rex_like_tag_fits_the_preset_s_authority_with_its_certified_error(cache: Path) -> None:

@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tubempc.cli import main
@@ -197,3 +198,36 @@ def test_bench_controller_pools_repeated_flights_on_navigation(tmp_path: Path) -
     assert row["estimator_p99_ratio"] == ce["p99_ms"] / row["full_state_controller"]["p99_ms"]
     with pytest.raises(SystemExit, match="--repeats must be >= 1"):
         main(["bench", "controller", "--repeats", "0"])
+
+
+def test_bench_actuation_reports_the_terminal_error_ratio_over_seeds(tmp_path: Path) -> None:
+    """--seeds flies more seeds both ways: the first is the seed the other figures are of, each ratio is the
+    actuated over the ideal error of the same seed, and the summary follows from the lists."""
+    from tubempc.benchmarks.actuation import seed_statistics
+
+    s = seed_statistics([2.0, 1.0, 3.0, 8.0], [1.0, 1.0, 1.0, 2.0])
+    assert s["terminal_error_ratio"] == [2.0, 1.0, 3.0, 4.0] and s["terminal_error_ratio_median"] == 2.5
+    assert s["share_within_2x"] == 0.5 and s["median_error_ratio"] == 2.5 / 1.0
+    assert s["rms_error_ratio"] == pytest.approx(np.sqrt((4 + 1 + 9 + 64) / (1 + 1 + 1 + 4)), rel=1e-15)
+    short = {
+        "boundary.hover_altitude": "10 m",
+        "mpc.t_f": "200 s",
+        "boundary.touchdown_speed": "0.05 m/s",
+        "tube.design_worker": "inline",
+        "simulation.reference_input_fraction": 0.4,  # 10 m in 200 s
+    }
+    cfg = load_config(scenario="bennu-tag-osirisrex").with_overrides(short)
+    cfg.save(tmp_path / "short.toml")
+    out = tmp_path / "actuation.json"
+    argv = ["bench", "actuation", "--config", str(tmp_path / "short.toml"), "--method", "ffa", "--seeds", "2"]
+    assert main([*argv, "--json", str(out)]) == EXIT_OK
+    d = json.loads(out.read_text())
+    row = d["methods"]["ffa"]
+    o = row["over_seeds"]
+    assert d["seeds"] == 2 and len(o["terminal_error_ratio"]) == 2
+    assert o["terminal_position_error_m"][0] == row["actuators"]["terminal_position_error_m"]
+    assert o["ideal_terminal_position_error_m"][0] == row["ideal"]["terminal_position_error_m"]
+    assert o["terminal_position_error_m"][1] != o["terminal_position_error_m"][0]  # another seed's disturbance
+    assert o["terminal_error_ratio"][0] == row["terminal_error_ratio"]
+    with pytest.raises(SystemExit, match="--seeds must be >= 1"):
+        main([*argv[:-1], "0"])

@@ -65,13 +65,15 @@ AchievableBox achievable_box(const ThrusterCluster& cluster, const ReactionWheel
 /// The wheels deliver their allocated torque exactly (their bounds are the allocation's).
 struct ActuationErrorBound {
   /// Part from pulse modulation: sum_j |D_ij| F_j e_j / dt, e_j the modulator's on-time error bound
-  /// (PulseModulator::on_time_error_bound: r_max_j, or r_max_j / 2 with PulseRounding::Nearest) (N, N m).
+  /// (PulseModulator::on_time_error_bound: r_max_j, or r_max_j / 2 with PulseRounding::Nearest; an opposed
+  /// pair's net error, at most q / 2, is within its two terms) (N, N m).
   Vector6 modulation_B = Vector6::Zero();
   /// Part from scale and misalignment errors: sum_j a_ij f_j over the delivered thrusts f_j, a_ij = max |v_j .
   /// c_ij| with v_j = (1 + s) R d_j - d_j over |s| <= s_j and rotations by at most theta_j, c_ij = e_i for
   /// force rows and e_i x p_j for torque rows (exact per thruster). For any command it is sum_j a_ij F_j
   /// (every thruster at full thrust); for commands in a box, min(sum_j a_ij F_j, ||a_i||_2 (thrust_norm +
-  /// ||F_j e_j / dt||_2)) (N, N m).
+  /// ||F_j x_j / dt||_2)) with x_j the modulator's on-time excess bound (PulseModulator::on_time_excess_bound)
+  /// (N, N m).
   Vector6 misalignment_B = Vector6::Zero();
   /// Bound on ||f||_2 of the commanded thrusts used by misalignment_B (N): sqrt(sum_j F_j^2) for any command.
   double thrust_norm = 0.0;

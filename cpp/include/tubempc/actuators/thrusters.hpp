@@ -136,6 +136,14 @@ struct ModulationSettings {
   double period = 1.0;  ///< Control period dt over which a commanded thrust is averaged (s, > 0).
   double on_time_resolution = 1e-3;  ///< On-times are whole multiples of this (s, >= 0; 0: continuous).
   PulseRounding rounding = PulseRounding::Carry;  ///< Carry-over or nearest level.
+  /// Fire a net on-time below the minimum on-time as the difference of two opposed thrusters (docs/model.md
+  /// M34''): thrusters j and p with D_p = -D_j (one line of action, opposite directions) and the same thrust
+  /// and minimum on-time are a pair; each period the pair's net commanded on-time d = |tau_c,j - tau_c,p| is
+  /// fired by the thruster it points along for the nearest level of d when d >= tau_min, and as tau_min +
+  /// q round(d / q) against tau_min on the other when 0 < d < tau_min. The pair's net on-time error is then
+  /// at most q / 2 instead of tau_min / 2, for 2 F tau_min of extra impulse in such a period. Needs
+  /// PulseRounding::Nearest, at least one pair and 2 tau_min <= period (rounded up to q).
+  bool opposed_pairs = false;
 
   /// Throws std::invalid_argument naming the field.
   void validate() const;
@@ -162,6 +170,8 @@ struct Firing {
 /// With PulseRounding::Nearest the commanded on-time itself is rounded to the nearest level it can fire (0
 /// below half the minimum on-time, the minimum on-time up to it, the nearest multiple of q above it, at most
 /// the period) and nothing is carried (the remainders stay 0).
+/// With ModulationSettings::opposed_pairs, the pairs whose two thrusters are both healthy at t are fired from
+/// their net command (see there); the others as above.
 /// A failed-off thruster fires 0, a stuck-on one the whole period (their remainders are cleared).
 /// Allocation-free after construction.
 class PulseModulator {
@@ -194,6 +204,16 @@ class PulseModulator {
   /// @param cluster the thrusters.
   /// @param j thruster index.
   double on_time_error_bound(const ThrusterCluster& cluster, int j) const;
+  /// @return the bound on tau_j - tau_c,j, by how much thruster j's on-time can exceed its command in one
+  /// period (s): on_time_error_bound, or tau_min,j + q / 2 for a thruster of an opposed pair (it fires tau_min
+  /// against a partner's sub-minimum net command). It bounds the delivered thrusts for the misalignment part of
+  /// the actuation error (M36).
+  /// @param cluster the thrusters.
+  /// @param j thruster index.
+  double on_time_excess_bound(const ThrusterCluster& cluster, int j) const;
+  /// @return thruster j's opposed partner (ModulationSettings::opposed_pairs), or -1.
+  /// @param j thruster index in [0, n).
+  int partner(int j) const { return partner_(j); }
   /// @return thruster j's minimum on-time rounded up to the resolution (s).
   /// @param cluster the thrusters.
   /// @param j thruster index.
@@ -206,9 +226,11 @@ class PulseModulator {
   const ModulationSettings& settings() const { return settings_; }
 
  private:
+  double nearest_level(double tau_c, double t_min) const;
+
   ModulationSettings settings_;
-  Eigen::VectorXd r_;
-  Eigen::VectorXi pulses_;
+  Eigen::VectorXd r_, f_cmd_;
+  Eigen::VectorXi pulses_, partner_;
   double propellant_ = 0.0;
   Firing firing_;
 };

@@ -58,9 +58,29 @@ struct ControllerSettings {
   /// positive semidefinite): each step's tube is certified for the identified P_W plus B_k E
   /// (actuators::disturbance_with_actuation_error; docs/model.md M38). Zero (the default): ideal actuators.
   std::array<Eigen::Matrix3d, 2> actuation_error{Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Zero()};
+  /// TBMPC-FFA only (docs/model.md M43): cancel the identified mean input w^_s through the input, u_ff,s =
+  /// -(B_s^T B_s)^-1 B_s^T w^_s (B_s about the reference's node k), each component within feedforward_limit
+  /// of the MPC's input bound, added to the MPC's command and the sum clipped into the input bounds. The tube
+  /// then faces the spread of the input about its mean, the set the identification measures, and the
+  /// controller carries the feed-forward's box in its input-error sets (input_error_with_feedforward), so that
+  /// the certified part of the guarantee (actuation_error) still holds. Off (the paper's method): the mean is
+  /// not used.
+  bool feedforward = false;
+  /// Largest feed-forward per input component, as a fraction of the MPC's bound u_max_i (in (0, 1)).
+  double feedforward_limit = 0.002;
   /// Throws std::invalid_argument naming the field.
   void validate() const;
 };
+
+/// The input-error set a TBMPC-FFA tube carries with the feed-forward (M43): an ellipsoid containing E (+) the
+/// box |u_ff,i| <= rho_i, the trace-minimal one of the outer family (1 + 1/beta) E + (1 + beta) 3 diag(rho)^2
+/// (3 diag(rho)^2: the smallest ellipsoid around the box). For a ball E = r^2 I and rho = p (1, 1, 1) it is the
+/// ball of radius r + sqrt(3) p. Controller applies it to ControllerSettings::actuation_error when the
+/// feed-forward is on; the set-up designs (Python: tubempc.tube_library) use the same call.
+/// @param E the input-error set's shape (3 x 3, symmetric positive semidefinite; input units squared).
+/// @param rho the feed-forward's bound per component (>= 0; input units).
+/// @return the shape (input units squared).
+Eigen::Matrix3d input_error_with_feedforward(const Eigen::Matrix3d& E, const Eigen::Vector3d& rho);
 
 /// The LMI designs a controller flies with (computed at set-up; Python: tubempc.tube_library).
 struct ControllerDesigns {
@@ -83,7 +103,9 @@ struct ControlTimings {
 
 /// Result of one control step; storage allocated at set-up and overwritten by every step.
 struct ControlStep {
-  Eigen::VectorXd u;                        ///< the command (6: m/s^2, N m), always finite
+  Eigen::VectorXd u;  ///< the command (6: m/s^2, N m), always finite
+  /// The part of u from ControllerSettings::feedforward after the clipping (6: m/s^2, N m; 0 when off).
+  Eigen::Matrix<double, 6, 1> u_feedforward = Eigen::Matrix<double, 6, 1>::Zero();
   mpc::Tube tube;                           ///< the tube flown: K (6 x 12), Pe (12 x 12), block diagonal
   std::array<TubeStatus, 2> tube_status{};  ///< per subsystem (p, r)
   std::array<double, 2> alpha{};            ///< per subsystem
@@ -181,7 +203,8 @@ class Controller {
   ControlStep out_;
   // the last call's step, state and command, for the measured input of the next
   void predict(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k);
-  void restart();  // identifiers, policies and the step bookkeeping back to k = 0
+  void feedforward();  // ControllerSettings::feedforward on out_.u
+  void restart();      // identifiers, policies and the step bookkeeping back to k = 0
   int last_k_ = -1;
   int identified_k_ = -1;   // the step whose period was last folded in
   bool predicted_ = false;  // x_pred_ holds the prediction of step last_k_ + 1

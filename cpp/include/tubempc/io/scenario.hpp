@@ -6,9 +6,9 @@
 /// system and the actuators of one run. Plain text, versioned, exact (every double written with 17
 /// significant digits, so reading gives back the same bits).
 ///
-/// Format, version 4 (versions 1 to 3 are read too; see below)
+/// Format, version 5 (versions 1 to 4 are read too; see below)
 /// -------------------------------------------------------------
-/// - Line 1: `tubempc-scenario 4`. Lines starting with `#` (after optional blanks) and blank lines
+/// - Line 1: `tubempc-scenario 5`. Lines starting with `#` (after optional blanks) and blank lines
 ///   are comments anywhere else.
 /// - Then records in any order, each name at most once:
 ///   - numeric: a header line `<name> <rows> <cols>` followed by `rows` lines of `cols` numbers each
@@ -41,6 +41,8 @@
 ///   | `mission.x0` | 12 1 | initial state [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)] |
 ///   | `mission.xf` | 12 1 | target state, same units |
 ///   | `controller.actuation_error_p`, `controller.actuation_error_r` | 3 3 each | control::ControllerSettings::actuation_error ((m/s^2)^2, (N m)^2) |
+///   | `controller.feedforward` | 1 1 | control::ControllerSettings::feedforward (0/1; version 5; 0 in older files) |
+///   | `controller.feedforward_limit` | 1 1 | control::ControllerSettings::feedforward_limit (version 5) |
 ///   | `navigation.enabled` | 1 1 | flag (NavigationScenario::enabled); the `navigation.*` records below only when 1 |
 ///   | `navigation.<sensor>.<field>` | | the true sensors: every field of nav::AltimeterSettings, CameraSettings, ImuSettings, StarTrackerSettings (`<sensor>` = `altimeter`, `camera`, `imu`, `star_tracker`), under their C++ names and sizes (integers and flags 1 1) |
 ///   | `navigation.filter.<sensor>.<field>`, `navigation.filter.<field>` | | nav::FilterSettings: its model of the four sensors, then `accel_model_noise`, `altimeter_terrain_sigma`, `innovation_gate` (may be `inf`), `gravity_relinearization_distance`, `gravity_expansion_tolerance`, `max_step`, `covariance_step`, `max_substeps`, `split` |
@@ -94,7 +96,7 @@
 namespace tubempc::io {
 
 /// Version of the scenario format this library reads and writes.
-inline constexpr int kScenarioFormatVersion = 4;
+inline constexpr int kScenarioFormatVersion = 5;
 
 /// One 6-DOF model of the scenario: the inputs of gravity::load_shape, gravity::PolyhedronGravity
 /// and dynamics::ProximityModel.
@@ -183,7 +185,7 @@ struct ScenarioFile {
   std::string resolve(const std::string& path) const;
 };
 
-/// Reads and validates a scenario file (format version 4, 3, 2 or 1).
+/// Reads and validates a scenario file (format version 5, 4, 3, 2 or 1).
 /// @param path the scenario file.
 /// @return its contents; `directory` is the file's folder. The shape files are not opened. The
 ///         navigation's and the actuators' settings are those their constructors accept (an
@@ -198,7 +200,7 @@ struct ScenarioFile {
 ///         validate() rejects is reported at its record's line.
 ScenarioFile read_scenario(const std::string& path);
 
-/// Writes a scenario file (format version 4) with every record, optional ones included.
+/// Writes a scenario file (format version 5) with every record, optional ones included.
 /// @param path     file to create or overwrite.
 /// @param scenario contents; shape paths are written as they are (relative ones stay relative).
 /// @param comment  optional text written as `#` comment lines after the version line.
