@@ -287,10 +287,25 @@ def _actuation(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
                 f"the ideal's; net delta-v {a['net_delta_v_m_s']:.4g} m/s = {r['net_delta_v_ratio']:.3g}x, thrusters' "
                 f"{a['thruster_delta_v_m_s']:.4g} m/s, propellant {a['propellant_kg']:.3g} kg, {a['pulses']} pulses, "
                 f"wheels <= {a['max_wheel_momentum_N_m_s']:.3g} N m s; controller p99 {a['controller_p99_ms']:.3g} ms, "
-                f"with the actuation call {a['controller_and_actuation_p99_ms']:.3g} ms (+{r['p99_growth_ms']:.3g} ms)",
+                f"with the actuation call {a['controller_and_actuation_p99_ms']:.3g} ms (+{r['p99_growth_ms']:.3g} ms)"
+                f"{_over_seeds(r, b)}",
             )
         )
     return rows
+
+
+def _over_seeds(r: dict[str, Any], ideal: dict[str, Any]) -> str:
+    """The terminal-error ratio over the seeds `bench actuation --seeds` flew, and the ideal run's p99."""
+    text = f"; the ideal run's controller p99 {ideal['controller_p99_ms']:.3g} ms"
+    o = r.get("over_seeds")
+    if o is None:
+        return text
+    n = len(o["terminal_error_ratio"])
+    return (
+        f"{text}; over {n} seeds the terminal-error ratio has median {o['terminal_error_ratio_median']:.3g}x "
+        f"(at most {max(o['terminal_error_ratio']):.3g}x, within 2x in {round(o['share_within_2x'] * n)} of {n}), "
+        f"the errors' median {o['median_error_ratio']:.3g}x and RMS {o['rms_error_ratio']:.3g}x the ideal runs'"
+    )
 
 
 def _navigation(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
