@@ -284,7 +284,7 @@ def _actuation(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
                 f"{name.removeprefix('actuation_')} (seed {d['seed']})",
                 f"steps outside the tube {a['steps_outside_tube']} (ideal {b['steps_outside_tube']}); terminal "
                 f"position error {1e3 * a['terminal_position_error_m']:.3g} mm = {r['terminal_error_ratio']:.3g}x "
-                f"the ideal's; net delta-v {a['net_delta_v_m_s']:.4g} m/s = {r['net_delta_v_ratio']:.3g}x, thrusters' "
+                f"the ideal's; net delta-v {a['net_delta_v_m_s']:.4g} m/s = {r['net_delta_v_ratio']:.4g}x, thrusters' "
                 f"{a['thruster_delta_v_m_s']:.4g} m/s, propellant {a['propellant_kg']:.3g} kg, {a['pulses']} pulses, "
                 f"wheels <= {a['max_wheel_momentum_N_m_s']:.3g} N m s; controller p99 {a['controller_p99_ms']:.3g} ms, "
                 f"with the actuation call {a['controller_and_actuation_p99_ms']:.3g} ms (+{r['p99_growth_ms']:.3g} ms)"
