@@ -233,6 +233,8 @@ def reference_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
         ("bennu-tag-nav", "ffa", {}),
         ("bennu-tag-nav", "tbmpc", {}),
         (str(_THRUSTERS), "ffa", {}),
+        # the OSIRIS-REx-like preset's opposed pairs and TBMPC-FFA's feed-forward (controller.feedforward*)
+        ("bennu-tag-osirisrex", "ffa", {"mpc.t_f": "600 s", "boundary.hover_altitude": "30 m"}),
         # both at once: the thrusters' spacecraft flying on navigation (bennu-tag-nav's lit site and camera),
         # the truth on its own shape (truth_shape.obj: the sensors ray-cast it, the filter the controller's)
         (
@@ -248,7 +250,7 @@ def reference_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
             },
         ),
     ],
-    ids=["nav-ffa", "nav-tbmpc", "thrusters-ffa", "thrusters-nav-ffa"],
+    ids=["nav-ffa", "nav-tbmpc", "thrusters-ffa", "osirisrex-ffa", "thrusters-nav-ffa"],
 )
 def test_cpp_example_flies_navigation_and_actuators_as_the_python_loop(
     reference_cache: Path, tmp_path: Path, source: str, method: str, overrides: dict[str, Any]
@@ -298,6 +300,8 @@ def test_cpp_example_flies_navigation_and_actuators_as_the_python_loop(
             ("actuators.wheels[0]", suite.wheels.wheel(0)),
         ]
         assert not [m for prefix, obj in groups for m in _missing_records(text, prefix, obj)]
+    if cfg.identification.feedforward:
+        assert s.controller.feedforward and s.controller.feedforward_limit == cfg.identification.feedforward_limit
     rec = simulate(scn, method, seed=seed, design_worker="none")
     cpp = _fly_example(example, path, method, rec.w_true, tmp_path)
     m = run_metrics(rec, scn.config.mpc.dt, scn.xf)
