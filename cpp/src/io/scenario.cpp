@@ -997,7 +997,8 @@ ScenarioFile read_scenario(const std::string& path) {
     Identifier::for_each_field(FieldReader<Identifier>{r, c.identification_r, "identification_r."});
     using Tube = control::TubePolicySettings;
     Tube::for_each_field(FieldReader<Tube>{r, c.tube, "tube."});
-    r.validated("identification_*, tube.* (ControllerSettings)", [&] { c.validate(); });
+    r.validated_field("controller.*, identification_*, tube.* (ControllerSettings)", "controller.",
+                      [&] { c.validate(); });
     read_design(r, "designs.tbmpc_p.", s.tbmpc_designs.initial_p);
     read_design(r, "designs.tbmpc_r.", s.tbmpc_designs.initial_r);
     read_design(r, "designs.ffa_p.", s.ffa_designs.initial_p);

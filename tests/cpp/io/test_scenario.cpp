@@ -578,6 +578,9 @@ TEST_F(ScenarioFileTest, ErrorsNameFileLineAndRecord) {
                "identification_p.lambda: must lie in (0, 1)");
   expect_error("tube.alpha_search_period 1 1\n7", "tube.alpha_search_period 1 1\n0", 0,
                "tube.alpha_search_period: must be >= 1");
+  const long ff = line_of("controller.feedforward_limit 1 1");
+  expect_error("controller.feedforward_limit 1 1\n0.0123", "controller.feedforward_limit 1 1\n1.5", ff + 1,
+               "controller.feedforward_limit: must be in (0, 1)");
   expect_error("mission.x0 12 1", "mission.x0 13 1", line_of("mission.xf 12 1"),
                "mission.x0: row 12: expected 1 values, got 3");
   const long last = line_of("actuators.allocation.cone_test_scale 1 1");
