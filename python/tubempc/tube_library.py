@@ -61,11 +61,10 @@ def input_error_shapes(scn: Scenario, method: str) -> tuple[Array, Array] | None
     if method != "ffa" or not ident.feedforward:
         return E
     u_max, T_max = scn.input_bounds
-    base = E if E is not None else (np.zeros((3, 3)), np.zeros((3, 3)))
-    return tuple(  # type: ignore[return-value]
-        np.asarray(_core.control.input_error_with_feedforward(E_s, np.full(3, ident.feedforward_limit * bound)))
-        for E_s, bound in zip(base, (u_max, T_max), strict=True)
-    )
+    E_p, E_r = E if E is not None else (np.zeros((3, 3)), np.zeros((3, 3)))
+    grow = _core.control.input_error_with_feedforward
+    rho = ident.feedforward_limit
+    return np.asarray(grow(E_p, np.full(3, rho * u_max))), np.asarray(grow(E_r, np.full(3, rho * T_max)))
 
 
 def _prior_P_W(scn: Scenario, method: str) -> tuple[Array, Array]:

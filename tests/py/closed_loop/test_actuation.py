@@ -18,7 +18,7 @@ from tubempc.config import ConfigError, load_config
 from tubempc.metrics import run_metrics
 from tubempc.runner import guarantee_lost
 from tubempc.scenario import Scenario, ScenarioError, build_scenario, mpc_settings
-from tubempc.tube_library import _prior_P_W, controller_settings
+from tubempc.tube_library import _prior_P_W, controller_settings, input_error_shapes
 
 # A spacecraft the short hover-and-descend mission below can fly with a certified tube: the OSIRIS-REx-like
 # layout with sized thrusters (the preset itself cannot fly these missions: docs/decisions.md "Actuators in the
@@ -205,3 +205,18 @@ def test_the_osiris_rex_like_tag_fits_the_preset_s_authority_with_its_certified_
     assert peak + radius < 0.7 * u_max
     raw = A.scenario_actuation("osiris_rex_like", A.PRESET_DIR, 5.0, 1.0, 3.0)
     assert float(np.sqrt(raw.error_shapes()[0][0, 0])) > 0.8 * raw.u_max
+    # TBMPC-FFA's feed-forward (M43): the controller grows its input-error sets by the feed-forward's box as the
+    # set-up designs do (one function), a ball of radius r + sqrt(3) rho for the u_p ball; TBMPC is not grown.
+    assert cfg.identification.feedforward
+    rho = cfg.identification.feedforward_limit * u_max
+    for method in ("ffa", "tbmpc"):
+        ctrl = _core.control.Controller(
+            _core.mpc.LinearizedProximityModel(scn.model.core), mpc_settings(scn), controller_settings(scn, method)
+        )
+        want = input_error_shapes(scn, method)
+        assert want is not None
+        for got, w in zip(ctrl.settings.actuation_error, want, strict=True):
+            np.testing.assert_array_equal(got, w)
+    E_ffa = input_error_shapes(scn, "ffa")
+    assert E_ffa is not None
+    np.testing.assert_allclose(E_ffa[0], (radius + np.sqrt(3.0) * rho) ** 2 * np.eye(3), rtol=1e-12)
