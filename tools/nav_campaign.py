@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from scipy.stats import chi2
 
-from tubempc.machine import machine_info
+from tubempc.results.machine import machine_info
 
 
 def summarise(folder: Path, method: str, nees_runs: int) -> dict[str, Any]:
@@ -84,8 +84,8 @@ def summarise(folder: Path, method: str, nees_runs: int) -> dict[str, Any]:
 def dispersion_figure(folder: Path, method: str, path: Path) -> None:
     """The touchdown offsets x_T - x_f in the site's tangent plane on the site map, with their 99.7 %
     ellipse and the 1 m goal (tubempc.analysis.dispersion_figure, as ``tubempc montecarlo`` draws it)."""
-    from tubempc import figures
     from tubempc.analysis import dispersion_figure as draw
+    from tubempc.analysis import figures
     from tubempc.config import load_config
     from tubempc.scenario import build_scenario
 

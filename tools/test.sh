@@ -53,7 +53,7 @@ rc=$?
 set -e
 if [ "$rc" = 5 ]; then echo "pytest collected no tests" >&2; exit 1; fi
 if [ "$rc" = 0 ]; then
-  .venv/bin/python -c "import json, sys; from tubempc.machine import machine_info
+  .venv/bin/python -c "import json, sys; from tubempc.results.machine import machine_info
 machine = {**machine_info(), 'command': 'bash tools/test.sh'}
 json.dump({'command': 'bash tools/test.sh', 'seconds': float(sys.argv[1]), 'machine': machine},
           open('build/test/test_command.json', 'w'), indent=1)" "$(( $(date +%s) - start ))"

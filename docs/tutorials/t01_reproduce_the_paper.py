@@ -12,7 +12,7 @@ short Monte Carlo campaign of both methods, and the report. The command line doe
 # -----------------------
 # :func:`tubempc.config.load_config` with no argument is the packaged paper scenario
 # (``tubempc/data/bennu_paper.toml``: every number of the paper, and the project's readings where it
-# is ambiguous). :func:`tubempc.runner.run_methods` flies each method with disturbance seed 0 and
+# is ambiguous). :func:`tubempc.analysis.runner.run_methods` flies each method with disturbance seed 0 and
 # writes the run records, the summary and the figures.
 import tempfile
 from pathlib import Path
@@ -22,9 +22,9 @@ import numpy as np
 
 from tubempc.analysis import montecarlo
 from tubempc.config import load_config
-from tubempc.report import write_report
+from tubempc.analysis.report import write_report
 from tubempc.results import load_record
-from tubempc.runner import run_methods
+from tubempc.analysis.runner import run_methods
 
 work = Path(tempfile.mkdtemp(prefix="tubempc_tutorial1_"))
 cfg = load_config()

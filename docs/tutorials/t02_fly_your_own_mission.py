@@ -11,7 +11,7 @@ scenario's (the run says which ones it took).
 # %%
 # The body
 # --------
-# :func:`tubempc.bodies.ellipsoid_shape` makes a closed, consistently oriented mesh (the same checks
+# :func:`tubempc.scenario.bodies.ellipsoid_shape` makes a closed, consistently oriented mesh (the same checks
 # as every loaded shape); ``tubempc make-body ellipsoid --axes 300,220,180 --out body.obj`` is the
 # command-line equivalent. Any OBJ, PDS v/f table, ICQ, PLY or STL file can take its place.
 import tempfile
@@ -20,10 +20,10 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from tubempc.bodies import ellipsoid_shape
+from tubempc.scenario.bodies import ellipsoid_shape
 from tubempc.config import load_config
-from tubempc.runner import run_methods
-from tubempc.shapes import save_shape
+from tubempc.analysis.runner import run_methods
+from tubempc.scenario.shapes import save_shape
 
 work = Path(tempfile.mkdtemp(prefix="tubempc_tutorial2_"))
 shape = ellipsoid_shape([300.0, 220.0, 180.0], subdivisions=10, roughness=0.02, seed=1)
@@ -101,7 +101,7 @@ fig.tight_layout()
 # Measured against the site itself, not against the reference's end (which a wrong site would share):
 # the surface point at 20 deg N, 40 deg E of the body, found again here by ray casting on the mesh, and
 # the final position turned into the body frame A at t_f.
-from tubempc.landing_site import site_from_lat_lon  # noqa: E402
+from tubempc.scenario.sites import site_from_lat_lon  # noqa: E402
 from tubempc.scenario import build_scenario  # noqa: E402
 
 scn = build_scenario(load_config(work / "run" / "config.toml"), cache_dir=work / "cache")

@@ -1,9 +1,11 @@
 """tubempc: tube-based MPC with online disturbance identification for asteroid proximity operations.
 
 SI units throughout; frames are named in argument names and docstrings (see docs/model.md).
-Data flow: configuration (:mod:`tubempc.config`) -> scenario (:mod:`tubempc.scenario`) -> closed loop
-(:mod:`tubempc.closed_loop`) -> run record (:mod:`tubempc.results`) -> metrics (:mod:`tubempc.metrics`)
--> report (:mod:`tubempc.report`).
+The package's rooms follow the data (docs/layout.md): configuration (:mod:`tubempc.config`) -> models
+(:mod:`tubempc.models`) -> scenario set-up (:mod:`tubempc.scenario`) -> tube designs
+(:mod:`tubempc.design`) -> results (:mod:`tubempc.results`) -> closed loop (:mod:`tubempc.sim`) ->
+analysis and reports (:mod:`tubempc.analysis`), with the command line (:mod:`tubempc.commands`) and the
+benchmarks (:mod:`tubempc.benchmarks`) on top.
 
 The names below are imported on first use (``import tubempc`` loads only the compiled core), so that
 the command line starts at once; ``tubempc.<module>`` works for every submodule.
@@ -14,7 +16,9 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from . import _core
+from . import _core, compat
+
+compat.install()
 
 __version__: str = _core.__version__
 
@@ -29,37 +33,36 @@ _LAZY = {
     "Config": ".config",
     "ConfigError": ".config",
     "load_config": ".config",
-    "GravityModel": ".dynamics",
-    "Kinematics": ".dynamics",
-    "ModelParams": ".dynamics",
-    "PointMassGravity": ".dynamics",
-    "ProximityModel": ".dynamics",
-    "glide_slope_constraint": ".dynamics",
-    "line_of_sight_constraint": ".dynamics",
-    "state_to_truth": ".dynamics",
-    "truth_to_state": ".dynamics",
-    "ForgettingFactorIdentifier": ".identification",
-    "LinearizedModel": ".mpc",
-    "LtiModel": ".mpc",
-    "TubeMPC": ".mpc",
-    "solve_qp": ".mpc",
-    "RunRecord": ".results",
-    "Scenario": ".scenario",
-    "ScenarioError": ".scenario",
-    "build_scenario": ".scenario",
-    "simulate": ".closed_loop",
-    "ShapeError": ".shapes",
-    "bennu_like_shape": ".shapes",
-    "load_shape": ".shapes",
-    "save_icq": ".shapes",
-    "save_shape": ".shapes",
-    "TubeDesigner": ".tube",
-    "DesignResult": ".tube",
-    "DesignStatus": ".tube",
-    "BackgroundDesigns": ".tube_policy",
-    "controller_designs": ".tube_library",
-    "load_actuators": ".actuators",
-    "new_controller": ".tube_library",
+    "GravityModel": ".models.dynamics",
+    "Kinematics": ".models.dynamics",
+    "ModelParams": ".models.dynamics",
+    "PointMassGravity": ".models.dynamics",
+    "ProximityModel": ".models.dynamics",
+    "glide_slope_constraint": ".models.dynamics",
+    "line_of_sight_constraint": ".models.dynamics",
+    "state_to_truth": ".models.dynamics",
+    "truth_to_state": ".models.dynamics",
+    "LinearizedModel": ".models.mpc",
+    "LtiModel": ".models.mpc",
+    "TubeMPC": ".models.mpc",
+    "solve_qp": ".models.mpc",
+    "RunRecord": ".results.records",
+    "Scenario": ".scenario.build",
+    "ScenarioError": ".scenario.build",
+    "build_scenario": ".scenario.build",
+    "simulate": ".sim.closed_loop",
+    "ShapeError": ".scenario.shapes",
+    "bennu_like_shape": ".scenario.shapes",
+    "load_shape": ".scenario.shapes",
+    "save_icq": ".scenario.shapes",
+    "save_shape": ".scenario.shapes",
+    "TubeDesigner": ".design.tube",
+    "DesignResult": ".design.tube",
+    "DesignStatus": ".design.tube",
+    "BackgroundDesigns": ".design.policy",
+    "controller_designs": ".design.library",
+    "load_actuators": ".scenario.actuators",
+    "new_controller": ".design.library",
 }
 
 __all__ = [
@@ -69,7 +72,6 @@ __all__ = [
     "ConfigError",
     "DesignResult",
     "DesignStatus",
-    "ForgettingFactorIdentifier",
     "GravityModel",
     "Kinematics",
     "LinearizedModel",
@@ -113,11 +115,11 @@ def __getattr__(name: str) -> Any:
         globals()[name] = value
         return value
     try:
-        return importlib.import_module(f".{name}", __name__)  # a submodule: tubempc.figures, ...
+        return importlib.import_module(f".{name}", __name__)  # a room (tubempc.scenario) or an old module path
     except ModuleNotFoundError as exc:
         if exc.name != f"{__name__}.{name}":
             raise
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    return compat.moved_name(__name__, name)
 
 
 def __dir__() -> list[str]:

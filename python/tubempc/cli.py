@@ -89,7 +89,7 @@ def entry_point() -> None:
         status = main()
     except KeyboardInterrupt:
         status = EXIT_INTERRUPTED
-    policy = sys.modules.get("tubempc.tube_policy")  # imported only if a run used it
+    policy = sys.modules.get("tubempc.design.policy")  # imported only if a run used it
     if policy is not None:
         policy.shutdown_design_worker(wait=status != EXIT_INTERRUPTED)
     if status == EXIT_INTERRUPTED:

@@ -12,10 +12,10 @@ code blocks, is classified by its form; a span of a known form must name somethi
 - a C++ name (`mpc::Settings::horizon`, `tubempc::gravity::Shape`, `dynamics::kDefaultPositionTolerance`):
   each component is an identifier of the code (comments and strings removed) under cpp/ or python/src;
 - a setting (`tube.update`, `mpc.kinematics = "exact"`, `identification.prior_memory = 1`, a bare
-  `design_delay = 5`): a field of the configuration (python/tubempc/config.py's dataclasses and the
-  packaged python/tubempc/data/bennu_paper.toml), or an old spelling config.py still names
+  `design_delay = 5`): a field of the configuration (the dataclasses of python/tubempc/config/ and the
+  packaged python/tubempc/data/bennu_paper.toml), or an old spelling the configuration still names
   (RENAMED_FIELDS, RENAMED_VALUES, REMOVED_FIELDS, REPLACED_FIELDS); a quoted value is one of the
-  values config.py or the scenario file format knows;
+  values the configuration or the scenario file format knows;
 - a scenario-file record (`model.kinematics`, `mpc.qp_solver`): a record of cpp/include/tubempc/io/scenario.hpp;
 - a command (`tubempc run --from-campaign DIR`, `tubempc bench mpc --repeats 3`): the subcommand
   exists in `tubempc.cli.build_parser()` and each `--option` is one of its options (for `bench NAME`,
@@ -38,6 +38,7 @@ import glob
 import importlib
 import re
 import tomllib
+import warnings
 from pathlib import Path
 
 import pytest
@@ -131,8 +132,8 @@ def config_fields() -> dict[str, frozenset[str]]:
 
 @functools.cache
 def config_values() -> frozenset[str]:
-    """Every quoted word of config.py, the packaged TOML files and the C++ enums' names."""
-    text = _read(ROOT / "python" / "tubempc" / "config.py")
+    """Every quoted word of the configuration package, the packaged TOML files and the C++ enums' names."""
+    text = "".join(_read(path) for path in sorted((ROOT / "python" / "tubempc" / "config").glob("*.py")))
     for path in (ROOT / "python" / "tubempc" / "data").rglob("*.toml"):
         text += _read(path)
     for path in [*(ROOT / "cpp" / "src").rglob("*.cpp"), *(ROOT / "cpp" / "include").rglob("*.hpp")]:
@@ -204,22 +205,29 @@ def check_path(span: str) -> str | None:
 
 
 def check_python(span: str) -> str | None:
+    """None if the dotted name resolves; else the name (an old import path, which resolves with a
+    DeprecationWarning, counts as missing: the pages cite the current one)."""
     name = re.sub(r"\(.*$", "", span)
     parts = name.split(".")
     module, obj = None, None
-    for i in range(len(parts), 0, -1):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
         try:
-            module = importlib.import_module(".".join(parts[:i]))
-        except ImportError:
-            continue
-        obj, rest = module, parts[i:]
-        break
-    else:
-        return name
-    for attr in rest:
-        if not hasattr(obj, attr):
-            return name
-        obj = getattr(obj, attr)
+            for i in range(len(parts), 0, -1):
+                try:
+                    module = importlib.import_module(".".join(parts[:i]))
+                except ImportError:
+                    continue
+                obj, rest = module, parts[i:]
+                break
+            else:
+                return name
+            for attr in rest:
+                if not hasattr(obj, attr):
+                    return name
+                obj = getattr(obj, attr)
+        except DeprecationWarning:
+            return f"{name} (an old import path)"
     return None
 
 

@@ -3,14 +3,14 @@
 // controller (control::Controller: identification, certified tube update from the scenario's designs
 // and library, tube MPC) and the truth propagation (dynamics::propagate, the scenario's integrator).
 // The controller's state is the 12-state [r_L, v_L, phi, omega_BL_B]; the truth's the 13-state with
-// the quaternion q_B/L. As in the Python closed loop (tubempc.closed_loop.simulate), after each
+// the quaternion q_B/L. As in the Python closed loop (tubempc.sim.closed_loop.simulate), after each
 // propagation the measured state is x_{k+1} = truth_to_state(state, phi of zbar_{k+1}) + w_k (the
 // rotation vector on the branch nearest to the reference; w_k the additive disturbance, zero unless
 // --disturbance gives a file of T rows of 12 values, e.g. a Python run's w_true) and the truth
 // continues from state_to_truth(x_{k+1}).
 //
 // When the scenario file carries navigation (records navigation.*), the controller flies on the
-// estimate of nav::NavigationSystem, as tubempc.closed_loop does with [navigation]: the truth is
+// estimate of nav::NavigationSystem, as tubempc.sim.closed_loop does with [navigation]: the truth is
 // propagated in sub-steps of the IMU's period, each sub-step's end (the last one after w_k) and its
 // non-gravitational acceleration (the delivered u_p plus the truth's SRP) handed to
 // NavigationSystem::step, and the controller's constraints are tightened by the estimation-error set
@@ -165,7 +165,7 @@ struct Casters {
 };
 
 // The truth's non-gravitational acceleration besides the input: its SRP in L (M1), as
-// tubempc.navigation.srp_acceleration.
+// tubempc.scenario.navigation.srp_acceleration.
 Eigen::Vector3d srp_acceleration(const dynamics::ModelParams& p) {
   const double a = p.srp_enabled ? p.beta_srp / std::pow(p.orbit_radius, 2.0) : 0.0;
   return {a, 0.0, 0.0};
@@ -278,7 +278,7 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
     dynamics::PropagationResult p;
     {
       AllocationWindow window;
-      // with navigation: n_sub sub-steps of h, each one's end a sample of the sensors (tubempc.navigation.propagate_sampled)
+      // with navigation: n_sub sub-steps of h, each one's end a sample of the sensors (tubempc.scenario.navigation.propagate_sampled)
       for (int j = 0; j < n_sub; ++j) {
         p = navigation ? dynamics::propagate(truth, t_k + j * h, state, u_applied, h, {}, scn.propagator)
                        : dynamics::propagate(truth, t_k, state, u_applied, dt, {}, scn.propagator);

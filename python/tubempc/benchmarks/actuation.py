@@ -16,19 +16,17 @@ from __future__ import annotations
 
 import argparse
 import collections
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..machine import machine_info
-from ..metrics import net_delta_v
+from ..analysis.metrics import net_delta_v, nominal_input_fraction
+from ..results.machine import machine_info
 from . import write_json
 from .controller import add_flight_arguments
 
 if TYPE_CHECKING:
-    from ..config import Config
-    from ..scenario import Scenario
+    pass
 
 DESCRIPTION = "closed loop with thrusters and wheels against ideal actuators with the same bounds, both methods"
 
@@ -44,28 +42,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _p99_ms(seconds: np.ndarray) -> float:
     return float(np.percentile(1e3 * np.asarray(seconds, dtype=float), 99))
-
-
-def ideal_counterpart(cfg: Config, scn: Scenario, cache_dir: str | Path | None = None) -> tuple[Config, Scenario]:
-    """The mission of ``scn`` (built from ``cfg``) with ideal actuators and its input bounds: the same reference.
-    ValueError if the references differ."""
-    from ..scenario import build_scenario
-
-    u_max, T_max = scn.input_bounds
-    ideal_cfg = cfg.with_overrides({"spacecraft.actuators": "ideal", "spacecraft.u_max": u_max, "spacecraft.T_max": T_max})
-    ideal = build_scenario(ideal_cfg, cache_dir=cache_dir)
-    if not np.array_equal(ideal.reference.x, scn.reference.x):
-        raise ValueError("the ideal run's reference differs from the actuated run's")
-    return ideal_cfg, ideal
-
-
-def nominal_input_fraction(rec: Any, u_max: float) -> np.ndarray:
-    """Per step, the fraction of the translational input bound the tube leaves to the nominal input: min_i
-    1 - sqrt(K_i Pe K_i^T) / u_max over the three force rows of K (the MPC's input tightening, docs/model.md
-    "Tube MPC"; K is block-diagonal, so its force rows see the translational Pe_p only)."""
-    K = np.asarray(rec.K)[:, :3, :6]
-    feedback = np.sqrt(np.maximum(np.einsum("kij,kjl,kil->ki", K, np.asarray(rec.Pe_p), K), 0.0))
-    return np.asarray(1.0 - feedback.max(axis=1) / u_max)
 
 
 def _figures(rec: Any, xf: np.ndarray, dt: float, u_max: float) -> dict[str, Any]:
@@ -108,9 +84,9 @@ def seed_statistics(actuated: list[float], ideal: list[float]) -> dict[str, Any]
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..closed_loop import simulate
     from ..config import load_config
-    from ..scenario import build_scenario
+    from ..scenario.build import build_scenario, ideal_counterpart
+    from ..sim.closed_loop import simulate
 
     cfg = load_config(args.config, scenario=args.scenario)
     if args.actuators:

@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 
 from .._core import actuators as act
-from ..actuators import load_actuators, preset_names, sample_truth_errors
-from ..machine import machine_info
+from ..results.machine import machine_info
+from ..scenario.actuators import load_actuators, preset_names, sample_truth_errors
 from . import write_json
 
 DESCRIPTION = "actuators: allocation time and agreement with scipy BVLS, achievable box, actuation-error box"

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from .. import _core
-from ..machine import machine_info
+from ..results.machine import machine_info
 from . import write_json
 
 DESCRIPTION = "controller step (identify + tube update + MPC) per step of the closed loop, both methods"
@@ -58,10 +58,10 @@ def _stats(seconds: np.ndarray) -> dict[str, float]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..closed_loop import simulate
+    from ..analysis.metrics import tube_status_certified
     from ..config import load_config
-    from ..metrics import tube_status_certified
-    from ..scenario import build_scenario
+    from ..scenario.build import build_scenario
+    from ..sim.closed_loop import simulate
 
     if args.repeats < 1:
         raise SystemExit("bench controller: --repeats must be >= 1")

@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 
 from .. import _core
-from ..dynamics import PointMassGravity, ProximityModel
-from ..machine import machine_info
+from ..models.dynamics import PointMassGravity, ProximityModel
+from ..results.machine import machine_info
 
 DESCRIPTION = "proximity dynamics: f + Jacobians and 30-node horizon discretisation (goal <= 3 ms)"
 

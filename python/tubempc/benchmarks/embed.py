@@ -21,11 +21,10 @@ from typing import Any
 import numpy as np
 
 from .. import _core
-from ..machine import machine_info
+from ..results.machine import machine_info
+from ..testing.examples import find_example
 
 DESCRIPTION = "closed loop of an exported scenario: the C++ example binary against the same loop through the bindings"
-
-_EXAMPLE = Path("examples") / "cpp" / "closed_loop" / "closed_loop"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -52,21 +51,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", type=Path, help="also write the figures to this JSON file")
 
 
-def find_example(explicit: Path | None) -> Path:
-    """The closed_loop binary: ``explicit``, or the newest one in a build folder under the current directory."""
-    if explicit is not None:
-        if not explicit.is_file():
-            raise FileNotFoundError(f"--example {explicit}: no such file")
-        return explicit
-    found = sorted(Path.cwd().glob(f"build/*/{_EXAMPLE}"), key=lambda p: p.stat().st_mtime)
-    if not found:
-        raise FileNotFoundError(
-            "no closed_loop binary under build/*/; build it (cmake -DTUBEMPC_BUILD_EXAMPLES=ON, or "
-            "cmake -S examples/cpp/closed_loop against an installed tubempc) and pass --example PATH"
-        )
-    return found[-1]
-
-
 def _navigation(s: Any, controller_model: Any, shapes: tuple[Any, ...], same_shape: bool) -> Any:
     """The scenario's NavigationSystem (None without navigation): the filter ray-casts the controller's
     shape, the sensors the truth's."""
@@ -91,7 +75,7 @@ def _actuation(s: Any) -> Any:
 def python_loop(scenario_path: str | Path) -> dict[str, Any]:
     """The loop of ``examples/cpp/closed_loop`` (TBMPC-FFA) written over the bindings; times in s per step:
     the controller's own split and the wall time of the call through the bindings."""
-    from ..navigation import srp_acceleration
+    from ..scenario.navigation import srp_acceleration
 
     s = _core.io.read_scenario(str(scenario_path))
     files = [(s.resolve(b.shape), b.shape_unit_scale) for b in (s.model, s.truth)]
@@ -115,7 +99,7 @@ def python_loop(scenario_path: str | Path) -> dict[str, Any]:
     actuation = _actuation(s)
     x_hat, h, n_sub, E = x, dt, 1, None
     srp_L = srp_acceleration(truth)
-    if nav is not None:  # the IMU's sub-steps and the controller on the estimate (tubempc.closed_loop)
+    if nav is not None:  # the IMU's sub-steps and the controller on the estimate (tubempc.sim.closed_loop)
         h = nav.base_period
         n_sub = round(dt / h)
     samples = (np.zeros(n_sub), np.zeros((n_sub, 13)), np.zeros((n_sub, 3)))  # t, truth, accel_nongrav_L
@@ -202,7 +186,7 @@ def _stats(values: Any) -> dict[str, float]:
 
 def run(args: argparse.Namespace) -> int:
     from ..config import load_config
-    from ..export import export_scenario
+    from ..results.export import export_scenario
 
     if args.repeats < 1:
         raise SystemExit("--repeats must be >= 1")

@@ -1,4 +1,4 @@
-"""Fuzzing of the shape loaders, the config reader and the scenario-file reader (``tubempc.fuzz``): N
+"""Fuzzing of the shape loaders, the config reader and the scenario-file reader (``tubempc.testing.fuzz``): N
 mutated inputs of every format (OBJ, PDS v/f table, ICQ, PLY, STL, scenario TOML, C++ scenario file),
 each read in a worker process with a time limit and classified as rejected (a clean error naming the
 file), accepted (a mesh the independent check finds valid), broken mesh accepted, error without the
@@ -13,7 +13,7 @@ import json
 import sys
 from pathlib import Path
 
-from ..machine import machine_info
+from ..results.machine import machine_info
 
 DESCRIPTION = (
     "fuzz the shape loaders, the config reader and the scenario-file reader: crashes, hangs, errors without a "
@@ -32,7 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..fuzz import OUTCOMES, run_campaign, table
+    from ..testing.fuzz import OUTCOMES, run_campaign, table
 
     if args.inputs < 1 or not args.timeout > 0:
         raise SystemExit("--inputs must be >= 1 and --timeout > 0")

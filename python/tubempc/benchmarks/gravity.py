@@ -14,7 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .. import PolyhedronGravity, bennu_like_shape, load_shape
-from ..machine import machine_info
+from ..results.machine import machine_info
 
 DESCRIPTION = (
     "polyhedron gravity (U, acceleration, Hessian): microseconds per point on one and all threads, "

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from ..machine import machine_info
+from ..results.machine import machine_info
 from . import write_json
 
 DESCRIPTION = "truth integrators (RK4 substeps, DOPRI5) against a tight DOP853 reference: error and cost"
@@ -83,9 +83,9 @@ def _reference(truth: Any, states: Array, inputs: Array, dt: float) -> tuple[Arr
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..closed_loop import simulate
     from ..config import load_config
-    from ..scenario import build_scenario
+    from ..scenario.build import build_scenario
+    from ..sim.closed_loop import simulate
 
     cfg = load_config(args.config, scenario=args.scenario)
     scn = build_scenario(cfg)

@@ -8,7 +8,7 @@ translation plus a linearised rigid body, the glide-slope cone replaced by its f
 a cubic Hermite reference. ``run_mission`` takes any ``LinearizedModel``, reference, tube and truth.
 
 Baselines on QPs of solved steps: the exported matrices through cvxpy (``cvxpy-*``), the same QP
-written node by node as a Python user would (``node-cvxpy-*``, :func:`tubempc.mpc.solve_qp_per_node`).
+written node by node as a Python user would (``node-cvxpy-*``, :func:`tubempc.models.mpc.solve_qp_per_node`).
 """
 
 from __future__ import annotations
@@ -22,9 +22,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from .. import mpc
-from ..machine import machine_info
-from ..mpc import solve_qp, solve_qp_per_node
+from ..models import mpc
+from ..models.mpc import solve_qp, solve_qp_per_node
+from ..results.machine import machine_info
 
 DESCRIPTION = "tube MPC per-step time over a mission (C++: active set / PIQP) and the same QPs through cvxpy"
 
@@ -256,7 +256,9 @@ def bennu_plant(
     TBMPC tube and truth (tubempc.scenario; the configured propagator and disturbance with ``seed``):
     the arguments of :func:`run_mission`. ``dense`` drops the block structure of the QP matrices."""
     from ..config import load_config
-    from ..scenario import build_scenario, initial_tube, mpc_settings
+    from ..design.library import initial_tube
+    from ..scenario.build import build_scenario, mpc_settings
+    from ..sim.setup import loop_setup
 
     cfg = load_config()
     scn = build_scenario(cfg)
@@ -268,8 +270,9 @@ def bennu_plant(
     ref = scn.reference
     reference = mpc.Reference(ref.x[: steps + 1].T.copy(), ref.u[:steps].T.copy(), 0.0)
     K, Pe = initial_tube(scn)
-    dist = scn.loop.plant_disturbance(seed)
-    propagator = scn.loop.propagator
+    loop = loop_setup(scn)
+    dist = loop.plant_disturbance(seed)
+    propagator = loop.propagator
 
     def truth(k: int, x: Arr, u: Arr) -> Arr:
         prop = scn.truth.propagate(k * cfg.mpc.dt, scn.truth.state_to_truth(x), u, cfg.mpc.dt, settings=propagator)

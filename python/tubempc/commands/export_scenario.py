@@ -24,7 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ..export import export_scenario, read_scenario
+    from ..results.export import export_scenario, read_scenario
 
     path = export_scenario(
         config_from_args(args),

@@ -24,8 +24,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ..bodies import contact_binary_shape, ellipsoid_shape
-    from ..shapes import save_shape
+    from ..scenario.bodies import contact_binary_shape, ellipsoid_shape
+    from ..scenario.shapes import save_shape
 
     if args.kind == "ellipsoid":
         if args.axes is None:

@@ -27,8 +27,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ..analysis import montecarlo
-    from ..metrics import below_or_above
+    from ..analysis.metrics import below_or_above
+    from ..analysis.studies import montecarlo
 
     methods = tuple(_core.control.Method.names()) if args.method == "both" else (args.method,)
     s = montecarlo(

@@ -18,7 +18,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ..shapes import load_shape, save_shape
+    from ..scenario.shapes import load_shape, save_shape
 
     before = load_shape(Path(args.file), unit=args.unit, repair=True)
     out = Path(args.out)

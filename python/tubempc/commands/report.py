@@ -14,7 +14,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ..report import write_report
+    from ..analysis.report import write_report
 
     html, md = write_report(Path(args.dir))
     print(f"{html}\n{md}")

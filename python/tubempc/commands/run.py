@@ -41,7 +41,7 @@ LARGE_RUN_STEPS = 3000
 def _refly(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ..analysis import refly_montecarlo_run
+    from ..analysis.studies import refly_montecarlo_run
 
     given = [f"--{n.replace('_', '-')}" for n in ("config", "scenario", "shape", "seed") if getattr(args, n) is not None]
     if given or args.method != "both" or args.index is None:
@@ -73,8 +73,8 @@ def _refly(args: argparse.Namespace) -> int:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ..metrics import below_or_above
-    from ..runner import guarantee_lost, run_methods
+    from ..analysis.metrics import below_or_above
+    from ..analysis.runner import guarantee_lost, run_methods
 
     if args.from_campaign is not None:
         return _refly(args)

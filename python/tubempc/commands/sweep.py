@@ -21,9 +21,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ..analysis import sweep
-    from ..claims import holding_floor
-    from ..runner import guarantee_lost
+    from ..analysis.claims import holding_floor
+    from ..analysis.runner import guarantee_lost
+    from ..analysis.studies import sweep
 
     s = sweep(config_from_args(args), args.lambda_p, args.lambda_r, Path(args.out), seed=args.seed, progress=not args.quiet)
     print(f"{'':40s} {'J_p':>8s} {'J_r':>8s} {'|dr(T)| m':>10s} {'RMS r m':>9s} {'outside':>8s} {'tube feasible':>14s}")

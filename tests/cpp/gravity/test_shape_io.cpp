@@ -200,7 +200,7 @@ TEST(ShapeIoBennu, RadarModelMatchesFileAndPythonLoader) {
   EXPECT_EQ(s.n_vertices(), n_v);
   EXPECT_EQ(s.n_faces(), n_f);
   EXPECT_EQ(2 * s.n_faces(), s.n_vertices() * 4 - 8);  // closed genus-0 mesh: F = 2 V - 4
-  // tubempc.shapes.load_shape(path, unit="km").volume (the Python loader, same mesh code) printed
+  // tubempc.scenario.shapes.load_shape(path, unit="km").volume (the Python loader, same mesh code) printed
   // 62265648.66795519 m^3; docs/model.md "Gravity" quotes 6.2266e7 m^3.
   EXPECT_NEAR(s.volume(), 62265648.66795519, 1e-9 * 6.2e7);
   EXPECT_NEAR(s.mean_radius(), 245.9, 0.05);

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from tubempc.analysis import montecarlo, sweep
+from tubempc.analysis.report import write_report
 from tubempc.config import load_config
-from tubempc.report import write_report
-from tubempc.summaries import load_summary
+from tubempc.results.summaries import load_summary
 
 
 def test_montecarlo_summary_resume_and_report(tmp_path: Path) -> None:
@@ -51,7 +51,7 @@ def test_report_needs_results(tmp_path: Path) -> None:
 
 
 def test_report_compares_with_the_paper_only_for_the_paper_scenario(tmp_path: Path) -> None:
-    from tubempc.runner import run_methods
+    from tubempc.analysis.runner import run_methods
 
     for name in ("bennu-paper", "bennu-equator"):
         out = tmp_path / name
@@ -94,11 +94,11 @@ def test_a_campaign_run_reflies_to_the_bit_and_a_changed_record_is_caught(tmp_pa
 def test_report_compares_a_run_with_actuators_with_the_ideal_actuator_run(tmp_path: Path) -> None:
     """The report's comparison against the same mission computed here apart: the ideal run flown from hand-made
     overrides, terminal error and net delta-v from the records."""
-    from tubempc.closed_loop import simulate
-    from tubempc.report import actuation_comparison
+    from tubempc.analysis.report import actuation_comparison
+    from tubempc.analysis.runner import run_methods
     from tubempc.results import load_record
-    from tubempc.runner import run_methods
     from tubempc.scenario import build_scenario
+    from tubempc.sim.closed_loop import simulate
 
     short = {
         "boundary.hover_altitude": "10 m",

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tubempc.campaign import run_campaign, run_seed
+from tubempc.analysis.campaign import run_campaign, run_seed
 
 HERE = Path(__file__).resolve().parent
 
@@ -50,7 +50,7 @@ def test_killed_campaign_resumes_with_identical_results(tmp_path: Path) -> None:
         import functools, sys
         sys.path.insert(0, {str(HERE)!r})
         from test_campaign import toy_run
-        from tubempc.campaign import run_campaign
+        from tubempc.analysis.campaign import run_campaign
         run_campaign(functools.partial(toy_run, delay=0.4), 8, {str(out)!r}, 11, workers=1, progress=False)
     """)
     proc = subprocess.Popen([sys.executable, "-c", script], env={**os.environ})

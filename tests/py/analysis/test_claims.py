@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tubempc.claims import paper_claims
+from tubempc.analysis.claims import paper_claims
+from tubempc.analysis.report import write_report
 from tubempc.cli import main
 from tubempc.commands import EXIT_GUARANTEE_LOST
-from tubempc.report import write_report
 from tubempc.results import load_record
 
 

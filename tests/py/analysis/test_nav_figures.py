@@ -13,15 +13,14 @@ import pytest
 from matplotlib.path import Path as Polygon
 from scipy.spatial.transform import Rotation
 
-import tubempc.analysis
-from tubempc import figures
-from tubempc.analysis import touchdown_offsets
+import tubempc.analysis.studies
+from tubempc.analysis import figures, touchdown_offsets
+from tubempc.analysis.view3d import FootprintCaster, camera_footprint, mission_view_html
 from tubempc.cli import main
-from tubempc.closed_loop import simulate
 from tubempc.config import load_config
-from tubempc.landing_site import site_map, tangent_axes
 from tubempc.scenario import build_scenario
-from tubempc.view3d import FootprintCaster, camera_footprint, mission_view_html
+from tubempc.scenario.sites import site_map, tangent_axes
+from tubempc.sim.closed_loop import simulate
 
 
 @pytest.fixture(scope="module")
@@ -162,7 +161,9 @@ def test_montecarlo_of_a_navigation_campaign_draws_the_touchdown_dispersion(
     tag_nav, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:  # type: ignore[no-untyped-def]
     # short runs: the command's own path, each run cut after 5 steps
-    monkeypatch.setattr(tubempc.analysis, "montecarlo", functools.partial(tubempc.analysis.montecarlo, max_steps=5))
+    monkeypatch.setattr(
+        tubempc.analysis.studies, "montecarlo", functools.partial(tubempc.analysis.studies.montecarlo, max_steps=5)
+    )
     out = tmp_path / "mc"
     args = ["montecarlo", "--scenario", "bennu-tag-nav", "--runs", "3", "--workers", "1", "--method", "ffa"]
     assert main([*args, "--out", str(out), "--quiet"]) == 0
@@ -178,10 +179,10 @@ def test_montecarlo_of_a_navigation_campaign_draws_the_touchdown_dispersion(
 
 
 def test_the_report_of_a_navigation_run_shows_its_figures(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    import tubempc.runner
-    from tubempc.report import write_report
+    import tubempc.analysis.runner
+    from tubempc.analysis.report import write_report
 
-    monkeypatch.setattr(tubempc.runner, "simulate", functools.partial(simulate, max_steps=8, design_worker="none"))
+    monkeypatch.setattr(tubempc.analysis.runner, "simulate", functools.partial(simulate, max_steps=8, design_worker="none"))
     out = tmp_path / "run"
     assert main(["run", "--scenario", "bennu-tag-nav", "--method", "ffa", "--out", str(out), "--quiet"]) == 0
     html, md = write_report(out)

@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tubempc.analysis.report import write_report
 from tubempc.cli import main
 from tubempc.commands import EXIT_GUARANTEE_LOST
-from tubempc.report import write_report
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 

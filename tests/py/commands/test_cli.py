@@ -133,10 +133,10 @@ def test_ctrl_c_stops_the_run_with_130_and_no_leak_report(tmp_path: Path) -> Non
 
 
 def test_a_figure_that_cannot_be_drawn_never_loses_the_run(tmp_path: Path) -> None:
-    from tubempc.closed_loop import simulate
+    from tubempc.analysis.runner import save_figures
     from tubempc.config import load_config
-    from tubempc.runner import save_figures
     from tubempc.scenario import build_scenario
+    from tubempc.sim.closed_loop import simulate
 
     scn = build_scenario(load_config(), cache_dir=tmp_path / "cache")
     rec = simulate(scn, "tbmpc", seed=0, max_steps=4)

@@ -11,9 +11,9 @@ import pytest
 from scipy.optimize import lsq_linear
 
 from tubempc import _core
-from tubempc import actuators as A
 from tubempc._core import actuators as act
-from tubempc.disturbances import sample_ellipsoid_surface
+from tubempc.models.disturbances import sample_ellipsoid_surface
+from tubempc.scenario import actuators as A
 
 PERIOD = 2.0
 

@@ -1,4 +1,4 @@
-"""The C++ controller's parts against their Python oracles (tubempc.identification, tubempc.tube), and the
+"""The C++ controller's parts against their Python oracles (tubempc.testing.identification, tubempc.design.tube), and the
 exact certification of LMI designs checked by an independent worst-direction search."""
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ import scipy.linalg
 from scipy.optimize import minimize
 
 from tubempc import _core
-from tubempc.identification import ForgettingFactorIdentifier
-from tubempc.tube import DesignStatus, TubeDesigner, lmi_residual, lyapunov_tube
+from tubempc.design.tube import DesignStatus, TubeDesigner, lmi_residual, lyapunov_tube
+from tubempc.testing.identification import ForgettingFactorIdentifier
 
 ctl = _core.control
 

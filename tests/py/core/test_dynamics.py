@@ -154,8 +154,8 @@ def test_config_validation_names_the_field() -> None:
     with pytest.raises(ValueError, match="12 elements"):
         model.f(0.0, X0[:11], np.zeros(6))
     with pytest.raises(ValueError, match="position_tolerance"):
-        tubempc.mpc.LinearizedProximityModel(model.core, position_tolerance=-1e-6)
-    assert tubempc.mpc.LinearizedProximityModel(model.core).position_tolerance == 0.3
+        tubempc.models.mpc.LinearizedProximityModel(model.core, position_tolerance=-1e-6)
+    assert tubempc.models.mpc.LinearizedProximityModel(model.core).position_tolerance == 0.3
 
 
 def test_frames_rotate_at_spin_minus_orbital_rate() -> None:
@@ -174,7 +174,7 @@ def test_propagation_api() -> None:
     u = np.r_[1e-4, 0, -1e-4, 0.1, 0, 0.2]
     rk4 = model.propagate(0.0, s0, u, 2.0, "rk4", substeps=50)
     dop = model.propagate(0.0, s0, u, 2.0, "dopri", rtol=1e-12, atol=1e-12)
-    assert rk4.status == tubempc.dynamics.PropagationStatus.Success and dop.status_name == "success"
+    assert rk4.status == tubempc.models.dynamics.PropagationStatus.Success and dop.status_name == "success"
     np.testing.assert_allclose(rk4.state, dop.state, rtol=0, atol=1e-10)
     assert abs(np.linalg.norm(dop.state[6:10]) - 1.0) < 1e-15
     w = np.r_[1e-5, 2e-5, 0, 0, 1e-4, 0]
@@ -184,7 +184,7 @@ def test_propagation_api() -> None:
     assert np.abs(const.state - rk4.state).max() > 1e-6
     bad = s0.copy()
     bad[0] = np.nan
-    assert model.propagate(0.0, bad, u, 2.0).status == tubempc.dynamics.PropagationStatus.NonFinite
+    assert model.propagate(0.0, bad, u, 2.0).status == tubempc.models.dynamics.PropagationStatus.NonFinite
     assert model.propagate(0.0, s0, u, 500.0, "dopri", max_steps=2).status_name == "max_steps_reached"
     with pytest.raises(ValueError, match="method"):
         model.propagate(0.0, s0, u, 2.0, "euler")

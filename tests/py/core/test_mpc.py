@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from tubempc import LinearizedModel, LtiModel, TubeMPC, _core, mpc, solve_qp
+from tubempc import LinearizedModel, LtiModel, TubeMPC, _core, solve_qp
+from tubempc.models import mpc
 
 
 class DoubleIntegrator(LinearizedModel):
@@ -310,7 +311,7 @@ def test_status_enums_str_is_their_table_name(enum: type[mpc.Status]) -> None:
 def test_fallback_statuses_are_the_fallback_ones() -> None:
     fallbacks = {s for s in mpc.Status.__members__.values() if _core.mpc.is_fallback(s)}
     assert fallbacks == {mpc.Status.FallbackShiftedPlan, mpc.Status.FallbackSafeInput}
-    from tubempc.summaries import fallback_steps
+    from tubempc.results.summaries import fallback_steps
 
     assert fallback_steps({"solved": 5, "fallback_safe_input": 2, "fallback_shifted_plan": 1}) == 3
 

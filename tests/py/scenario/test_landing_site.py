@@ -10,12 +10,12 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tubempc import _core, so3
-from tubempc.bodies import contact_binary_shape, ellipsoid_shape
 from tubempc.config import SCENARIOS, Config, ConfigError, load_config
-from tubempc.dynamics import ProximityModel
-from tubempc.landing_site import Site, inside, ray_cast, site_from_lat_lon, terminal_state
+from tubempc.models.dynamics import ProximityModel
 from tubempc.scenario import ScenarioError, boundary_states, build_scenario, landing_site, model_params, scenario_shape
-from tubempc.shapes import bennu_like_shape, save_shape
+from tubempc.scenario.bodies import contact_binary_shape, ellipsoid_shape
+from tubempc.scenario.shapes import bennu_like_shape, save_shape
+from tubempc.scenario.sites import Site, inside, ray_cast, site_from_lat_lon, terminal_state
 
 HERE = Path(__file__).parent
 
@@ -143,7 +143,7 @@ def _with(cfg_text: str, tmp_path: Path) -> Path:
 
 
 def test_user_config_with_relative_obj_in_metres_and_a_lat_lon_site_flies(tmp_path: Path) -> None:
-    from tubempc.closed_loop import simulate
+    from tubempc.sim.closed_loop import simulate
 
     (tmp_path / "bodies").mkdir()
     save_shape(tmp_path / "bodies" / "rock.obj", ellipsoid_shape([260.0, 220.0, 180.0], 10, 0.02, 4), unit="m")
@@ -210,8 +210,8 @@ def test_every_packaged_scenario_exports_campaigns_and_flies_in_cpp(name: str, t
     """export-scenario carries the moving site (cone records, x0, x_f) to C++; the C++ example (when built)
     flies it; a short campaign runs on it."""
     from tubempc.analysis import montecarlo
-    from tubempc.benchmarks.embed import find_example
-    from tubempc.export import export_scenario, read_scenario
+    from tubempc.results.export import export_scenario, read_scenario
+    from tubempc.testing.examples import find_example
 
     cfg = load_config(scenario=name)
     path = export_scenario(cfg, tmp_path / "exp", cache_dir=tmp_path / "cache")

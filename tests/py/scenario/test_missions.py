@@ -15,10 +15,8 @@ import numpy as np
 import pytest
 
 from tubempc import _core
-from tubempc.bodies import ellipsoid_shape
 from tubempc.config import ConfigError, load_config
-from tubempc.dynamics import ProximityModel
-from tubempc.landing_site import inside, ray_cast
+from tubempc.models.dynamics import ProximityModel
 from tubempc.scenario import (
     PAPER_TARGET_MAX_DEPTH,
     ScenarioError,
@@ -28,7 +26,9 @@ from tubempc.scenario import (
     model_params,
     scenario_shape,
 )
-from tubempc.shapes import bennu_like_shape, load_shape, save_shape
+from tubempc.scenario.bodies import ellipsoid_shape
+from tubempc.scenario.shapes import bennu_like_shape, load_shape, save_shape
+from tubempc.scenario.sites import inside, ray_cast
 
 RADAR_MODEL = Path(__file__).resolve().parents[4] / "shared" / "data" / "101955bennu.tab"
 
@@ -154,8 +154,8 @@ def test_the_papers_own_target_on_the_radar_model_is_flown_with_a_warning() -> N
 
 
 def test_every_run_counts_its_states_inside_the_body(tmp_path: Path) -> None:
-    from tubempc.closed_loop import simulate
-    from tubempc.runner import guarantee_lost, run_summary
+    from tubempc.analysis.runner import guarantee_lost, run_summary
+    from tubempc.sim.closed_loop import simulate
 
     scn = build_scenario(load_config(), cache_dir=tmp_path)
     rec = simulate(scn, "tbmpc", seed=0, max_steps=4)
@@ -173,7 +173,7 @@ def test_every_run_counts_its_states_inside_the_body(tmp_path: Path) -> None:
 
 
 def _fake_montecarlo(lost: int, failed: list[int]) -> Any:
-    from tubempc.summaries import MeanSpread, MonteCarloMethodSummary, MonteCarloSummary
+    from tubempc.results.summaries import MeanSpread, MonteCarloMethodSummary, MonteCarloSummary
 
     def fake(*_: Any, **__: Any) -> MonteCarloSummary:
         row = MonteCarloMethodSummary(
@@ -203,10 +203,10 @@ def _fake_montecarlo(lost: int, failed: list[int]) -> Any:
 def test_montecarlo_exit_status_means_what_run_s_does(
     lost: int, failed: list[int], status: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import tubempc.analysis
+    import tubempc.analysis.studies
     from tubempc.cli import main
 
-    monkeypatch.setattr(tubempc.analysis, "montecarlo", _fake_montecarlo(lost, failed))
+    monkeypatch.setattr(tubempc.analysis.studies, "montecarlo", _fake_montecarlo(lost, failed))
     assert main(["montecarlo", "--runs", "3", "--out", str(tmp_path), "--quiet"]) == status
 
 
@@ -272,9 +272,9 @@ def _own_mission(tmp_path: Path) -> Path:
 
 
 def test_a_run_folder_with_its_own_shape_re_flies_and_re_reports_elsewhere(tmp_path: Path) -> None:
-    from tubempc.closed_loop import simulate
-    from tubempc.report import write_report
-    from tubempc.runner import run_methods
+    from tubempc.analysis.report import write_report
+    from tubempc.analysis.runner import run_methods
+    from tubempc.sim.closed_loop import simulate
 
     cfg = load_config(_own_mission(tmp_path))
     out = tmp_path / "results" / "run"
@@ -317,7 +317,7 @@ def test_a_campaign_with_its_own_shape_re_flies_from_a_copy(tmp_path: Path) -> N
 
 
 def test_no_convergence_envelope_is_reported_as_fitted_when_none_exists() -> None:
-    from tubempc import metrics
+    from tubempc.analysis import metrics
 
     flat = np.r_[1.0, np.full(40, 0.5), np.full(20, 2.0)]  # never above its final quarter's largest value
     fit = metrics.fit_exponential_convergence(flat)
@@ -332,7 +332,7 @@ def test_no_convergence_envelope_is_reported_as_fitted_when_none_exists() -> Non
 
 
 def test_fig14_draws_no_envelope_where_none_exists() -> None:
-    from tubempc import figures, metrics
+    from tubempc.analysis import figures, metrics
 
     err = np.r_[1.0, np.full(40, 0.5), np.full(20, 2.0)]
     t = np.arange(err.size) * 2.0
@@ -352,7 +352,7 @@ def test_fig14_draws_no_envelope_where_none_exists() -> None:
 
 
 def test_percentages_say_below_or_above() -> None:
-    from tubempc.metrics import below_or_above
+    from tubempc.analysis.metrics import below_or_above
 
     assert below_or_above(-0.5) == "0.5 % above" and below_or_above(89.94) == "89.9 % below"
 
@@ -403,7 +403,7 @@ def test_a_reduced_accuracy_reference_is_checked_and_named(monkeypatch: pytest.M
     (last_subproblem) and the solution checked against the input bounds before it counts as converged."""
     import cvxpy as cp
 
-    from tubempc import reference
+    from tubempc.scenario import reference
 
     class Inaccurate(cp.Problem):  # type: ignore[misc]
         def solve(self, *args: Any, **kwargs: Any) -> Any:

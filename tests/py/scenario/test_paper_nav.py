@@ -14,8 +14,8 @@ from scipy.spatial.transform import Rotation
 
 from tubempc import _core
 from tubempc.config import load_config
-from tubempc.navigation import navigation_settings
 from tubempc.scenario import Scenario, build_scenario
+from tubempc.scenario.navigation import navigation_settings
 
 Array = npt.NDArray[np.float64]
 

@@ -8,8 +8,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tubempc import _core, reference
-from tubempc.reference import ReferenceTrajectory, load_or_generate_reference
+from tubempc import _core
+from tubempc.scenario import reference
+from tubempc.scenario.reference import ReferenceTrajectory, load_or_generate_reference
 
 CUBE_V = np.array([[(k >> 0) & 1, (k >> 1) & 1, (k >> 2) & 1] for k in range(8)], dtype=float) * 100.0
 CUBE_F = np.array([[0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4],

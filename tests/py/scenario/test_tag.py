@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 from tubempc import _core
-from tubempc.closed_loop import simulate
 from tubempc.config import Config, ConfigError, load_config
-from tubempc.dynamics import ProximityModel
-from tubempc.landing_site import inside, ray_cast, terminal_state
+from tubempc.models.dynamics import ProximityModel
 from tubempc.scenario import Scenario, boundary_states, build_scenario, landing_site, model_params
-from tubempc.shapes import bennu_like_shape
+from tubempc.scenario.shapes import bennu_like_shape
+from tubempc.scenario.sites import inside, ray_cast, terminal_state
+from tubempc.sim.closed_loop import simulate
 
 
 @pytest.fixture(scope="module")

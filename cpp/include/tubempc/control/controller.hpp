@@ -76,13 +76,13 @@ struct ControllerSettings {
 /// box |u_ff,i| <= rho_i, the trace-minimal one of the outer family (1 + 1/beta) E + (1 + beta) 3 diag(rho)^2
 /// (3 diag(rho)^2: the smallest ellipsoid around the box). For a ball E = r^2 I and rho = p (1, 1, 1) it is the
 /// ball of radius r + sqrt(3) p. Controller applies it to ControllerSettings::actuation_error when the
-/// feed-forward is on; the set-up designs (Python: tubempc.tube_library) use the same call.
+/// feed-forward is on; the set-up designs (Python: tubempc.design.library) use the same call.
 /// @param E the input-error set's shape (3 x 3, symmetric positive semidefinite; input units squared).
 /// @param rho the feed-forward's bound per component (>= 0; input units).
 /// @return the shape (input units squared).
 Eigen::Matrix3d input_error_with_feedforward(const Eigen::Matrix3d& E, const Eigen::Vector3d& rho);
 
-/// The LMI designs a controller flies with (computed at set-up; Python: tubempc.tube_library).
+/// The LMI designs a controller flies with (computed at set-up; Python: tubempc.design.library).
 struct ControllerDesigns {
   SubsystemDesign initial_p;               ///< translational design of k = 0 (TBMPC: for the whole mission)
   SubsystemDesign initial_r;               ///< rotational design of k = 0

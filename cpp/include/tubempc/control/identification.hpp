@@ -10,7 +10,7 @@
 /// paper's literal recursion, which forgets the prior at the first update). The reported covariance has
 /// its eigenvalues floored, in the coordinates scaled by the prior's standard deviations, at `eig_floor`;
 /// the recursion itself stays exact. The tube is designed for P_W = pw_scale S^ (9: the 3-sigma reading).
-/// The same recursion in Python (tubempc.identification) is this class's test oracle.
+/// The same recursion in Python (tubempc.testing.identification) is this class's test oracle.
 #pragma once
 
 #include <Eigen/Dense>

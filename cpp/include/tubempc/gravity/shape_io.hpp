@@ -16,9 +16,9 @@
 ///   other (Shape's checks). Records `vn vt vp g o s l usemtl mtllib` are ignored; any other record
 ///   is an error.
 ///
-/// Differences from the Python loader (`tubempc.shapes.load_shape`): OBJ polygons are triangulated
+/// Differences from the Python loader (`tubempc.scenario.shapes.load_shape`): OBJ polygons are triangulated
 /// here (Python rejects them), and index 0 is always an error here (Python then reads the whole file
-/// as 0-based). Both read the files `tubempc.shapes.save_shape` and save_obj write identically.
+/// as 0-based). Both read the files `tubempc.scenario.shapes.save_shape` and save_obj write identically.
 ///
 /// Errors are std::invalid_argument with a message `<path>:<line>: <what>` (the line of the
 /// offending record: bad number, wrong number of tokens, index out of range, unknown record,

@@ -1,6 +1,6 @@
 /// @file scenario.hpp
 /// The scenario file: everything a C++ program needs to fly the closed loop the Python package sets
-/// up (`tubempc export-scenario`, python/tubempc/export.py): the controller's and the truth's 6-DOF
+/// up (`tubempc export-scenario`, python/tubempc/results/export.py): the controller's and the truth's 6-DOF
 /// models, the tube MPC's settings, the reference trajectory, the whole controller of both methods,
 /// the initial and target states, the truth propagator's settings, and (version 4) the navigation
 /// system and the actuators of one run. Plain text, versioned, exact (every double written with 17
@@ -136,7 +136,7 @@ struct BodyModel {
 struct NavigationScenario {
   bool enabled{false};               ///< whether the controller flies on the navigation's estimate
   nav::NavigationSettings settings;  ///< the true sensors, the filter and the sigmas
-  /// The landmark catalogue (frame A): the generated one, then the site's (python/tubempc/navigation.py).
+  /// The landmark catalogue (frame A): the generated one, then the site's (python/tubempc/scenario/navigation.py).
   std::vector<nav::Landmark> landmarks;
   std::uint64_t seed{0};  ///< the navigation system's seed (the run's seed + 1000003 in Python)
   /// c of the estimation-error set {e : e^T (c P_x)^-1 e <= 1} (the chi-square quantile of

@@ -1,0 +1,309 @@
+"""Closed-loop TBMPC and TBMPC-FFA on the 6-DOF model (paper Algorithm 1; docs/model.md "Closed loop").
+
+Each control step k (dt = 2 s, T = t_f / dt steps) is one call of the C++ controller
+(``_core.control.Controller``, cpp/include/tubempc/control/controller.hpp):
+
+1. identification (paper Eq. 26-29) of the last period's measured exogenous input per subsystem;
+2. tube update: TBMPC keeps the tube designed at set-up from the prior (paper Table 1); TBMPC-FFA
+   flies the certified Lyapunov update of its current LMI design for the identified set (paper
+   Eq. 25), a set-up library design where that fails (:mod:`tubempc.design.library`); due LMI designs
+   run in the background (:mod:`tubempc.design.policy`) and are offered to the controller;
+3. the tube MPC step (Problems 2 and 3, SCP about the shifted plan; QPs by the warm-started
+   active set, PIQP where it does not verify) from the measured state x_k, with the ancillary law
+   u = v0* + K (x_k - z0*) saturated at the true limits.
+
+Around it, this module simulates the plant: truth propagation of the 13-state (quaternion attitude)
+with the truth model (which may differ from the controller's: density, SRP, shape resolution), the
+actuator mismatch, and the additive disturbance of paper Eq. (16) and (18) applied to the state
+increment; and records everything into a :class:`tubempc.results.RunRecord`.
+
+The controller's state x = [r_L, v_L, phi, omega_BL_B] takes phi = log(q_B/L) on the branch nearest
+to the reference (so that phi follows the reference through ``|phi| = pi``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from ..design.library import new_controller
+from ..design.policy import BackgroundDesigns
+from ..design.tube import tube_excursion
+from ..models.disturbances import ActuatorMismatch, AdditiveDisturbance
+from ..results.records import RunRecord
+from ..scenario.actuators import actuate, describe_actuation
+from ..scenario.build import METHODS, P_STATES, R_STATES, Scenario
+from ..scenario.navigation import Navigation, NavigationRecord, new_navigation, propagate_sampled, tube_gauge
+from .setup import loop_setup
+
+__all__ = ["METHODS", "simulate"]
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass
+class _Plant:
+    """The simulated plant of one run: truth model, actuators, disturbance and truth state."""
+
+    scn: Scenario
+    disturbance: AdditiveDisturbance
+    actuators: ActuatorMismatch
+    propagator: Any  # _core.dynamics.PropagatorSettings
+    state: Array  # 13-state [r_L, v_L, q_B/L, omega_BL_B] of the truth
+    actuation: Any = None  # _core.actuators.ActuationSystem (spacecraft.actuators), or None: ideal
+    delivered: Any = None  # the last period's (u_delivered, ActuationStep or None)
+    nav: Navigation | None = None  # with navigation: propagated in sub-steps the sensors sample
+    nav_error_set: Array = field(default_factory=lambda: np.zeros((0, 0)))  # E of the estimate flown
+
+    def step(self, k: int, u: Array) -> tuple[Array, Array]:
+        """Propagates one control period with input ``u``; returns x_{k+1} and the disturbance drawn."""
+        scn, dt = self.scn, self.scn.config.mpc.dt
+        if self.actuation is None:
+            u_applied = np.concatenate([self.actuators.apply_acceleration(u[:3]), self.actuators.apply_torque(u[3:])])
+            self.delivered = (u_applied, None)
+        else:
+            self.delivered = actuate(self.actuation, k * dt, u, self.state)
+            u_applied = self.delivered[0]
+        if self.nav is not None:
+            end = propagate_sampled(self.nav, scn.truth, k * dt, self.state, u_applied, self.propagator)
+        else:
+            prop = scn.truth.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator)
+            if prop.status.name != "Success":
+                raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
+            end = np.asarray(prop.state)
+        w_p, w_r = self.disturbance.sample(k)
+        x_next = scn.truth.truth_to_state(end, scn.reference.x[k + 1, 6:9])
+        x_next[P_STATES] += w_p
+        x_next[R_STATES] += w_r
+        self.state = scn.truth.state_to_truth(x_next)
+        if self.nav is not None:
+            self.nav.truth[-1] = self.state  # the sensors' last sample is after the disturbance
+        return x_next, np.concatenate([w_p, w_r])
+
+
+def _record_step(rec: RunRecord, k: int, step: Any, ctrl: Any, times: tuple[float, float], wait: float) -> None:
+    """Everything the controller's step k produced (``times`` = perf_counter stamps around the
+    propagation; ``wait`` = the wait for a due background design, counted apart from the controller's
+    time). The step folded w_{k-1} in: it is recorded at k - 1, as the estimates after it."""
+    mpc = step.mpc
+    z_plan = np.asarray(mpc.z)
+    rec.z[k], rec.z_plan[k] = z_plan[:, 0], z_plan.T
+    rec.u[k], rec.v[k] = np.asarray(step.u, dtype=float), np.asarray(mpc.v)[:, 0]
+    K, Pe = np.asarray(step.tube.K), np.asarray(step.tube.Pe)
+    rec.K[k], rec.Pe_p[k], rec.Pe_r[k] = K, Pe[P_STATES, P_STATES], Pe[R_STATES, R_STATES]
+    rec.alpha[k] = list(step.alpha)
+    if k > 0 and step.identified:
+        _record_identification(rec, k - 1, np.asarray(step.w_measured), ctrl)
+    rec.scp_iterations[k], rec.qp_iterations[k] = mpc.scp_iterations, mpc.qp_iterations
+    rec.model_evaluations[k], rec.active_set_solves[k] = mpc.model_evaluations, mpc.active_set_solves
+    tm, ct = mpc.timings, step.timings
+    rec.time_linearize[k], rec.time_build[k], rec.time_solve[k] = tm.linearize, tm.build, tm.solve
+    rec.time_tube[k], rec.time_mpc[k], rec.time_identify[k], rec.time_predict[k] = ct.tube, ct.mpc, ct.identify, ct.predict
+    rec.time_step[k], rec.time_propagate[k], rec.time_design_wait[k] = ct.total, times[1] - times[0], wait
+    rec.statuses.append(str(mpc.status))
+    rec.failures.append(str(mpc.failure))
+    rec.tube_statuses.append("/".join(str(s) for s in step.tube_status))
+
+
+def _record_identification(rec: RunRecord, k: int, w_k: Array, ctrl: Any) -> None:
+    """The measured input w_k and the identifiers' estimates after folding it in."""
+    idents = (ctrl.identifier(0), ctrl.identifier(1))
+    rec.w[k] = w_k
+    rec.w_hat[k] = np.concatenate([np.asarray(i.w_hat) for i in idents])
+    rec.S_p[k], rec.S_r[k] = np.asarray(idents[0].S_hat), np.asarray(idents[1].S_hat)
+
+
+def _new_record(scn: Scenario, method: str, seed: int) -> RunRecord:
+    """A record for the whole mission with its time base, reference and initial state filled in."""
+    T, dt = scn.n_steps, scn.config.mpc.dt
+    rec = RunRecord.allocate(method, seed, T, scn.config.mpc.horizon)
+    rec.t[:] = np.arange(T + 1, dtype=np.float64) * dt
+    rec.zbar[:], rec.ubar[:] = scn.reference.x, scn.reference.u
+    rec.x[0] = scn.x0
+    rec.g[0] = [scn.truth.glide_slope(scn.x0)[0], scn.truth.line_of_sight(scn.x0)[0]]
+    return rec
+
+
+def _new_plant(scn: Scenario, seed: int) -> _Plant:
+    loop = loop_setup(scn)
+    system = None if loop.actuation is None else loop.actuation.system(seed + 1)
+    truth0 = scn.model.state_to_truth(scn.x0)
+    return _Plant(scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, truth0, system)
+
+
+def _record_actuation(rec: RunRecord, k: int, plant: _Plant, dt: float) -> None:
+    """The period's delivered input and, with an actuator model, its accounting (ideal: ``|u_p| dt``)."""
+    u_delivered, st = plant.delivered
+    rec.u_delivered[k] = u_delivered
+    if st is None:
+        rec.delta_v[k] = float(np.linalg.norm(u_delivered[:3])) * dt
+        rec.actuation_statuses.append("ideal")
+        return
+    rec.delta_v[k], rec.propellant[k], rec.pulses[k] = st.delta_v, st.propellant, st.pulses
+    rec.wheel_momentum[k] = np.asarray(plant.actuation.wheels.axes_B) @ np.asarray(st.wheel_momentum)
+    rec.time_actuation[k] = st.step_time
+    on_time = np.asarray(st.on_time)
+    rec.thruster_on_time[k, : on_time.size] = on_time
+    rec.actuation_statuses.append(str(st.status))
+
+
+def simulate(
+    scn: Scenario,
+    method: str,
+    seed: int,
+    *,
+    progress: bool = False,
+    lambda_p: float | None = None,
+    lambda_r: float | None = None,
+    max_steps: int | None = None,
+    tube_threads: int = 2,
+    design_worker: str | None = None,
+) -> RunRecord:
+    """One closed-loop run of ``method`` ("tbmpc" or "ffa") with disturbance seed ``seed``.
+
+    ``lambda_p``/``lambda_r`` override the configuration's forgetting factors; ``max_steps`` stops
+    the run early (arrays are then cut to the steps run); ``tube_threads`` = 2 runs the two
+    subsystems' background designs in parallel threads (``design_worker = "thread"``), 1 one after
+    the other; ``design_worker`` overrides ``tube.design_worker`` (the numbers do not depend on it when
+    adoption is deterministic; "none": no background designs, the library stands in, as in a C++
+    program flying the exported scenario).
+    """
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    T, dt = scn.n_steps, scn.config.mpc.dt
+    loop = loop_setup(scn)  # everything the run takes from the configuration, handed over once
+    t = loop.tube
+    worker = design_worker or t.design_worker
+    background = method == "ffa" and worker != "none"
+    ctrl = new_controller(
+        scn, method, loop.mpc_settings, lambda_p=lambda_p, lambda_r=lambda_r, background_designs=background
+    )
+    plant = _new_plant(scn, seed)
+    rec = _new_record(scn, method, seed)
+    x = scn.x0.copy()
+    nav, est = _start_navigation(scn, plant, rec, seed)
+    x_hat = x if est is None else np.asarray(est.x_hat)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=T, desc=method, unit="step", leave=False)
+    wall0 = time.perf_counter()
+    n_run = T if max_steps is None else max(1, min(int(max_steps), T))
+    designs = (
+        BackgroundDesigns(
+            loop.designers(),
+            delay=t.design_delay,
+            adopt_when_ready=t.design_adoption == "when_ready",
+            worker=worker,
+            threads=tube_threads,
+        )
+        if background
+        else None
+    )
+    try:
+        for k in range(n_run):
+            if designs is not None:
+                designs.adopt_due(k, ctrl)
+            if est is not None:
+                ctrl.set_estimation_error(plant.nav_error_set)
+            step = ctrl.step(k, x_hat)
+            if designs is not None:
+                designs.submit(k, step, ctrl, t.redesign_margin)
+            u = np.asarray(step.u, dtype=float).copy()
+            t0 = time.perf_counter()
+            x_next, w_true = plant.step(k, u)
+            t1 = time.perf_counter()
+            # Tube check (paper Proposition 1): the error after the step, x_{k+1} - z*_{1|k}, in the tube of step k.
+            z1 = np.asarray(step.mpc.z)[:, 1]
+            Pe = np.asarray(step.tube.Pe)
+            if nav is not None:
+                t_nav = time.perf_counter()
+                est = nav.step(scn.reference.x[k + 1, 6:9])
+                x_hat = _record_navigation(rec, k, est, x_next, plant, z1, Pe, time.perf_counter() - t_nav)
+            else:
+                x_hat = x_next
+            # with navigation: the estimate's excursion in the certified tube (the truth's is rec.navigation.gauge)
+            rec.excursion[k] = [tube_excursion(x_hat[None, sx], z1[None, sx], Pe[sx, sx])[0] for sx in (P_STATES, R_STATES)]
+            rec.w_true[k] = w_true
+            _record_actuation(rec, k, plant, dt)
+            _record_step(rec, k, step, ctrl, (t0, t1), 0.0 if designs is None else designs.last_wait_s)
+            x = x_next
+            rec.x[k + 1] = x
+            rec.g[k + 1] = [scn.truth.glide_slope(x, (k + 1) * dt)[0], scn.truth.line_of_sight(x)[0]]
+            if bar is not None:
+                bar.update()
+        if ctrl.identify(n_run, x_hat):  # the last period's input, which no later step folds in
+            _record_identification(rec, n_run - 1, np.asarray(ctrl.last_measured_input), ctrl)
+    finally:
+        if designs is not None:
+            designs.close()
+    if bar is not None:
+        bar.close()
+    rec.design_failures = [] if designs is None else list(designs.design_failures)
+    rec.wall_time_s = time.perf_counter() - wall0
+    if n_run < T:
+        rec.truncate(n_run)
+        if rec.navigation is not None:
+            rec.navigation.truncate(n_run)
+    rec.applied = _applied(scn, plant, rec, max_steps)
+    return rec
+
+
+def _start_navigation(scn: Scenario, plant: _Plant, rec: RunRecord, seed: int) -> tuple[Navigation | None, Any]:
+    """The run's navigation, started at the initial state (None, None: the controller reads the truth)."""
+    nav = new_navigation(scn, seed)
+    if nav is None:
+        return None, None
+    plant.nav = nav
+    rec.navigation = NavigationRecord.allocate(scn.n_steps)
+    est = nav.initialize(plant.state, scn.reference.x[0, 6:9])
+    rec.navigation.add(0, est, scn.x0, plant.state, nav.system.imu)
+    plant.nav_error_set = nav.error_set(est.P_x)
+    return nav, est
+
+
+def _record_navigation(
+    rec: RunRecord, k: int, est: Any, x_next: Array, plant: _Plant, z1: Array, Pe: Array, seconds: float
+) -> Array:
+    """Step k + 1's estimate into the record (``seconds``: the navigation call's wall time), and the truth's
+    gauge in the output-feedback tube z*_1|k (+) Omega_k (+) E_{k+1}; returns the estimate x^_{k+1}."""
+    assert plant.nav is not None and rec.navigation is not None
+    rec.navigation.time_step[k], rec.navigation.time_filter[k] = seconds, est.time_filter
+    x_hat = np.asarray(est.x_hat)
+    rec.navigation.add(k + 1, est, x_next, plant.state, plant.nav.system.imu)
+    plant.nav_error_set = E = plant.nav.error_set(est.P_x)
+    for i, sx in enumerate((P_STATES, R_STATES)):
+        rec.navigation.gauge[k, i] = tube_gauge(x_next[sx] - z1[sx], Pe[sx, sx], E[sx, sx])
+        rec.navigation.gauge_estimate[k, i] = math.sqrt(tube_excursion(x_hat[None, sx], z1[None, sx], Pe[sx, sx])[0])
+    return x_hat
+
+
+def _applied(scn: Scenario, plant: _Plant, rec: RunRecord, max_steps: int | None) -> dict[str, Any]:
+    """The dispersions the run actually applied, with the realised disturbance's statistics (SI units,
+    per state component: mean, standard deviation and largest |w|) for checking that they were."""
+    sim = scn.config.simulation
+    w = rec.w_true
+    return {
+        "seed": rec.seed,
+        "max_steps": max_steps,
+        "disturbance": plant.disturbance.describe(),
+        "actuators": plant.actuators.describe()
+        if plant.actuation is None
+        else describe_actuation(plant.actuation, loop_setup(scn).actuation),
+        "truth": {
+            "density_scale": sim.density_scale,
+            "srp_scale": sim.srp_scale,
+            "truth_shape_subdivisions": sim.truth_shape_subdivisions,
+        },
+        "realised_disturbance": {
+            "mean": w.mean(axis=0).tolist(),
+            "std": w.std(axis=0).tolist(),
+            "max_abs": np.abs(w).max(axis=0).tolist(),
+        },
+    }

@@ -1,0 +1,64 @@
+"""What a closed-loop run takes from its scenario, built once per scenario (:func:`loop_setup`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from ..config import DisturbanceSection, TubeSection
+from ..design.library import tube_designers
+from ..design.tube import TubeDesigner
+from ..models.disturbances import ActuatorMismatch, AdditiveDisturbance
+from ..scenario.actuators import ScenarioActuation
+from ..scenario.build import Scenario, mpc_settings, propagator_settings
+
+__all__ = ["LoopSetup", "loop_setup"]
+
+
+@dataclass(frozen=True)
+class LoopSetup:
+    """What a closed-loop run (:func:`tubempc.sim.closed_loop.simulate`) takes from the configuration,
+    built once per scenario (:func:`loop_setup`): the MPC's settings, the LMI tube
+    designers' arguments, the truth propagator's options, the tube policy's section, and the plant's
+    disturbance and actuator errors, drawn per run from its seed."""
+
+    mpc_settings: Any  # _core.mpc.Settings (the controller copies it)
+    designer_specs: tuple[dict[str, Any], dict[str, Any]]  # TubeDesigner arguments: translation, rotation
+    propagator: Any  # _core.dynamics.PropagatorSettings of the truth
+    disturbance: DisturbanceSection
+    tube: TubeSection
+    n_steps: int
+    actuation: ScenarioActuation | None = None
+
+    def designers(self) -> tuple[TubeDesigner, TubeDesigner]:
+        """A run's own tube designers (a designer keeps its last design, so runs do not share them)."""
+        return TubeDesigner(**self.designer_specs[0]), TubeDesigner(**self.designer_specs[1])
+
+    def plant_disturbance(self, seed: int) -> AdditiveDisturbance:
+        """The simulated additive disturbance of a run with seed ``seed`` (``[disturbance]``)."""
+        d = self.disturbance
+        return AdditiveDisturbance(d.S_p, d.S_r, seed=seed, growth_p=d.growth_p, growth_r=d.growth_r, n_steps=self.n_steps)
+
+    def actuators(self, seed: int) -> ActuatorMismatch:
+        """The actuator errors of a run with seed ``seed`` (drawn from ``seed + 1``)."""
+        d = self.disturbance
+        return ActuatorMismatch(seed + 1, d.scale_error_p, d.misalignment_p, d.scale_error_r, d.misalignment_r)
+
+
+def loop_setup(scn: Scenario) -> LoopSetup:
+    """Everything the closed loop takes from the configuration, built once for the scenario (kept in
+    ``Scenario.loop_setup``)."""
+    if scn.loop_setup is None:
+        cfg = scn.config
+        designers = tube_designers(cfg, scn.input_bounds)
+        scn.loop_setup = LoopSetup(
+            mpc_settings=mpc_settings(scn),
+            designer_specs=(designers[0].spec, designers[1].spec),
+            propagator=propagator_settings(cfg),
+            disturbance=cfg.disturbance,
+            tube=cfg.tube,
+            n_steps=scn.n_steps,
+            actuation=scn.actuation,
+        )
+    setup: LoopSetup = scn.loop_setup
+    return setup
