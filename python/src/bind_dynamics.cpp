@@ -209,6 +209,10 @@ void bind_dynamics(py::module_& m) {
            py::arg("gravity"), py::arg("params") = dynamics::ModelParams{})
       .def_property_readonly("params", &ProximityModel::params)
       .def_property_readonly("mean_motion", &ProximityModel::mean_motion, "n (rad/s)")
+      .def_property_readonly("rotation_rate_AL", &ProximityModel::rotation_rate_AL,
+                             "omega_A - n (rad/s): the body's rotation rate relative to L, about z")
+      .def_property_readonly("srp_acceleration_L", &ProximityModel::srp_acceleration_L,
+                             "the SRP acceleration in L (m/s^2): beta_SRP / R^2 along +x_L, 0 when off")
       .def("spin_angle", &ProximityModel::spin_angle, py::arg("t"))
       .def(
           "glide_slope_cone_L",

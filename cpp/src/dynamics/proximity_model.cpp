@@ -89,7 +89,7 @@ ProximityModel::ProximityModel(std::shared_ptr<const gravity::GravityModel> grav
 }
 
 double ProximityModel::spin_angle(double t) const {
-  return params_.spin_angle0 + (params_.spin_rate - n_) * t;
+  return params_.spin_angle0 + rotation_rate_AL() * t;
 }
 
 Eigen::Matrix3d ProximityModel::C_AL(double t) const {

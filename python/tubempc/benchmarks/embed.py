@@ -75,7 +75,6 @@ def _actuation(s: Any) -> Any:
 def python_loop(scenario_path: str | Path) -> dict[str, Any]:
     """The loop of ``examples/cpp/closed_loop`` (TBMPC-FFA) written over the bindings; times in s per step:
     the controller's own split and the wall time of the call through the bindings."""
-    from ..scenario.navigation import srp_acceleration
 
     s = _core.io.read_scenario(str(scenario_path))
     files = [(s.resolve(b.shape), b.shape_unit_scale) for b in (s.model, s.truth)]
@@ -98,7 +97,7 @@ def python_loop(scenario_path: str | Path) -> dict[str, Any]:
     nav = _navigation(s, controller_model, shapes, files[0] == files[1])
     actuation = _actuation(s)
     x_hat, h, n_sub, E = x, dt, 1, None
-    srp_L = srp_acceleration(truth)
+    srp_L = np.asarray(truth.srp_acceleration_L)
     if nav is not None:  # the IMU's sub-steps and the controller on the estimate (tubempc.sim.closed_loop)
         h = nav.base_period
         n_sub = round(dt / h)

@@ -167,6 +167,16 @@ class ProximityModel:
         """Orbital rate n (rad/s)."""
         return float(self._impl.mean_motion)
 
+    @property
+    def rotation_rate_AL(self) -> float:
+        """The body's rotation rate relative to L about z_L = z_A, omega_A - n (rad/s)."""
+        return float(self._impl.rotation_rate_AL)
+
+    @property
+    def srp_acceleration_L(self) -> _Arr:
+        """The SRP acceleration in L (m/s^2): beta_SRP / R^2 along +x_L, zero when SRP is off."""
+        return np.asarray(self._impl.srp_acceleration_L)
+
     def C_AL(self, t: float) -> _Arr:
         """C_AL(t) (r_A = C_AL r_L)."""
         return self._impl.C_AL(t)
@@ -215,13 +225,13 @@ class ProximityModel:
         return np.asarray(apex_L), np.asarray(axis_L)
 
     def glide_slope(self, x: npt.ArrayLike, t: float = 0.0) -> tuple[float, _Arr]:
-        """(g, dg/dx) of g = |r - p| cos(phi_gs) - (r - p) . a (<= 0 feasible) for the cone (p, a) at
+        """(g, dg/dx) of ``g = |r - p| cos(phi_gs) - (r - p) . a`` (<= 0 feasible) for the cone (p, a) at
         time t (s); the paper's cone (p = 0, a = z_L) does not depend on t."""
         apex_L, axis_L = self.glide_slope_cone_L(t)
         return glide_slope_constraint(x, self._params.glide_slope_angle, apex_L, axis_L)
 
     def line_of_sight(self, x: npt.ArrayLike) -> tuple[float, _Arr]:
-        """(g, dg/dx) of g = |r| cos(theta_LOS) - r_B . b_B, r_B = -C_BL r_L (<= 0 feasible)."""
+        """(g, dg/dx) of ``g = |r| cos(theta_LOS) - r_B . b_B``, ``r_B = -C_BL r_L`` (<= 0 feasible)."""
         return line_of_sight_constraint(x, self._params.los_angle, self._params.boresight_B)
 
     def truth_derivative(
@@ -298,9 +308,9 @@ class ProximityModel:
 
 
 def truth_to_state(state: npt.ArrayLike, phi_ref: npt.ArrayLike | None = None) -> _Arr:
-    """13-state -> 12-state: phi = log_map(q) (|phi| <= pi), then the equivalent rotation vector
-    phi - 2 pi phi/|phi| is taken instead when it is nearer to ``phi_ref`` (default 0). Passing the
-    previous phi keeps a trajectory continuous across |phi| = pi (|phi| may then exceed pi)."""
+    """13-state -> 12-state: ``phi = log_map(q)`` (``|phi| <= pi``), then the equivalent rotation vector
+    ``phi - 2 pi phi / |phi|`` is taken instead when it is nearer to ``phi_ref`` (default 0). Passing the
+    previous phi keeps a trajectory continuous across ``|phi| = pi`` (``|phi|`` may then exceed pi)."""
     ref = np.zeros(3) if phi_ref is None else _vec(phi_ref)
     return _dyn.truth_to_state(_vec(state), ref)
 
@@ -316,7 +326,7 @@ def glide_slope_constraint(
     apex_L: npt.ArrayLike = (0.0, 0.0, 0.0),
     axis_L: npt.ArrayLike = (0.0, 0.0, 1.0),
 ) -> tuple[float, _Arr]:
-    """(g, dg/dx) of g = |r - p| cos(phi_gs) - (r - p) . a (<= 0 feasible) for the cone with apex p (m)
+    """(g, dg/dx) of ``g = |r - p| cos(phi_gs) - (r - p) . a`` (<= 0 feasible) for the cone with apex p (m)
     and unit axis a in L (default: the paper's, apex at the centre, axis z_L); ValueError at r = p."""
     return _dyn.glide_slope_constraint(_vec(x), glide_slope_angle, _vec(apex_L), _vec(axis_L))
 
@@ -324,7 +334,7 @@ def glide_slope_constraint(
 def line_of_sight_constraint(
     x: npt.ArrayLike, los_angle: float = np.deg2rad(80.0), boresight_B: npt.ArrayLike = (0.0, 0.0, 1.0)
 ) -> tuple[float, _Arr]:
-    """(g, dg/dx) of g = |r| cos(theta_LOS) - r_B . b_B, r_B = -C_BL r_L (<= 0 feasible)."""
+    """(g, dg/dx) of ``g = |r| cos(theta_LOS) - r_B . b_B``, ``r_B = -C_BL r_L`` (<= 0 feasible)."""
     return _dyn.line_of_sight_constraint(_vec(x), los_angle, _vec(boresight_B))
 
 

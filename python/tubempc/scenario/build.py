@@ -255,12 +255,11 @@ def boundary_states(
     if b.initial == "hover":
         if site is None or model is None:
             raise ScenarioError(f'{cfg.source}: boundary.initial: "hover" needs the site and the model')
-        rate0 = model.params.spin_rate - model.mean_motion
         x0 = terminal_state(
             site.surface_A + b.hover_altitude * site.normal_A,
             site.normal_A,
             model.C_AL(0.0),
-            rate0,
+            model.rotation_rate_AL,
             cfg.spacecraft.boresight_B,
             b.phi0,
         )
@@ -281,8 +280,9 @@ def boundary_states(
     if site is None or model is None:
         raise ScenarioError(f'{cfg.source}: boundary.terminal: "site" needs the site and the model')
     t_f = cfg.mpc.t_f
-    rate = model.params.spin_rate - model.mean_motion
-    xf = terminal_state(site.target_A, site.normal_A, model.C_AL(t_f), rate, cfg.spacecraft.boresight_B, b.phi_f)
+    xf = terminal_state(
+        site.target_A, site.normal_A, model.C_AL(t_f), model.rotation_rate_AL, cfg.spacecraft.boresight_B, b.phi_f
+    )
     if b.terminal_attitude == "given":
         xf[6:9], xf[9:12] = b.phi_f, b.wf
     if b.touchdown_speed > 0.0:  # contact speed along the inward normal, relative to the turning surface

@@ -34,7 +34,6 @@ __all__ = [
     "propagate_sampled",
     "sensor_caster",
     "site_landmarks",
-    "srp_acceleration",
     "tube_gauge",
 ]
 
@@ -61,39 +60,22 @@ def _uniform_ellipsoid_variance(S_diag: Array, growth: float, dim: int) -> Array
 
 def navigation_settings(cfg: Config) -> Any:
     """The C++ ``NavigationSettings`` of a configuration: the true sensors and the filter's identical
-    model of them, the initial sigmas and the filter's model of the per-period disturbance."""
+    model of them, the initial sigmas and the filter's model of the per-period disturbance. Every
+    [navigation] field that names its C++ member (``cpp="camera.min_range"``) sets it; the rest derive."""
     n, nav = cfg.navigation, _core.nav
-    s = nav.NavigationSettings()
-    imu = nav.ImuSettings()
-    imu.period = n.imu_period
-    imu.gyro_noise_density, imu.gyro_bias_sigma = n.gyro_noise_density, n.gyro_bias_sigma
-    imu.gyro_bias_random_walk = n.gyro_bias_random_walk
-    imu.accel_noise_density, imu.accel_bias_sigma = n.accel_noise_density, n.accel_bias_sigma
-    imu.accel_bias_random_walk, imu.dropout_probability = n.accel_bias_random_walk, n.imu_dropout
-    alt = nav.AltimeterSettings()
-    alt.boresight_B = np.asarray(n.altimeter_boresight_B, dtype=float)
-    alt.sigma, alt.bias, alt.period = n.altimeter_sigma, n.altimeter_bias, n.altimeter_period
-    alt.min_range, alt.max_range, alt.dropout_probability = n.altimeter_min_range, n.altimeter_max_range, n.altimeter_dropout
-    cam = nav.CameraSettings()
+    alt, cam, imu = nav.AltimeterSettings(), nav.CameraSettings(), nav.ImuSettings()
+    star, filt = nav.StarTrackerSettings(), nav.FilterSettings()
+    parts: dict[str, Any] = {"altimeter": alt, "camera": cam, "imu": imu, "star_tracker": star, "filter": filt}
+    for f in dataclasses.fields(n):
+        target = f.metadata["spec"].cpp
+        if target is not None:
+            part, _, member = target.partition(".")
+            setattr(parts[part], member, getattr(n, f.name))
     cam.width_px = cam.height_px = n.camera_pixels
     cam.focal_length_px = nav.CameraSettings.focal_length_from_fov(n.camera_fov, n.camera_pixels)
     cam.C_BC = _camera_axes(np.asarray(n.camera_boresight_B, dtype=float))
-    cam.pixel_sigma, cam.period, cam.dropout_probability = n.camera_pixel_sigma, n.camera_period, n.camera_dropout
-    cam.max_emission_angle, cam.max_incidence_angle = n.camera_max_emission_angle, n.camera_max_incidence_angle
-    cam.min_range, cam.max_range, cam.max_landmarks = n.camera_min_range, n.camera_max_range, n.camera_max_landmarks
-    star = nav.StarTrackerSettings()
-    star.period, star.sigma_B, star.dropout_probability = (
-        n.star_tracker_period,
-        np.asarray(n.star_tracker_sigma_B, dtype=float),
-        n.star_tracker_dropout,
-    )
-    filt = nav.FilterSettings()
     filt.altimeter, filt.camera, filt.imu, filt.star_tracker = alt, cam, imu, star
-    filt.altimeter_terrain_sigma, filt.accel_model_noise = n.altimeter_terrain_sigma, n.accel_model_noise
-    filt.innovation_gate = n.innovation_gate
-    filt.gravity_relinearization_distance = n.gravity_relinearization_distance
-    filt.gravity_expansion_tolerance = n.gravity_expansion_tolerance
-    filt.covariance_step = n.covariance_step
+    s = nav.NavigationSettings()
     s.altimeter, s.camera, s.imu, s.star_tracker, s.filter = alt, cam, imu, star, filt
     s.initial_sigma = np.repeat([n.initial_sigma_position, n.initial_sigma_velocity, n.initial_sigma_attitude], 3)
     sigma = np.zeros(9)
@@ -115,13 +97,6 @@ def _camera_axes(boresight_B: Array) -> Array:
     x = seed - z * float(seed @ z)
     x /= np.linalg.norm(x)
     return np.column_stack([x, np.cross(z, x), z])
-
-
-def srp_acceleration(model: Any) -> Array:
-    """The model's SRP acceleration in L (m/s^2): beta_SRP / R^2 along +x_L (M1)."""
-    p = model.params
-    on = bool(getattr(p, "srp_enabled", True))
-    return np.array([p.beta_srp / p.orbit_radius**2 if on else 0.0, 0.0, 0.0])
 
 
 @dataclass
@@ -174,7 +149,9 @@ def new_navigation(scn: Any, seed: int) -> Navigation | None:
         int(seed) + NAV_SEED_OFFSET,
     )
     n_sub = round(cfg.mpc.dt / n.imu_period)
-    return Navigation(system, error_set_scale(n.error_set_probability), n.imu_period, n_sub, srp_acceleration(scn.truth))
+    return Navigation(
+        system, error_set_scale(n.error_set_probability), n.imu_period, n_sub, np.asarray(scn.truth.srp_acceleration_L)
+    )
 
 
 def sensor_caster(scn: Any, filter_caster: Any | None = None) -> Any:

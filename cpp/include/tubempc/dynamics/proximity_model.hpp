@@ -151,6 +151,10 @@ class ProximityModel {
   const std::shared_ptr<const ExtraAcceleration>& extra_acceleration() const { return extra_; }
   /// @return the orbital rate n (rad/s).
   double mean_motion() const { return n_; }
+  /// @return the body's rotation rate relative to L about z_L = z_A, omega_A - n (rad/s).
+  double rotation_rate_AL() const { return params_.spin_rate - n_; }
+  /// @return the SRP acceleration in L (m/s^2): beta_SRP / R^2 along +x_L, or zero when SRP is off.
+  Eigen::Vector3d srp_acceleration_L() const { return {srp_accel_, 0.0, 0.0}; }
 
   /// Angle of x_A from x_L about z.
   /// @param t time (s).
