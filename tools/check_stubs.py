@@ -8,7 +8,8 @@ bound from a C++ field table (``bind_fields``: it has ``field_names()``) and the
 bound from a C++ name table (``bind_option_enum``, ``bind_named_enum``: it has ``names()``) are
 generated, not kept by hand: one line ``name: type`` per field, in the table's order, right after the
 stub's ``def field_names()``, the type that of the field's default (``bool``, ``int``, ``float``,
-``str``, ``_Arr`` for a matrix, the enum's class); one line ``Identifier = ...`` per enumerator.
+``str``, ``_Arr`` for a matrix, the enum's class, the class of a nested settings struct); one line
+``Identifier = ...`` per enumerator.
 Run by tools/lint.sh after the module is built; exit status 1 with the differences (docs/decisions.md
 "One field table"); ``--write`` rewrites the generated lines instead.
 Usage: python tools/check_stubs.py [--write] [stub directory]
@@ -98,6 +99,8 @@ def _stub_type(value: Any) -> str:
     if isinstance(value, np.ndarray):
         return "_Arr"
     if hasattr(type(value), "__members__"):  # a pybind11 enum
+        return type(value).__name__
+    if hasattr(type(value), "field_names"):  # a nested settings struct bound from its own field table
         return type(value).__name__
     raise TypeError(f"no stub type for a field of type {type(value).__name__}")
 

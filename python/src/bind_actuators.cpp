@@ -32,21 +32,10 @@ void bind_actuators(py::module_& m) {
   bind_named_enum<FaultKind>(s, "FaultKind", "A thruster's fault");
   bind_named_enum<PulseRounding>(s, "PulseRounding", "How the modulator rounds a commanded on-time");
 
-  py::class_<ThrusterSpec>(s, "ThrusterSpec",
-                           "One thruster (nominal geometry, truth errors and their bounds, fault)")
-      .def(py::init<>())
-      .def_readwrite("position_B", &ThrusterSpec::position_B)
-      .def_readwrite("direction_B", &ThrusterSpec::direction_B)
-      .def_readwrite("max_thrust", &ThrusterSpec::max_thrust)
-      .def_readwrite("min_on_time", &ThrusterSpec::min_on_time)
-      .def_readwrite("isp", &ThrusterSpec::isp)
-      .def_readwrite("scale_error", &ThrusterSpec::scale_error)
-      .def_readwrite("misalignment_B", &ThrusterSpec::misalignment_B)
-      .def_readwrite("scale_error_bound", &ThrusterSpec::scale_error_bound)
-      .def_readwrite("misalignment_bound", &ThrusterSpec::misalignment_bound)
-      .def_readwrite("fault", &ThrusterSpec::fault)
-      .def_readwrite("fault_time", &ThrusterSpec::fault_time)
-      .def("validate", &ThrusterSpec::validate, py::arg("what") = "thruster");
+  py::class_<ThrusterSpec> thruster(s, "ThrusterSpec",
+                                    "One thruster (nominal geometry, truth errors and their bounds, fault)");
+  thruster.def(py::init<>()).def("validate", &ThrusterSpec::validate, py::arg("what") = "thruster");
+  bind_fields(thruster);
 
   py::class_<ThrusterCluster>(s, "ThrusterCluster",
                               "The thrusters of a spacecraft (a value: copies are independent)")
@@ -62,13 +51,9 @@ void bind_actuators(py::module_& m) {
       .def("faults_at", &ThrusterCluster::faults_at, py::arg("t"))
       .def("copy", [](const ThrusterCluster& c) { return ThrusterCluster(c); });
 
-  py::class_<ModulationSettings>(s, "ModulationSettings", "Pulse modulation settings")
-      .def(py::init<>())
-      .def_readwrite("period", &ModulationSettings::period)
-      .def_readwrite("on_time_resolution", &ModulationSettings::on_time_resolution)
-      .def_readwrite("rounding", &ModulationSettings::rounding)
-      .def_readwrite("opposed_pairs", &ModulationSettings::opposed_pairs)
-      .def("validate", &ModulationSettings::validate);
+  py::class_<ModulationSettings> modulation(s, "ModulationSettings", "Pulse modulation settings");
+  modulation.def(py::init<>()).def("validate", &ModulationSettings::validate);
+  bind_fields(modulation);
 
   py::class_<Firing>(s, "Firing", "One period's firing (a copy)")
       .def_readonly("on_time", &Firing::on_time)
@@ -97,20 +82,14 @@ void bind_actuators(py::module_& m) {
       .def_property_readonly("propellant", &PulseModulator::propellant)
       .def_property_readonly("settings", &PulseModulator::settings);
 
-  py::class_<ReactionWheelSpec>(s, "ReactionWheelSpec", "One reaction wheel")
-      .def(py::init<>())
-      .def_readwrite("axis_B", &ReactionWheelSpec::axis_B)
-      .def_readwrite("max_torque", &ReactionWheelSpec::max_torque)
-      .def_readwrite("max_momentum", &ReactionWheelSpec::max_momentum)
-      .def("validate", &ReactionWheelSpec::validate, py::arg("what") = "wheel");
+  py::class_<ReactionWheelSpec> wheel(s, "ReactionWheelSpec", "One reaction wheel");
+  wheel.def(py::init<>()).def("validate", &ReactionWheelSpec::validate, py::arg("what") = "wheel");
+  bind_fields(wheel);
 
-  py::class_<MomentumDumpSettings>(s, "MomentumDumpSettings", "When and how fast the wheels are unloaded")
-      .def(py::init<>())
-      .def_readwrite("enabled", &MomentumDumpSettings::enabled)
-      .def_readwrite("start_fraction", &MomentumDumpSettings::start_fraction)
-      .def_readwrite("stop_fraction", &MomentumDumpSettings::stop_fraction)
-      .def_readwrite("time_constant", &MomentumDumpSettings::time_constant)
-      .def("validate", &MomentumDumpSettings::validate);
+  py::class_<MomentumDumpSettings> dump(s, "MomentumDumpSettings",
+                                        "When and how fast the wheels are unloaded");
+  dump.def(py::init<>()).def("validate", &MomentumDumpSettings::validate);
+  bind_fields(dump);
 
   py::class_<ReactionWheels>(s, "ReactionWheels",
                              "Reaction wheels and their momentum (a value: copies are independent)")
@@ -147,18 +126,9 @@ void bind_actuators(py::module_& m) {
 
   bind_named_enum<AllocationStatus>(s, "AllocationStatus", "Outcome of an allocation");
 
-  py::class_<AllocationSettings>(s, "AllocationSettings", "Allocation settings")
-      .def(py::init<>())
-      .def_readwrite("period", &AllocationSettings::period)
-      .def_readwrite("residual_weight", &AllocationSettings::residual_weight)
-      .def_readwrite("thrust_weight", &AllocationSettings::thrust_weight)
-      .def_readwrite("wheel_weight", &AllocationSettings::wheel_weight)
-      .def_readwrite("dump_weight", &AllocationSettings::dump_weight)
-      .def_readwrite("max_iterations", &AllocationSettings::max_iterations)
-      .def_readwrite("optimality_tolerance", &AllocationSettings::optimality_tolerance)
-      .def_readwrite("remainder_tolerance", &AllocationSettings::remainder_tolerance)
-      .def_readwrite("cone_test_scale", &AllocationSettings::cone_test_scale)
-      .def("validate", &AllocationSettings::validate);
+  py::class_<AllocationSettings> allocation(s, "AllocationSettings", "Allocation settings");
+  allocation.def(py::init<>()).def("validate", &AllocationSettings::validate);
+  bind_fields(allocation);
 
   py::class_<AllocationInfo>(s, "AllocationInfo", "Outcome and counters of an allocation")
       .def_readonly("status", &AllocationInfo::status)
@@ -247,12 +217,9 @@ void bind_actuators(py::module_& m) {
         py::arg("E"),
         "P of an ellipsoid containing W (+) B E (trace-minimal member of the outer family; M38)");
 
-  py::class_<ActuationSettings>(s, "ActuationSettings", "Settings of the actuation system")
-      .def(py::init<>())
-      .def_readwrite("mass", &ActuationSettings::mass)
-      .def_readwrite("modulation", &ActuationSettings::modulation)
-      .def_readwrite("allocation", &ActuationSettings::allocation)
-      .def("validate", &ActuationSettings::validate);
+  py::class_<ActuationSettings> actuation(s, "ActuationSettings", "Settings of the actuation system");
+  actuation.def(py::init<>()).def("validate", &ActuationSettings::validate);
+  bind_fields(actuation);
 
   py::class_<ActuationStep>(s, "ActuationStep", "One period's actuation (a copy)")
       .def_readonly("status", &ActuationStep::status)

@@ -161,7 +161,7 @@ void bind_control(py::module_& m) {
 
   py::class_<Controller>(s, "Controller",
                          "TBMPC / TBMPC-FFA: setup(reference, designs) once, then step(k, x_k) per period")
-      .def(py::init([](std::shared_ptr<mpc::LinearizedModel> model, const mpc::Settings& mpc_settings,
+      .def(py::init([](std::shared_ptr<math::LinearizedModel> model, const mpc::Settings& mpc_settings,
                        const ControllerSettings& settings) {
              return std::make_unique<Controller>(std::move(model), mpc_settings, settings);
            }),

@@ -16,7 +16,7 @@ namespace tubempc::python {
 
 namespace {
 
-using mpc::LinearizedModel;
+using math::LinearizedModel;
 
 // Python subclasses implement nx(), nu(), n_constraints(), discretize(t, dt, x_lin, u_lin) -> (A, B, c)
 // and constraints(t, x_lin) -> (G, h); the C++ virtuals call them with the GIL held.

@@ -108,68 +108,25 @@ void bind_nav(py::module_& m) {
       .def_readwrite("accel_nongrav_L", &SensorTruth::accel_nongrav_L)
       .def_readwrite("C_AL", &SensorTruth::C_AL);
 
-  py::class_<AltimeterSettings>(s, "AltimeterSettings")
-      .def(py::init<>())
-      .def_readwrite("boresight_B", &AltimeterSettings::boresight_B)
-      .def_readwrite("sigma", &AltimeterSettings::sigma)
-      .def_readwrite("bias", &AltimeterSettings::bias)
-      .def_readwrite("min_range", &AltimeterSettings::min_range)
-      .def_readwrite("max_range", &AltimeterSettings::max_range)
-      .def_readwrite("period", &AltimeterSettings::period)
-      .def_readwrite("dropout_probability", &AltimeterSettings::dropout_probability)
-      .def("validate", &AltimeterSettings::validate);
-  py::class_<CameraSettings>(s, "CameraSettings")
-      .def(py::init<>())
-      .def_readwrite("focal_length_px", &CameraSettings::focal_length_px)
-      .def_readwrite("width_px", &CameraSettings::width_px)
-      .def_readwrite("height_px", &CameraSettings::height_px)
-      .def_readwrite("pixel_sigma", &CameraSettings::pixel_sigma)
-      .def_readwrite("pixel_bias", &CameraSettings::pixel_bias)
-      .def_readwrite("C_BC", &CameraSettings::C_BC)
-      .def_readwrite("max_emission_angle", &CameraSettings::max_emission_angle)
-      .def_readwrite("max_incidence_angle", &CameraSettings::max_incidence_angle)
-      .def_readwrite("min_range", &CameraSettings::min_range)
-      .def_readwrite("max_range", &CameraSettings::max_range)
-      .def_readwrite("max_landmarks", &CameraSettings::max_landmarks)
-      .def_readwrite("period", &CameraSettings::period)
-      .def_readwrite("dropout_probability", &CameraSettings::dropout_probability)
+  py::class_<AltimeterSettings> altimeter(s, "AltimeterSettings", "Laser altimeter settings");
+  altimeter.def(py::init<>()).def("validate", &AltimeterSettings::validate);
+  bind_fields(altimeter);
+  py::class_<CameraSettings> camera(s, "CameraSettings", "Navigation camera settings (pinhole model)");
+  camera.def(py::init<>())
       .def("validate", &CameraSettings::validate)
       .def_static("focal_length_from_fov", &CameraSettings::focal_length_from_fov, py::arg("fov_rad"),
                   py::arg("width_px"));
-  py::class_<ImuSettings>(s, "ImuSettings")
-      .def(py::init<>())
-      .def_readwrite("period", &ImuSettings::period)
-      .def_readwrite("gyro_noise_density", &ImuSettings::gyro_noise_density)
-      .def_readwrite("gyro_bias_sigma", &ImuSettings::gyro_bias_sigma)
-      .def_readwrite("gyro_bias_random_walk", &ImuSettings::gyro_bias_random_walk)
-      .def_readwrite("accel_noise_density", &ImuSettings::accel_noise_density)
-      .def_readwrite("accel_bias_sigma", &ImuSettings::accel_bias_sigma)
-      .def_readwrite("accel_bias_random_walk", &ImuSettings::accel_bias_random_walk)
-      .def_readwrite("dropout_probability", &ImuSettings::dropout_probability)
-      .def("validate", &ImuSettings::validate);
-  py::class_<StarTrackerSettings>(s, "StarTrackerSettings")
-      .def(py::init<>())
-      .def_readwrite("period", &StarTrackerSettings::period)
-      .def_readwrite("sigma_B", &StarTrackerSettings::sigma_B)
-      .def_readwrite("misalignment_B", &StarTrackerSettings::misalignment_B)
-      .def_readwrite("dropout_probability", &StarTrackerSettings::dropout_probability)
-      .def("validate", &StarTrackerSettings::validate);
-  py::class_<FilterSettings>(s, "FilterSettings")
-      .def(py::init<>())
-      .def_readwrite("altimeter", &FilterSettings::altimeter)
-      .def_readwrite("camera", &FilterSettings::camera)
-      .def_readwrite("star_tracker", &FilterSettings::star_tracker)
-      .def_readwrite("imu", &FilterSettings::imu)
-      .def_readwrite("accel_model_noise", &FilterSettings::accel_model_noise)
-      .def_readwrite("altimeter_terrain_sigma", &FilterSettings::altimeter_terrain_sigma)
-      .def_readwrite("innovation_gate", &FilterSettings::innovation_gate)
-      .def_readwrite("gravity_relinearization_distance", &FilterSettings::gravity_relinearization_distance)
-      .def_readwrite("gravity_expansion_tolerance", &FilterSettings::gravity_expansion_tolerance)
-      .def_readwrite("max_step", &FilterSettings::max_step)
-      .def_readwrite("covariance_step", &FilterSettings::covariance_step)
-      .def_readwrite("max_substeps", &FilterSettings::max_substeps)
-      .def_readwrite("split", &FilterSettings::split)
-      .def("validate", &FilterSettings::validate);
+  bind_fields(camera);
+  py::class_<ImuSettings> imu(s, "ImuSettings", "IMU settings (noise densities, biases, period)");
+  imu.def(py::init<>()).def("validate", &ImuSettings::validate);
+  bind_fields(imu);
+  py::class_<StarTrackerSettings> star_tracker(s, "StarTrackerSettings", "Star tracker settings");
+  star_tracker.def(py::init<>()).def("validate", &StarTrackerSettings::validate);
+  bind_fields(star_tracker);
+  py::class_<FilterSettings> filter(s, "FilterSettings",
+                                    "The filter's settings, with its model of the sensors");
+  filter.def(py::init<>()).def("validate", &FilterSettings::validate);
+  bind_fields(filter);
 
   py::class_<AltimeterMeasurement>(s, "AltimeterMeasurement")
       .def(py::init<>())
@@ -335,18 +292,10 @@ void bind_nav(py::module_& m) {
   bind_named_enum<Sensor>(s, "Sensor", "The four sensors, in the order of NavigationStep's per-sensor lists");
   bind_named_enum<NavigationStatus>(s, "NavigationStatus", "Outcome of a navigation call");
   s.attr("N_SENSORS") = kSensors;
-  py::class_<NavigationSettings>(
-      s, "NavigationSettings", "True sensors, the filter (its model of them), initial and per-period sigmas")
-      .def(py::init<>())
-      .def_readwrite("altimeter", &NavigationSettings::altimeter)
-      .def_readwrite("camera", &NavigationSettings::camera)
-      .def_readwrite("imu", &NavigationSettings::imu)
-      .def_readwrite("star_tracker", &NavigationSettings::star_tracker)
-      .def_readwrite("filter", &NavigationSettings::filter)
-      .def_readwrite("initial_sigma", &NavigationSettings::initial_sigma)
-      .def_readwrite("period_noise_sigma", &NavigationSettings::period_noise_sigma)
-      .def_readwrite("max_samples", &NavigationSettings::max_samples)
-      .def("validate", &NavigationSettings::validate);
+  py::class_<NavigationSettings> navigation(
+      s, "NavigationSettings", "True sensors, the filter (its model of them), initial and per-period sigmas");
+  navigation.def(py::init<>()).def("validate", &NavigationSettings::validate);
+  bind_fields(navigation);
   py::class_<NavigationStep>(s, "NavigationStep", "Result of one navigation call (a copy)")
       .def_readonly("status", &NavigationStep::status)
       .def_readonly("t", &NavigationStep::t)

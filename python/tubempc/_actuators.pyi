@@ -23,6 +23,8 @@ class FaultKind(_OptionNames, enum.Enum):
     StuckOn = ...
 
 class ThrusterSpec:
+    @staticmethod
+    def field_names() -> list[str]: ...
     position_B: _Arr
     direction_B: _Arr
     max_thrust: float
@@ -59,6 +61,8 @@ class PulseRounding(_OptionNames, enum.Enum):
     Nearest = ...
 
 class ModulationSettings:
+    @staticmethod
+    def field_names() -> list[str]: ...
     period: float
     on_time_resolution: float
     rounding: PulseRounding
@@ -99,6 +103,8 @@ class PulseModulator:
     def settings(self) -> ModulationSettings: ...
 
 class ReactionWheelSpec:
+    @staticmethod
+    def field_names() -> list[str]: ...
     axis_B: _Arr
     max_torque: float
     max_momentum: float
@@ -106,6 +112,8 @@ class ReactionWheelSpec:
     def validate(self, what: str = "wheel") -> None: ...
 
 class MomentumDumpSettings:
+    @staticmethod
+    def field_names() -> list[str]: ...
     enabled: bool
     start_fraction: float
     stop_fraction: float
@@ -150,6 +158,8 @@ class AllocationStatus(_OptionNames, enum.Enum):
     InvalidCommand = ...
 
 class AllocationSettings:
+    @staticmethod
+    def field_names() -> list[str]: ...
     period: float
     residual_weight: _Arr
     thrust_weight: float
@@ -271,6 +281,8 @@ def actuation_error_bound(
 def disturbance_with_actuation_error(P_W: _Vec, B: _Vec, E: _Vec) -> _Arr: ...
 
 class ActuationSettings:
+    @staticmethod
+    def field_names() -> list[str]: ...
     mass: float
     modulation: ModulationSettings
     allocation: AllocationSettings

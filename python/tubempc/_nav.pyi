@@ -91,6 +91,8 @@ class SensorTruth:
     def __init__(self) -> None: ...
 
 class AltimeterSettings:
+    @staticmethod
+    def field_names() -> list[str]: ...
     boresight_B: _Arr
     sigma: float
     bias: float
@@ -102,6 +104,8 @@ class AltimeterSettings:
     def validate(self) -> None: ...
 
 class CameraSettings:
+    @staticmethod
+    def field_names() -> list[str]: ...
     focal_length_px: float
     width_px: int
     height_px: int
@@ -121,6 +125,8 @@ class CameraSettings:
     def focal_length_from_fov(fov_rad: float, width_px: int) -> float: ...
 
 class ImuSettings:
+    @staticmethod
+    def field_names() -> list[str]: ...
     period: float
     gyro_noise_density: float
     gyro_bias_sigma: float
@@ -133,6 +139,8 @@ class ImuSettings:
     def validate(self) -> None: ...
 
 class StarTrackerSettings:
+    @staticmethod
+    def field_names() -> list[str]: ...
     period: float
     sigma_B: _Arr
     misalignment_B: _Arr
@@ -141,6 +149,8 @@ class StarTrackerSettings:
     def validate(self) -> None: ...
 
 class FilterSettings:
+    @staticmethod
+    def field_names() -> list[str]: ...
     altimeter: AltimeterSettings
     camera: CameraSettings
     star_tracker: StarTrackerSettings
@@ -290,6 +300,8 @@ class NavigationStatus(_OptionNames, enum.Enum):
     NotInitialized = ...
 
 class NavigationSettings:
+    @staticmethod
+    def field_names() -> list[str]: ...
     altimeter: AltimeterSettings
     camera: CameraSettings
     imu: ImuSettings

@@ -53,7 +53,7 @@ void ControllerSettings::validate() const {
   }
 }
 
-Controller::Controller(std::shared_ptr<const mpc::LinearizedModel> model, mpc::Settings mpc_settings,
+Controller::Controller(std::shared_ptr<const math::LinearizedModel> model, mpc::Settings mpc_settings,
                        ControllerSettings settings)
     : model_(std::move(model)), settings_(std::move(settings)) {
   if (!model_) throw std::invalid_argument("Controller: model must not be null");

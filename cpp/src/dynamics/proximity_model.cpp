@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "tubempc/dynamics/expm.hpp"
+#include "tubempc/math/expm.hpp"
 
 namespace tubempc::dynamics {
 namespace {
@@ -276,7 +276,8 @@ DiscretizationStatus ProximityModel::discretize(double t, double dt, const State
   const bool decoupled = A.topRightCorner<6, 6>().isZero(0.0) && A.bottomLeftCorner<6, 6>().isZero(0.0) &&
                          B.topRightCorner<6, 3>().isZero(0.0) && B.bottomLeftCorner<6, 3>().isZero(0.0);
   if (!decoupled) {
-    if (!zoh_discretize<kNx, kNu>(A, B, c, dt, Ad, Bd, cd)) return DiscretizationStatus::NonFiniteResult;
+    if (!math::zoh_discretize<kNx, kNu>(A, B, c, dt, Ad, Bd, cd))
+      return DiscretizationStatus::NonFiniteResult;
     return DiscretizationStatus::Ok;
   }
   Eigen::Matrix<double, 6, 6> Ad_p, Ad_r;
@@ -285,8 +286,8 @@ DiscretizationStatus ProximityModel::discretize(double t, double dt, const State
   const Eigen::Matrix<double, 6, 6> A_p = A.topLeftCorner<6, 6>(), A_r = A.bottomRightCorner<6, 6>();
   const Eigen::Matrix<double, 6, 3> B_p = B.topLeftCorner<6, 3>(), B_r = B.bottomRightCorner<6, 3>();
   const Eigen::Matrix<double, 6, 1> c_p = c.head<6>(), c_r = c.tail<6>();
-  if (!zoh_discretize<6, 3>(A_p, B_p, c_p, dt, Ad_p, Bd_p, cd_p) ||
-      !zoh_discretize<6, 3>(A_r, B_r, c_r, dt, Ad_r, Bd_r, cd_r)) {
+  if (!math::zoh_discretize<6, 3>(A_p, B_p, c_p, dt, Ad_p, Bd_p, cd_p) ||
+      !math::zoh_discretize<6, 3>(A_r, B_r, c_r, dt, Ad_r, Bd_r, cd_r)) {
     return DiscretizationStatus::NonFiniteResult;
   }
   Ad.setZero();
@@ -319,7 +320,7 @@ DiscretizationStatus ProximityModel::discretize_rotation(double dt, const Eigen:
   Eigen::Matrix<double, 6, 1> x_r;
   x_r << phi, omega_BL_B;
   const Eigen::Matrix<double, 6, 1> c_r = f_r - A_r * x_r - B_r * T_B;
-  if (!zoh_discretize<6, 3>(A_r, B_r, c_r, dt, Ad_r, Bd_r, cd_r))
+  if (!math::zoh_discretize<6, 3>(A_r, B_r, c_r, dt, Ad_r, Bd_r, cd_r))
     return DiscretizationStatus::NonFiniteResult;
   return DiscretizationStatus::Ok;
 }

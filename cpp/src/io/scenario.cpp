@@ -59,8 +59,8 @@ const char* option_name(E value) {
   return core::enum_name(value);
 }
 
-// Size of a symbolic dimension in the scenario's model: 12 states, 6 inputs, 2 state constraints
-// (glide slope and line of sight).
+// Size of a dimension in the scenario's model: 12 states, 6 inputs, 2 state constraints (glide slope
+// and line of sight), 6 subsystem states; the fixed sizes as they are.
 Eigen::Index scenario_size(core::Dim d) {
   switch (d) {
     case core::Dim::Nx:
@@ -71,12 +71,9 @@ Eigen::Index scenario_size(core::Dim d) {
       return 2;
     case core::Dim::Nw:
       return 6;
-    case core::Dim::Three:
-      return 3;
-    case core::Dim::One:
-      break;
+    default:
+      return core::fixed_size(d);
   }
-  return 1;
 }
 
 // One record as read: a text value, or a matrix, with the line of each value row (text: of the value).
@@ -241,10 +238,6 @@ class Reader {
 
   double scalar(const std::string& name) { return numeric(name, 1, 1)->values(0, 0); }
 
-  void optional_scalar(const std::string& name, double& out, bool allow_infinite = false) {
-    if (Record* r = numeric(name, 1, 1, false, false, allow_infinite)) out = r->values(0, 0);
-  }
-
   void integer(const std::string& name, int& out, bool required = true) {
     Record* r = numeric(name, 1, 1, required);
     if (r == nullptr) return;
@@ -343,7 +336,8 @@ class Reader {
   std::map<std::string, Record> records_;
 };
 
-// The records `prefix<name>` of the fields of a struct described by for_each_field (core::FieldInfo).
+// The records `prefix<name>` of the fields of a struct described by for_each_field (core::FieldInfo);
+// a nested struct's are `prefix<name>.<field>`.
 template <typename S>
 struct FieldReader {
   Reader& r;
@@ -355,16 +349,15 @@ struct FieldReader {
     if (!f.in_file) return;
     const std::string name = prefix + f.name;
     T& value = s.*member;
-    if constexpr (std::is_same_v<T, int>) {
+    if constexpr (core::has_fields<T>::value) {
+      T::for_each_field(FieldReader<T>{r, value, name + "."});
+    } else if constexpr (std::is_same_v<T, int>) {
       r.integer(name, value, !f.optional);
     } else if constexpr (std::is_same_v<T, bool>) {
       r.flag(name, value, !f.optional);
     } else if constexpr (std::is_same_v<T, double>) {
-      if (f.optional) {
-        r.optional_scalar(name, value, f.allow_infinite);
-      } else {
-        value = r.scalar(name);
-      }
+      if (const Record* rec = r.numeric(name, 1, 1, !f.optional, false, f.allow_infinite))
+        value = rec->values(0, 0);
     } else if constexpr (std::is_same_v<T, std::string>) {
       value = r.text(name);
     } else if constexpr (std::is_enum_v<T>) {
@@ -474,246 +467,30 @@ class Writer {
 };
 
 // ---- navigation and actuator records (version 4) ---------------------------------------------
-// The settings structs of nav and actuators, field by field, under their C++ names: Fields<S>::each
-// calls visit(name, member pointer, infinity allowed) per member. A member whose type has a table
-// is a nested section (`<prefix><name>.<field>`); the others are records of their type's size.
+
+// Writes the records `prefix<name>` of the fields of a struct described by for_each_field
+// (core::FieldInfo); a nested struct's are `prefix<name>.<field>`.
 template <typename S>
-struct Fields;
-
-template <>
-struct Fields<nav::AltimeterSettings> {
-  template <typename V>
-  static void each(V&& v) {
-    using S = nav::AltimeterSettings;
-    v("boresight_B", &S::boresight_B, false);
-    v("sigma", &S::sigma, false);
-    v("bias", &S::bias, false);
-    v("min_range", &S::min_range, false);
-    v("max_range", &S::max_range, false);
-    v("period", &S::period, false);
-    v("dropout_probability", &S::dropout_probability, false);
-  }
-};
-
-template <>
-struct Fields<nav::CameraSettings> {
-  template <typename V>
-  static void each(V&& v) {
-    using S = nav::CameraSettings;
-    v("focal_length_px", &S::focal_length_px, false);
-    v("width_px", &S::width_px, false);
-    v("height_px", &S::height_px, false);
-    v("pixel_sigma", &S::pixel_sigma, false);
-    v("pixel_bias", &S::pixel_bias, false);
-    v("C_BC", &S::C_BC, false);
-    v("max_emission_angle", &S::max_emission_angle, false);
-    v("max_incidence_angle", &S::max_incidence_angle, false);
-    v("min_range", &S::min_range, false);
-    v("max_range", &S::max_range, false);
-    v("max_landmarks", &S::max_landmarks, false);
-    v("period", &S::period, false);
-    v("dropout_probability", &S::dropout_probability, false);
-  }
-};
-
-template <>
-struct Fields<nav::ImuSettings> {
-  template <typename V>
-  static void each(V&& v) {
-    using S = nav::ImuSettings;
-    v("period", &S::period, false);
-    v("gyro_noise_density", &S::gyro_noise_density, false);
-    v("gyro_bias_sigma", &S::gyro_bias_sigma, false);
-    v("gyro_bias_random_walk", &S::gyro_bias_random_walk, false);
-    v("accel_noise_density", &S::accel_noise_density, false);
-    v("accel_bias_sigma", &S::accel_bias_sigma, false);
-    v("accel_bias_random_walk", &S::accel_bias_random_walk, false);
-    v("dropout_probability", &S::dropout_probability, false);
-  }
-};
-
-template <>
-struct Fields<nav::StarTrackerSettings> {
-  template <typename V>
-  static void each(V&& v) {
-    using S = nav::StarTrackerSettings;
-    v("period", &S::period, false);
-    v("sigma_B", &S::sigma_B, false);
-    v("misalignment_B", &S::misalignment_B, false);
-    v("dropout_probability", &S::dropout_probability, false);
-  }
-};
-
-template <>
-struct Fields<nav::FilterSettings> {
-  template <typename V>
-  static void each(V&& v) {
-    using S = nav::FilterSettings;
-    v("altimeter", &S::altimeter, false);
-    v("camera", &S::camera, false);
-    v("star_tracker", &S::star_tracker, false);
-    v("imu", &S::imu, false);
-    v("accel_model_noise", &S::accel_model_noise, false);
-    v("altimeter_terrain_sigma", &S::altimeter_terrain_sigma, false);
-    v("innovation_gate", &S::innovation_gate, true);  // inf: no gate
-    v("gravity_relinearization_distance", &S::gravity_relinearization_distance, false);
-    v("gravity_expansion_tolerance", &S::gravity_expansion_tolerance, false);
-    v("max_step", &S::max_step, false);
-    v("covariance_step", &S::covariance_step, false);
-    v("max_substeps", &S::max_substeps, false);
-    v("split", &S::split, false);
-  }
-};
-
-template <>
-struct Fields<nav::NavigationSettings> {
-  template <typename V>
-  static void each(V&& v) {
-    using S = nav::NavigationSettings;
-    v("altimeter", &S::altimeter, false);
-    v("camera", &S::camera, false);
-    v("imu", &S::imu, false);
-    v("star_tracker", &S::star_tracker, false);
-    v("filter", &S::filter, false);
-    v("initial_sigma", &S::initial_sigma, false);
-    v("period_noise_sigma", &S::period_noise_sigma, false);
-    v("max_samples", &S::max_samples, false);
-  }
-};
-
-template <>
-struct Fields<actuators::ThrusterSpec> {
-  template <typename V>
-  static void each(V&& v) {
-    using S = actuators::ThrusterSpec;
-    v("position_B", &S::position_B, false);
-    v("direction_B", &S::direction_B, false);
-    v("max_thrust", &S::max_thrust, false);
-    v("min_on_time", &S::min_on_time, false);
-    v("isp", &S::isp, false);
-    v("scale_error", &S::scale_error, false);
-    v("misalignment_B", &S::misalignment_B, false);
-    v("scale_error_bound", &S::scale_error_bound, false);
-    v("misalignment_bound", &S::misalignment_bound, false);
-    v("fault", &S::fault, false);
-    v("fault_time", &S::fault_time, false);
-  }
-};
-
-template <>
-struct Fields<actuators::ReactionWheelSpec> {
-  template <typename V>
-  static void each(V&& v) {
-    using S = actuators::ReactionWheelSpec;
-    v("axis_B", &S::axis_B, false);
-    v("max_torque", &S::max_torque, false);
-    v("max_momentum", &S::max_momentum, false);
-  }
-};
-
-template <>
-struct Fields<actuators::MomentumDumpSettings> {
-  template <typename V>
-  static void each(V&& v) {
-    using S = actuators::MomentumDumpSettings;
-    v("enabled", &S::enabled, false);
-    v("start_fraction", &S::start_fraction, false);
-    v("stop_fraction", &S::stop_fraction, false);
-    v("time_constant", &S::time_constant, false);
-  }
-};
-
-template <>
-struct Fields<actuators::ModulationSettings> {
-  template <typename V>
-  static void each(V&& v) {
-    using S = actuators::ModulationSettings;
-    v("period", &S::period, false);
-    v("on_time_resolution", &S::on_time_resolution, false);
-    v("rounding", &S::rounding, false);
-    v("opposed_pairs", &S::opposed_pairs, false);
-  }
-};
-
-template <>
-struct Fields<actuators::AllocationSettings> {
-  template <typename V>
-  static void each(V&& v) {
-    using S = actuators::AllocationSettings;
-    v("period", &S::period, false);
-    v("residual_weight", &S::residual_weight, false);
-    v("thrust_weight", &S::thrust_weight, false);
-    v("wheel_weight", &S::wheel_weight, false);
-    v("dump_weight", &S::dump_weight, false);
-    v("max_iterations", &S::max_iterations, false);
-    v("optimality_tolerance", &S::optimality_tolerance, false);
-    v("remainder_tolerance", &S::remainder_tolerance, false);
-    v("cone_test_scale", &S::cone_test_scale, false);
-  }
-};
-
-template <>
-struct Fields<actuators::ActuationSettings> {
-  template <typename V>
-  static void each(V&& v) {
-    using S = actuators::ActuationSettings;
-    v("mass", &S::mass, false);
-    v("modulation", &S::modulation, false);
-    v("allocation", &S::allocation, false);
-  }
-};
-
-template <typename T, typename = void>
-struct has_fields : std::false_type {};
-template <typename T>
-struct has_fields<T, std::void_t<decltype(sizeof(Fields<T>))>> : std::true_type {};
-
-// Reads the records `prefix<name>` of a struct with a Fields table (every one required).
-template <typename S>
-struct TableReader {
-  Reader& r;
-  S& s;
-  std::string prefix;
-
-  template <typename T>
-  void operator()(const char* field, T S::*member, bool allow_infinite) const {
-    const std::string name = prefix + field;
-    T& value = s.*member;
-    if constexpr (has_fields<T>::value) {
-      Fields<T>::each(TableReader<T>{r, value, name + "."});
-    } else if constexpr (std::is_same_v<T, int>) {
-      r.integer(name, value);
-    } else if constexpr (std::is_same_v<T, bool>) {
-      r.flag(name, value);
-    } else if constexpr (std::is_same_v<T, double>) {
-      value = r.numeric(name, 1, 1, true, false, allow_infinite)->values(0, 0);
-    } else if constexpr (std::is_enum_v<T>) {
-      r.option(name, value, true);
-    } else {  // a fixed-size Eigen matrix or vector
-      value = r.matrix(name, T::RowsAtCompileTime, T::ColsAtCompileTime);
-    }
-  }
-};
-
-// Writes the records `prefix<name>` of a struct with a Fields table.
-template <typename S>
-struct TableWriter {
+struct FieldWriter {
   Writer& w;
   const S& s;
   std::string prefix;
 
   template <typename T>
-  void operator()(const char* field, T S::*member, bool /*allow_infinite*/) const {
-    const std::string name = prefix + field;
+  void operator()(const core::FieldInfo& f, T S::*member) const {
+    if (!f.in_file) return;
+    const std::string name = prefix + f.name;
     const T& value = s.*member;
-    if constexpr (has_fields<T>::value) {
-      Fields<T>::each(TableWriter<T>{w, value, name + "."});
+    if constexpr (core::has_fields<T>::value) {
+      T::for_each_field(FieldWriter<T>{w, value, name + "."});
     } else if constexpr (std::is_same_v<T, bool>) {
       w.scalar(name, value ? 1.0 : 0.0);
     } else if constexpr (std::is_arithmetic_v<T>) {
       w.scalar(name, value);
     } else if constexpr (std::is_enum_v<T>) {
       w.text(name, option_name(value));
+    } else if constexpr (std::is_same_v<T, std::string>) {
+      w.text(name, value);
     } else {
       w.matrix(name, value);
     }
@@ -729,7 +506,7 @@ void read_navigation(Reader& r, double dt, NavigationScenario& n) {
   r.flag("navigation.enabled", n.enabled);
   if (!n.enabled) return;
   using Settings = nav::NavigationSettings;
-  Fields<Settings>::each(TableReader<Settings>{r, n.settings, "navigation."});
+  Settings::for_each_field(FieldReader<Settings>{r, n.settings, "navigation."});
   const nav::NavigationSettings& st = n.settings;
   // the sensors, then the filter's model of them and its own fields, then the rest: each message names
   // its record ("camera.period" is navigation.camera.period or navigation.filter.camera.period)
@@ -803,22 +580,23 @@ void read_actuators(Reader& r, double dt, ActuatorScenario& a) {
   for (int i = 0; i < n; ++i) {
     const std::string prefix = "actuators.thrusters[" + std::to_string(i) + "]";
     actuators::ThrusterSpec& t = a.thrusters[static_cast<std::size_t>(i)];
-    Fields<actuators::ThrusterSpec>::each(TableReader<actuators::ThrusterSpec>{r, t, prefix + "."});
+    actuators::ThrusterSpec::for_each_field(FieldReader<actuators::ThrusterSpec>{r, t, prefix + "."});
     r.validated_field(prefix + ".*", "", [&] { t.validate(prefix); });
   }
   a.wheels.assign(static_cast<std::size_t>(m), actuators::ReactionWheelSpec{});
   for (int j = 0; j < m; ++j) {
     const std::string prefix = "actuators.wheels[" + std::to_string(j) + "]";
     actuators::ReactionWheelSpec& w = a.wheels[static_cast<std::size_t>(j)];
-    Fields<actuators::ReactionWheelSpec>::each(TableReader<actuators::ReactionWheelSpec>{r, w, prefix + "."});
+    actuators::ReactionWheelSpec::for_each_field(
+        FieldReader<actuators::ReactionWheelSpec>{r, w, prefix + "."});
     r.validated_field(prefix + ".*", "", [&] { w.validate(prefix); });
   }
   using Dump = actuators::MomentumDumpSettings;
-  Fields<Dump>::each(TableReader<Dump>{r, a.momentum_dump, "actuators.momentum_dump."});
+  Dump::for_each_field(FieldReader<Dump>{r, a.momentum_dump, "actuators.momentum_dump."});
   const Record* h = r.numeric("actuators.wheel_momentum", m, 1, true, m == 0);
   a.wheel_momentum = m == 0 ? Eigen::VectorXd() : Eigen::VectorXd(h->values.col(0));
   using Settings = actuators::ActuationSettings;
-  Fields<Settings>::each(TableReader<Settings>{r, a.settings, "actuators."});
+  Settings::for_each_field(FieldReader<Settings>{r, a.settings, "actuators."});
   r.validated_field("actuators.* (ActuationSettings)", "actuators.", [&] {
     a.momentum_dump.validate();
     a.settings.modulation.validate();
@@ -841,7 +619,7 @@ void write_navigation(Writer& w, const NavigationScenario& n) {
   w.scalar("navigation.enabled", n.enabled ? 1.0 : 0.0);
   if (!n.enabled) return;
   using Settings = nav::NavigationSettings;
-  Fields<Settings>::each(TableWriter<Settings>{w, n.settings, "navigation."});
+  Settings::for_each_field(FieldWriter<Settings>{w, n.settings, "navigation."});
   Eigen::MatrixXd L(static_cast<Eigen::Index>(n.landmarks.size()), kLandmarkColumns);
   for (Eigen::Index i = 0; i < L.rows(); ++i) {
     const nav::Landmark& l = n.landmarks[static_cast<std::size_t>(i)];
@@ -858,46 +636,20 @@ void write_actuators(Writer& w, const ActuatorScenario& a) {
   w.scalar("actuators.thrusters", static_cast<double>(a.thrusters.size()));
   w.scalar("actuators.wheels", static_cast<double>(a.wheels.size()));
   for (std::size_t i = 0; i < a.thrusters.size(); ++i) {
-    Fields<actuators::ThrusterSpec>::each(TableWriter<actuators::ThrusterSpec>{
+    actuators::ThrusterSpec::for_each_field(FieldWriter<actuators::ThrusterSpec>{
         w, a.thrusters[i], "actuators.thrusters[" + std::to_string(i) + "]."});
   }
   for (std::size_t j = 0; j < a.wheels.size(); ++j) {
-    Fields<actuators::ReactionWheelSpec>::each(TableWriter<actuators::ReactionWheelSpec>{
+    actuators::ReactionWheelSpec::for_each_field(FieldWriter<actuators::ReactionWheelSpec>{
         w, a.wheels[j], "actuators.wheels[" + std::to_string(j) + "]."});
   }
   using Dump = actuators::MomentumDumpSettings;
-  Fields<Dump>::each(TableWriter<Dump>{w, a.momentum_dump, "actuators.momentum_dump."});
+  Dump::for_each_field(FieldWriter<Dump>{w, a.momentum_dump, "actuators.momentum_dump."});
   w.matrix("actuators.wheel_momentum",
            a.wheels.empty() ? Eigen::MatrixXd(0, 0) : Eigen::MatrixXd(a.wheel_momentum));
   using Settings = actuators::ActuationSettings;
-  Fields<Settings>::each(TableWriter<Settings>{w, a.settings, "actuators."});
+  Settings::for_each_field(FieldWriter<Settings>{w, a.settings, "actuators."});
 }
-
-// The records `prefix<name>` of the fields of a struct described by for_each_field (core::FieldInfo).
-template <typename S>
-struct FieldWriter {
-  Writer& w;
-  const S& s;
-  std::string prefix;
-
-  template <typename T>
-  void operator()(const core::FieldInfo& f, T S::*member) const {
-    if (!f.in_file) return;
-    const std::string name = prefix + f.name;
-    const T& value = s.*member;
-    if constexpr (std::is_same_v<T, bool>) {
-      w.scalar(name, value ? 1.0 : 0.0);
-    } else if constexpr (std::is_arithmetic_v<T>) {
-      w.scalar(name, value);
-    } else if constexpr (std::is_enum_v<T>) {
-      w.text(name, option_name(value));
-    } else if constexpr (std::is_same_v<T, std::string>) {
-      w.text(name, value);
-    } else {
-      w.matrix(name, value);
-    }
-  }
-};
 
 void write_body(Writer& w, const std::string& prefix, const BodyModel& body) {
   dynamics::ModelParams::for_each_field(FieldWriter<dynamics::ModelParams>{w, body.params, prefix});

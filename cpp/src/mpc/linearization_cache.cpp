@@ -57,7 +57,7 @@ void LinearizationCache::begin_step(int k, int n, bool reuse, int& n_reuse_d, in
   primed_ = false;
 }
 
-void LinearizationCache::prime(const LinearizedModel& model, const Eigen::MatrixXd& z_ref,
+void LinearizationCache::prime(const math::LinearizedModel& model, const Eigen::MatrixXd& z_ref,
                                const Eigen::MatrixXd& u_ref, double t0, double dt) {
   const int N = static_cast<int>(Ad.size()), T = static_cast<int>(u_ref.cols());
   const int n0 = std::min(N, T);  // horizon of the step at k = 0
@@ -82,8 +82,9 @@ void LinearizationCache::prime(const LinearizedModel& model, const Eigen::Matrix
   primed_ = finite;  // otherwise the first step evaluates (and reports) them itself
 }
 
-Status LinearizationCache::evaluate(const LinearizedModel& model, double t0, int k, double dt, int n, int it,
-                                    const Mask& mA, const Mask& mB, const Mask& mG, int& model_evaluations) {
+Status LinearizationCache::evaluate(const math::LinearizedModel& model, double t0, int k, double dt, int n,
+                                    int it, const Mask& mA, const Mask& mB, const Mask& mG,
+                                    int& model_evaluations) {
   const auto t_node = [&](int i) { return t0 + static_cast<double>(k + i) * dt; };
   bool finite = true;
   for (int i = 0; i < n; ++i) {

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "sparse_blocks.hpp"
-#include "tubempc/mpc/linearized_model.hpp"
+#include "tubempc/math/linearized_model.hpp"
 #include "tubempc/mpc/results.hpp"
 
 namespace tubempc::mpc::detail {
@@ -26,7 +26,7 @@ struct LinearizationCache {
   // Model data about the reference for a first step at k = 0 (node i at t0 + i dt), in the form a
   // converged step at k = -1 would leave them, so that the step evaluates only its last node (setup's
   // work instead of the first step's). z_ref, u_ref: the mission reference (T + 1 and T columns).
-  void prime(const LinearizedModel& model, const Eigen::MatrixXd& z_ref, const Eigen::MatrixXd& u_ref,
+  void prime(const math::LinearizedModel& model, const Eigen::MatrixXd& z_ref, const Eigen::MatrixXd& u_ref,
              double t0, double dt);
   // Start of step k with horizon n: with `reuse` after a converged step at k - 1, that step's model
   // data and their points (z_lin_at, v_lin_at) shifted by one node. Sets the nodes to evaluate: the
@@ -38,8 +38,8 @@ struct LinearizationCache {
   // `rediscretize` where the node holds data about (z_lin_at, v_lin_at) for the same time: after the
   // first SCP iteration, and for re-used nodes); NumericalError on non-finite data, ModelStructure on a
   // nonzero outside the masks.
-  Status evaluate(const LinearizedModel& model, double t0, int k, double dt, int n, int it, const Mask& mA,
-                  const Mask& mB, const Mask& mG, int& model_evaluations);
+  Status evaluate(const math::LinearizedModel& model, double t0, int k, double dt, int n, int it,
+                  const Mask& mA, const Mask& mB, const Mask& mG, int& model_evaluations);
   // Whether the model data equal the previous QP's (only for it > 0 with an inactive trust region);
   // otherwise keeps them for the next comparison.
   bool same_as_last(int it, int n, bool trust_region_inactive);

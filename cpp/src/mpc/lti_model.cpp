@@ -3,7 +3,7 @@
 
 #include <stdexcept>
 
-#include "tubempc/dynamics/expm.hpp"
+#include "tubempc/math/expm.hpp"
 
 namespace tubempc::mpc {
 
@@ -15,7 +15,7 @@ LtiModel::LtiModel(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const
     throw std::invalid_argument("LtiModel: G, h sizes mismatch");
   if (A_c.cols() != A_c.rows() || B_c.rows() != A_c.rows() || c_c.size() != A_c.rows())
     throw std::invalid_argument("LtiModel: inconsistent sizes of A_c, B_c, c_c");
-  if (!dynamics::zoh_discretize<Eigen::Dynamic, Eigen::Dynamic>(A_c, B_c, c_c, dt, A_, B_, c_))
+  if (!math::zoh_discretize<Eigen::Dynamic, Eigen::Dynamic>(A_c, B_c, c_c, dt, A_, B_, c_))
     throw std::invalid_argument("LtiModel: A_c, B_c, c_c must be finite");
 }
 

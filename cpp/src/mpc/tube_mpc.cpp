@@ -111,7 +111,7 @@ struct TubeMPC::Impl {
   }
 };
 
-TubeMPC::TubeMPC(std::shared_ptr<const LinearizedModel> model, Settings settings)
+TubeMPC::TubeMPC(std::shared_ptr<const math::LinearizedModel> model, Settings settings)
     : model_(std::move(model)), settings_(std::move(settings)), impl_(std::make_unique<Impl>()) {
   if (!model_) throw std::invalid_argument("TubeMPC: model is null");
   const int nx = model_->nx(), nu = model_->nu();
@@ -211,7 +211,7 @@ QpSolution TubeMPC::qp_solution() const {
 // the step's constants (StepContext). None allocates after setup (tests/cpp/mpc_alloc).
 struct TubeMPC::StepContext {
   const Settings& s;
-  const LinearizedModel& model;
+  const math::LinearizedModel& model;
   const Eigen::Ref<const Eigen::VectorXd>& x_k;
   const Tube& tube;
   Clock::time_point t_start;

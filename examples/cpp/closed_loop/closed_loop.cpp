@@ -55,8 +55,8 @@
 
 // ---- allocation counter ------------------------------------------------------------------------
 // Every malloc-family call and every operator new/delete inside an AllocationWindow is counted
-// (tubempc/core/allocation_counter.hpp: glibc only, left out of sanitizer builds).
-#include "tubempc/core/allocation_counter.hpp"
+// (tests/cpp/support/tubempc_testing/allocation_counter.hpp: glibc only, left out of sanitizer builds).
+#include "tubempc_testing/allocation_counter.hpp"
 
 using namespace tubempc;
 
@@ -64,7 +64,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-using tubempc::core::AllocationWindow;
+using tubempc_testing::AllocationWindow;
 
 struct Stats {
   double median, p99, max;  // s
@@ -382,7 +382,7 @@ void print_flight(const Flight& f) {
                 f.propellant, f.pulses);
     for (const auto& [name, n] : f.actuation_statuses) std::printf(" %s %d", name.c_str(), n);
   }
-  if (tubempc::core::kAllocationCounterEnabled)
+  if (tubempc_testing::kAllocationCounterEnabled)
     std::printf(
         "\n       heap allocations after setup: controller step %ld, navigation %ld, actuation %ld, truth "
         "propagation %ld\n",
@@ -500,7 +500,7 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  if constexpr (tubempc::core::kAllocationCounterEnabled) {
+  if constexpr (tubempc_testing::kAllocationCounterEnabled) {
     // The counter sees allocations (called through volatile pointers, which the compiler cannot elide).
     void* (*volatile allocate)(std::size_t) = std::malloc;
     void (*volatile release)(void*) = std::free;
@@ -536,7 +536,7 @@ int main(int argc, char** argv) {
     std::fprintf(
         f, "{\n  \"scenario\": %s,\n  \"steps\": %d,\n  \"allocations_counted\": %s,\n  \"methods\": {\n",
         json_string(scenario_path).c_str(), scn.mission_steps(),
-        tubempc::core::kAllocationCounterEnabled ? "true" : "false");
+        tubempc_testing::kAllocationCounterEnabled ? "true" : "false");
     for (std::size_t i = 0; i < flights.size(); ++i) write_flight(f, flights[i], i + 1 == flights.size());
     std::fprintf(f, "  }\n}\n");
     std::fclose(f);

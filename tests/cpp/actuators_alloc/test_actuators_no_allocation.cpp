@@ -1,6 +1,6 @@
 // The per-step actuator path (allocation, pulse modulation, wheel update) must not allocate after set-up,
 // including the Saturated/Infeasible cone test, a fault's re-setup and momentum dumping: every malloc-family
-// call and operator new is counted around it (tubempc/core/allocation_counter.hpp, glibc only).
+// call and operator new is counted around it (tests/cpp/support/tubempc_testing/allocation_counter.hpp, glibc only).
 #include <gtest/gtest.h>
 
 #include <random>
@@ -8,13 +8,13 @@
 #include "../actuators/actuator_fixtures.hpp"
 #include "tubempc/actuators/allocation.hpp"
 #include "tubempc/actuators/system.hpp"
-#include "tubempc/core/allocation_counter.hpp"
+#include "tubempc_testing/allocation_counter.hpp"
 
 using namespace tubempc::actuators;
-using tubempc::core::AllocationWindow;
+using tubempc_testing::AllocationWindow;
 
 TEST(ActuatorsAllocation, CounterSeesAllocations) {
-  if (!tubempc::core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  if (!tubempc_testing::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
   AllocationWindow window;
   Eigen::VectorXd v(100);
   v.setZero();
@@ -22,7 +22,7 @@ TEST(ActuatorsAllocation, CounterSeesAllocations) {
 }
 
 TEST(ActuatorsAllocation, StepDoesNotAllocateAfterSetup) {
-  if (!tubempc::core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  if (!tubempc_testing::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
   ThrusterCluster cluster = actuator_test::cube_cluster();
   cluster.set_fault(5, FaultKind::FailedOff, 100.0);
   cluster.set_fault(8, FaultKind::StuckOn, 200.0);
@@ -63,7 +63,7 @@ TEST(ActuatorsAllocation, StepDoesNotAllocateAfterSetup) {
 }
 
 TEST(ActuatorsAllocation, ActuationSystemStepDoesNotAllocate) {
-  if (!tubempc::core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  if (!tubempc_testing::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
   ThrusterCluster cluster = actuator_test::cube_cluster();
   cluster.set_fault(3, FaultKind::FailedOff, 80.0);
   cluster.set_fault(9, FaultKind::StuckOn, 240.0);

@@ -1,19 +1,19 @@
 // Controller::step (identification, tube update and MPC) and Controller::identify must not allocate
 // after setup: every malloc-family call and operator new is counted around them
-// (tubempc/core/allocation_counter.hpp, glibc only).
+// (tests/cpp/support/tubempc_testing/allocation_counter.hpp, glibc only).
 #include <gtest/gtest.h>
 
 #include <random>
 
 #include "../control/control_fixtures.hpp"
 #include "tubempc/control/controller.hpp"
-#include "tubempc/core/allocation_counter.hpp"
+#include "tubempc_testing/allocation_counter.hpp"
 
 using namespace tubempc::control;
-using tubempc::core::AllocationWindow;
+using tubempc_testing::AllocationWindow;
 
 TEST(ControllerAllocation, CounterSeesAllocations) {
-  if (!tubempc::core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  if (!tubempc_testing::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
   void* (*volatile allocate)(std::size_t) = std::malloc;
   void (*volatile release)(void*) = std::free;
   AllocationWindow window;
@@ -24,7 +24,7 @@ TEST(ControllerAllocation, CounterSeesAllocations) {
 }
 
 TEST(ControllerAllocation, StepDoesNotAllocateAfterSetup) {
-  if (!tubempc::core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  if (!tubempc_testing::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
   const double dt = 2.0;
   const int T = 40;
   auto model = control_test::plant_12_6(dt);

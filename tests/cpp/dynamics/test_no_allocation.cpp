@@ -3,14 +3,14 @@
 #include <gtest/gtest.h>
 
 #include "test_fields.hpp"
-#include "tubempc/core/allocation_counter.hpp"
 #include "tubempc/dynamics/linearized_proximity.hpp"
+#include "tubempc_testing/allocation_counter.hpp"
 
 namespace {
 // Allocations (counted from the start of the test binary; the tests compare before and after).
-long allocations() { return tubempc::core::AllocationCounter::count; }
+long allocations() { return tubempc_testing::AllocationCounter::count; }
 struct CountFromStart {
-  CountFromStart() { tubempc::core::AllocationCounter::counting = true; }
+  CountFromStart() { tubempc_testing::AllocationCounter::counting = true; }
 } count_from_start;
 }  // namespace
 
@@ -18,7 +18,7 @@ namespace tubempc::dynamics {
 namespace {
 
 TEST(NoAllocation, DiscretizeConstraintsAndHorizon) {
-  if (!tubempc::core::kAllocationCounterEnabled) GTEST_SKIP() << "counting needs glibc, no sanitizer";
+  if (!tubempc_testing::kAllocationCounterEnabled) GTEST_SKIP() << "counting needs glibc, no sanitizer";
   ModelParams p;
   p.kinematics = Kinematics::Exact;
   const auto model = std::make_shared<const ProximityModel>(testing::cluster(), p);

@@ -5,19 +5,19 @@
 #include <vector>
 
 #include "gravity_test_meshes.hpp"
-#include "tubempc/core/allocation_counter.hpp"
 #include "tubempc/gravity/polyhedron_gravity.hpp"
+#include "tubempc_testing/allocation_counter.hpp"
 
 namespace {
 // Allocations (counted from the start of the test binary; the tests compare before and after).
-long allocations() { return tubempc::core::AllocationCounter::count; }
+long allocations() { return tubempc_testing::AllocationCounter::count; }
 struct CountFromStart {
-  CountFromStart() { tubempc::core::AllocationCounter::counting = true; }
+  CountFromStart() { tubempc_testing::AllocationCounter::counting = true; }
 } count_from_start;
 }  // namespace
 
 TEST(PolyhedronGravity, EvaluateAccelerationAndLaplacianDoNotAllocate) {
-  if (!tubempc::core::kAllocationCounterEnabled) GTEST_SKIP() << "counting needs glibc, no sanitizer";
+  if (!tubempc_testing::kAllocationCounterEnabled) GTEST_SKIP() << "counting needs glibc, no sanitizer";
   const auto m = gravity_test::lumpy_body(16, 24, 250.0);
   const tubempc::gravity::PolyhedronGravity g(tubempc::gravity::Shape(m.v, m.f), 1260.0);
   tubempc::gravity::GravitySample s;

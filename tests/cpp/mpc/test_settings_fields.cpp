@@ -5,6 +5,7 @@
 #include <set>
 #include <string>
 #include <type_traits>
+#include <utility>
 
 #include "tubempc/actuators/system.hpp"
 #include "tubempc/control/controller.hpp"
@@ -107,7 +108,8 @@ TEST(SettingsFields, NamesAreTheFileFormatsAndToStringUsesThem) {
 
 namespace {
 
-// Each field once: distinct names and distinct members; matrices have a size, scalars none.
+// Each field once: distinct names and distinct members; matrices have a size (a fixed-size one its
+// own: a fixed Dim or Nw, 6), scalars and nested structs none; a nested struct's fields are listed once too.
 template <typename S>
 std::set<std::string> expect_fields_listed_once() {
   S s;
@@ -119,8 +121,23 @@ std::set<std::string> expect_fields_listed_once() {
     names.insert(f.name);
     addresses.insert(reinterpret_cast<std::uintptr_t>(&(s.*member)));
     using T = std::decay_t<decltype(s.*member)>;
-    const bool matrix = !std::is_arithmetic_v<T> && !std::is_enum_v<T> && !std::is_same_v<T, std::string>;
-    EXPECT_EQ(matrix, f.rows != core::Dim::One) << f.name;
+    if constexpr (core::has_fields<T>::value) {
+      EXPECT_EQ(f.rows, core::Dim::One) << f.name;
+      EXPECT_EQ(f.cols, core::Dim::One) << f.name;
+      EXPECT_STREQ(f.unit, "") << f.name;
+      expect_fields_listed_once<T>();
+    } else {
+      constexpr bool matrix =
+          !std::is_arithmetic_v<T> && !std::is_enum_v<T> && !std::is_same_v<T, std::string>;
+      EXPECT_EQ(matrix, f.rows != core::Dim::One) << f.name;
+      if constexpr (matrix) {
+        if constexpr (T::SizeAtCompileTime != Eigen::Dynamic) {  // a fixed dimension is its own (Nw is 6)
+          for (const auto& [dim, size] :
+               {std::pair{f.rows, T::RowsAtCompileTime}, {f.cols, T::ColsAtCompileTime}})
+            EXPECT_EQ(core::fixed_size(dim) < 0 ? 6 : core::fixed_size(dim), size) << f.name;
+        }
+      }
+    }
     if (!std::is_same_v<T, double>) EXPECT_FALSE(f.allow_infinite) << f.name;
   });
   EXPECT_EQ(static_cast<int>(names.size()), n);
@@ -137,4 +154,22 @@ TEST(SettingsFields, EveryFieldIsListedOnceWithItsMember) {
   EXPECT_EQ(expect_fields_listed_once<control::IdentifierSettings>().size(), 6u);
   EXPECT_EQ(expect_fields_listed_once<dynamics::ModelParams>().size(), 13u);
   EXPECT_EQ(expect_fields_listed_once<io::BodyModel>().size(), 3u);
+}
+
+// The navigation and actuator settings: every member listed (the count of the struct's data members).
+TEST(SettingsFields, NavigationAndActuatorFieldsAreListedOnce) {
+  EXPECT_EQ(expect_fields_listed_once<nav::AltimeterSettings>().size(), 7u);
+  EXPECT_EQ(expect_fields_listed_once<nav::CameraSettings>().size(), 13u);
+  EXPECT_EQ(expect_fields_listed_once<nav::ImuSettings>().size(), 8u);
+  EXPECT_EQ(expect_fields_listed_once<nav::StarTrackerSettings>().size(), 4u);
+  EXPECT_EQ(expect_fields_listed_once<nav::FilterSettings>().size(), 13u);
+  EXPECT_EQ(expect_fields_listed_once<nav::NavigationSettings>().size(), 8u);
+  EXPECT_EQ(expect_fields_listed_once<actuators::ThrusterSpec>().size(), 11u);
+  EXPECT_EQ(expect_fields_listed_once<actuators::ReactionWheelSpec>().size(), 3u);
+  EXPECT_EQ(expect_fields_listed_once<actuators::MomentumDumpSettings>().size(), 4u);
+  EXPECT_EQ(expect_fields_listed_once<actuators::ModulationSettings>().size(), 4u);
+  EXPECT_EQ(expect_fields_listed_once<actuators::AllocationSettings>().size(), 9u);
+  EXPECT_EQ(expect_fields_listed_once<actuators::ActuationSettings>().size(), 3u);
+  static_assert(core::has_fields<nav::CameraSettings>::value);
+  static_assert(!core::has_fields<Eigen::Vector3d>::value);
 }

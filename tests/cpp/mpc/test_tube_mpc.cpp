@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "tubempc/dynamics/expm.hpp"
+#include "tubempc/math/expm.hpp"
 #include "tubempc/mpc/lti_model.hpp"
 #include "tubempc/mpc/tube_mpc.hpp"
 
@@ -55,7 +55,7 @@ Settings di_settings(int N, double dt) {
 
 // Pendulum theta'' = -w2 (1 + time_variation sin t) sin(theta) + u, discretised about the linearisation
 // point (ZOH).
-class Pendulum final : public LinearizedModel {
+class Pendulum final : public tubempc::math::LinearizedModel {
  public:
   int nx() const override { return 2; }
   int nu() const override { return 1; }
@@ -72,7 +72,7 @@ class Pendulum final : public LinearizedModel {
     Eigen::VectorXd c_c = f - A_c * x - B_c * u;
     Eigen::MatrixXd Ad, Bd;
     Eigen::VectorXd cd;
-    tubempc::dynamics::zoh_discretize<Eigen::Dynamic, Eigen::Dynamic>(A_c, B_c, c_c, dt, Ad, Bd, cd);
+    tubempc::math::zoh_discretize<Eigen::Dynamic, Eigen::Dynamic>(A_c, B_c, c_c, dt, Ad, Bd, cd);
     A = Ad;
     B = Bd;
     c = cd;
@@ -102,9 +102,9 @@ void setup_pendulum(TubeMPC& mpc, const Reference& ref) {
 }
 
 // Wraps a plant; its constraints can be made contradictory or its dynamics non-finite on demand.
-class Sabotaged final : public LinearizedModel {
+class Sabotaged final : public tubempc::math::LinearizedModel {
  public:
-  explicit Sabotaged(std::shared_ptr<LinearizedModel> inner) : inner_(std::move(inner)) {}
+  explicit Sabotaged(std::shared_ptr<tubempc::math::LinearizedModel> inner) : inner_(std::move(inner)) {}
   int nx() const override { return inner_->nx(); }
   int nu() const override { return inner_->nu(); }
   int n_constraints() const override { return inner_->n_constraints(); }
@@ -128,7 +128,7 @@ class Sabotaged final : public LinearizedModel {
   bool nan_dynamics = false;
 
  private:
-  std::shared_ptr<LinearizedModel> inner_;
+  std::shared_ptr<tubempc::math::LinearizedModel> inner_;
 };
 
 }  // namespace
@@ -511,7 +511,7 @@ namespace {
 
 // Wraps a time-varying pendulum (time_variation 0.5) with one state-dependent constraint
 // cos(theta_lin) theta + theta' <= 10; records the output of every model call by node time.
-class RecordingPendulum final : public LinearizedModel {
+class RecordingPendulum final : public tubempc::math::LinearizedModel {
  public:
   RecordingPendulum() { inner_.time_variation = 0.5; }
   int nx() const override { return 2; }

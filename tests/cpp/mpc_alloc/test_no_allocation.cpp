@@ -6,10 +6,10 @@
 //  2. Eigen's runtime guard: the implementation (and with it PIQP's header-only solver) is compiled
 //     into this translation unit with EIGEN_RUNTIME_NO_MALLOC and an eigen_assert that counts, so
 //     every Eigen allocation while the guard is on is recorded even in a release build.
-#include "tubempc/core/allocation_counter.hpp"
+#include "tubempc_testing/allocation_counter.hpp"
 
 namespace alloc_test {
-using tubempc::core::AllocationCounter;
+using tubempc_testing::AllocationCounter;
 long eigen_failures = 0;
 }  // namespace alloc_test
 

@@ -1,24 +1,24 @@
 // The sensors' measurements and the navigation filter's propagation and updates must not allocate
 // after construction: every malloc-family call and operator new is counted around them
-// (tubempc/core/allocation_counter.hpp, glibc only).
+// (tests/cpp/support/tubempc_testing/allocation_counter.hpp, glibc only).
 #include <gtest/gtest.h>
 
 #include "../nav/nav_fixtures.hpp"
-#include "tubempc/core/allocation_counter.hpp"
 #include "tubempc/nav/system.hpp"
+#include "tubempc_testing/allocation_counter.hpp"
 
 using namespace tubempc;
-using tubempc::core::AllocationWindow;
+using tubempc_testing::AllocationWindow;
 
 TEST(NavAllocation, CounterSeesAllocations) {
-  if (!core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  if (!tubempc_testing::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
   AllocationWindow window;
   std::vector<nav::Landmark> v(3);
   EXPECT_GE(window.count(), 1);
 }
 
 TEST(NavAllocation, SensorsAndFilterDoNotAllocateAfterSetup) {
-  if (!core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  if (!tubempc_testing::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
   const nav_test::World w = nav_test::make_world();
   nav_test::RunSettings rs;
   rs.altimeter.dropout_probability = 0.2;
@@ -78,7 +78,7 @@ TEST(NavAllocation, SensorsAndFilterDoNotAllocateAfterSetup) {
 }
 
 TEST(NavAllocation, NavigationSystemStepDoesNotAllocate) {
-  if (!core::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  if (!tubempc_testing::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
   const nav_test::World w = nav_test::make_world();
   nav::NavigationSettings ns;
   ns.imu.period = 0.1;

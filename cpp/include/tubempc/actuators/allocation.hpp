@@ -70,6 +70,12 @@ struct AllocationSettings {
   double remainder_tolerance = 1e-5;    ///< Delivered if ||W_r r||_inf <= this (||W_r w||_inf + 1) (> 0).
   double cone_test_scale = 1e-3;  ///< Scale of the command in the Saturated/Infeasible test (in (0, 1]).
 
+  /// The fields, once (core::FieldInfo per member, in the order scenario files write them): drive the
+  /// scenario file's records and the Python attributes.
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
+
   /// Throws std::invalid_argument naming the field.
   void validate() const;
 };
@@ -162,6 +168,44 @@ class Allocator {
   Eigen::VectorXd wheel_lo_, wheel_hi_, wheel_pref_;
   AllocationResult result_;
 };
+
+}  // namespace tubempc::actuators
+
+namespace tubempc::actuators {
+
+// The table of AllocationSettings::for_each_field.
+template <typename V>
+void AllocationSettings::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  using S = AllocationSettings;
+  constexpr bool req = false, finite = false;
+  constexpr Dim one = Dim::One, six = Dim::Six;
+  visit(FieldInfo{"period", "s", req, finite, one, one,
+                  "control period (s), > 0, for the wheels' momentum limits"},
+        &S::period);
+  visit(FieldInfo{"residual_weight", "1/N, 1/(N m)", req, finite, six, one,
+                  "W_r: 3 force rows (1/N), 3 torque rows (1/(N m)), > 0"},
+        &S::residual_weight);
+  visit(FieldInfo{"thrust_weight", "1/N", req, finite, one, one, "W_x on thrusts (1/N), > 0"},
+        &S::thrust_weight);
+  visit(FieldInfo{"wheel_weight", "1/(N m)", req, finite, one, one, "W_x on wheel torques (1/(N m)), > 0"},
+        &S::wheel_weight);
+  visit(FieldInfo{"dump_weight", "1/(N m)", req, finite, one, one,
+                  "W_x on wheel torques while dumping (1/(N m)), > 0"},
+        &S::dump_weight);
+  visit(FieldInfo{"max_iterations", "", req, finite, one, one, "active-set iteration cap, >= 1"},
+        &S::max_iterations);
+  visit(FieldInfo{"optimality_tolerance", "", req, finite, one, one,
+                  "multiplier sign tolerance, relative to the gradient's scale"},
+        &S::optimality_tolerance);
+  visit(FieldInfo{"remainder_tolerance", "", req, finite, one, one,
+                  "delivered if ||W_r r||_inf <= this (||W_r w||_inf + 1), > 0"},
+        &S::remainder_tolerance);
+  visit(FieldInfo{"cone_test_scale", "", req, finite, one, one,
+                  "scale of the command in the Saturated/Infeasible test, in (0, 1]"},
+        &S::cone_test_scale);
+}
 
 }  // namespace tubempc::actuators
 

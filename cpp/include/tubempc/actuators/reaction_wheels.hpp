@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "tubempc/core/fields.hpp"
+
 namespace tubempc::actuators {
 
 /// Largest number of reaction wheels (the allocation's workspace is fixed-size).
@@ -26,6 +28,12 @@ struct ReactionWheelSpec {
   /// Throws std::invalid_argument naming the field (`what` prefixes it, e.g. "wheels[1]").
   /// @param what name of this wheel in the message.
   void validate(const std::string& what = "wheel") const;
+
+  /// The fields, once (core::FieldInfo per member, in the order scenario files write them): drive the
+  /// scenario file's records and the Python attributes.
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
 };
 
 /// When and how fast the wheels are unloaded; the thrusters produce the external torque that holds the
@@ -39,6 +47,12 @@ struct MomentumDumpSettings {
 
   /// Throws std::invalid_argument naming the field.
   void validate() const;
+
+  /// The fields, once (core::FieldInfo per member, in the order scenario files write them): drive the
+  /// scenario file's records and the Python attributes.
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
 };
 
 /// The wheels and their momentum. Allocation-free after construction.
@@ -99,5 +113,43 @@ class ReactionWheels {
   Eigen::VectorXd u_max_, h_max_, h_, u_applied_;
   bool dumping_ = false;
 };
+
+}  // namespace tubempc::actuators
+
+namespace tubempc::actuators {
+
+// The table of ReactionWheelSpec::for_each_field.
+template <typename V>
+void ReactionWheelSpec::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  using S = ReactionWheelSpec;
+  constexpr bool req = false, finite = false;
+  constexpr Dim one = Dim::One, three = Dim::Three;
+  visit(FieldInfo{"axis_B", "", req, finite, three, one, "unit spin axis in B"}, &S::axis_B);
+  visit(FieldInfo{"max_torque", "N m", req, finite, one, one, "|u_j| limit (N m), > 0"}, &S::max_torque);
+  visit(FieldInfo{"max_momentum", "N m s", req, finite, one, one, "|h_j| limit (N m s), > 0"},
+        &S::max_momentum);
+}
+
+// The table of MomentumDumpSettings::for_each_field.
+template <typename V>
+void MomentumDumpSettings::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  using S = MomentumDumpSettings;
+  constexpr bool req = false, finite = false;
+  constexpr Dim one = Dim::One;
+  visit(FieldInfo{"enabled", "", req, finite, one, one, "whether momentum is dumped at all"}, &S::enabled);
+  visit(FieldInfo{"start_fraction", "", req, finite, one, one,
+                  "dumping starts when some |h_j| > start_fraction h_max_j, in (0, 1]"},
+        &S::start_fraction);
+  visit(FieldInfo{"stop_fraction", "", req, finite, one, one,
+                  "dumping stops when every |h_j| <= stop_fraction h_max_j, in [0, start_fraction)"},
+        &S::stop_fraction);
+  visit(FieldInfo{"time_constant", "s", req, finite, one, one,
+                  "while dumping, u_dump_j = h_j / time_constant, clamped to the torque limit (s), > 0"},
+        &S::time_constant);
+}
 
 }  // namespace tubempc::actuators

@@ -28,6 +28,12 @@ struct ActuationSettings {
   /// Allocation; its period must equal modulation.period.
   AllocationSettings allocation;
 
+  /// The fields, once (core::FieldInfo per member, in the order scenario files write them): drive the
+  /// scenario file's records and the Python attributes.
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
+
   /// Throws std::invalid_argument naming the field.
   void validate() const;
 };
@@ -114,5 +120,26 @@ class ActuationSystem {
   ActuationStep out_;
   ActuationTotals totals_;
 };
+
+}  // namespace tubempc::actuators
+
+namespace tubempc::actuators {
+
+// The table of ActuationSettings::for_each_field.
+template <typename V>
+void ActuationSettings::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  using S = ActuationSettings;
+  constexpr bool req = false, finite = false;
+  constexpr Dim one = Dim::One;
+  visit(FieldInfo{"mass", "kg", req, finite, one, one, "the spacecraft's mass for M32 (kg), > 0"}, &S::mass);
+  visit(FieldInfo{"modulation", "", req, finite, one, one,
+                  "pulse modulation; its period is the control period"},
+        &S::modulation);
+  visit(FieldInfo{"allocation", "", req, finite, one, one,
+                  "allocation; its period must equal modulation.period"},
+        &S::allocation);
+}
 
 }  // namespace tubempc::actuators

@@ -73,6 +73,12 @@ struct ThrusterSpec {
   /// Throws std::invalid_argument naming the field (`what` prefixes it, e.g. "thrusters[3]").
   /// @param what name of this thruster in the message.
   void validate(const std::string& what = "thruster") const;
+
+  /// The fields, once (core::FieldInfo per member, in the order scenario files write them): drive the
+  /// scenario file's records and the Python attributes.
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
 };
 
 /// The thrusters of a spacecraft: geometry, truth errors and faults. A value type; set-up errors throw
@@ -147,6 +153,12 @@ struct ModulationSettings {
 
   /// Throws std::invalid_argument naming the field.
   void validate() const;
+
+  /// The fields, once (core::FieldInfo per member, in the order scenario files write them): drive the
+  /// scenario file's records and the Python attributes.
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
 };
 
 /// One period's firing (buffers sized at construction, overwritten by every call).
@@ -258,3 +270,61 @@ struct EnumNames<actuators::PulseRounding> {
 };
 
 }  // namespace tubempc::core
+
+namespace tubempc::actuators {
+
+// The table of ThrusterSpec::for_each_field.
+template <typename V>
+void ThrusterSpec::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  using S = ThrusterSpec;
+  constexpr bool req = false, finite = false;
+  constexpr Dim one = Dim::One, three = Dim::Three;
+  visit(FieldInfo{"position_B", "m", req, finite, three, one,
+                  "position relative to the centre of mass, in B (m)"},
+        &S::position_B);
+  visit(FieldInfo{"direction_B", "", req, finite, three, one,
+                  "unit direction of the force on the spacecraft (opposite to the exhaust), in B"},
+        &S::direction_B);
+  visit(FieldInfo{"max_thrust", "N", req, finite, one, one, "thrust when on (N), > 0"}, &S::max_thrust);
+  visit(FieldInfo{"min_on_time", "s", req, finite, one, one, "shortest firing (s), >= 0"}, &S::min_on_time);
+  visit(FieldInfo{"isp", "s", req, finite, one, one, "specific impulse (s), > 0"}, &S::isp);
+  visit(FieldInfo{"scale_error", "", req, finite, one, one,
+                  "truth's relative thrust error: it delivers (1 + scale_error) max_thrust"},
+        &S::scale_error);
+  visit(FieldInfo{"misalignment_B", "rad", req, finite, three, one,
+                  "truth's direction error, a rotation vector (rad)"},
+        &S::misalignment_B);
+  visit(FieldInfo{"scale_error_bound", "", req, finite, one, one,
+                  "certified bound on |scale_error| (>= |scale_error|, < 1)"},
+        &S::scale_error_bound);
+  visit(FieldInfo{"misalignment_bound", "rad", req, finite, one, one,
+                  "certified bound on |misalignment_B| (rad, >= |misalignment_B|, < pi)"},
+        &S::misalignment_bound);
+  visit(FieldInfo{"fault", "", req, finite, one, one, "configured fault (None: healthy)"}, &S::fault);
+  visit(FieldInfo{"fault_time", "s", req, finite, one, one, "time from which the fault acts (s)"},
+        &S::fault_time);
+}
+
+// The table of ModulationSettings::for_each_field.
+template <typename V>
+void ModulationSettings::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  using S = ModulationSettings;
+  constexpr bool req = false, finite = false;
+  constexpr Dim one = Dim::One;
+  visit(FieldInfo{"period", "s", req, finite, one, one,
+                  "control period over which a commanded thrust is averaged (s), > 0"},
+        &S::period);
+  visit(FieldInfo{"on_time_resolution", "s", req, finite, one, one,
+                  "on-times are whole multiples of this (s), >= 0; 0: continuous"},
+        &S::on_time_resolution);
+  visit(FieldInfo{"rounding", "", req, finite, one, one, "carry-over or nearest level"}, &S::rounding);
+  visit(FieldInfo{"opposed_pairs", "", req, finite, one, one,
+                  "fire a net on-time below the minimum on-time as the difference of two opposed thrusters"},
+        &S::opposed_pairs);
+}
+
+}  // namespace tubempc::actuators

@@ -23,7 +23,7 @@
 
 #include "tubempc/control/identification.hpp"
 #include "tubempc/control/tube_update.hpp"
-#include "tubempc/mpc/linearized_model.hpp"
+#include "tubempc/math/linearized_model.hpp"
 #include "tubempc/mpc/tube_mpc.hpp"
 
 namespace tubempc::control {
@@ -129,7 +129,7 @@ class Controller {
   /// @param model        the controller's plant (12 states, 6 inputs), non-null.
   /// @param mpc_settings the tube MPC's settings (validated).
   /// @param settings     the controller's settings (validated).
-  Controller(std::shared_ptr<const mpc::LinearizedModel> model, mpc::Settings mpc_settings,
+  Controller(std::shared_ptr<const math::LinearizedModel> model, mpc::Settings mpc_settings,
              ControllerSettings settings);
   ~Controller();
   Controller(const Controller&) = delete;
@@ -191,7 +191,7 @@ class Controller {
   const ControllerSettings& settings() const { return settings_; }
 
  private:
-  std::shared_ptr<const mpc::LinearizedModel> model_;
+  std::shared_ptr<const math::LinearizedModel> model_;
   ControllerSettings settings_;
   std::unique_ptr<mpc::TubeMPC> mpc_;
   std::array<ForgettingFactorIdentifier, 2> identifiers_;

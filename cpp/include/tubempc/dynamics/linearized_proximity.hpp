@@ -1,5 +1,5 @@
 /// @file linearized_proximity.hpp
-/// The 6-DOF proximity model seen by the tube MPC (mpc::LinearizedModel): exact zero-order-hold
+/// The 6-DOF proximity model seen by the tube MPC (math::LinearizedModel): exact zero-order-hold
 /// discretisation node by node or over a whole horizon, and the two linearised cone constraints
 /// (docs/model.md, "Linearisation and discretisation", "Constraints").
 #pragma once
@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "tubempc/dynamics/proximity_model.hpp"
-#include "tubempc/mpc/linearized_model.hpp"
+#include "tubempc/math/linearized_model.hpp"
 
 namespace tubempc::dynamics {
 
@@ -33,10 +33,10 @@ struct DiscreteHorizon {
 /// Default LinearizedProximityModel::position_tolerance (m): see `rediscretize`.
 inline constexpr double kDefaultPositionTolerance = 0.3;
 
-/// mpc::LinearizedModel over a ProximityModel. nx = 12, nu = 6, 2 constraint rows per node:
+/// math::LinearizedModel over a ProximityModel. nx = 12, nu = 6, 2 constraint rows per node:
 /// row 0 the glide slope, row 1 the line of sight, both tangent linearisations g(x_ref) +
 /// grad g(x_ref) (x - x_ref) <= 0 (constraints.hpp).
-class LinearizedProximityModel final : public mpc::LinearizedModel {
+class LinearizedProximityModel final : public math::LinearizedModel {
  public:
   /// @param model              the 6-DOF model, non-null.
   /// @param position_tolerance  largest change of r_L (m, per component) for which `rediscretize`

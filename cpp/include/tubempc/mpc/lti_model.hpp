@@ -5,13 +5,13 @@
 
 #include <Eigen/Dense>
 
-#include "tubempc/mpc/linearized_model.hpp"
+#include "tubempc/math/linearized_model.hpp"
 
 namespace tubempc::mpc {
 
 /// Linear time-invariant plant x+ = A x + B u + c with constant constraints G x <= h: a test and
 /// benchmark plant (and a stand-in for the 6-DOF model). The discretisation is computed once.
-class LtiModel final : public LinearizedModel {
+class LtiModel final : public math::LinearizedModel {
  public:
   /// Continuous-time (A_c, B_c, c_c), discretised with a zero-order hold over dt (s).
   LtiModel(const Eigen::MatrixXd& A_c, const Eigen::MatrixXd& B_c, const Eigen::VectorXd& c_c, double dt,

@@ -57,8 +57,8 @@
 #include <memory>
 #include <string>
 
+#include "tubempc/math/linearized_model.hpp"
 #include "tubempc/mpc/active_set_qp.hpp"
-#include "tubempc/mpc/linearized_model.hpp"
 #include "tubempc/mpc/results.hpp"
 #include "tubempc/mpc/settings.hpp"
 
@@ -93,7 +93,7 @@ Eigen::MatrixXd solve_dare(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, c
 class TubeMPC {
  public:
   /// Keeps a shared reference to the plant; validates the settings against its sizes.
-  TubeMPC(std::shared_ptr<const LinearizedModel> model, Settings settings);
+  TubeMPC(std::shared_ptr<const math::LinearizedModel> model, Settings settings);
   ~TubeMPC();
   TubeMPC(const TubeMPC&) = delete;
   TubeMPC& operator=(const TubeMPC&) = delete;
@@ -141,7 +141,7 @@ class TubeMPC {
   double update_plan(const StepContext& c, const Eigen::VectorXd& x_qp);
   const StepResult& finish(const StepContext& c, bool converged, bool inaccurate);
   const StepResult& fallback(const StepContext& c, Status cause);
-  std::shared_ptr<const LinearizedModel> model_;
+  std::shared_ptr<const math::LinearizedModel> model_;
   Settings settings_;
   std::unique_ptr<Impl> impl_;
 };

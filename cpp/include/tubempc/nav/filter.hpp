@@ -101,6 +101,12 @@ struct FilterSettings {
   bool split{false};
   /// @throws std::invalid_argument naming the first bad field ("filter.<field>", or the sensor's).
   void validate() const;
+
+  /// The fields, once (core::FieldInfo per member, in the order scenario files write them): drive the
+  /// scenario file's records and the Python attributes.
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
 };
 
 /// Outcome of a filter call.
@@ -286,3 +292,47 @@ struct EnumNames<nav::FilterStatus> {
 };
 
 }  // namespace tubempc::core
+
+namespace tubempc::nav {
+
+// The table of FilterSettings::for_each_field.
+template <typename V>
+void FilterSettings::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  using S = FilterSettings;
+  constexpr bool req = false, inf = true, finite = false;
+  constexpr Dim one = Dim::One;
+  visit(FieldInfo{"altimeter", "", req, finite, one, one, "the filter's altimeter model"}, &S::altimeter);
+  visit(FieldInfo{"camera", "", req, finite, one, one, "the filter's camera model"}, &S::camera);
+  visit(FieldInfo{"star_tracker", "", req, finite, one, one, "the filter's star tracker model"},
+        &S::star_tracker);
+  visit(FieldInfo{"imu", "", req, finite, one, one, "the filter's IMU model"}, &S::imu);
+  visit(FieldInfo{"accel_model_noise", "m/s^2/sqrt(Hz)", req, finite, one, one,
+                  "extra acceleration noise density for unmodelled forces (m/s^2/sqrt(Hz)), >= 0"},
+        &S::accel_model_noise);
+  visit(FieldInfo{"altimeter_terrain_sigma", "m", req, finite, one, one,
+                  "range noise added in quadrature to the altimeter's (m), >= 0"},
+        &S::altimeter_terrain_sigma);
+  visit(FieldInfo{"innovation_gate", "", req, inf, one, one,
+                  "largest accepted NIS of one measurement, > 0 (inf: no gate)"},
+        &S::innovation_gate);
+  visit(FieldInfo{"gravity_relinearization_distance", "m", req, finite, one, one,
+                  "shortest move in A (m) before the gravity is evaluated again, >= 0"},
+        &S::gravity_relinearization_distance);
+  visit(FieldInfo{"gravity_expansion_tolerance", "m/s^2", req, finite, one, one,
+                  "error tolerance of the gravity's first-order expansion (m/s^2), >= 0; 0: fixed distance"},
+        &S::gravity_expansion_tolerance);
+  visit(FieldInfo{"max_step", "s", req, finite, one, one, "longest propagation sub-step (s), > 0"},
+        &S::max_step);
+  visit(FieldInfo{"covariance_step", "s", req, finite, one, one,
+                  "longest span over which the covariance waits for its propagation (s), >= 0"},
+        &S::covariance_step);
+  visit(FieldInfo{"max_substeps", "", req, finite, one, one, "most sub-steps of one propagate call, >= 1"},
+        &S::max_substeps);
+  visit(FieldInfo{"split", "", req, finite, one, one,
+                  "emulate two separate filters (translation, attitude) instead of the joint one"},
+        &S::split);
+}
+
+}  // namespace tubempc::nav

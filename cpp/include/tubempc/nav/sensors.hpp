@@ -57,6 +57,12 @@ struct AltimeterSettings {
   double dropout_probability{0.0};             ///< probability that a sample is lost, in [0, 1]
   /// @throws std::invalid_argument naming the first bad field ("altimeter.<field>").
   void validate() const;
+
+  /// The fields, once (core::FieldInfo per member, in the order scenario files write them): drive the
+  /// scenario file's records and the Python attributes.
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
 };
 
 /// One altimeter sample.
@@ -137,6 +143,12 @@ struct CameraSettings {
   double dropout_probability{0.0};  ///< probability that a frame is lost, in [0, 1]
   /// @throws std::invalid_argument naming the first bad field ("camera.<field>").
   void validate() const;
+
+  /// The fields, once (core::FieldInfo per member, in the order scenario files write them): drive the
+  /// scenario file's records and the Python attributes.
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
   /// Focal length that gives a horizontal field of view.
   /// @param fov_rad  full horizontal field of view (rad), in (0, pi).
   /// @param width_px image width (pixels).
@@ -218,6 +230,12 @@ struct ImuSettings {
   double dropout_probability{0.0};      ///< probability that a sample is lost, in [0, 1]
   /// @throws std::invalid_argument naming the first bad field ("imu.<field>").
   void validate() const;
+
+  /// The fields, once (core::FieldInfo per member, in the order scenario files write them): drive the
+  /// scenario file's records and the Python attributes.
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
 };
 
 /// One IMU sample.
@@ -265,6 +283,12 @@ struct StarTrackerSettings {
   double dropout_probability{0.0};                          ///< probability that a sample is lost, in [0, 1]
   /// @throws std::invalid_argument naming the first bad field ("star_tracker.<field>").
   void validate() const;
+
+  /// The fields, once (core::FieldInfo per member, in the order scenario files write them): drive the
+  /// scenario file's records and the Python attributes.
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
 };
 
 /// One star tracker sample.
@@ -313,3 +337,121 @@ struct EnumNames<nav::SensorStatus> {
 };
 
 }  // namespace tubempc::core
+
+namespace tubempc::nav {
+
+// The table of AltimeterSettings::for_each_field.
+template <typename V>
+void AltimeterSettings::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  using S = AltimeterSettings;
+  constexpr bool req = false, finite = false;
+  constexpr Dim one = Dim::One, three = Dim::Three;
+  visit(FieldInfo{"boresight_B", "", req, finite, three, one,
+                  "beam direction in B (normalised on use), non-zero"},
+        &S::boresight_B);
+  visit(FieldInfo{"sigma", "m", req, finite, one, one, "range noise standard deviation (m), >= 0"},
+        &S::sigma);
+  visit(FieldInfo{"bias", "m", req, finite, one, one, "constant range bias (m; not estimated)"}, &S::bias);
+  visit(FieldInfo{"min_range", "m", req, finite, one, one, "shortest range measured (m), >= 0"},
+        &S::min_range);
+  visit(FieldInfo{"max_range", "m", req, finite, one, one, "longest range measured (m), > min_range"},
+        &S::max_range);
+  visit(FieldInfo{"period", "s", req, finite, one, one, "sample period (s), > 0"}, &S::period);
+  visit(FieldInfo{"dropout_probability", "", req, finite, one, one,
+                  "probability that a sample is lost, in [0, 1]"},
+        &S::dropout_probability);
+}
+
+// The table of CameraSettings::for_each_field.
+template <typename V>
+void CameraSettings::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  using S = CameraSettings;
+  constexpr bool req = false, finite = false;
+  constexpr Dim one = Dim::One, two = Dim::Two, three = Dim::Three;
+  visit(FieldInfo{"focal_length_px", "px", req, finite, one, one, "focal length (pixels), > 0"},
+        &S::focal_length_px);
+  visit(FieldInfo{"width_px", "px", req, finite, one, one, "image width (pixels, along x_C), >= 1"},
+        &S::width_px);
+  visit(FieldInfo{"height_px", "px", req, finite, one, one, "image height (pixels, along y_C), >= 1"},
+        &S::height_px);
+  visit(
+      FieldInfo{"pixel_sigma", "px", req, finite, one, one, "pixel noise standard deviation (pixels), >= 0"},
+      &S::pixel_sigma);
+  visit(FieldInfo{"pixel_bias", "px", req, finite, two, one, "constant pixel bias (pixels; not estimated)"},
+        &S::pixel_bias);
+  visit(FieldInfo{"C_BC", "", req, finite, three, three, "camera axes in B (v_B = C_BC v_C), a rotation"},
+        &S::C_BC);
+  visit(FieldInfo{"max_emission_angle", "rad", req, finite, one, one,
+                  "largest angle between normal and view (rad), in (0, pi/2]"},
+        &S::max_emission_angle);
+  visit(FieldInfo{"max_incidence_angle", "rad", req, finite, one, one,
+                  "largest Sun incidence angle (rad), in (0, pi]; pi: no illumination test"},
+        &S::max_incidence_angle);
+  visit(FieldInfo{"min_range", "m", req, finite, one, one, "nearest landmark observed (m), >= 0"},
+        &S::min_range);
+  visit(FieldInfo{"max_range", "m", req, finite, one, one, "farthest landmark observed (m), > min_range"},
+        &S::max_range);
+  visit(FieldInfo{"max_landmarks", "", req, finite, one, one, "most landmarks per frame, in [1, 64]"},
+        &S::max_landmarks);
+  visit(FieldInfo{"period", "s", req, finite, one, one, "frame period (s), > 0"}, &S::period);
+  visit(FieldInfo{"dropout_probability", "", req, finite, one, one,
+                  "probability that a frame is lost, in [0, 1]"},
+        &S::dropout_probability);
+}
+
+// The table of ImuSettings::for_each_field.
+template <typename V>
+void ImuSettings::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  using S = ImuSettings;
+  constexpr bool req = false, finite = false;
+  constexpr Dim one = Dim::One;
+  visit(FieldInfo{"period", "s", req, finite, one, one, "sample period (s), > 0"}, &S::period);
+  visit(FieldInfo{"gyro_noise_density", "rad/s/sqrt(Hz)", req, finite, one, one,
+                  "gyro angle random walk (rad/s/sqrt(Hz)), >= 0"},
+        &S::gyro_noise_density);
+  visit(FieldInfo{"gyro_bias_sigma", "rad/s", req, finite, one, one,
+                  "standard deviation of the initial gyro bias (rad/s), >= 0"},
+        &S::gyro_bias_sigma);
+  visit(FieldInfo{"gyro_bias_random_walk", "rad/s^2/sqrt(Hz)", req, finite, one, one,
+                  "gyro bias random walk (rad/s^2/sqrt(Hz)), >= 0"},
+        &S::gyro_bias_random_walk);
+  visit(FieldInfo{"accel_noise_density", "m/s^2/sqrt(Hz)", req, finite, one, one,
+                  "accelerometer velocity random walk (m/s^2/sqrt(Hz)), >= 0"},
+        &S::accel_noise_density);
+  visit(FieldInfo{"accel_bias_sigma", "m/s^2", req, finite, one, one,
+                  "standard deviation of the initial accelerometer bias (m/s^2), >= 0"},
+        &S::accel_bias_sigma);
+  visit(FieldInfo{"accel_bias_random_walk", "m/s^3/sqrt(Hz)", req, finite, one, one,
+                  "accelerometer bias random walk (m/s^3/sqrt(Hz)), >= 0"},
+        &S::accel_bias_random_walk);
+  visit(FieldInfo{"dropout_probability", "", req, finite, one, one,
+                  "probability that a sample is lost, in [0, 1]"},
+        &S::dropout_probability);
+}
+
+// The table of StarTrackerSettings::for_each_field.
+template <typename V>
+void StarTrackerSettings::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  using S = StarTrackerSettings;
+  constexpr bool req = false, finite = false;
+  constexpr Dim one = Dim::One, three = Dim::Three;
+  visit(FieldInfo{"period", "s", req, finite, one, one, "sample period (s), > 0"}, &S::period);
+  visit(FieldInfo{"sigma_B", "rad", req, finite, three, one, "attitude noise per B axis (rad), >= 0"},
+        &S::sigma_B);
+  visit(FieldInfo{"misalignment_B", "rad", req, finite, three, one,
+                  "constant rotation error, a rotation vector (rad; not estimated)"},
+        &S::misalignment_B);
+  visit(FieldInfo{"dropout_probability", "", req, finite, one, one,
+                  "probability that a sample is lost, in [0, 1]"},
+        &S::dropout_probability);
+}
+
+}  // namespace tubempc::nav

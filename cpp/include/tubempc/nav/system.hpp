@@ -59,6 +59,12 @@ struct NavigationSettings {
   /// @throws std::invalid_argument naming the first bad field ("navigation.<field>", or the sensor's):
   ///         also when a sensor's period is not an integer multiple of the IMU's.
   void validate() const;
+
+  /// The fields, once (core::FieldInfo per member, in the order scenario files write them): drive the
+  /// scenario file's records and the Python attributes.
+  /// @param visit a callable taking (const core::FieldInfo&, member pointer).
+  template <typename V>
+  static void for_each_field(V&& visit);
 };
 
 /// Outcome of a navigation call.
@@ -214,3 +220,31 @@ struct EnumNames<nav::NavigationStatus> {
 };
 
 }  // namespace tubempc::core
+
+namespace tubempc::nav {
+
+// The table of NavigationSettings::for_each_field.
+template <typename V>
+void NavigationSettings::for_each_field(V&& visit) {
+  using core::Dim;
+  using core::FieldInfo;
+  using S = NavigationSettings;
+  constexpr bool req = false, finite = false;
+  constexpr Dim one = Dim::One, nine = Dim::Nine;
+  visit(FieldInfo{"altimeter", "", req, finite, one, one, "the true altimeter"}, &S::altimeter);
+  visit(FieldInfo{"camera", "", req, finite, one, one, "the true camera"}, &S::camera);
+  visit(FieldInfo{"imu", "", req, finite, one, one, "the true IMU; its period is the base rate h"}, &S::imu);
+  visit(FieldInfo{"star_tracker", "", req, finite, one, one, "the true star tracker"}, &S::star_tracker);
+  visit(FieldInfo{"filter", "", req, finite, one, one, "the filter, with its model of the sensors"},
+        &S::filter);
+  visit(FieldInfo{"initial_sigma", "m, m/s, rad", req, finite, nine, one,
+                  "initial estimation error sigmas [r_L (m), v_L (m/s), theta (rad)], each >= 0"},
+        &S::initial_sigma);
+  visit(FieldInfo{"period_noise_sigma", "m, m/s, rad", req, finite, nine, one,
+                  "per-period disturbance sigmas [r_L (m), v_L (m/s), theta (rad)] added to P, each >= 0"},
+        &S::period_noise_sigma);
+  visit(FieldInfo{"max_samples", "", req, finite, one, one, "most samples of one period, >= 1"},
+        &S::max_samples);
+}
+
+}  // namespace tubempc::nav

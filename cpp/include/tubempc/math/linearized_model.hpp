@@ -1,12 +1,14 @@
 /// @file linearized_model.hpp
 /// What the tube MPC needs from a plant model: node-by-node exact zero-order-hold discretisation of
 /// the affine model about a linearisation point, and linearised state constraints. The 6-DOF
-/// proximity model implements it (dynamics area); tests implement it for simple plants.
+/// proximity model implements it (dynamics::LinearizedProximityModel), as do mpc::LtiModel and the
+/// tests' simple plants; the tube MPC (mpc::TubeMPC) and the controller use it. It lives in math so
+/// that dynamics, below mpc, can implement it.
 #pragma once
 
 #include <Eigen/Dense>
 
-namespace tubempc::mpc {
+namespace tubempc::math {
 
 /// Affine discrete-time model x+ = A x + B u + c and state constraints G x <= h, both about a
 /// linearisation point. Implementations must not allocate in `discretize` or `constraints`.
@@ -66,4 +68,4 @@ class LinearizedModel {
                            Eigen::Ref<Eigen::MatrixXd> G, Eigen::Ref<Eigen::VectorXd> h) const = 0;
 };
 
-}  // namespace tubempc::mpc
+}  // namespace tubempc::math

@@ -4,10 +4,10 @@
 #include <cmath>
 #include <random>
 
-#include "tubempc/dynamics/expm.hpp"
+#include "tubempc/math/expm.hpp"
 #include "tubempc/math/so3.hpp"
 
-namespace tubempc::dynamics {
+namespace tubempc::math {
 namespace {
 
 TEST(Expm, RotationGeneratorGivesRodriguesAtEveryPadeDegree) {
@@ -77,4 +77,4 @@ TEST(ZohDiscretize, ScalarAffineSystemClosedForm) {
 }
 
 }  // namespace
-}  // namespace tubempc::dynamics
+}  // namespace tubempc::math

@@ -1,5 +1,8 @@
 /// @file allocation_counter.hpp
 /// Counts heap allocations, for checks that a code path allocates nothing (the MPC step after setup).
+/// Test support, not part of tubempc's installed headers: the allocation tests (tests/cpp/*_alloc,
+/// tests/cpp/*/test_*no_allocation.cpp) and examples/cpp/closed_loop include it from the source tree
+/// (include directory tests/cpp/support).
 ///
 /// Including this header defines the program's global malloc family (malloc, calloc, realloc, free,
 /// memalign, aligned_alloc, posix_memalign) and every global operator new and delete, forwarding to
@@ -22,7 +25,7 @@
 #endif
 #endif
 
-namespace tubempc::core {
+namespace tubempc_testing {
 
 #if defined(__GLIBC__) && !defined(TUBEMPC_ALLOCATION_COUNTER_SANITIZED)
 /// Whether this build counts allocations (glibc, no AddressSanitizer).
@@ -56,7 +59,7 @@ class AllocationWindow {
   long count() const { return AllocationCounter::count; }
 };
 
-}  // namespace tubempc::core
+}  // namespace tubempc_testing
 
 #if defined(__GLIBC__) && !defined(TUBEMPC_ALLOCATION_COUNTER_SANITIZED)
 extern "C" {
@@ -67,55 +70,55 @@ void __libc_free(void*);
 void* __libc_memalign(std::size_t, std::size_t);
 
 void* malloc(std::size_t n) noexcept {
-  tubempc::core::AllocationCounter::hit();
+  tubempc_testing::AllocationCounter::hit();
   return __libc_malloc(n);
 }
 void* calloc(std::size_t n, std::size_t size) noexcept {
-  tubempc::core::AllocationCounter::hit();
+  tubempc_testing::AllocationCounter::hit();
   return __libc_calloc(n, size);
 }
 void* realloc(void* p, std::size_t n) noexcept {
-  tubempc::core::AllocationCounter::hit();
+  tubempc_testing::AllocationCounter::hit();
   return __libc_realloc(p, n);
 }
 void free(void* p) noexcept {
-  if (p != nullptr) tubempc::core::AllocationCounter::hit();
+  if (p != nullptr) tubempc_testing::AllocationCounter::hit();
   __libc_free(p);
 }
 void* memalign(std::size_t alignment, std::size_t n) noexcept {
-  tubempc::core::AllocationCounter::hit();
+  tubempc_testing::AllocationCounter::hit();
   return __libc_memalign(alignment, n);
 }
 void* aligned_alloc(std::size_t alignment, std::size_t n) noexcept {
-  tubempc::core::AllocationCounter::hit();
+  tubempc_testing::AllocationCounter::hit();
   return __libc_memalign(alignment, n);
 }
 int posix_memalign(void** out, std::size_t alignment, std::size_t n) noexcept {
-  tubempc::core::AllocationCounter::hit();
+  tubempc_testing::AllocationCounter::hit();
   *out = __libc_memalign(alignment, n);
   return *out != nullptr ? 0 : 12;  // ENOMEM
 }
 }
 
 void* operator new(std::size_t n) {
-  tubempc::core::AllocationCounter::hit();
+  tubempc_testing::AllocationCounter::hit();
   if (void* p = __libc_malloc(n == 0 ? 1 : n)) return p;
   throw std::bad_alloc();
 }
 void* operator new[](std::size_t n) { return operator new(n); }
 void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  tubempc::core::AllocationCounter::hit();
+  tubempc_testing::AllocationCounter::hit();
   return __libc_malloc(n == 0 ? 1 : n);
 }
 void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
 void* operator new(std::size_t n, std::align_val_t a) {
-  tubempc::core::AllocationCounter::hit();
+  tubempc_testing::AllocationCounter::hit();
   if (void* p = __libc_memalign(static_cast<std::size_t>(a), n == 0 ? 1 : n)) return p;
   throw std::bad_alloc();
 }
 void* operator new[](std::size_t n, std::align_val_t a) { return operator new(n, a); }
 void operator delete(void* p) noexcept {
-  if (p != nullptr) tubempc::core::AllocationCounter::hit();
+  if (p != nullptr) tubempc_testing::AllocationCounter::hit();
   __libc_free(p);
 }
 void operator delete[](void* p) noexcept { operator delete(p); }

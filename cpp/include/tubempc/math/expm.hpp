@@ -3,13 +3,14 @@
 /// zero-order-hold discretisation of an affine system through one exponential of the augmented
 /// matrix (docs/model.md, "Linearisation and discretisation"). With fixed sizes neither allocates,
 /// so both run inside the MPC's allocation-free step; Eigen::Dynamic sizes (which allocate) serve
-/// models of any size set up once (mpc::LtiModel).
+/// models of any size set up once (mpc::LtiModel). Pure math: used by dynamics (the proximity model's
+/// discretisation) and mpc.
 #pragma once
 
 #include <Eigen/Dense>
 #include <cmath>
 
-namespace tubempc::dynamics {
+namespace tubempc::math {
 
 /// e^M for a fixed-size square M by the scaling-and-squaring method with diagonal Pade
 /// approximants of degree 3, 5, 7, 9 or 13 (N. J. Higham, "The scaling and squaring method for the
@@ -103,4 +104,4 @@ bool zoh_discretize(const Eigen::Matrix<double, NX, NX>& A, const Eigen::Matrix<
   return true;
 }
 
-}  // namespace tubempc::dynamics
+}  // namespace tubempc::math
