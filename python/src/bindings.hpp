@@ -65,7 +65,9 @@ pybind11::enum_<E> bind_named_enum(pybind11::module_& m, const char* name, const
 
 // Binds the fields of a settings struct listed by its `S::for_each_field` as read-write attributes
 // with the table's docstrings (a name that is a Python keyword gets a trailing underscore: `lambda_`),
-// and `field_names()` (the attributes' names, in the table's order).
+// and `field_names()` (the attributes' names, in the table's order). A nested settings struct's
+// attribute is its class (bound with its own bind_fields), returned by reference: assigning to its
+// fields (`settings.camera.pixel_sigma = 0.3`) changes the outer struct.
 template <typename S>
 void bind_fields(pybind11::class_<S>& cls) {
   const pybind11::object is_keyword = pybind11::module_::import("keyword").attr("iskeyword");

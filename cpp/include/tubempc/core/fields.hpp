@@ -122,8 +122,8 @@ constexpr int fixed_size(Dim d) {
 }
 
 /// Description of one field of a settings struct. A nested settings struct (a member whose type has a
-/// for_each_field) is a field too: its own fields are the records `<prefix><name>.<field>`, its
-/// FieldInfo has no unit, rows and cols One, and says whether its records are optional.
+/// for_each_field) is a field too: its own fields are the records `<prefix><name>.<field>` (each
+/// optional or not by its own FieldInfo); its FieldInfo has no unit, rows and cols One, and a doc.
 struct FieldInfo {
   const char* name;  ///< member and record name (scenario files prefix it, e.g. "mpc.")
   const char* unit;  ///< SI unit ("" if dimensionless, an integer, a flag, an option or a nested struct)
