@@ -21,10 +21,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from tubempc.analysis import montecarlo
-from tubempc.config import load_config
 from tubempc.analysis.report import write_report
-from tubempc.results import load_record
 from tubempc.analysis.runner import run_methods
+from tubempc.config import load_config
+from tubempc.results import load_record
 
 work = Path(tempfile.mkdtemp(prefix="tubempc_tutorial1_"))
 cfg = load_config()

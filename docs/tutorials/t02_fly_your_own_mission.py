@@ -20,9 +20,9 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from tubempc.scenario.bodies import ellipsoid_shape
-from tubempc.config import load_config
 from tubempc.analysis.runner import run_methods
+from tubempc.config import load_config
+from tubempc.scenario.bodies import ellipsoid_shape
 from tubempc.scenario.shapes import save_shape
 
 work = Path(tempfile.mkdtemp(prefix="tubempc_tutorial2_"))
@@ -101,8 +101,8 @@ fig.tight_layout()
 # Measured against the site itself, not against the reference's end (which a wrong site would share):
 # the surface point at 20 deg N, 40 deg E of the body, found again here by ray casting on the mesh, and
 # the final position turned into the body frame A at t_f.
-from tubempc.scenario.sites import site_from_lat_lon  # noqa: E402
 from tubempc.scenario import build_scenario  # noqa: E402
+from tubempc.scenario.sites import site_from_lat_lon  # noqa: E402
 
 scn = build_scenario(load_config(work / "run" / "config.toml"), cache_dir=work / "cache")
 site = site_from_lat_lon(scn.shape, np.radians(20.0), np.radians(40.0), 0.0)

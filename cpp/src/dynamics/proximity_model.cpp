@@ -88,9 +88,7 @@ ProximityModel::ProximityModel(std::shared_ptr<const gravity::GravityModel> grav
   J_inv_ = params_.inertia_B.inverse();
 }
 
-double ProximityModel::spin_angle(double t) const {
-  return params_.spin_angle0 + rotation_rate_AL() * t;
-}
+double ProximityModel::spin_angle(double t) const { return params_.spin_angle0 + rotation_rate_AL() * t; }
 
 Eigen::Matrix3d ProximityModel::C_AL(double t) const {
   const double th = spin_angle(t);
