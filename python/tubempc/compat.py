@@ -3,8 +3,8 @@
 Until 0.1 the package was one flat folder; it is now in rooms that follow the data (docs/layout.md).
 A module that moved (``tubempc.closed_loop`` is now ``tubempc.sim.closed_loop``) is still importable
 under its old name, which gives the new module itself; a name that moved out of a module
-(``tubempc.scenario.tube_designers``) is still an attribute there. Each use warns once per name, naming
-the new path. Four old modules became the packages of their rooms (``tubempc.config``,
+(``tubempc.scenario.tube_designers``, :data:`MOVED_NAMES`) is still an attribute there. Each use warns,
+naming the new path. Four old modules became the packages of their rooms (``tubempc.config``,
 ``tubempc.scenario``, ``tubempc.results``, ``tubempc.analysis``): their names stay where they were, as
 the package's attributes, without a warning (:func:`package_attribute`).
 """
@@ -55,6 +55,11 @@ MOVED_MODULES: dict[str, str] = {
 #: (module, name) -> the module that now defines the name.
 MOVED_NAMES: dict[tuple[str, str], str] = {
     ("tubempc", "ForgettingFactorIdentifier"): "tubempc.testing.identification",
+    ("tubempc.scenario", "tube_designers"): "tubempc.design.library",
+    ("tubempc.scenario", "memory_weight"): "tubempc.design.library",
+    ("tubempc.scenario", "initial_tube"): "tubempc.design.library",
+    ("tubempc.scenario", "identifiers"): "tubempc.testing.identification",
+    ("tubempc.scenario", "LoopSetup"): "tubempc.sim.setup",
 }
 
 
@@ -65,17 +70,23 @@ def _warn(old: str, new: str) -> None:
 
 
 class _Alias(importlib.abc.Loader):
-    """Loads an old module name as the module at its new place."""
+    """Loads an old module name as the module at its new place. The import system sets the module's
+    ``__spec__`` to the old name's between the two calls; :meth:`exec_module` gives it its own back (its
+    relative imports, pickling and ``python -m`` read it)."""
 
     def __init__(self, new: str) -> None:
         self.new = new
+        self.spec: importlib.machinery.ModuleSpec | None = None
 
     def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType:
         _warn(spec.name, self.new)
-        return importlib.import_module(self.new)
+        module = importlib.import_module(self.new)
+        self.spec = module.__spec__
+        return module
 
     def exec_module(self, module: ModuleType) -> None:
-        """Nothing to run: the new module is already imported."""
+        """Nothing to run (the new module is already imported): restores its own spec."""
+        module.__spec__ = self.spec
 
 
 class _MovedModules(importlib.abc.MetaPathFinder):

@@ -182,6 +182,7 @@ def test_the_old_import_paths_work_with_a_warning() -> None:
             warnings.simplefilter("always")
             module = importlib.import_module(old)
         assert module is importlib.import_module(new), old
+        assert module.__spec__ is not None and module.__spec__.name == new, old  # its own spec, not the alias's
         assert any(issubclass(w.category, DeprecationWarning) and new in str(w.message) for w in caught), old
     for (module_name, name), new in compat.MOVED_NAMES.items():
         with warnings.catch_warnings(record=True) as caught:

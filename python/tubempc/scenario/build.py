@@ -1,11 +1,9 @@
 """The scenario: everything a closed-loop run needs that follows from the configuration alone.
 
-Data flow of the package: configuration (:mod:`tubempc.config`) -> scenario (this module: models,
-shape, boundary states, reference, MPC settings, tube designers, identifiers, TBMPC's initial tube)
--> closed loop (:mod:`tubempc.sim.closed_loop`) -> run record (:mod:`tubempc.results`) -> metrics
-(:mod:`tubempc.analysis.metrics`) -> report (:mod:`tubempc.analysis.report`). Every mapping from a configuration
-option to a C++ setting lives here, once; a scenario hands the closed loop what it takes from the
-configuration once (:attr:`Scenario.loop`).
+The scenario room's entry (docs/layout.md): the models, shape, site, boundary states, reference, input
+bounds, MPC and propagator settings of a configuration, checked before anything flies. Every mapping
+from a configuration option to a C++ setting of the models and the MPC lives here, once; the tube
+designs are :mod:`tubempc.design`'s and what a run takes from its scenario :mod:`tubempc.sim.setup`'s.
 """
 
 from __future__ import annotations

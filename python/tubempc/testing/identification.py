@@ -82,7 +82,7 @@ class ForgettingFactorIdentifier:
     conservative initial tube that "gradually shrinks", which the literal form cannot
     produce. prior_weight = zeta(0) > 0 keeps the prior as a pseudo-measurement of that weight
     (this class's default 1: like one past sample); prior_weight = 0 is the paper's literal
-    recursion. The scenarios use zeta(0) = prior_memory * q / (1 - q) (scenario.identifiers):
+    recursion. The scenarios use zeta(0) = prior_memory * q / (1 - q) (:func:`identifiers`):
     with prior_memory = 1 zeta stays constant and the prior decays by q per step.
 
     eig_floor: the returned S^ has its eigenvalues floored so that, in the coordinates scaled
