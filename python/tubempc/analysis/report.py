@@ -192,6 +192,13 @@ def actuation_comparison(
     return out
 
 
+def _plant_text(plant: str | None) -> str:
+    """Who propagated the truth (``simulation.plant``)."""
+    if plant == "basilisk":
+        return "truth propagated by Basilisk (simulation.plant = basilisk)"
+    return "truth propagated by the project's plant"
+
+
 def _scenario_text(cfg: Config | None, paper: bool) -> str:
     if cfg is None:
         return "scenario: unknown (no readable config.toml beside the results)"
@@ -247,7 +254,7 @@ def write_report(root: Path) -> tuple[Path, Path]:
         ref = run.reference
         section(
             "Closed loop (tubempc run)",
-            f"seed {run.seed}, shape {run.shape}, config {run.config_hash[:12]}; "
+            f"seed {run.seed}, shape {run.shape}, config {run.config_hash[:12]}, {_plant_text(run.plant)}; "
             f"{_scenario_text(cfg, paper)}; reference {'converged' if ref.converged else 'NOT converged'} "
             f"in {ref.iterations} SCP iterations"
             + (
@@ -386,7 +393,8 @@ def write_report(root: Path) -> tuple[Path, Path]:
         any_paper |= paper
         section(
             "Monte Carlo (paper Table 4)",
-            f"{mc.runs} runs, master seed {mc.master_seed}, wall time {mc.wall_time_s:.0f} s; {_scenario_text(cfg, paper)}",
+            f"{mc.runs} runs, master seed {mc.master_seed}, wall time {mc.wall_time_s:.0f} s, {_plant_text(mc.plant)}; "
+            f"{_scenario_text(cfg, paper)}",
         )
         rows = []
         for m, mr in mc.methods.items():

@@ -188,6 +188,7 @@ def run_methods(
         reference=reference,
         methods=results,
         comparison=comparison,
+        plant=scn.config.simulation.plant,
     )
     write_summary(out / "summary.json", summary)
     if make_figures:

@@ -225,6 +225,7 @@ def montecarlo_summary(
     wall_time_s: float,
     workers: int | None = None,
     scheduler: str | None = None,
+    plant: str | None = None,
 ) -> MonteCarloSummary:
     """Table 4 (mean and 3 sigma of J_p and J_r per method) and the runs that ever left the tube."""
     where = campaign.out_dir / "runs"
@@ -264,6 +265,7 @@ def montecarlo_summary(
         workers=workers,
         scheduler=scheduler,
         machine=machine_info(),
+        plant=plant,
     )
 
 
@@ -318,6 +320,7 @@ def montecarlo(
         wall_time_s=time.perf_counter() - t0,
         workers=workers,
         scheduler=scheduler,
+        plant=cfg.simulation.plant,
     )
     write_summary(out / "summary.json", summary)
     _envelope_figures(cfg, camp, out, tuple(methods))

@@ -35,6 +35,7 @@ __all__ = [
     "parse_floats",
     "parse_ints",
     "parse_seed",
+    "plant_line",
     "scenario_arguments",
 ]
 
@@ -57,13 +58,30 @@ def config_from_args(args: argparse.Namespace) -> Config:
     from ..config import load_config
 
     cfg = load_config(getattr(args, "config", None), scenario=getattr(args, "scenario", None))
+    if getattr(args, "plant", None) is not None:
+        cfg = cfg.with_overrides({"simulation.plant": args.plant})
     if getattr(args, "shape_unit", None) and getattr(args, "shape", None) is None:
         cfg = cfg.with_overrides({"asteroid.shape_unit": args.shape_unit})
     return cfg
 
 
-def scenario_arguments(p: argparse.ArgumentParser) -> None:
-    """--config, --scenario and --shape-unit."""
+def plant_line(plant: str | None) -> str:
+    """Who propagated the truth, for the console: the project's plant, or Basilisk and its version."""
+    if plant == "basilisk":
+        from ..sim.basilisk import basilisk_version
+
+        return f"Basilisk {basilisk_version()} (simulation.plant = basilisk)"
+    return "the project's (simulation.plant = project)" if plant is not None else "the project's (recorded before simulation.plant)"
+
+
+def _plants() -> tuple[str, ...]:
+    from ..config import PLANTS
+
+    return PLANTS
+
+
+def scenario_arguments(p: argparse.ArgumentParser, *, plant: bool = True) -> None:
+    """--config, --scenario and --shape-unit (and --plant, for the commands that fly)."""
     group = p.add_mutually_exclusive_group()
     group.add_argument("--config", help="scenario TOML (fields left out are the paper scenario's)")
     group.add_argument("--scenario", help="a packaged scenario by name (see 'tubempc scenarios'; default: bennu-paper)")
@@ -72,6 +90,13 @@ def scenario_arguments(p: argparse.ArgumentParser) -> None:
         choices=["km", "m"],
         help="unit of the coordinates of --shape (required with it), else of the config's shape file",
     )
+    if plant:
+        p.add_argument(
+            "--plant",
+            choices=_plants(),
+            help="who propagates the truth (simulation.plant; default: the config's): the project's C++ propagator "
+            "or Basilisk (pip install 'tubempc[basilisk]')",
+        )
 
 
 def guarantee_status(lost: dict[str, list[str]]) -> int:

@@ -10,7 +10,7 @@ DESCRIPTION = "write the closed loop's scenario file for C++ programs (examples/
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    scenario_arguments(parser)
+    scenario_arguments(parser, plant=False)
     parser.add_argument("--out", required=True, help="output folder (scenario.txt, shape.obj, config.toml)")
     parser.add_argument("--cache-dir", help="reference-trajectory cache (default: none)")
     parser.add_argument(

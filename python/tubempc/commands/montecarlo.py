@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from .. import _core
-from . import EXIT_FAILED_RUNS, config_from_args, guarantee_status, parse_ints, parse_seed, scenario_arguments
+from . import EXIT_FAILED_RUNS, config_from_args, guarantee_status, parse_ints, parse_seed, plant_line, scenario_arguments
 
 DESCRIPTION = "resumable Monte Carlo campaign of both methods (paper Table 4)"
 
@@ -43,6 +43,7 @@ def run(args: argparse.Namespace) -> int:
         only=args.only,
         progress=not args.quiet,
     )
+    print(f"plant: {plant_line(s.plant)}")
     for m, row in s.methods.items():
         print(
             f"{m:6s} J_p mean {row.J_p.mean:.4g} (3 sigma {row.J_p.three_sigma:.3g})  "

@@ -7,7 +7,15 @@ import argparse
 import sys
 
 from .. import _core
-from . import EXIT_REFLIGHT_DIFFERS, EXIT_USAGE, config_from_args, guarantee_status, parse_seed, scenario_arguments
+from . import (
+    EXIT_REFLIGHT_DIFFERS,
+    EXIT_USAGE,
+    config_from_args,
+    guarantee_status,
+    parse_seed,
+    plant_line,
+    scenario_arguments,
+)
 
 DESCRIPTION = "closed-loop TBMPC and/or TBMPC-FFA on a scenario (default: the paper's)"
 
@@ -128,6 +136,7 @@ def run(args: argparse.Namespace) -> int:
         else f"; its last convex subproblem solved to reduced accuracy ({ref.last_subproblem}), its solution "
         "checked against the input bounds and the dynamics"
     )
+    print(f"plant: {plant_line(summary.plant)}")
     print(
         f"reference: {'converged' if ref.converged else 'NOT converged'} in {ref.iterations} SCP iterations "
         f"(dynamics defect {ref.max_defect:.2g}{accuracy})"

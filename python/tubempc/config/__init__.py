@@ -26,6 +26,7 @@ from .parse import (
 )
 from .quantities import ConfigError
 from .sections import (
+    PLANTS,
     AsteroidSection,
     BoundarySection,
     ConstraintsSection,
@@ -41,6 +42,7 @@ from .sections import (
 __all__ = [
     "BORESIGHT_DEFAULTS",
     "OWN_MISSION_DEFAULTS",
+    "PLANTS",
     "REMOVED_FIELDS",
     "RENAMED_FIELDS",
     "RENAMED_VALUES",

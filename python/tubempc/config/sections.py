@@ -376,11 +376,21 @@ class TubeSection:
     )
 
 
+#: The values of ``simulation.plant`` (tubempc.sim.plant, tubempc.sim.basilisk).
+PLANTS = ("project", "basilisk")
+
+
 @dataclass(frozen=True, eq=False)
 class SimulationSection:
     """Truth simulation (project options; docs/model.md "Attitude": the truth integrates the quaternion),
     and the model mismatch between the controller and the truth."""
 
+    plant: str = field(
+        metadata=option(
+            'who propagates the truth: "project" (the C++ propagator) or "basilisk" (Basilisk, the extra basilisk)',
+            *PLANTS,
+        )
+    )
     integrator: str = field(
         metadata=option('"rk4" (substeps per control step) or "dopri5" (adaptive, rtol)', *_core.dynamics.Integrator.names())
     )
@@ -407,6 +417,7 @@ class SimulationSection:
 
 
 __all__ = [
+    "PLANTS",
     "AsteroidSection",
     "BoundarySection",
     "ConstraintsSection",

@@ -303,6 +303,7 @@ class RunSummary(_Json):
     reference: ReferenceSummary
     methods: dict[str, RunMetrics]
     comparison: Comparison | None = field(default=None, metadata=_OMIT)  # both methods flown
+    plant: str | None = field(default=None, metadata=_OMIT)  # simulation.plant; None: a file before it (the project's)
     figure_errors: dict[str, str] | None = field(default=None, metadata=_OMIT)  # figures not drawn: file -> error
     format_version: int = field(default=FORMAT_VERSION, compare=False)  # of the file it was read from
 
@@ -426,6 +427,7 @@ class MonteCarloSummary(_Json):
     workers: int | None = None
     scheduler: str | None = None
     machine: dict[str, Any] = field(default_factory=dict)
+    plant: str | None = field(default=None, metadata=_OMIT)  # simulation.plant; None: a file before it (the project's)
     format_version: int = field(default=FORMAT_VERSION, compare=False)
 
 

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -34,56 +33,16 @@ import numpy.typing as npt
 from ..design.library import new_controller
 from ..design.policy import BackgroundDesigns
 from ..design.tube import tube_excursion
-from ..models.disturbances import ActuatorMismatch, AdditiveDisturbance
 from ..results.records import RunRecord
-from ..scenario.actuators import actuate, describe_actuation
+from ..scenario.actuators import describe_actuation
 from ..scenario.build import METHODS, P_STATES, R_STATES, Scenario
-from ..scenario.navigation import Navigation, NavigationRecord, new_navigation, propagate_sampled, tube_gauge
+from ..scenario.navigation import Navigation, NavigationRecord, new_navigation, tube_gauge
+from .plant import ProjectPlant
 from .setup import loop_setup
 
 __all__ = ["METHODS", "simulate"]
 
 Array = npt.NDArray[np.float64]
-
-
-@dataclass
-class _Plant:
-    """The simulated plant of one run: truth model, actuators, disturbance and truth state."""
-
-    scn: Scenario
-    disturbance: AdditiveDisturbance
-    actuators: ActuatorMismatch
-    propagator: Any  # _core.dynamics.PropagatorSettings
-    state: Array  # 13-state [r_L, v_L, q_B/L, omega_BL_B] of the truth
-    actuation: Any = None  # _core.actuators.ActuationSystem (spacecraft.actuators), or None: ideal
-    delivered: Any = None  # the last period's (u_delivered, ActuationStep or None)
-    nav: Navigation | None = None  # with navigation: propagated in sub-steps the sensors sample
-    nav_error_set: Array = field(default_factory=lambda: np.zeros((0, 0)))  # E of the estimate flown
-
-    def step(self, k: int, u: Array) -> tuple[Array, Array]:
-        """Propagates one control period with input ``u``; returns x_{k+1} and the disturbance drawn."""
-        scn, dt = self.scn, self.scn.config.mpc.dt
-        if self.actuation is None:
-            u_applied = np.concatenate([self.actuators.apply_acceleration(u[:3]), self.actuators.apply_torque(u[3:])])
-            self.delivered = (u_applied, None)
-        else:
-            self.delivered = actuate(self.actuation, k * dt, u, self.state)
-            u_applied = self.delivered[0]
-        if self.nav is not None:
-            end = propagate_sampled(self.nav, scn.truth, k * dt, self.state, u_applied, self.propagator)
-        else:
-            prop = scn.truth.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator)
-            if prop.status.name != "Success":
-                raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
-            end = np.asarray(prop.state)
-        w_p, w_r = self.disturbance.sample(k)
-        x_next = scn.truth.truth_to_state(end, scn.reference.x[k + 1, 6:9])
-        x_next[P_STATES] += w_p
-        x_next[R_STATES] += w_r
-        self.state = scn.truth.state_to_truth(x_next)
-        if self.nav is not None:
-            self.nav.truth[-1] = self.state  # the sensors' last sample is after the disturbance
-        return x_next, np.concatenate([w_p, w_r])
 
 
 def _record_step(rec: RunRecord, k: int, step: Any, ctrl: Any, times: tuple[float, float], wait: float) -> None:
@@ -129,14 +88,20 @@ def _new_record(scn: Scenario, method: str, seed: int) -> RunRecord:
     return rec
 
 
-def _new_plant(scn: Scenario, seed: int) -> _Plant:
+def _new_plant(scn: Scenario, seed: int) -> ProjectPlant:
+    """The run's plant: ``simulation.plant``'s, with the run's disturbance and actuator draws."""
     loop = loop_setup(scn)
     system = None if loop.actuation is None else loop.actuation.system(seed + 1)
     truth0 = scn.model.state_to_truth(scn.x0)
-    return _Plant(scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, truth0, system)
+    kind = ProjectPlant
+    if scn.config.simulation.plant == "basilisk":
+        from .basilisk import BasiliskPlant
+
+        kind = BasiliskPlant
+    return kind(scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, truth0, system)
 
 
-def _record_actuation(rec: RunRecord, k: int, plant: _Plant, dt: float) -> None:
+def _record_actuation(rec: RunRecord, k: int, plant: ProjectPlant, dt: float) -> None:
     """The period's delivered input and, with an actuator model, its accounting (ideal: ``|u_p| dt``)."""
     u_delivered, st = plant.delivered
     rec.u_delivered[k] = u_delivered
@@ -255,7 +220,7 @@ def simulate(
     return rec
 
 
-def _start_navigation(scn: Scenario, plant: _Plant, rec: RunRecord, seed: int) -> tuple[Navigation | None, Any]:
+def _start_navigation(scn: Scenario, plant: ProjectPlant, rec: RunRecord, seed: int) -> tuple[Navigation | None, Any]:
     """The run's navigation, started at the initial state (None, None: the controller reads the truth)."""
     nav = new_navigation(scn, seed)
     if nav is None:
@@ -269,7 +234,7 @@ def _start_navigation(scn: Scenario, plant: _Plant, rec: RunRecord, seed: int) -
 
 
 def _record_navigation(
-    rec: RunRecord, k: int, est: Any, x_next: Array, plant: _Plant, z1: Array, Pe: Array, seconds: float
+    rec: RunRecord, k: int, est: Any, x_next: Array, plant: ProjectPlant, z1: Array, Pe: Array, seconds: float
 ) -> Array:
     """Step k + 1's estimate into the record (``seconds``: the navigation call's wall time), and the truth's
     gauge in the output-feedback tube z*_1|k (+) Omega_k (+) E_{k+1}; returns the estimate x^_{k+1}."""
@@ -284,7 +249,7 @@ def _record_navigation(
     return x_hat
 
 
-def _applied(scn: Scenario, plant: _Plant, rec: RunRecord, max_steps: int | None) -> dict[str, Any]:
+def _applied(scn: Scenario, plant: ProjectPlant, rec: RunRecord, max_steps: int | None) -> dict[str, Any]:
     """The dispersions the run actually applied, with the realised disturbance's statistics (SI units,
     per state component: mean, standard deviation and largest |w|) for checking that they were."""
     sim = scn.config.simulation
@@ -292,6 +257,7 @@ def _applied(scn: Scenario, plant: _Plant, rec: RunRecord, max_steps: int | None
     return {
         "seed": rec.seed,
         "max_steps": max_steps,
+        "plant": plant.describe(),
         "disturbance": plant.disturbance.describe(),
         "actuators": plant.actuators.describe()
         if plant.actuation is None

@@ -1,0 +1,79 @@
+"""The simulated plants a closed-loop run flies in (``simulation.plant``; docs/model.md "Simulated
+disturbance and truth" and "Basilisk plant").
+
+A plant owns the truth of one run: it takes the controller's command of each control period, applies the
+actuators (ideal with the scenario's mismatch, or the scenario's thrusters and wheels), propagates the
+truth over the period (sampling it for the sensors with navigation) and returns the next state x_{k+1}
+with the disturbance it applied. :class:`ProjectPlant` is the project's own (the C++ propagator and the
+additive disturbance of paper Eq. 16 and 18); :class:`tubempc.sim.basilisk.BasiliskPlant` is Basilisk's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from ..models.disturbances import ActuatorMismatch, AdditiveDisturbance
+from ..scenario.actuators import actuate
+from ..scenario.build import P_STATES, R_STATES, Scenario
+from ..scenario.navigation import Navigation, propagate_sampled
+
+__all__ = ["ProjectPlant"]
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass
+class ProjectPlant:
+    """The project's plant of one run: truth model, actuators, disturbance and truth state."""
+
+    scn: Scenario
+    disturbance: AdditiveDisturbance
+    actuators: ActuatorMismatch
+    propagator: Any  # _core.dynamics.PropagatorSettings
+    state: Array  # 13-state [r_L, v_L, q_B/L, omega_BL_B] of the truth
+    actuation: Any = None  # _core.actuators.ActuationSystem (spacecraft.actuators), or None: ideal
+    delivered: Any = None  # the last period's (u_delivered, ActuationStep or None)
+    nav: Navigation | None = None  # with navigation: propagated in sub-steps the sensors sample
+    nav_error_set: Array = field(default_factory=lambda: np.zeros((0, 0)))  # E of the estimate flown
+
+    #: The name ``simulation.plant`` gives this plant.
+    NAME = "project"
+
+    def apply_actuators(self, k: int, u: Array) -> Array:
+        """The input the actuators deliver over period k for the command ``u`` (kept in ``delivered``)."""
+        if self.actuation is None:
+            u_applied = np.concatenate([self.actuators.apply_acceleration(u[:3]), self.actuators.apply_torque(u[3:])])
+            self.delivered = (u_applied, None)
+        else:
+            self.delivered = actuate(self.actuation, k * self.scn.config.mpc.dt, u, self.state)
+            u_applied = self.delivered[0]
+        return np.asarray(u_applied, dtype=np.float64)
+
+    def step(self, k: int, u: Array) -> tuple[Array, Array]:
+        """Propagates one control period with input ``u``; returns x_{k+1} and the disturbance drawn."""
+        scn, dt = self.scn, self.scn.config.mpc.dt
+        u_applied = self.apply_actuators(k, u)
+        if self.nav is not None:
+            end = propagate_sampled(self.nav, scn.truth, k * dt, self.state, u_applied, self.propagator)
+        else:
+            prop = scn.truth.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator)
+            if prop.status.name != "Success":
+                raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
+            end = np.asarray(prop.state)
+        w_p, w_r = self.disturbance.sample(k)
+        x_next = scn.truth.truth_to_state(end, scn.reference.x[k + 1, 6:9])
+        x_next[P_STATES] += w_p
+        x_next[R_STATES] += w_r
+        self.state = scn.truth.state_to_truth(x_next)
+        if self.nav is not None:
+            self.nav.truth[-1] = self.state  # the sensors' last sample is after the disturbance
+        return x_next, np.concatenate([w_p, w_r])
+
+    def describe(self) -> dict[str, Any]:
+        """The plant's name and what it integrates with (saved with the run)."""
+        p = self.propagator
+        return {"name": self.NAME, "integrator": p.method.name.lower(), "substeps": int(p.substeps)}
