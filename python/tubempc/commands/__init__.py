@@ -71,7 +71,9 @@ def plant_line(plant: str | None) -> str:
         from ..sim.basilisk import basilisk_version
 
         return f"Basilisk {basilisk_version()} (simulation.plant = basilisk)"
-    return "the project's (simulation.plant = project)" if plant is not None else "the project's (recorded before simulation.plant)"
+    if plant is None:
+        return "the project's (recorded before simulation.plant)"
+    return "the project's (simulation.plant = project)"
 
 
 def _plants() -> tuple[str, ...]:
