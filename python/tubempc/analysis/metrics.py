@@ -13,6 +13,9 @@ Definitions used throughout (the paper gives no index range; this is the project
   sqrt(mean_k ||x_g(k) - zbar_g(k)||^2) over k = 0..T.
 - tube excursion = e^T Pe_k^-1 e with e = x_{k+1} - z*_{1|k} per subsystem, the error one step after the
   plan, which robust invariance bounds by 1 (> 1: outside the tube).
+- a run flown on navigation (:func:`navigation_summary`): the estimation error x - x^ at the last step, the
+  average NEES against its chi-square bounds (:func:`nees_test`; the steps taken as independent, which
+  is optimistic), the camera's landmarks folded in, and the truth's gauge in the output-feedback tube.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 from scipy.optimize import minimize_scalar
+from scipy.stats import chi2
 
 from .. import _core
 from ..design.tube import tube_excursion
@@ -33,6 +37,8 @@ from ..results.summaries import (
     ControlEffort,
     EnvelopeFit,
     GroupErrors,
+    NavigationSummary,
+    NeesTest,
     RunMetrics,
     StepTime,
     SubsystemValues,
@@ -41,6 +47,7 @@ from ..results.summaries import (
 
 if TYPE_CHECKING:
     from ..results.records import RunRecord
+    from ..scenario.navigation import NavigationRecord
 
 __all__ = [
     "CERTIFIED_TUBE_STATUSES",
@@ -51,6 +58,9 @@ __all__ = [
     "below_or_above",
     "control_effort",
     "fit_exponential_convergence",
+    "navigation_summary",
+    "nees_bounds",
+    "nees_test",
     "net_delta_v",
     "nominal_input_fraction",
     "performance_index",
@@ -263,10 +273,87 @@ def actuation_summary(rec: RunRecord, dt: float) -> ActuationSummary | None:
     )
 
 
+#: Navigation statuses (``_core.nav.NavigationStatus``) of a step whose NEES is taken: the filter ran
+#: (a numerical failure or an invalid input leaves an estimate that is not the filter's answer to the step).
+NEES_STATUSES = frozenset({"ok", "prediction_only"})
+#: Camera column of the navigation record's per-sensor arrays (``_core.nav.Sensor``).
+CAMERA = 1
+
+
+def nees_bounds(steps: int, dof: int, probability: float = 0.95) -> tuple[float, float]:
+    """Two-sided bounds of the average of ``steps`` = N independent NEES samples of dimension ``dof`` = n
+    (each chi-square with n degrees of freedom for a consistent filter, their sum chi-square with N n):
+    (chi2.ppf(a/2, N n) / N, chi2.ppf(1 - a/2, N n) / N) with a = 1 - ``probability``. Independence is
+    an assumption: successive steps' errors are correlated, so these bounds are narrower than the
+    average's true spread (optimistic)."""
+    if steps < 1 or dof < 1 or not 0.0 < probability < 1.0:
+        raise ValueError(
+            f"nees_bounds needs steps >= 1, dof >= 1 and 0 < probability < 1, got {steps}, {dof}, {probability}"
+        )
+    a = 1.0 - probability
+    return float(chi2.ppf(a / 2.0, steps * dof) / steps), float(chi2.ppf(1.0 - a / 2.0, steps * dof) / steps)
+
+
+def nees_test(nees: Array, dof: int, probability: float = 0.95) -> NeesTest | None:
+    """The average of the NEES samples ``nees`` (the valid steps' only) against :func:`nees_bounds`;
+    None for no sample."""
+    x = np.asarray(nees, dtype=float)
+    if x.size == 0:
+        return None
+    mean = float(np.mean(x))
+    lower, upper = nees_bounds(x.size, dof, probability)
+    return NeesTest(
+        mean=mean,
+        steps=int(x.size),
+        dof=dof,
+        probability=probability,
+        lower=lower,
+        upper=upper,
+        inside=lower <= mean <= upper,
+    )
+
+
+def navigation_summary(nav: NavigationRecord) -> NavigationSummary:
+    """How a run's navigation went (:class:`tubempc.results.summaries.NavigationSummary`), from its record:
+
+    - the estimation error x - x^ at the last step (touchdown for a whole run), norm per state group;
+    - the average NEES over the steps k = 0..T whose NEES is finite (``_core.nav.nees`` is NaN for a
+      covariance that is not positive definite) and whose navigation status is "ok" or
+      "prediction_only", against its 95 % bounds (:func:`nees_test`; dimension ``_core.nav.N_STATES``
+      = 15: the NEES is taken on the filter's whole error state against the truth, IMU biases included);
+    - the camera's landmarks folded into the filter (``accepted``'s camera column: over every frame of a
+      control period, after the filter's gate; ``landmarks`` counts the last frame's only, before the
+      gate, and is not used) over the run, per frame taken (``samples``' camera column, frames lost or
+      without landmarks included), and the fewest per frame in one period that took a frame;
+    - the truth's largest gauge per subsystem in the output-feedback tube and the steps with a gauge
+      above 1 (+ :data:`EXCURSION_TOLERANCE`) in either."""
+    dof = int(_core.nav.N_STATES)
+    valid = np.isfinite(nav.nees) & np.array([s in NEES_STATUSES for s in nav.status], dtype=bool)
+    used = np.asarray(nav.accepted, dtype=float)[:, CAMERA]
+    frames = np.asarray(nav.samples, dtype=float)[:, CAMERA]
+    counted = bool(np.all(np.isfinite(frames)))  # False: a record written before the frames were kept
+    taken = frames > 0 if counted else np.zeros(frames.shape, dtype=bool)
+    gauge = np.asarray(nav.gauge, dtype=float).reshape(-1, 2)
+    e = np.asarray(nav.error, dtype=float)[-1]
+    return NavigationSummary(
+        touchdown_error=GroupErrors(**{g: float(np.linalg.norm(e[s])) for g, (s, _) in GROUPS.items()}),
+        nees=nees_test(np.asarray(nav.nees, dtype=float)[valid], dof),
+        landmarks_used=int(used.sum()),
+        camera_frames=int(frames.sum()) if counted else None,
+        landmarks_per_frame_mean=float(used.sum() / frames.sum()) if taken.any() else None,
+        landmarks_per_frame_min=float(np.min(used[taken] / frames[taken])) if taken.any() else None,
+        max_gauge=SubsystemValues(
+            translation=float(gauge[:, 0].max(initial=0.0)), rotation=float(gauge[:, 1].max(initial=0.0))
+        ),
+        steps_outside_output_tube=int(np.sum(np.any(gauge > 1.0 + EXCURSION_TOLERANCE, axis=1))),
+    )
+
+
 def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> RunMetrics:
     """Every scalar result of one closed-loop run: J_p and J_r (Eq. 54-55), control effort, terminal and
     RMS errors, the tube excursions, the constraint violations of the actual trajectory, step-time
-    statistics, solver figures, statuses and the velocity-convergence fit."""
+    statistics, solver figures, statuses, the velocity-convergence fit and, flown on navigation, how the
+    navigation went (:func:`navigation_summary`)."""
     g = rec.g
     return RunMetrics(
         J_p=performance_index(rec.x, rec.zbar, rec.u, "translation"),
@@ -300,6 +387,7 @@ def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> RunMetrics:
         run_time_s=rec.wall_time_s,
         seed=rec.seed,
         actuation=actuation_summary(rec, dt),
+        navigation=None if rec.navigation is None else navigation_summary(rec.navigation),
     )
 
 

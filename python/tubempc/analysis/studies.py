@@ -227,7 +227,9 @@ def montecarlo_summary(
     scheduler: str | None = None,
     plant: str | None = None,
 ) -> MonteCarloSummary:
-    """Table 4 (mean and 3 sigma of J_p and J_r per method) and the runs that ever left the tube."""
+    """Table 4 (mean and 3 sigma of J_p and J_r per method) and the runs that ever left the tube; for runs
+    flown on navigation, the fraction whose average NEES lies inside its bounds (each run's result keeps
+    its :class:`tubempc.results.summaries.NavigationSummary`: the touchdown estimation error, the NEES, ...)."""
     where = campaign.out_dir / "runs"
     results = [
         CampaignRunResult.from_json(r, f"{where}/run_{i:05d}.json: result") for i, r in sorted(campaign.results.items())
@@ -240,6 +242,7 @@ def montecarlo_summary(
         jp = np.array([r.J_p for r in rows])
         jr = np.array([r.J_r for r in rows])
         exc = np.array([max(r.max_tube_excursion.translation, r.max_tube_excursion.rotation) for r in rows])
+        nees = [r.navigation.nees for r in rows if r.navigation is not None and r.navigation.nees is not None]
         per_method[m] = MonteCarloMethodSummary(
             J_p=MeanSpread(mean=float(jp.mean()), three_sigma=float(3 * jp.std(ddof=1)) if jp.size > 1 else 0.0),
             J_r=MeanSpread(mean=float(jr.mean()), three_sigma=float(3 * jr.std(ddof=1)) if jr.size > 1 else 0.0),
@@ -249,6 +252,7 @@ def montecarlo_summary(
             terminal_position_error_max_m=float(max(r.terminal_error.position for r in rows)),
             runs_inside_body=int(sum((r.states_inside_body or 0) > 0 for r in rows)),
             runs_guarantee_lost=int(sum(bool(guarantee_lost(r)) for r in rows)),
+            nees_inside_fraction=float(np.mean([t.inside for t in nees])) if nees else None,
         )
     reduction = None
     if {"tbmpc", "ffa"} <= set(per_method):

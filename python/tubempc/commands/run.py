@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
 from .. import _core
 from . import (
@@ -16,6 +17,9 @@ from . import (
     plant_line,
     scenario_arguments,
 )
+
+if TYPE_CHECKING:
+    from ..results.summaries import NavigationSummary
 
 DESCRIPTION = "closed-loop TBMPC and/or TBMPC-FFA on a scenario (default: the paper's)"
 
@@ -40,6 +44,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "the campaign's record",
     )
     parser.add_argument("--index", type=int, help="with --from-campaign: the run's index")
+
+
+def navigation_text(nav: NavigationSummary) -> str:
+    """A run's navigation in a few words for its console line: the estimation error at touchdown, the
+    average NEES with its 95 % bounds (steps taken as independent) and the landmarks per camera frame."""
+    e = nav.touchdown_error
+    parts = [f"|e_r| {e.position:.3g} m, |e_v| {e.velocity:.3g} m/s at touchdown"]
+    if nav.nees is None:
+        parts.append("no NEES")
+    else:
+        n = nav.nees
+        parts.append(f"NEES {n.mean:.3g} {'in' if n.inside else 'NOT in'} [{n.lower:.3g}, {n.upper:.3g}] ({n.steps} steps)")
+    if nav.landmarks_per_frame_mean is not None and nav.landmarks_per_frame_min is not None:
+        parts.append(f"{nav.landmarks_per_frame_mean:.3g} landmarks/frame (min {nav.landmarks_per_frame_min:.3g})")
+    else:
+        parts.append(f"{nav.landmarks_used} landmarks")
+    g = nav.max_gauge
+    parts.append(f"gauge p/r {g.translation:.3g}/{g.rotation:.3g}, {nav.steps_outside_output_tube} steps above 1")
+    return ", ".join(parts)
 
 
 #: Control steps of one run above which ``run`` warns before starting (the default mission has 300).
@@ -152,11 +175,18 @@ def run(args: argparse.Namespace) -> int:
             f"{s.constraint_violations.los_steps} step median {st['step'].median_ms:.2f} ms "
             f"(tube {st['tube'].median_ms:.2f}, mpc {st['mpc'].median_ms:.2f}) run {s.run_time_s:.1f} s "
             f"states inside the body {s.states_inside_body}"
+            + ("" if s.navigation is None else f"; nav: {navigation_text(s.navigation)}")
         )
         reasons = guarantee_lost(s)
         if reasons:
             lost[m] = reasons
     print("(tube excursion: e^T Pe^-1 e of the error one step after the plan; <= 1 inside the tube, > 1 outside)")
+    if any(s.navigation is not None for s in summary.methods.values()):
+        print(
+            "(nav: e = x - x^ at the last step; NEES: the average over the steps of the 15-state NEES, against the 95 % "
+            "bounds of an average of independent chi-square samples, optimistic since successive steps are "
+            "correlated; gauge: the true state in z + Omega (+) E, <= 1 inside, E a probabilistic set)"
+        )
     if summary.comparison is not None:
         print(f"TBMPC-FFA J_p is {below_or_above(summary.comparison.J_p_reduction_percent)} TBMPC's")
     for name, error in (summary.figure_errors or {}).items():

@@ -7,7 +7,10 @@ Each summary is a frozen dataclass with ``to_json`` (the JSON-ready dict the com
 file without ``format_version`` was written before the summaries were typed: :func:`load_summary`
 reads it as format 0, the same fields, its kind told by its keys (a Monte Carlo summary counts
 ``runs``, a sweep has ``rows``, a run has ``methods``). A file of a newer format, another kind or a
-missing or mistyped field is a ValueError naming the file and the field.
+missing or mistyped field is a ValueError naming the file and the field. A field that may be absent (a
+run's ``actuation`` or ``navigation``) is None then, and left out of the file: such a field is added
+without a new format (the files written before it read unchanged; a tubempc that predates it ignores
+it).
 """
 
 from __future__ import annotations
@@ -37,6 +40,8 @@ __all__ = [
     "MethodResult",
     "MonteCarloMethodSummary",
     "MonteCarloSummary",
+    "NavigationSummary",
+    "NeesTest",
     "ReferenceSummary",
     "RunMetrics",
     "RunSummary",
@@ -232,6 +237,47 @@ class ActuationSummary(_Json):
 
 
 @dataclass(frozen=True, kw_only=True)
+class NeesTest(_Json):
+    """The run's average NEES against its two-sided chi-square bounds
+    (:func:`tubempc.analysis.metrics.nees_test`): the mean of the ``steps`` = N valid per-step NEES of
+    dimension ``dof`` = n, and ``[lower, upper]`` = [chi2.ppf(a/2, N n), chi2.ppf(1 - a/2, N n)] / N with
+    a = 1 - ``probability``, where N n times the mean of N independent chi-square(n) samples lies with
+    that probability. The steps of one run are not independent (the estimation error is correlated in
+    time), so the bounds are optimistic: narrower than the mean's true spread; a mean outside them
+    flags an inconsistent filter only with that caveat."""
+
+    mean: float
+    steps: int  # N: steps with a finite NEES and a navigation status "ok" or "prediction_only"
+    dof: int  # n: the NEES's dimension (15: position, velocity, attitude, gyro and accelerometer biases)
+    probability: float
+    lower: float
+    upper: float
+    inside: bool  # lower <= mean <= upper
+
+
+@dataclass(frozen=True, kw_only=True)
+class NavigationSummary(_Json):
+    """How a run flown on navigation went (:func:`tubempc.analysis.metrics.navigation_summary`, from its
+    :class:`tubempc.scenario.navigation.NavigationRecord`): the estimation error x - x^ at touchdown (the
+    last step: norms per state group, the attitude's that of the phi part; m, m/s, rad, rad/s), the
+    average NEES against its bounds (None: no step had a valid NEES), the camera's landmarks folded into
+    the filter (total, per frame, and the fewest per frame in one control period: the period's landmarks
+    over its frames, exact when the camera takes at most one frame per period; None: no frame taken, or
+    a record written before the frames were counted) and the truth's gauge in the output-feedback tube
+    z*_1|k (+) Omega_k (+) E_k+1 (<= 1: inside; E is a probabilistic set, so a gauge above 1 does not
+    count as a lost guarantee)."""
+
+    touchdown_error: GroupErrors
+    nees: NeesTest | None = field(default=None, metadata=_OMIT)
+    landmarks_used: int
+    camera_frames: int | None = field(default=None, metadata=_OMIT)
+    landmarks_per_frame_mean: float | None = field(default=None, metadata=_OMIT)
+    landmarks_per_frame_min: float | None = field(default=None, metadata=_OMIT)
+    max_gauge: SubsystemValues
+    steps_outside_output_tube: int  # steps whose gauge exceeds 1 in either subsystem
+
+
+@dataclass(frozen=True, kw_only=True)
 class MethodResult(_Json):
     """The results of one method's closed-loop run that every summary keeps (a run's
     :class:`RunMetrics`, a Monte Carlo run's :class:`CampaignMethodResult`); run_time_s is the
@@ -248,6 +294,7 @@ class MethodResult(_Json):
     statuses: dict[str, int]
     states_inside_body: int | None = field(default=None, metadata=_OMIT)  # None: not counted
     actuation: ActuationSummary | None = field(default=None, metadata=_OMIT)  # None: ideal actuators
+    navigation: NavigationSummary | None = field(default=None, metadata=_OMIT)  # None: flown on the true state
     run_time_s: float
 
 
@@ -409,6 +456,9 @@ class MonteCarloMethodSummary(_Json):
     runs_inside_body: int
     # runs that lost a guarantee (tube left, fallback steps, a state inside the body): exit status 4
     runs_guarantee_lost: int
+    # of the runs flown on navigation with a NEES, those whose average NEES lies inside its bounds
+    # (NeesTest; None: no such run)
+    nees_inside_fraction: float | None = field(default=None, metadata=_OMIT)
 
 
 @dataclass(frozen=True, kw_only=True)

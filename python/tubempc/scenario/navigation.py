@@ -256,12 +256,14 @@ class NavigationRecord:
     nees: Array  # (T+1,) 15-state NEES against the truth (IMU biases included)
     status: list[str]  # (T+1) NavigationStatus
     sensor_status: list[str]  # (T+1) "altimeter/camera/imu/star_tracker" of the last sample of each
-    landmarks: Array  # (T+1,) landmarks in the last camera frame
-    accepted: Array  # (T+1, 4) measurements folded in per sensor
+    landmarks: Array  # (T+1,) landmarks measured in the call's last camera frame (0: none taken, or it failed)
+    accepted: Array  # (T+1, 4) measurements folded in per sensor (camera: landmarks, over the call's frames)
     gauge: Array  # (T, 2) true x_{k+1} - z*_1|k in Omega_k (+) E_{k+1} per subsystem (<= 1: inside)
     gauge_estimate: Array  # (T, 2) x^_{k+1} - z*_1|k in Omega_k (the certified part)
     time_step: Array  # (T,) wall time of the navigation call that gave the estimate of step k + 1 (s)
     time_filter: Array  # (T,) of that call, the onboard estimator's part (C++ clock; sensors excluded) (s)
+    # (T+1, 4) samples taken per sensor in the call (camera: frames); NaN in a file written before they were kept
+    samples: Array
 
     @classmethod
     def allocate(cls, n_steps: int) -> NavigationRecord:
@@ -281,6 +283,7 @@ class NavigationRecord:
             z((n_steps, 2)),
             z(n_steps),
             z(n_steps),
+            z((T1, 4)),
         )
 
     def add(self, k: int, est: Any, x_true: Array, state_true: Array, imu: Any) -> None:
@@ -296,10 +299,11 @@ class NavigationRecord:
         self.sensor_status.append("/".join(str(s) for s in est.sensor_status))
         self.landmarks[k] = est.landmarks_visible
         self.accepted[k] = list(est.accepted)
+        self.samples[k] = list(est.samples)
 
     def truncate(self, n_run: int) -> None:
         """Cuts to the first ``n_run`` steps."""
-        for name in ("x_hat", "sigma", "error", "nees", "landmarks", "accepted"):
+        for name in ("x_hat", "sigma", "error", "nees", "landmarks", "accepted", "samples"):
             setattr(self, name, getattr(self, name)[: n_run + 1])
         self.status, self.sensor_status = self.status[: n_run + 1], self.sensor_status[: n_run + 1]
         self.gauge, self.gauge_estimate = self.gauge[:n_run], self.gauge_estimate[:n_run]
@@ -330,6 +334,9 @@ class NavigationRecord:
         for f in dataclasses.fields(cls):
             if f.name in ("time_step", "time_filter") and f"nav_{f.name}" not in raw:  # written before it was timed
                 values[f.name] = np.zeros(len(raw["nav_gauge"]))
+                continue
+            if f.name == "samples" and "nav_samples" not in raw:  # written before the samples were kept: unknown
+                values[f.name] = np.full((len(raw["nav_nees"]), 4), np.nan)
                 continue
             v = raw[f"nav_{f.name}"]
             values[f.name] = [str(s) for s in v] if f.name in ("status", "sensor_status") else np.asarray(v, dtype=float)

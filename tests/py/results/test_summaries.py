@@ -5,6 +5,7 @@ kind, a newer format or a missing or mistyped field is refused by name."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 from pathlib import Path
@@ -14,13 +15,20 @@ import pytest
 from tubempc.config import load_config
 from tubempc.results.summaries import (
     FORMAT_VERSION,
+    CampaignMethodResult,
+    CampaignRunResult,
+    GroupErrors,
     MonteCarloSummary,
+    NavigationSummary,
+    NeesTest,
     RunSummary,
+    SubsystemValues,
     SweepSummary,
     load_summary,
     parse_summary,
     read_summary,
     summary_json,
+    write_summary,
 )
 
 BENCHMARKS = Path(__file__).resolve().parents[3] / "docs" / "benchmarks"
@@ -134,3 +142,64 @@ def test_a_campaign_with_a_format_0_summary_reports_and_re_flies(tmp_path: Path)
     _, md = write_report(out)
     assert f"| ffa | {s.methods['ffa'].J_p.mean:.4g} |" in md.read_text()
     assert main(["run", "--from-campaign", str(out), "--index", "0", "--out", str(tmp_path / "again")]) == EXIT_OK
+
+
+def _navigation() -> NavigationSummary:
+    return NavigationSummary(
+        touchdown_error=GroupErrors(position=0.12, velocity=3e-3, attitude=1e-4, angular_velocity=2e-5),
+        nees=NeesTest(mean=14.2, steps=151, dof=15, probability=0.95, lower=13.67, upper=16.39, inside=True),
+        landmarks_used=2416,
+        camera_frames=151,
+        landmarks_per_frame_mean=16.0,
+        landmarks_per_frame_min=9.0,
+        max_gauge=SubsystemValues(translation=0.4, rotation=0.7),
+        steps_outside_output_tube=0,
+    )
+
+
+def test_a_run_summary_with_navigation_round_trips_and_one_without_is_unchanged(tmp_path: Path) -> None:
+    """A run flown on navigation keeps its NavigationSummary through the file; a run without (or a file
+    written before the field existed: every committed run) reads navigation = None, and writes no key."""
+    for path in (p for p in COMMITTED if p.name.startswith("run_")):
+        data = json.loads(path.read_text())
+        run = read_summary(path, RunSummary)
+        assert all(m.navigation is None for m in run.methods.values())
+        assert summary_json(run) == data  # no "navigation": None is left out of the file
+    run = read_summary(BENCHMARKS / "run_bennu-paper-nav.json", RunSummary)
+    nav = _navigation()
+    run = dataclasses.replace(run, methods={m: dataclasses.replace(r, navigation=nav) for m, r in run.methods.items()})
+    f = write_summary(tmp_path / "summary.json", run)
+    data = json.loads(f.read_text())
+    assert data["methods"]["ffa"]["navigation"]["nees"]["upper"] == 16.39
+    assert data["methods"]["ffa"]["navigation"]["touchdown_error"]["position"] == 0.12
+    again = read_summary(f, RunSummary)
+    assert again == run and again.methods["tbmpc"].navigation == nav
+    # the optional figures absent: left out, and read back as None
+    bare = dataclasses.replace(
+        nav, nees=None, camera_frames=None, landmarks_per_frame_mean=None, landmarks_per_frame_min=None
+    )
+    assert set(bare.to_json()) == {"touchdown_error", "landmarks_used", "max_gauge", "steps_outside_output_tube"}
+    assert NavigationSummary.from_json(bare.to_json()) == bare
+    # a mistyped field is named
+    data["methods"]["ffa"]["navigation"]["nees"]["inside"] = "yes"
+    f.write_text(json.dumps(data))
+    with pytest.raises(ValueError, match=r"methods\.ffa\.navigation\.nees\.inside: expected bool"):
+        load_summary(f)
+
+
+def test_a_campaign_run_keeps_its_navigation_and_the_summary_its_nees_share() -> None:
+    mc = json.loads((BENCHMARKS / "montecarlo_bennu-paper-nav.json").read_text())
+    old = parse_summary(mc)
+    assert isinstance(old, MonteCarloSummary)
+    assert all(m.nees_inside_fraction is None for m in old.methods.values())
+    assert summary_json(old) == mc
+    new = dataclasses.replace(
+        old, methods={**old.methods, "ffa": dataclasses.replace(old.methods["ffa"], nees_inside_fraction=0.93)}
+    )
+    assert summary_json(new)["methods"]["ffa"]["nees_inside_fraction"] == 0.93
+    assert parse_summary(json.loads(json.dumps(summary_json(new)))) == new
+    run = read_summary(BENCHMARKS / "run_bennu-paper-nav.json", RunSummary)
+    kept = CampaignMethodResult.of(dataclasses.replace(run.methods["ffa"], navigation=_navigation()))
+    result = CampaignRunResult(methods={"ffa": kept}, applied={"seed": 1})
+    back = CampaignRunResult.from_json(json.loads(json.dumps(result.to_json())))
+    assert back == result and back.methods["ffa"].navigation == _navigation()

@@ -15,10 +15,11 @@ import scipy.optimize
 import scipy.special
 
 from tubempc import _core
+from tubempc.analysis.metrics import run_metrics
 from tubempc.config import ConfigError, load_config
 from tubempc.results import load_record, save_record
 from tubempc.scenario import build_scenario
-from tubempc.scenario.navigation import error_set_scale, navigation_settings, tube_gauge
+from tubempc.scenario.navigation import NavigationRecord, error_set_scale, navigation_settings, tube_gauge
 from tubempc.sim.closed_loop import simulate
 
 
@@ -95,6 +96,20 @@ def test_a_short_descent_on_the_estimate(tag_nav, tmp_path: Path) -> None:  # ty
     # every step's navigation call is timed (bench controller's navigation figures), and kept
     assert nav.time_step.shape == (20,) and np.all(nav.time_step > 0.0)
     np.testing.assert_array_equal(again.navigation.time_step, nav.time_step)
+    # the samples per sensor: the initial call samples each once, a 2 s period the 20 IMU samples of 0.1 s,
+    # one camera frame (2 s) and two altimeter and star-tracker samples (1 s); kept in the file
+    np.testing.assert_array_equal(nav.samples[0], [1, 1, 1, 1])
+    np.testing.assert_array_equal(nav.samples[1:], np.tile([2, 1, 20, 2], (20, 1)))
+    np.testing.assert_array_equal(again.navigation.samples, nav.samples)
+    old = NavigationRecord.from_arrays({k: v for k, v in nav.arrays().items() if k != "nav_samples"})
+    assert old is not None and old.samples.shape == (21, 4) and np.all(np.isnan(old.samples))  # unknown
+    # the run's summary of its navigation (tubempc.analysis.metrics.navigation_summary)
+    s = run_metrics(rec, tag_nav.config.mpc.dt, tag_nav.xf).navigation
+    assert s is not None and s.nees is not None and s.nees.steps == 21 and s.nees.dof == 15
+    assert s.touchdown_error.position == pytest.approx(np.linalg.norm(nav.error[-1, :3]), rel=1e-15)
+    assert s.nees.mean == pytest.approx(np.mean(nav.nees), rel=1e-12)
+    assert s.camera_frames == 21 and s.landmarks_used == int(nav.accepted[:, 1].sum()) > 0
+    assert s.max_gauge.translation == nav.gauge[:, 0].max() and s.steps_outside_output_tube == 0
 
 
 def test_broken_sensors_fly_on_prediction_without_nan(tag_nav) -> None:  # type: ignore[no-untyped-def]
@@ -167,6 +182,15 @@ def test_claims_table_gets_navigation_rows_only_for_a_run_on_navigation(tmp_path
     assert len(rows) == 3 and all(c.verdict == "yes" for c in rows), [(c.claim, c.measured) for c in rows]
     # both methods on navigation: the J_p reduction row (issue #30's 80 %) against the summary's J_p
     summary = json.loads((tmp_path / "nav" / "summary.json").read_text())
+    # the summary says how the navigation went (issue #40): finite figures, the whole descent's steps
+    nav = summary["methods"]["ffa"]["navigation"]
+    assert nav["nees"]["steps"] == 151 and nav["nees"]["dof"] == 15 and nav["camera_frames"] == 151
+    assert nav["nees"]["lower"] < 15.0 < nav["nees"]["upper"] and isinstance(nav["nees"]["inside"], bool)
+    figures = [*nav["touchdown_error"].values(), nav["nees"]["mean"], *nav["max_gauge"].values()]
+    figures += [nav["landmarks_per_frame_mean"], nav["landmarks_per_frame_min"]]
+    assert np.all(np.isfinite(figures)) and 0 <= nav["landmarks_per_frame_min"] <= nav["landmarks_per_frame_mean"]
+    assert nav["landmarks_used"] == round(nav["landmarks_per_frame_mean"] * 151) > 151  # over 1 landmark a frame
+    assert nav["touchdown_error"]["position"] < 0.2 and nav["steps_outside_output_tube"] == 0
     shutil.copytree(tmp_path / "nav", tmp_path / "both")
     shutil.copy(tmp_path / "nav" / "ffa.h5", tmp_path / "both" / "tbmpc.h5")
     for factor, verdict in ((5.5, "yes"), (4.5, "no")):
