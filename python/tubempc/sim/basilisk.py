@@ -75,31 +75,6 @@ def basilisk_version() -> str:
         ) from None
 
 
-def _ns(seconds: float, what: str) -> int:
-    ns = round(seconds * _NS)
-    if ns <= 0 or abs(ns - seconds * _NS) > 1e-3:
-        raise BasiliskPlantError(f"{what} = {seconds:g} s is not a whole number of nanoseconds (Basilisk's clock)")
-    return ns
-
-
-def task_step_ns(scn: Scenario) -> int:
-    """Basilisk's integrator step (ns): dt / simulation.substeps, refined so that it divides the half
-    period (the injected disturbance's segments) and, with navigation, the IMU's sub-step."""
-    cfg = scn.config
-    dt_ns = _ns(cfg.mpc.dt, "mpc.dt")
-    step = _ns(cfg.mpc.dt / cfg.simulation.substeps, "mpc.dt / simulation.substeps")
-    if dt_ns % step:
-        raise BasiliskPlantError(f"simulation.substeps = {cfg.simulation.substeps} does not divide mpc.dt in whole ns")
-    step = math.gcd(step, dt_ns // 2) if dt_ns % 2 == 0 else math.gcd(step, dt_ns)
-    if cfg.navigation.enabled:
-        step = math.gcd(step, _ns(cfg.navigation.imu_period, "navigation.imu_period"))
-    if step * 1000 < dt_ns / cfg.simulation.substeps:
-        raise BasiliskPlantError(
-            f"mpc.dt = {cfg.mpc.dt:g} s, simulation.substeps and navigation.imu_period have no common step above {step} ns"
-        )
-    return step
-
-
 def unsupported(scn: Scenario) -> list[str]:
     """What the scenario asks that the Basilisk plant does not represent, one reason per field (empty:
     it flies)."""
@@ -109,11 +84,6 @@ def unsupported(scn: Scenario) -> list[str]:
         reasons.append(
             f'simulation.integrator = "{cfg.simulation.integrator}": the Basilisk plant integrates with Basilisk\'s '
             'RK4 (its RKF45 misreports the hub with a central body); set "rk4"'
-        )
-    if scn.actuation is not None:
-        reasons.append(
-            f"spacecraft.actuators = {cfg.spacecraft.actuators!r}: Basilisk's thruster and wheel effectors are not "
-            "driven by this version of the plant; fly it on the project's plant"
         )
     try:
         from Basilisk.architecture import astroConstants
@@ -126,10 +96,6 @@ def unsupported(scn: Scenario) -> list[str]:
             )
     except ImportError:
         pass
-    try:
-        task_step_ns(scn)
-    except BasiliskPlantError as exc:
-        reasons.append(str(exc))
     return reasons
 
 
@@ -151,9 +117,15 @@ _Z = np.array([0.0, 0.0, 1.0])
 
 class BasiliskTruth:
     """Basilisk's simulation of one run: the spacecraft hub near the scenario's truth body, advanced from
-    the project's side one segment at a time with a constant force (in L) and torque (in B)."""
+    the project's side one segment at a time with a constant force (in L) and torque (in B), and, with an
+    actuation system, Basilisk's thrusters (on or off over the segment) and reaction wheels (motor torques).
 
-    def __init__(self, scn: Scenario, state: Array, mass_kg: float = IDEAL_MASS_KG) -> None:
+    The plant is Basilisk's scheduler: it calls the modules' ``UpdateState`` in the task's priority order
+    (ephemeris, actuators, external force, SRP, spacecraft; the same sequence ``ExecuteSimulation`` runs, to
+    the bit) at the end of each integrator step, so that a step can end at any nanosecond: at a pulse's
+    end, a sensor sample or the half period."""
+
+    def __init__(self, scn: Scenario, state: Array, actuation: Any = None) -> None:
         reasons = unsupported(scn)
         if reasons:
             raise BasiliskPlantError(
@@ -164,19 +136,19 @@ class BasiliskTruth:
         from Basilisk.simulation.polyhedralGravityModel import PolyhedralGravityModel
         from Basilisk.utilities import SimulationBaseClass, simIncludeGravBody
 
-        truth = scn.truth
+        truth, cfg = scn.truth, scn.config
         p = truth.params
         self.n = float(truth.mean_motion)
         self.R = float(p.orbit_radius)
-        self.mass = float(mass_kg)
+        self.mass = IDEAL_MASS_KG if actuation is None else float(actuation.settings.mass)
         self.inertia_B = np.asarray(p.inertia_B, dtype=np.float64)
-        self.step_ns = task_step_ns(scn)
+        self.max_step_ns = max(1, round(cfg.mpc.dt / cfg.simulation.substeps * _NS))
         self.t_ns = 0
         self._messaging = messaging
         sim = SimulationBaseClass.SimBaseClass()
         sim.SetProgressBar(False)
         process = sim.CreateNewProcess("tubempc")
-        process.addTask(sim.CreateNewTask("plant", self.step_ns))
+        process.addTask(sim.CreateNewTask("plant", self.max_step_ns))
         eph = planetEphemeris.PlanetEphemeris()
         eph.ModelTag = "asteroid_ephemeris"
         eph.setPlanetNames(planetEphemeris.StringVector(["asteroid"]))
@@ -200,9 +172,16 @@ class BasiliskTruth:
         body.planetBodyInMsg.subscribeTo(eph.planetOutMsgs[0])
         sc = spacecraft.Spacecraft()
         sc.ModelTag = "spacecraft"
-        sc.hub.mHub = self.mass
-        sc.hub.IHubPntBc_B = self.inertia_B.tolist()
         factory.addBodiesTo(sc)
+        models: list[tuple[Any, int]] = [(eph, 300)]  # the ephemeris first: gravity reads this step's body
+        self.thrusters = self.wheels = None
+        self._thruster_msg = self._wheel_msg = None
+        hub_mass, hub_inertia = self.mass, self.inertia_B.copy()
+        if actuation is not None:
+            hub_mass, hub_inertia = self._add_actuators(sc, actuation, models, hub_mass, hub_inertia)
+        sc.hub.mHub = hub_mass
+        sc.hub.IHubPntBc_B = hub_inertia.tolist()
+        self.hub_inertia_B = hub_inertia
         ext = extForceTorque.ExtForceTorque()
         ext.ModelTag = "command_and_disturbance"
         sc.addDynamicEffector(ext)
@@ -218,11 +197,9 @@ class BasiliskTruth:
         self._write_sun(0.0)
         srp.sunEphmInMsg.subscribeTo(self._sun_msg)
         sc.addDynamicEffector(srp)
-        # the ephemeris before the spacecraft: its gravity reads the body's state of this step
-        sim.AddModelToTask("plant", eph, 300)
-        sim.AddModelToTask("plant", ext, 200)
-        sim.AddModelToTask("plant", srp, 200)
-        sim.AddModelToTask("plant", sc, 100)
+        models += [(ext, 200), (srp, 200), (sc, 100)]
+        for model, priority in models:
+            sim.AddModelToTask("plant", model, priority)
         r_N, v_N, sigma, omega = self.to_basilisk(0.0, state)
         sc.hub.r_CN_NInit = r_N.tolist()
         sc.hub.v_CN_NInit = v_N.tolist()
@@ -230,8 +207,77 @@ class BasiliskTruth:
         sc.hub.omega_BN_BInit = omega.tolist()
         sim.InitializeSimulation()
         self.sim, self.sc, self.ext = sim, sc, ext
+        self._models = [m for m, _ in sorted(models, key=lambda mp: -mp[1])]
         self._states = [sc.dynManager.getStateObject(n) for n in ("hubPosition", "hubVelocity", "hubSigma", "hubOmega")]
         self.srp_area = float(srp.area)
+
+    def _add_actuators(
+        self, sc: Any, actuation: Any, models: list[tuple[Any, int]], mass: float, inertia_B: Array
+    ) -> tuple[float, Array]:
+        """Basilisk's thruster and wheel effectors for the run's truth thrusters (position, misaligned
+        direction, scale error as ``thrusterMagDisp``; minimum on-time 0: the project's modulation keeps it)
+        and wheels (balanced, at the centre of mass, HR16-class rotor: Js = h_max / 6000 rpm); returns the
+        hub's mass and inertia so that the spacecraft's totals are the scenario's."""
+        from Basilisk.architecture import messaging
+        from Basilisk.simulation import THRSimConfig, reactionWheelStateEffector, thrusterDynamicEffector
+
+        cluster = actuation.cluster
+        true_map = np.asarray(cluster.true_mapping, dtype=np.float64)
+        thr = thrusterDynamicEffector.ThrusterDynamicEffector()
+        thr.ModelTag = "thrusters"
+        for j in range(len(cluster)):
+            spec = cluster.thruster(j)
+            force = true_map[:3, j]
+            c = THRSimConfig.THRSimConfig()
+            c.thrLoc_B = np.asarray(spec.position_B, dtype=np.float64).tolist()
+            c.thrDir_B = (force / np.linalg.norm(force)).tolist()
+            c.MaxThrust = float(spec.max_thrust)
+            c.thrusterMagDisp = float(np.linalg.norm(force)) - 1.0
+            c.steadyIsp = float(spec.isp)
+            c.MinOnTime = 0.0
+            thr.addThruster(c)
+        self._thruster_msg = messaging.THRArrayOnTimeCmdMsg()
+        thr.cmdsInMsg.subscribeTo(self._thruster_msg)
+        sc.addDynamicEffector(thr)
+        wheels = actuation.wheels
+        h0 = np.asarray(wheels.momentum, dtype=np.float64)
+        axes = np.asarray(wheels.axes_B, dtype=np.float64)
+        rw = reactionWheelStateEffector.ReactionWheelStateEffector()
+        rw.ModelTag = "wheels"
+        omega_max = 6000.0 * 2.0 * math.pi / 60.0  # HR16-class rotor (Basilisk's Honeywell_HR16 preset)
+        spin_inertia = []
+        for j in range(len(wheels)):
+            spec = wheels.wheel(j)
+            g = axes[:, j] / np.linalg.norm(axes[:, j])
+            seed = np.eye(3)[int(np.argmin(np.abs(g)))]
+            w2 = np.cross(g, seed)
+            w2 /= np.linalg.norm(w2)
+            c = reactionWheelStateEffector.RWConfigPayload()
+            c.gsHat_B = [[v] for v in g]
+            c.w2Hat0_B = [[v] for v in w2]
+            c.w3Hat0_B = [[v] for v in np.cross(g, w2)]
+            c.rWB_B = [[0.0], [0.0], [0.0]]
+            c.Js = float(spec.max_momentum) / omega_max
+            c.Jt = c.Jg = 0.5 * c.Js
+            c.mass = 0.0  # the wheels' mass is in the scenario's total; their inertia is taken off the hub's
+            c.Omega = float(h0[j] / c.Js)
+            c.Omega_max = omega_max
+            c.u_max = float(spec.max_torque)
+            c.u_min = 0.0
+            c.fCoulomb = 0.0
+            c.RWModel = messaging.BalancedWheels
+            c.label = f"RW{j + 1}"
+            rw.addReactionWheel(c)
+            inertia_B = inertia_B - (c.Js * np.outer(g, g) + c.Jt * (np.eye(3) - np.outer(g, g)))
+            spin_inertia.append(c.Js)
+        sc.addStateEffector(rw)
+        self._wheel_msg = messaging.ArrayMotorTorqueMsg()
+        rw.rwMotorCmdInMsg.subscribeTo(self._wheel_msg)
+        self.wheel_spin_inertia = np.array(spin_inertia)
+        self.wheel_axes_B = axes / np.linalg.norm(axes, axis=0)
+        self.thrusters, self.wheels = thr, rw
+        models += [(thr, 250), (rw, 250)]
+        return mass, inertia_B
 
     def _write_sun(self, t: float) -> None:
         payload = self._messaging.SpicePlanetStateMsgPayload()
@@ -276,19 +322,49 @@ class BasiliskTruth:
         r, v, s, w = (np.asarray(o.getState(), dtype=np.float64).ravel() for o in self._states)
         return self.from_basilisk(self.t, r, v, s, w)
 
-    def advance(self, t_end: float, a_L: Array, torque_B: Array) -> None:
-        """Runs Basilisk to ``t_end`` (s; a multiple of the task step) with the force m a_L (a_L in L, turned
-        into N at the segment's midpoint: the controller holds u_p in L) and the torque ``torque_B`` (N m,
-        in B) held."""
-        end_ns = round(t_end * _NS)
-        if end_ns <= self.t_ns or (end_ns - self.t_ns) % self.step_ns:
-            raise ValueError(f"segment end {t_end:g} s is not a step of {self.step_ns} ns after {self.t:g} s")
-        mid = 0.5 * (self.t + t_end)
+    def wheel_momentum(self) -> Array:
+        """The wheels' axial angular momenta Js (Omega + g^T omega_BN_B) (N m s; Omega relative to the body,
+        from Basilisk's wheel states): what the motor torques change, h_j' = -u_j."""
+        if self.wheels is None:
+            return np.zeros(0)
+        speeds = np.asarray(self.wheels.rwSpeedOutMsg.read().wheelSpeeds, dtype=np.float64)[: len(self.wheel_spin_inertia)]
+        omega_BN_B = np.asarray(self._states[3].getState(), dtype=np.float64).ravel()
+        return self.wheel_spin_inertia * (speeds + self.wheel_axes_B.T @ omega_BN_B)
+
+    def advance(
+        self,
+        end_ns: int,
+        a_L: Array,
+        torque_B: Array,
+        thrusters_on: npt.NDArray[np.bool_] | None = None,
+        wheel_torque: Array | None = None,
+    ) -> None:
+        """Runs Basilisk to ``end_ns`` (ns) in equal steps of at most dt / simulation.substeps with the force
+        m a_L (a_L in L, turned into N at the segment's midpoint: the controller holds u_p in L), the torque
+        ``torque_B`` (N m, in B), the thrusters ``thrusters_on`` firing throughout and the wheels exerting
+        ``wheel_torque`` (N m, on the spacecraft, about their axes) held."""
+        if end_ns <= self.t_ns:
+            raise ValueError(f"segment end {end_ns} ns is not after {self.t_ns} ns")
+        mid = 0.5 * (self.t_ns + end_ns) / _NS
         self.ext.extForce_N = (self.mass * self.C_NL(mid) @ a_L).tolist()
         self.ext.extTorquePntB_B = np.asarray(torque_B, dtype=np.float64).tolist()
         self._write_sun(mid)
-        self.sim.ConfigureStopTime(end_ns)
-        self.sim.ExecuteSimulation()
+        n = -(-(end_ns - self.t_ns) // self.max_step_ns)
+        start = self.t_ns
+        for i in range(1, n + 1):
+            t = start + (end_ns - start) * i // n
+            if self._thruster_msg is not None and thrusters_on is not None:
+                cmd = self._messaging.THRArrayOnTimeCmdMsgPayload()
+                # on over the step that ends now: a command of 1 ns from now (Basilisk honours a firing while
+                # start + on-time >= the stage's time); rewritten, with its time stamp, at every step
+                cmd.OnTimeRequest = np.where(thrusters_on, 1e-9, 0.0).tolist()
+                self._thruster_msg.write(cmd, t)
+            if self._wheel_msg is not None and wheel_torque is not None:
+                motor = self._messaging.ArrayMotorTorqueMsgPayload()
+                motor.motorTorque = (-np.asarray(wheel_torque, dtype=np.float64)).tolist()  # on the wheel
+                self._wheel_msg.write(motor, t)
+            for model in self._models:
+                model.UpdateState(t)
         self.t_ns = end_ns
 
 
@@ -302,14 +378,15 @@ class BasiliskPlant(ProjectPlant):
     NAME = "basilisk"
 
     def __post_init__(self) -> None:
-        self.bsk = BasiliskTruth(self.scn, self.state)
+        self.bsk = BasiliskTruth(self.scn, self.state, self.actuation)
 
     def step(self, k: int, u: Array) -> tuple[Array, Array]:
         """Propagates one control period in Basilisk with input ``u`` and the period's drawn disturbance
-        (as a force and torque); returns x_{k+1} and the draw."""
+        (as a force and torque); returns x_{k+1} and the draw. With actuators, Basilisk's thrusters fire
+        the truth's on-times from the period's start and its wheels exert the allocated torques."""
         assert self.bsk is not None
         scn, dt = self.scn, self.scn.config.mpc.dt
-        t0 = k * dt
+        t0_ns, dt_ns = round(k * dt * _NS), round(dt * _NS)
         u_applied = self.apply_actuators(k, u)
         w_p, w_r = self.disturbance.sample(k)
         half = 0.5 * dt
@@ -318,19 +395,29 @@ class BasiliskPlant(ProjectPlant):
         d_theta_B = np.asarray(_core.so3.right_jacobian(phi), dtype=np.float64) @ w_r[0:3]
         alpha = split_increment(d_theta_B, w_r[3:6], half)
         nav = self.nav
-        samples = {} if nav is None else {round((t0 + (j + 1) * nav.h) * _NS): j for j in range(nav.n_sub)}
-        start = t0
-        for end_ns in sorted({*samples, round((t0 + half) * _NS), round((t0 + dt) * _NS)}):
-            end = end_ns / _NS
-            second = int(0.5 * (start + end) > t0 + half)
-            a_L = u_applied[:3] + a[second]
-            torque = u_applied[3:] + self.bsk.inertia_B @ alpha[second]
-            self.bsk.advance(end, a_L, torque)
+        samples = {} if nav is None else {t0_ns + round((j + 1) * nav.h * _NS): j for j in range(nav.n_sub)}
+        ends = {*samples, t0_ns + dt_ns // 2, t0_ns + dt_ns}
+        st = self.delivered[1]
+        pulse_end = wheel_torque = None
+        if st is not None:  # Basilisk's thrusters and wheels deliver; the command itself is not applied
+            pulse_end = t0_ns + np.round(np.asarray(st.on_time, dtype=np.float64) * _NS).astype(np.int64)
+            ends |= {int(e) for e in pulse_end if t0_ns < e < t0_ns + dt_ns}
+            wheel_torque = np.asarray(st.wheel_torque, dtype=np.float64)
+        start = t0_ns
+        for end_ns in sorted(ends):
+            second = int(start + end_ns > 2 * t0_ns + dt_ns)  # the segment's midpoint is in the second half
+            a_L, torque = a[second], self.bsk.inertia_B @ alpha[second]
+            if st is None:
+                a_L, torque = a_L + u_applied[:3], torque + u_applied[3:]
+                self.bsk.advance(end_ns, a_L, torque)
+            else:
+                assert pulse_end is not None
+                self.bsk.advance(end_ns, a_L, torque, pulse_end >= end_ns, wheel_torque)
             if nav is not None and end_ns in samples:
                 j = samples[end_ns]
-                nav.t[j], nav.truth[j] = end, self.bsk.state()
+                nav.t[j], nav.truth[j] = end_ns / _NS, self.bsk.state()
                 nav.accel[j] = u_applied[:3] + nav.srp_L
-            start = end
+            start = end_ns
         self.state = state = self.bsk.state()
         x_next = scn.truth.truth_to_state(state, scn.reference.x[k + 1, 6:9])
         return x_next, np.concatenate([w_p, w_r])
@@ -342,9 +429,12 @@ class BasiliskPlant(ProjectPlant):
             "name": self.NAME,
             "bsk": basilisk_version(),
             "integrator": "rk4",
-            "step_s": self.bsk.step_ns / _NS,
+            "max_step_s": self.bsk.max_step_ns / _NS,
             "mass_kg": self.bsk.mass,
             "srp": {"model": "cannonball", "area_m2": self.bsk.srp_area, "coefficient_reflection": 1.0},
+            "actuators": "ideal (extForceTorque)"
+            if self.bsk.thrusters is None
+            else "thrusterDynamicEffector, reactionWheelStateEffector",
         }
 
 
