@@ -139,13 +139,31 @@ def _fuzz(d: dict[str, Any]) -> list[tuple[str, str]]:
     ]
 
 
+def _plant(d: dict[str, Any]) -> str:
+    """Who propagated the truth of a run's or campaign's summary (absent: the project's plant)."""
+    return ", in Basilisk" if d.get("plant") == "basilisk" else ""
+
+
+def _plant_bench(d: dict[str, Any]) -> list[tuple[str, str]]:
+    m, ms = d["max_difference"], d["ms_per_step"]
+    return [
+        (
+            f"Basilisk {d['bsk']} plant against the project's, {d['steps']} steps open loop, {_file_name(d['scenario'])}",
+            f"position <= {m['position_m']:.2g} m ({d['position_over_semi_axis']:.1e} of TBMPC's position semi-axis "
+            f"{d['tube_semi_axis_m']:.3g} m), velocity <= {m['velocity_m_s']:.2g} m/s, attitude <= {m['attitude_rad']:.2g} "
+            f"rad; per control step {ms['basilisk']:.3g} ms against {ms['project']:.3g} ms "
+            f"({d['basilisk_over_project']:.2f}x)",
+        )
+    ]
+
+
 def _run(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     rows = []
     for m, r in d["methods"].items():
         st = r["step_time"]
         rows.append(
             (
-                f"closed loop {m}, {name.removeprefix('run_')}, seed {d['seed']}",
+                f"closed loop {m}, {name.removeprefix('run_')}, seed {d['seed']}{_plant(d)}",
                 f"J_p {r['J_p']:.4g}, J_r {r['J_r']:.4g}, terminal error "
                 f"{1e3 * r['terminal_error']['position']:.3g} mm, "
                 f"steps outside the tube {r['steps_outside_tube']}, fallbacks {r.get('fallback_steps', 0)}; step "
@@ -161,7 +179,8 @@ def _montecarlo(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     for m, r in d["methods"].items():
         rows.append(
             (
-                f"Monte Carlo {m}, {name.removeprefix('montecarlo_')}, {d['runs']} runs, master seed {d.get('master_seed')}",
+                f"Monte Carlo {m}, {name.removeprefix('montecarlo_')}, {d['runs']} runs, master seed {d.get('master_seed')}"
+                f"{_plant(d)}",
                 f"J_p {r['J_p']['mean']:.4g} (3 sigma {r['J_p']['3sigma']:.2g}), J_r {r['J_r']['mean']:.4g}; runs "
                 f"outside the tube {r['runs_outside_tube']}/{d['runs']}; campaign {d['wall_time_s']:.0f} s",
             )
@@ -352,6 +371,7 @@ EXTRACTORS: dict[str, Callable[[dict[str, Any], str], list[tuple[str, str]]]] = 
     "actuators": lambda d, _: _actuators(d),
     "actuation": _actuation,
     "navigation": _navigation,
+    "plant": lambda d, _: _plant_bench(d),
 }
 
 

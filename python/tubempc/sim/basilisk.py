@@ -2,31 +2,32 @@
 
 Basilisk (``bsk``, the optional extra ``basilisk``) propagates the truth instead of the project's C++
 propagator: its rigid spacecraft hub, its polyhedral gravity (``PolyhedralGravityModel``, mu = G rho V
-of the truth's shape and density) on a body that its ``planetEphemeris`` moves on the scenario's
-circular heliocentric orbit and spins about z_L, the Sun as a point mass (the solar tide: Basilisk
-subtracts the Sun's pull on the central body, exact rather than Hill's linear term), and the SRP of its
-``radiationPressure`` cannonball. The controller, the actuators' model and the navigation are unchanged;
-what crosses between the two is the state (read from Basilisk's hub, converted into L) and the force
-and torque of each segment of the period (``extForceTorque``).
+of the truth's shape and density) on a body that its ``planetEphemeris`` spins about z_L, the Sun as a
+point mass on the scenario's circular orbit (the solar tide: Basilisk subtracts the Sun's pull on the
+central body, exact rather than Hill's linear term), the SRP of its ``radiationPressure`` cannonball,
+and with ``spacecraft.actuators`` its thruster and reaction-wheel effectors. The controller, the
+actuators' allocation and modulation and the navigation are unchanged; what crosses between the two is
+the state (read from Basilisk's hub, converted into L), the force and torque of each segment of the
+period (``extForceTorque``) and the thrusters' and wheels' commands.
 
-Frames: Basilisk's inertial frame N is heliocentric; the asteroid is at +R x_N at t = 0 on a prograde
-orbit in the x_N y_N plane, so that L = N at t = 0 and C_NL(t) = Rz(n t). The hub's states are read from
-Basilisk's state engine, relative to the asteroid (the central body), not from ``r_BN_N``, which is
-heliocentric and rounds relative positions to about 3e-5 m.
+Frames: Basilisk's inertial frame N has its origin at the asteroid (``planetEphemeris.zeroBase``) and
+the axes of L at t = 0; the Sun circles it at the orbital rate n, so C_NL(t) = Rz(n t).
 
-The traps Basilisk sets for such a plant, and what this module does about each:
+The traps Basilisk sets for such a plant, and what this module does about each (each pinned by a test
+in tests/py/sim/test_basilisk.py):
 
-- the SRP effector takes the hub position (relative to the central body) as inertial, so the Sun's
-  message holds the Sun's position relative to the asteroid, -r_A(t), written every period;
+- heliocentric states (``r_BN_N`` with the asteroid at 1 AU) round relative positions to about 3e-5 m,
+  and the effectors that read the hub's position (SRP, gravity gradient) take it as inertial while a
+  central body makes it body-relative: N's origin is the asteroid, so both are the same;
 - a body without ``planetBodyInMsg`` does not rotate: the asteroid's message comes from
   ``planetEphemeris`` (right ascension 0, declination 90 deg, lst_0 = the spin angle at t = 0, the
-  signed spin rate), which runs before the spacecraft in the task;
+  signed spin rate), which runs before the spacecraft;
 - Basilisk takes mu, not density: mu = the truth gravity's G M;
-- a pulse is resolved at the integrator step only: the task's step divides every segment of the period
-  (the half periods of the injected disturbance and the navigation's sensor sub-steps);
-- the RKF45 integrator with a central body misreports ``r_BN_N``: the plant keeps Basilisk's default RK4;
-- ``planetEphemeris`` moves the asteroid with Basilisk's own MU_SUN: a scenario with another
-  ``environment.mu_sun`` is refused.
+- effectors that read a command message (thrusters, wheels) read it when they run, before the
+  spacecraft integrates the step that ends then; Basilisk's thruster counts its firing from that time
+  and switches only at the integrator's stages: the plant ends a step at every pulse's end and rewrites
+  the time-stamped commands at every step;
+- the RKF45 integrator with a central body misreports ``r_BN_N``: the plant keeps Basilisk's RK4.
 
 The paper's drawn disturbance (``disturbance.model = "drawn"``) enters Basilisk as a force and a torque:
 the draw w_k = [dr, dv] (and [dphi, domega]) becomes two constant accelerations on the two halves of the
@@ -52,9 +53,6 @@ __all__ = ["BasiliskPlant", "BasiliskPlantError", "BasiliskTruth", "basilisk_ver
 
 Array = npt.NDArray[np.float64]
 
-#: Relative difference between ``environment.mu_sun`` and Basilisk's MU_SUN above which the plant refuses
-#: the scenario (its ephemeris would not be the orbit the Sun's gravity gives).
-MU_SUN_TOLERANCE = 1e-9
 #: The hub's mass (kg) when the scenario has no actuators: the controller commands accelerations, the
 #: plant applies the force m u_p and sizes the cannonball SRP area from beta_SRP m, so the mass cancels.
 IDEAL_MASS_KG = 1000.0
@@ -85,17 +83,6 @@ def unsupported(scn: Scenario) -> list[str]:
             f'simulation.integrator = "{cfg.simulation.integrator}": the Basilisk plant integrates with Basilisk\'s '
             'RK4 (its RKF45 misreports the hub with a central body); set "rk4"'
         )
-    try:
-        from Basilisk.architecture import astroConstants
-
-        mu_bsk = astroConstants.MU_SUN * 1e9
-        if abs(p.mu_sun / mu_bsk - 1.0) > MU_SUN_TOLERANCE:
-            reasons.append(
-                f"environment.mu_sun = {p.mu_sun:.12g} m^3/s^2: Basilisk's planetEphemeris moves the asteroid with its "
-                f"MU_SUN = {mu_bsk:.12g} m^3/s^2"
-            )
-    except ImportError:
-        pass
     return reasons
 
 
@@ -159,10 +146,14 @@ class BasiliskTruth:
         eph.declination = planetEphemeris.DoubleVector([math.pi / 2])
         eph.lst0 = planetEphemeris.DoubleVector([float(p.spin_angle0)])
         eph.rotRate = planetEphemeris.DoubleVector([float(p.spin_rate)])
+        eph.zeroBase = "asteroid"  # N's origin at the asteroid: no heliocentric rounding, correct body-relative effectors
         gravity = truth.gravity
         factory = simIncludeGravBody.gravBodyFactory()
         sun = factory.createSun()
         sun.mu = float(p.mu_sun)
+        self._sun_msg = messaging.SpicePlanetStateMsg()
+        self._write_sun(0)
+        sun.planetBodyInMsg.subscribeTo(self._sun_msg)
         body = factory.createCustomGravObject("asteroid", float(gravity.gm))
         body.isCentralBody = True
         poly = PolyhedralGravityModel()
@@ -193,8 +184,6 @@ class BasiliskTruth:
         # cannonball: |F| = C_R A (flux / c) (1 AU / d)^2; A from beta_SRP / R^2 = |F| / m at d = R
         au_m = astroConstants.AU * 1000.0
         srp.area = a_srp * self.R**2 * self.mass * astroConstants.SPEED_LIGHT / (astroConstants.SOLAR_FLUX_EARTH * au_m**2)
-        self._sun_msg = messaging.SpicePlanetStateMsg()
-        self._write_sun(0.0)
         srp.sunEphmInMsg.subscribeTo(self._sun_msg)
         sc.addDynamicEffector(srp)
         models += [(ext, 200), (srp, 200), (sc, 100)]
@@ -279,10 +268,15 @@ class BasiliskTruth:
         models += [(thr, 250), (rw, 250)]
         return mass, inertia_B
 
-    def _write_sun(self, t: float) -> None:
+    def _write_sun(self, t_ns: int) -> None:
+        """The Sun's state relative to the asteroid at t_ns (the scenario's circular orbit, seen from the
+        asteroid), time-stamped: Basilisk's gravity steps it by its velocity from there."""
+        C_NL = _rz(self.n * t_ns / _NS)
         payload = self._messaging.SpicePlanetStateMsgPayload()
-        payload.PositionVector = (-self.R * _rz(self.n * t)[:, 0]).tolist()
-        self._sun_msg.write(payload)
+        payload.PositionVector = (-self.R * C_NL[:, 0]).tolist()
+        payload.VelocityVector = (-self.R * self.n * C_NL[:, 1]).tolist()
+        payload.J20002Pfix = np.eye(3).tolist()
+        self._sun_msg.write(payload, t_ns)
 
     def C_NL(self, t: float) -> Array:
         """The rotation from L to N at t (s)."""
@@ -348,11 +342,11 @@ class BasiliskTruth:
         mid = 0.5 * (self.t_ns + end_ns) / _NS
         self.ext.extForce_N = (self.mass * self.C_NL(mid) @ a_L).tolist()
         self.ext.extTorquePntB_B = np.asarray(torque_B, dtype=np.float64).tolist()
-        self._write_sun(mid)
         n = -(-(end_ns - self.t_ns) // self.max_step_ns)
         start = self.t_ns
         for i in range(1, n + 1):
             t = start + (end_ns - start) * i // n
+            self._write_sun(start + (end_ns - start) * (i - 1) // n)
             if self._thruster_msg is not None and thrusters_on is not None:
                 cmd = self._messaging.THRArrayOnTimeCmdMsgPayload()
                 # on over the step that ends now: a command of 1 ns from now (Basilisk honours a firing while
