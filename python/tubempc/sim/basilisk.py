@@ -76,7 +76,7 @@ def basilisk_version() -> str:
 def unsupported(scn: Scenario) -> list[str]:
     """What the scenario asks that the Basilisk plant does not represent, one reason per field (empty:
     it flies)."""
-    cfg, p = scn.config, scn.truth.params
+    cfg = scn.config
     reasons = []
     if cfg.simulation.integrator != "rk4":
         reasons.append(
