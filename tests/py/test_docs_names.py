@@ -52,6 +52,7 @@ ALLOWED = frozenset(
         # other projects' names
         "SimplicialLDLT",  # Eigen
         "PolyhedralGravityModel",  # Basilisk
+        "updateTaskPeriod",
         "smallBodyNavEKF",
         "smallBodyNavUKF",
         "pinholeCamera",

@@ -76,12 +76,6 @@ def plant_line(plant: str | None) -> str:
     return "the project's (simulation.plant = project)"
 
 
-def _plants() -> tuple[str, ...]:
-    from ..config import PLANTS
-
-    return PLANTS
-
-
 def scenario_arguments(p: argparse.ArgumentParser, *, plant: bool = True) -> None:
     """--config, --scenario and --shape-unit (and --plant, for the commands that fly)."""
     group = p.add_mutually_exclusive_group()
@@ -95,9 +89,8 @@ def scenario_arguments(p: argparse.ArgumentParser, *, plant: bool = True) -> Non
     if plant:
         p.add_argument(
             "--plant",
-            choices=_plants(),
-            help="who propagates the truth (simulation.plant; default: the config's): the project's C++ propagator "
-            "or Basilisk (pip install 'tubempc[basilisk]')",
+            help="who propagates the truth (simulation.plant, checked with the configuration; default: the config's): "
+            "project (the C++ propagator) or basilisk (pip install 'tubempc[basilisk]')",
         )
 
 
