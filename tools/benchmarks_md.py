@@ -193,7 +193,7 @@ def _sweep(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     for label, r in d["rows"].items():
         rows.append(
             (
-                f"lambda sweep {name.removeprefix('sweep_')}, seed {d['seed']}: {label}",
+                f"lambda sweep {name.removeprefix('sweep_')}, seed {d['seed']}{_plant(d)}: {label}",
                 f"J_p {r['J_p']:.4g}, J_r {r['J_r']:.4g}, mean x tube half-width {r['mean_tube_half_width_x_m']:.3g} m; "
                 f"steps outside the tube {r['steps_outside_tube']}, failed LMI designs {r['tube_design_failures']}, "
                 f"steps on the last certified tube {r['tube_uncertified_steps']}",

@@ -151,7 +151,8 @@ def _caption(stem: str) -> str:
 
 
 def _scenario(folder: Path) -> tuple[Config | None, bool]:
-    """The configuration saved beside a result and whether it is the paper's own scenario."""
+    """The configuration saved beside a result and whether it is the paper's own scenario (flown in either
+    plant: ``simulation.plant`` says who propagated the truth, not what the scenario is)."""
     path = folder / "config.toml"
     if not path.exists():
         return None, False
@@ -159,7 +160,7 @@ def _scenario(folder: Path) -> tuple[Config | None, bool]:
         cfg = load_config(path)
     except ConfigError:
         return None, False
-    return cfg, cfg == load_config()
+    return cfg, cfg.with_overrides({"simulation.plant": "project"}) == load_config()
 
 
 def _mission_view(folder: Path, cfg: Config | None, methods: list[str]) -> tuple[str, str]:

@@ -454,6 +454,7 @@ def sweep(
         machine=machine_info(),
         rows=rows,
         smallest_feasible_lambda_p=min(feasible) if feasible else None,
+        plant=cfg.simulation.plant,
     )
     write_summary(out / "sweep.json", summary)
     t = np.arange(cfg.mpc.n_steps + 1) * cfg.mpc.dt

@@ -390,6 +390,7 @@ class SweepSummary(_Json):
     rows: dict[str, SweepRow]
     # of the lambda_p swept: the smallest whose TBMPC-FFA flew a designed or certified tube at every step
     smallest_feasible_lambda_p: float | None
+    plant: str | None = field(default=None, metadata=_OMIT)  # simulation.plant; None: a file before it (the project's)
     format_version: int = field(default=FORMAT_VERSION, compare=False)
 
     @property
