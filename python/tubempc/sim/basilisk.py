@@ -377,7 +377,7 @@ class BasiliskPlant(ProjectPlant):
     def step(self, k: int, u: Array) -> tuple[Array, Array]:
         """Propagates one control period in Basilisk with input ``u`` and the period's drawn disturbance
         (as a force and torque); returns x_{k+1} and the draw. With actuators, Basilisk's thrusters fire
-        the truth's on-times from the period's start and its wheels exert the allocated torques."""
+        the truth's on-times as pulses centred in the period and its wheels exert the allocated torques."""
         assert self.bsk is not None
         scn, dt = self.scn, self.scn.config.mpc.dt
         t0_ns, dt_ns = round(k * dt * _NS), round(dt * _NS)
@@ -392,10 +392,13 @@ class BasiliskPlant(ProjectPlant):
         samples = {} if nav is None else {t0_ns + round((j + 1) * nav.h * _NS): j for j in range(nav.n_sub)}
         ends = {*samples, t0_ns + dt_ns // 2, t0_ns + dt_ns}
         st = self.delivered[1]
-        pulse_end = wheel_torque = None
+        pulse_start = pulse_end = wheel_torque = None
         if st is not None:  # Basilisk's thrusters and wheels deliver; the command itself is not applied
-            pulse_end = t0_ns + np.round(np.asarray(st.on_time, dtype=np.float64) * _NS).astype(np.int64)
-            ends |= {int(e) for e in pulse_end if t0_ns < e < t0_ns + dt_ns}
+            # each pulse centred in the period (M34): its impulse's centroid is the period-average force's
+            on_ns = np.round(np.asarray(st.on_time, dtype=np.float64) * _NS).astype(np.int64)
+            pulse_start = t0_ns + (dt_ns - on_ns) // 2
+            pulse_end = pulse_start + on_ns
+            ends |= {int(e) for e in (*pulse_start, *pulse_end) if t0_ns < e < t0_ns + dt_ns}
             wheel_torque = np.asarray(st.wheel_torque, dtype=np.float64)
         start = t0_ns
         for end_ns in sorted(ends):
@@ -405,8 +408,9 @@ class BasiliskPlant(ProjectPlant):
                 a_L, torque = a_L + u_applied[:3], torque + u_applied[3:]
                 self.bsk.advance(end_ns, a_L, torque)
             else:
-                assert pulse_end is not None
-                self.bsk.advance(end_ns, a_L, torque, pulse_end >= end_ns, wheel_torque)
+                assert pulse_start is not None and pulse_end is not None
+                on = (pulse_start <= start) & (pulse_end >= end_ns) & (pulse_end > pulse_start)
+                self.bsk.advance(end_ns, a_L, torque, on, wheel_torque)
             if nav is not None and end_ns in samples:
                 j = samples[end_ns]
                 nav.t[j], nav.truth[j] = end_ns / _NS, self.bsk.state()

@@ -163,7 +163,7 @@ struct ModulationSettings {
 
 /// One period's firing (buffers sized at construction, overwritten by every call).
 struct Firing {
-  Eigen::VectorXd on_time;  ///< On-time of each thruster from the start of the period (s, n).
+  Eigen::VectorXd on_time;  ///< On-time of each thruster, one pulse centred in the period (s, n).
   Eigen::VectorXd impulse;  ///< Impulse delivered by each thruster, truth (N s, n).
   /// D f_cmd: the wrench of the commanded thrusts (nominal, N and N m).
   Vector6 commanded_B = Vector6::Zero();
