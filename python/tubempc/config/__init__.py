@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from .load import OWN_MISSION_DEFAULTS, SCENARIOS, load_config, scenario_file
 from .navigation import NavigationSection
+from .physical import PhysicalSection
 from .parse import (
     BORESIGHT_DEFAULTS,
     REMOVED_FIELDS,
@@ -57,6 +58,7 @@ __all__ = [
     "IdentificationSection",
     "MpcSection",
     "NavigationSection",
+    "PhysicalSection",
     "SimulationSection",
     "SpacecraftSection",
     "TubeSection",

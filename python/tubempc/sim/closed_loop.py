@@ -15,7 +15,9 @@ Each control step k (dt = 2 s, T = t_f / dt steps) is one call of the C++ contro
 Around it, this module simulates the plant: truth propagation of the 13-state (quaternion attitude)
 with the truth model (which may differ from the controller's: density, SRP, shape resolution), the
 actuator mismatch, and the additive disturbance of paper Eq. (16) and (18) applied to the state
-increment; and records everything into a :class:`tubempc.results.RunRecord`.
+increment (``disturbance.model = "drawn"``), or, with ``"physical"``, no draw: the truth's physical
+environment in the C++ propagation (``Scenario.physical``; docs/model.md "Physical environment"); and
+records everything into a :class:`tubempc.results.RunRecord`.
 
 The controller's state x = [r_L, v_L, phi, omega_BL_B] takes phi = log(q_B/L) on the branch nearest
 to the reference (so that phi follows the reference through ``|phi| = pi``).
@@ -59,9 +61,13 @@ class _Plant:
     delivered: Any = None  # the last period's (u_delivered, ActuationStep or None)
     nav: Navigation | None = None  # with navigation: propagated in sub-steps the sensors sample
     nav_error_set: Array = field(default_factory=lambda: np.zeros((0, 0)))  # E of the estimate flown
+    environment: Any = None  # _core.dynamics.PhysicalEnvironment (disturbance.model = "physical"), or None
 
     def step(self, k: int, u: Array) -> tuple[Array, Array]:
-        """Propagates one control period with input ``u``; returns x_{k+1} and the disturbance drawn."""
+        """Propagates one control period with input ``u``; returns x_{k+1} and the disturbance drawn (zero in
+        the physical environment, which draws none)."""
+        if self.environment is not None:
+            return self._step_physical(k, u)
         scn, dt = self.scn, self.scn.config.mpc.dt
         if self.actuation is None:
             u_applied = np.concatenate([self.actuators.apply_acceleration(u[:3]), self.actuators.apply_torque(u[3:])])
@@ -84,6 +90,27 @@ class _Plant:
         if self.nav is not None:
             self.nav.truth[-1] = self.state  # the sensors' last sample is after the disturbance
         return x_next, np.concatenate([w_p, w_r])
+
+    def _step_physical(self, k: int, u: Array) -> tuple[Array, Array]:
+        """One period in the physical environment: the command (through the actuators, if any) delivered with the
+        truth's mass and actuator errors at the period's start attitude, the environment's forces and torques
+        in the C++ propagation, no additive draw."""
+        scn, dt, env = self.scn, self.scn.config.mpc.dt, self.environment
+        if self.actuation is None:
+            u_cmd, st = u, None
+        else:
+            u_cmd, st = actuate(self.actuation, k * dt, u, self.state)
+        u_applied = np.asarray(env.deliver(u_cmd, self.state[6:10]), dtype=np.float64)
+        self.delivered = (u_applied, st)
+        if self.nav is not None:
+            end = propagate_sampled(self.nav, scn.truth, k * dt, self.state, u_applied, self.propagator, env)
+        else:
+            prop = scn.truth.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator, environment=env)
+            if prop.status.name != "Success":
+                raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
+            end = np.asarray(prop.state)
+        self.state = end
+        return scn.truth.truth_to_state(end, scn.reference.x[k + 1, 6:9]), np.zeros(12)
 
 
 def _record_step(rec: RunRecord, k: int, step: Any, ctrl: Any, times: tuple[float, float], wait: float) -> None:
@@ -133,7 +160,10 @@ def _new_plant(scn: Scenario, seed: int) -> _Plant:
     loop = loop_setup(scn)
     system = None if loop.actuation is None else loop.actuation.system(seed + 1)
     truth0 = scn.model.state_to_truth(scn.x0)
-    return _Plant(scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, truth0, system)
+    plant = _Plant(scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, truth0, system)
+    if scn.physical is not None:
+        plant.environment = scn.physical.environment(seed)
+    return plant
 
 
 def _record_actuation(rec: RunRecord, k: int, plant: _Plant, dt: float) -> None:
@@ -289,18 +319,25 @@ def _applied(scn: Scenario, plant: _Plant, rec: RunRecord, max_steps: int | None
     per state component: mean, standard deviation and largest |w|) for checking that they were."""
     sim = scn.config.simulation
     w = rec.w_true
+    truth: dict[str, Any] = {
+        "density_scale": sim.density_scale,
+        "srp_scale": sim.srp_scale,
+        "truth_shape_subdivisions": sim.truth_shape_subdivisions,
+    }
+    if scn.physical is None:
+        disturbance, ideal_actuators = plant.disturbance.describe(), plant.actuators.describe()
+    else:  # no draw; the actuator errors are the environment's, in B
+        disturbance = {"model": "physical", "seed": rec.seed}
+        ideal_actuators = scn.physical.actuator_errors(rec.seed)[2]
+        truth["physical"] = scn.physical.describe()
     return {
         "seed": rec.seed,
         "max_steps": max_steps,
-        "disturbance": plant.disturbance.describe(),
-        "actuators": plant.actuators.describe()
+        "disturbance": disturbance,
+        "actuators": ideal_actuators
         if plant.actuation is None
         else describe_actuation(plant.actuation, loop_setup(scn).actuation),
-        "truth": {
-            "density_scale": sim.density_scale,
-            "srp_scale": sim.srp_scale,
-            "truth_shape_subdivisions": sim.truth_shape_subdivisions,
-        },
+        "truth": truth,
         "realised_disturbance": {
             "mean": w.mean(axis=0).tolist(),
             "std": w.std(axis=0).tolist(),
