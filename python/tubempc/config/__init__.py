@@ -15,7 +15,6 @@ from __future__ import annotations
 
 from .load import OWN_MISSION_DEFAULTS, SCENARIOS, load_config, scenario_file
 from .navigation import NavigationSection
-from .physical import PhysicalSection
 from .parse import (
     BORESIGHT_DEFAULTS,
     REMOVED_FIELDS,
@@ -25,6 +24,7 @@ from .parse import (
     Config,
     ConfigDeprecationWarning,
 )
+from .physical import PhysicalSection
 from .quantities import ConfigError
 from .sections import (
     AsteroidSection,

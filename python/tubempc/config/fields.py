@@ -26,7 +26,8 @@ class Spec:
 
     doc: one line on what the field is; unit: SI unit string of a quantity ("" for a dimensionless
     number), None for a string option, an integer or a boolean; quantity: its kind in messages; shape:
-    () for a scalar, a leading -1 for any number n >= 1 of rows (``(-1, 3)``: n x 3); check: a predicate on the SI value with its description; choices: the values of an
+    () for a scalar, a leading -1 for any number n >= 1 of rows (``(-1, 3)``: n x 3);
+    check: a predicate on the SI value with its description; choices: the values of an
     option (None: any non-empty string); cpp: the C++ setting it sets, for [navigation] the member of
     ``nav::NavigationSettings`` ("camera.min_range"), for [physical] the member of
     ``dynamics::PhysicalSettings`` ("mass"; "plates[].area": that member of each plate), None when no
@@ -133,7 +134,7 @@ def parse_field(spec: Spec, raw: Any, where: str) -> Any:
 
 def shape_matches(declared: tuple[int, ...], shape: tuple[int, ...]) -> bool:
     """Whether an array's shape is the declared one (a -1 stands for any length >= 1)."""
-    return len(declared) == len(shape) and all(d == n or (d == -1 and n >= 1) for d, n in zip(declared, shape))
+    return len(declared) == len(shape) and all(d == n or (d == -1 and n >= 1) for d, n in zip(declared, shape, strict=True))
 
 
 def shape_text(declared: tuple[int, ...]) -> str:

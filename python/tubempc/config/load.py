@@ -52,7 +52,7 @@ SCENARIOS: dict[str, tuple[str, str]] = {
     ),
     "bennu-tag-physical": (
         "scenarios/bennu_tag_physical.toml",
-        "bennu-tag in a physical environment: a heterogeneous body, flat-plate SRP, gravity gradient, mass and inertia errors",
+        "bennu-tag in a physical environment: heterogeneous body, flat-plate SRP, gravity gradient, mass and inertia errors",
     ),
     "bennu-paper-physical": (
         "scenarios/bennu_paper_physical.toml",

@@ -121,9 +121,7 @@ RENAMED_VALUES: dict[tuple[str, str, str], str] = {
     ("disturbance", "model", "ellipsoid_uniform"): "drawn",
 }
 #: Fields that nothing read; ignored with a warning.
-REMOVED_FIELDS: frozenset[tuple[str, str]] = frozenset(
-    {("asteroid", "G"), ("asteroid", "shape_mean_radius")}
-)
+REMOVED_FIELDS: frozenset[tuple[str, str]] = frozenset({("asteroid", "G"), ("asteroid", "shape_mean_radius")})
 
 #: Old fields whose meaning changed (section, old) -> how to write it now; a ConfigError.
 REPLACED_FIELDS: dict[tuple[str, str], str] = {
@@ -245,7 +243,9 @@ def _check_physical(c: Config) -> None:
     for name in ("plate_normal_B", "plate_center_B", "plate_specular", "plate_diffuse"):
         rows = np.asarray(getattr(p, name)).shape[0]
         if rows != n:
-            raise ConfigError(f"{c.source}: physical.{name}: {rows} entries, but physical.plate_area has {n} (one per plate)")
+            raise ConfigError(
+                f"{c.source}: physical.{name}: {rows} entries, but physical.plate_area has {n} (one per plate)"
+            )
     total = np.asarray(p.plate_specular) + np.asarray(p.plate_diffuse)
     if np.any(total > 1.0):
         i = int(np.argmax(total > 1.0))

@@ -73,9 +73,7 @@ class PhysicalSection:
     gravity_gradient: bool = field(
         metadata=boolean("the gravity-gradient torque of the truth body (its G M as a point mass)", cpp="gravity_gradient")
     )
-    plate_area: FloatArray = field(
-        metadata=quantity("area", "each plate's area", (-1,), POSITIVE, cpp="plates[].area")
-    )
+    plate_area: FloatArray = field(metadata=quantity("area", "each plate's area", (-1,), POSITIVE, cpp="plates[].area"))
     plate_normal_B: FloatArray = field(
         metadata=number(
             "each plate's outward normal in B (normalised on use)", (-1, 3), _ROWS_NONZERO, cpp="plates[].normal_B"
@@ -97,9 +95,7 @@ class PhysicalSection:
             cpp="plates[].diffuse",
         )
     )
-    core_scale: float = field(
-        metadata=number("the core: the truth's shape scaled by this about its centroid", check=_SCALE)
-    )
+    core_scale: float = field(metadata=number("the core: the truth's shape scaled by this about its centroid", check=_SCALE))
     core_density: float = field(
         metadata=quantity("density", "the core's density minus the body's around it (negative: lighter; 0: no core)")
     )

@@ -109,9 +109,7 @@ class PhysicalTruth:
     def environment(self, seed: int) -> Any:
         """A run's C++ environment (``_core.dynamics.PhysicalEnvironment``) with its actuator errors."""
         E_F, E_T, _ = self.actuator_errors(seed)
-        return _core.dynamics.PhysicalEnvironment(
-            self.settings, self.inertia_model_B, self.gm, self.orbit_radius, E_F, E_T
-        )
+        return _core.dynamics.PhysicalEnvironment(self.settings, self.inertia_model_B, self.gm, self.orbit_radius, E_F, E_T)
 
     def describe(self) -> dict[str, Any]:
         """JSON-ready summary (what a run record keeps): the parts without their meshes, the spacecraft, the
@@ -169,7 +167,7 @@ def physical_settings(cfg: Config) -> Any:
         value = getattr(p, f.name)
         if target.startswith("plates[]."):
             member = target.removeprefix("plates[].")
-            for plate, v in zip(plates, np.asarray(value, dtype=float)):
+            for plate, v in zip(plates, np.asarray(value, dtype=float), strict=True):
                 setattr(plate, member, v if np.ndim(v) else float(v))
         else:
             setattr(s, target, np.asarray(value, dtype=float) if np.ndim(value) else value)
@@ -193,7 +191,6 @@ def physical_truth(cfg: Config, controller_body: Any, truth_shape: Shape) -> Phy
     p, src = cfg.physical, cfg.source
     inertia_model_B = np.asarray(cfg.spacecraft.J, dtype=float)
     target_mass = float(controller_body.mass) * cfg.simulation.density_scale
-    shape_v = np.asarray(truth_shape.vertices)
     regions: list[tuple[str, Shape, float, Array]] = []
     for name, scale, density, center in (
         ("core", p.core_scale, p.core_density, np.zeros(3)),
@@ -251,7 +248,7 @@ def physical_truth(cfg: Config, controller_body: Any, truth_shape: Shape) -> Phy
                 float(rd),
             )
             for a, n, c, rs, rd in zip(
-                p.plate_area, p.plate_normal_B, p.plate_center_B, p.plate_specular, p.plate_diffuse
+                p.plate_area, p.plate_normal_B, p.plate_center_B, p.plate_specular, p.plate_diffuse, strict=True
             )
         ),
         solar_pressure=p.solar_pressure,
