@@ -83,3 +83,32 @@ def test_the_physical_environment_on_navigation(cache: Path) -> None:
     rec = simulate(scn, "ffa", seed=1, max_steps=3)
     assert np.all(np.isfinite(rec.x)) and np.all(rec.w_true == 0.0)
     assert rec.navigation is not None and np.all(np.isfinite(rec.navigation.x_hat))
+
+
+def test_states_inside_the_body_are_counted_on_the_truths_surface(cache: Path) -> None:
+    """In a physical environment the surface is the truth's, displaced by its centre of mass from the
+    controller's: a state just inside the truth's surface but outside the controller's counts."""
+    from tubempc.analysis.runner import states_inside_body
+    from tubempc.results import RunRecord
+    from tubempc.scenario.sites import inside, ray_cast
+
+    scn = build_scenario(load_config(scenario="bennu-tag-physical"), cache_dir=cache)
+    body = scn.physical.parts[0]
+    direction = np.array([1.0, 0.0, 0.0])  # the offset's axis: the truth lies 0.96 m further out along +x_A
+    np.testing.assert_allclose(body.offset_A, -scn.physical.center_of_mass_offset_A)
+    truth_surface = ray_cast(body.shape, direction) + body.offset_A
+    assert np.linalg.norm(truth_surface) - np.linalg.norm(ray_cast(body.shape, direction)) == pytest.approx(0.96, abs=0.01)
+    rec = RunRecord.allocate("tbmpc", 0, 1, scn.config.mpc.horizon)
+    rec.x[:, :3] = truth_surface - 0.1 * direction  # at t = 0, where C_AL = I (theta_0 = 0)
+    assert not inside(scn.shape, rec.x[:1, :3])[0]  # outside the controller's body ...
+    assert states_inside_body(scn, rec) == 2  # ... inside the truth's
+    rec.x[:, :3] = truth_surface + 0.1 * direction
+    assert states_inside_body(scn, rec) == 0
+
+
+def test_a_physical_scenario_is_not_exported(tmp_path: Path) -> None:
+    from tubempc.results.export import export_scenario
+    from tubempc.scenario import ScenarioError
+
+    with pytest.raises(ScenarioError, match=r"disturbance\.model: \"physical\" is not part of the scenario file"):
+        export_scenario(load_config(scenario="bennu-tag-physical"), tmp_path)
