@@ -41,14 +41,15 @@ def _toml(value: Any) -> str:
 
 
 def _kind(spec: Any) -> str:
-    """What a field holds: "length, `m`", "angle (3), `rad`", "numbers (6)", "integer", ..."""
+    """What a field holds: "length, `m`", "angle (3), `rad`", "numbers (6)", "numbers (n x 3)" (n >= 1 rows),
+    "integer", ..."""
     if spec.boolean:
         return "true or false"
     if spec.integer:
         return "integer"
     if spec.unit is None:
         return "option" if spec.choices else "text"
-    shape = f" ({' x '.join(str(n) for n in spec.shape)})" if spec.shape else ""
+    shape = f" ({' x '.join('n' if n == -1 else str(n) for n in spec.shape)})" if spec.shape else ""
     if not spec.unit:
         return f"numbers{shape}" if spec.shape else "number"
     return f"{spec.quantity}{shape}, `{spec.unit}`"

@@ -13,6 +13,7 @@
 #include "bindings.hpp"
 #include "tubempc/dynamics/constraints.hpp"
 #include "tubempc/dynamics/linearized_proximity.hpp"
+#include "tubempc/dynamics/physical_environment.hpp"
 #include "tubempc/dynamics/propagator.hpp"
 #include "tubempc/dynamics/proximity_model.hpp"
 #include "tubempc/gravity/gravity_model.hpp"
@@ -158,6 +159,98 @@ py::dict time_kernels(const std::shared_ptr<ProximityModel>& self, double t0, do
   return out;
 }
 
+// The physical environment (dynamics/physical_environment.hpp): its settings, flat plates and the per-run
+// environment of the truth.
+void bind_physical(py::module_& d) {
+  d.attr("ASTRONOMICAL_UNIT") = dynamics::kAstronomicalUnit;
+  py::class_<dynamics::FlatPlate> plate(d, "FlatPlate",
+                                        "One flat plate of the spacecraft's surface, fixed in B");
+  plate.def(py::init<>());
+  bind_fields(plate);
+  plate.def("validate", &dynamics::FlatPlate::validate, "ValueError naming the first bad field.")
+      .def("__repr__", [](const dynamics::FlatPlate& p) {
+        return "FlatPlate(area=" + py::repr(py::float_(p.area)).cast<std::string>() + ")";
+      });
+
+  py::class_<dynamics::PhysicalSettings> settings(
+      d, "PhysicalSettings",
+      "The [physical] settings of the truth's environment (SI); plates: the spacecraft's surface");
+  settings.def(py::init<>());
+  bind_fields(settings);
+  settings
+      .def_readwrite("plates", &dynamics::PhysicalSettings::plates, "the flat plates (a list of FlatPlate)")
+      .def("validate", &dynamics::PhysicalSettings::validate, "ValueError naming the first bad field.")
+      .def("true_mass", &dynamics::PhysicalSettings::true_mass, "(1 + mass_error) mass (kg)")
+      .def("true_inertia", &dynamics::PhysicalSettings::true_inertia, py::arg("inertia_model_B"),
+           "the truth's inertia (kg m^2) from the controller's; ValueError when it is no inertia tensor");
+
+  py::class_<dynamics::PhysicalEnvironment, std::shared_ptr<dynamics::PhysicalEnvironment>>(
+      d, "PhysicalEnvironment",
+      "The truth's physical environment of one run: flat-plate SRP, gravity-gradient torque, the truth's "
+      "mass "
+      "and inertia and the actuator errors (docs/model.md \"Physical environment\")")
+      .def(py::init<const dynamics::PhysicalSettings&, const Eigen::Matrix3d&, double, double,
+                    const Eigen::Matrix3d&, const Eigen::Matrix3d&>(),
+           py::arg("settings"), py::arg("inertia_model_B"), py::arg("gm"), py::arg("orbit_radius"),
+           py::arg("thrust_error_B") = Eigen::Matrix3d::Identity().eval(),
+           py::arg("torque_error_B") = Eigen::Matrix3d::Identity().eval())
+      .def_property_readonly("settings", &dynamics::PhysicalEnvironment::settings)
+      .def_property_readonly("true_mass", &dynamics::PhysicalEnvironment::true_mass, "m_true (kg)")
+      .def_property_readonly("inertia_B", &dynamics::PhysicalEnvironment::inertia_B, "J_true in B (kg m^2)")
+      .def_property_readonly("gm", &dynamics::PhysicalEnvironment::gm, "G M of the truth body (m^3/s^2)")
+      .def_property_readonly("pressure", &dynamics::PhysicalEnvironment::pressure,
+                             "solar radiation pressure at the asteroid (N/m^2)")
+      .def_property_readonly("thrust_error_B", &dynamics::PhysicalEnvironment::thrust_error_B, "E_F")
+      .def_property_readonly("torque_error_B", &dynamics::PhysicalEnvironment::torque_error_B, "E_T")
+      .def("in_shadow", &dynamics::PhysicalEnvironment::in_shadow, py::arg("r_L"),
+           "whether r_L (m) lies in the asteroid's cylindrical shadow")
+      .def(
+          "deliver",
+          [](const dynamics::PhysicalEnvironment& e, const Eigen::Ref<const Eigen::VectorXd>& u,
+             const Eigen::Ref<const Eigen::VectorXd>& q_BL) {
+            return e.deliver(vec<kNu>(u, "u"), vec<4>(q_BL, "q_BL"));
+          },
+          py::arg("u"), py::arg("q_BL"),
+          "the input the truth receives for the command u = [u_p (m/s^2, L); T (N m, B)] at the attitude "
+          "q_BL")
+      .def(
+          "srp_wrench",
+          [](const dynamics::PhysicalEnvironment& e, const Eigen::Vector3d& r_L,
+             const Eigen::Matrix3d& C_BL) {
+            Eigen::Vector3d F, T;
+            e.srp_wrench(r_L, C_BL, F, T);
+            return py::make_tuple(F, T);
+          },
+          py::arg("r_L"), py::arg("C_BL"), "(force (N, B), torque (N m, B)) of the flat-plate SRP")
+      .def(
+          "srp_acceleration_L",
+          [](const dynamics::PhysicalEnvironment& e, const Eigen::Ref<const Eigen::VectorXd>& s) {
+            return e.srp_acceleration_L(vec<dynamics::kNtruth>(s, "state"));
+          },
+          py::arg("state"), "the truth's SRP acceleration in L (m/s^2) at a 13-state")
+      .def(
+          "__call__",
+          [](const dynamics::PhysicalEnvironment& e, double t, const Eigen::Ref<const Eigen::VectorXd>& s) {
+            return e(t, vec<dynamics::kNtruth>(s, "state"));
+          },
+          py::arg("t"), py::arg("state"),
+          "[acceleration in L (m/s^2); angular acceleration in B (rad/s^2)] the environment adds to the "
+          "truth");
+
+  d.def(
+      "flat_plate_wrench",
+      [](const dynamics::FlatPlate& p, const Eigen::Vector3d& sun_B, double pressure) {
+        Eigen::Vector3d F, T;
+        dynamics::flat_plate_wrench(p, sun_B, pressure, F, T);
+        return py::make_tuple(F, T);
+      },
+      py::arg("plate"), py::arg("sun_B"), py::arg("pressure"),
+      "(force (N, B), torque (N m, B)) of one plate for the unit Sun direction sun_B and the pressure "
+      "(N/m^2)");
+  d.def("gravity_gradient_torque", &dynamics::gravity_gradient_torque, py::arg("gm"), py::arg("r_B"),
+        py::arg("inertia_B"), "3 mu / |r|^5 (r_B x J r_B) (N m, in B)");
+}
+
 }  // namespace
 
 void bind_dynamics(py::module_& m) {
@@ -200,6 +293,8 @@ void bind_dynamics(py::module_& m) {
         return "PropagationResult(status=" + std::string(to_string(r.status)) + ", t=" + std::to_string(r.t) +
                ", steps=" + std::to_string(r.steps) + ")";
       });
+
+  bind_physical(d);
 
   py::class_<ProximityModel, std::shared_ptr<ProximityModel>>(
       d, "ProximityModel", "6-DOF proximity model (C++); see tubempc.ProximityModel")
@@ -316,7 +411,24 @@ void bind_dynamics(py::module_& m) {
           },
           py::arg("t0"), py::arg("state"), py::arg("u"), py::arg("dt"), py::arg("method"),
           py::arg("substeps"), py::arg("rtol"), py::arg("atol"), py::arg("max_steps"),
-          py::arg("initial_step"), py::arg("disturbance"), py::arg("callback"));
+          py::arg("initial_step"), py::arg("disturbance"), py::arg("callback"))
+      .def(
+          "propagate_physical",
+          [](const ProximityModel& s, const std::shared_ptr<const dynamics::PhysicalEnvironment>& env,
+             double t0, const Eigen::Ref<const Eigen::VectorXd>& state,
+             const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+             const dynamics::PropagatorSettings& settings) {
+            if (!env) throw std::invalid_argument("propagate_physical: environment must not be None");
+            const TruthState y0 = vec<dynamics::kNtruth>(state, "state");
+            const InputVector uu = vec<kNu>(u, "u");
+            py::gil_scoped_release release;
+            return dynamics::propagate(s, *env, t0, y0, uu, dt, settings);
+          },
+          py::arg("environment"), py::arg("t0"), py::arg("state"), py::arg("u"), py::arg("dt"),
+          py::arg("settings"),
+          "Propagates this truth model in a PhysicalEnvironment (its inertia must be the environment's, its "
+          "SRP "
+          "off) with the delivered input u (environment.deliver) held over dt (s); the GIL is released.");
 
   d.def("time_kernels", &time_kernels, py::arg("model"), py::arg("t0"), py::arg("dt"), py::arg("x_ref"),
         py::arg("u_ref"), py::arg("repeats"), py::arg("batches"),

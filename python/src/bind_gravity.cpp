@@ -4,8 +4,11 @@
 
 #include <optional>
 #include <string>
+#include <tuple>
+#include <vector>
 
 #include "bindings.hpp"
+#include "tubempc/gravity/composite_gravity.hpp"
 #include "tubempc/gravity/gravity_model.hpp"
 #include "tubempc/gravity/polyhedron_gravity.hpp"
 #include "tubempc/gravity/shape.hpp"
@@ -17,6 +20,7 @@ namespace tubempc::python {
 
 namespace {
 
+using gravity::CompositeGravity;
 using gravity::Faces;
 using gravity::PolyhedronGravity;
 using gravity::Shape;
@@ -82,6 +86,62 @@ Eigen::Matrix<std::int64_t, Eigen::Dynamic, 4, Eigen::RowMajor> edge_table(const
     t.row(static_cast<Eigen::Index>(i)) << e.v0, e.v1, e.face_a, e.face_b;
   }
   return t;
+}
+
+// A composite's part as Python sees it: (shape, density (kg/m^3), offset_A (m)).
+using PartTuple = std::tuple<Shape, double, Eigen::Vector3d>;
+
+CompositeGravity composite_from(const std::vector<PartTuple>& parts) {
+  std::vector<gravity::GravityPart> out;
+  out.reserve(parts.size());
+  for (const auto& [shape, density, offset] : parts)
+    out.push_back(CompositeGravity::part(shape, density, offset));
+  return CompositeGravity(std::move(out));
+}
+
+std::vector<PartTuple> composite_parts(const CompositeGravity& g) {
+  std::vector<PartTuple> out;
+  for (const auto& p : g.parts()) out.emplace_back(p.polyhedron->shape(), p.density, p.offset_A);
+  return out;
+}
+
+py::tuple evaluate_composite(const CompositeGravity& g, const PointArray& points) {
+  bool single = false;
+  const auto r = as_points(points, single);
+  const Eigen::Index n = r.rows();
+  py::array_t<double> pot(n);
+  py::array_t<double> acc({n, Eigen::Index{3}});
+  py::array_t<double> grad({n, Eigen::Index{3}, Eigen::Index{3}});
+  {
+    Eigen::Map<Eigen::VectorXd> p(pot.mutable_data(), n);
+    Eigen::Map<gravity::Points> a(acc.mutable_data(), n, 3);
+    Eigen::Map<gravity::Gradients> G(grad.mutable_data(), n, 9);
+    py::gil_scoped_release release;
+    gravity::GravitySample s;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      g.evaluate(r.row(i).transpose(), s);
+      p(i) = s.potential;
+      a.row(i) = s.acceleration.transpose();
+      for (int j = 0; j < 9; ++j) G(i, j) = s.gradient(j / 3, j % 3);
+    }
+  }
+  if (single) {
+    return py::make_tuple(pot.at(0), acc.attr("reshape")(3), grad.attr("reshape")(3, 3));
+  }
+  return py::make_tuple(pot, acc, grad);
+}
+
+py::object laplacian_composite(const CompositeGravity& g, const PointArray& points) {
+  bool single = false;
+  const auto r = as_points(points, single);
+  py::array_t<double> out(r.rows());
+  {
+    Eigen::Map<Eigen::VectorXd> l(out.mutable_data(), r.rows());
+    py::gil_scoped_release release;
+    for (Eigen::Index i = 0; i < r.rows(); ++i) l(i) = g.laplacian(r.row(i).transpose());
+  }
+  if (single) return py::float_(out.at(0));
+  return std::move(out);
 }
 
 }  // namespace
@@ -211,6 +271,57 @@ released; results do not depend on the number of threads.)doc")
           [](const py::tuple& t) {
             if (t.size() != 3) throw std::runtime_error("PolyhedronGravity: bad pickle state");
             return PolyhedronGravity(Shape(t[0].cast<Vertices>(), t[1].cast<Faces>()), t[2].cast<double>());
+          }));
+
+  py::class_<CompositeGravity, gravity::GravityModel, std::shared_ptr<CompositeGravity>>(
+      g, "CompositeGravity", R"doc(
+A heterogeneous body as a sum of homogeneous polyhedra of signed densities (gravity/composite_gravity.hpp;
+docs/model.md "Physical environment").
+
+CompositeGravity(parts): parts is a list of (shape, density kg/m^3, offset_A (3,) m); part i's mesh
+point p lies at p + offset_A in A and its density may be negative (a deficit inside another part).
+U, grad U and Hess U are the sums of the parts'; inside a region the Laplacian is -4 pi G times the
+sum of the densities of the parts containing it.)doc")
+      .def(py::init(&composite_from), py::arg("parts"))
+      .def("evaluate", &evaluate_composite, py::arg("points"),
+           "U (n,) m^2/s^2, a = grad U (n, 3) m/s^2 and Hess U (n, 3, 3) 1/s^2 at points (n, 3) m; a (3,) "
+           "point "
+           "gives (float, (3,), (3, 3)). The GIL is released.")
+      .def("laplacian", &laplacian_composite, py::arg("points"),
+           "Laplacian of U (1/s^2) at points (n, 3) or (3,) m: -4 pi G times the density there.")
+      .def("translated", &CompositeGravity::translated, py::arg("d_A"),
+           "The same body moved by d_A (m): every part's offset plus d_A (the meshes are shared).")
+      .def_property_readonly("gm", &CompositeGravity::gm, "G M (m^3/s^2)")
+      .def_property_readonly("mass", &CompositeGravity::mass, "M = sum_i rho_i V_i (kg)")
+      .def_property_readonly("center_of_mass", &CompositeGravity::center_of_mass, "centre of mass in A (m)")
+      .def_property_readonly("inertia", &CompositeGravity::inertia,
+                             "inertia tensor about the centre of mass (kg m^2)")
+      .def_property_readonly(
+          "n_parts", [](const CompositeGravity& c) { return c.parts().size(); }, "number of parts")
+      .def_property_readonly("parts", &composite_parts, "[(shape, density (kg/m^3), offset_A (m)), ...]")
+      .def("__repr__",
+           [](const CompositeGravity& c) {
+             return "CompositeGravity(n_parts=" + std::to_string(c.parts().size()) +
+                    ", gm=" + py::repr(py::float_(c.gm())).cast<std::string>() + ")";
+           })
+      .def(py::pickle(
+          [](const CompositeGravity& c) {
+            py::list parts;
+            for (const auto& p : c.parts()) {
+              parts.append(py::make_tuple(p.polyhedron->shape().vertices(), p.polyhedron->shape().faces(),
+                                          p.density, p.offset_A));
+            }
+            return py::make_tuple(parts);
+          },
+          [](const py::tuple& t) {
+            if (t.size() != 1) throw std::runtime_error("CompositeGravity: bad pickle state");
+            std::vector<PartTuple> parts;
+            for (const auto& item : t[0].cast<py::list>()) {
+              const auto p = item.cast<py::tuple>();
+              parts.emplace_back(Shape(p[0].cast<Vertices>(), p[1].cast<Faces>()), p[2].cast<double>(),
+                                 p[3].cast<Eigen::Vector3d>());
+            }
+            return composite_from(parts);
           }));
 }
 

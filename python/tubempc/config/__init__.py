@@ -24,6 +24,7 @@ from .parse import (
     Config,
     ConfigDeprecationWarning,
 )
+from .physical import PhysicalSection
 from .quantities import ConfigError
 from .sections import (
     PLANTS,
@@ -59,6 +60,7 @@ __all__ = [
     "IdentificationSection",
     "MpcSection",
     "NavigationSection",
+    "PhysicalSection",
     "SimulationSection",
     "SpacecraftSection",
     "TubeSection",

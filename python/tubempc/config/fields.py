@@ -26,9 +26,12 @@ class Spec:
 
     doc: one line on what the field is; unit: SI unit string of a quantity ("" for a dimensionless
     number), None for a string option, an integer or a boolean; quantity: its kind in messages; shape:
-    () for a scalar; check: a predicate on the SI value with its description; choices: the values of an
+    () for a scalar, a leading -1 for any number n >= 1 of rows (``(-1, 3)``: n x 3);
+    check: a predicate on the SI value with its description; choices: the values of an
     option (None: any non-empty string); cpp: the C++ setting it sets, for [navigation] the member of
-    ``nav::NavigationSettings`` ("camera.min_range"), None when no setting or a derived one takes it.
+    ``nav::NavigationSettings`` ("camera.min_range"), for [physical] the member of
+    ``dynamics::PhysicalSettings`` ("mass"; "plates[].area": that member of each plate), None when no
+    setting or a derived one takes it.
     """
 
     doc: str
@@ -59,9 +62,9 @@ def integer(doc: str, check: Check | None = None, cpp: str | None = None) -> dic
     return {"spec": Spec(doc, None, "integer", (), check, integer=True, cpp=cpp)}
 
 
-def boolean(doc: str) -> dict[str, Spec]:
+def boolean(doc: str, cpp: str | None = None) -> dict[str, Spec]:
     """Field metadata of a boolean (true or false)."""
-    return {"spec": Spec(doc, None, "boolean", boolean=True)}
+    return {"spec": Spec(doc, None, "boolean", boolean=True, cpp=cpp)}
 
 
 def option(doc: str, *choices: str) -> dict[str, Spec]:
@@ -129,6 +132,19 @@ def parse_field(spec: Spec, raw: Any, where: str) -> Any:
     return value
 
 
+def shape_matches(declared: tuple[int, ...], shape: tuple[int, ...]) -> bool:
+    """Whether an array's shape is the declared one (a -1 stands for any length >= 1)."""
+    return len(declared) == len(shape) and all(d == n or (d == -1 and n >= 1) for d, n in zip(declared, shape, strict=True))
+
+
+def shape_text(declared: tuple[int, ...]) -> str:
+    """A declared shape as the messages write it: (3,), (n, 3) with n >= 1."""
+    if -1 not in declared:
+        return str(declared)
+    dims = ", ".join("n" if d == -1 else str(d) for d in declared)
+    return f"({dims},) with n >= 1" if len(declared) == 1 else f"({dims}) with n >= 1"
+
+
 def _parse_array(spec: Spec, raw: Any, where: str) -> Any:
     if isinstance(raw, (bool, str, Mapping)):
         raise ConfigError(f"{where}: expected a number or array of numbers, got {raw!r}")
@@ -136,8 +152,8 @@ def _parse_array(spec: Spec, raw: Any, where: str) -> Any:
         arr = np.asarray(raw, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"{where}: expected numbers, got {raw!r}") from exc
-    if arr.shape != spec.shape:
-        raise ConfigError(f"{where}: expected shape {spec.shape}, got {arr.shape} ({raw!r})")
+    if not shape_matches(spec.shape, arr.shape):
+        raise ConfigError(f"{where}: expected shape {shape_text(spec.shape)}, got {arr.shape} ({raw!r})")
     if not np.all(np.isfinite(arr)):
         raise ConfigError(f"{where}: non-finite value in {raw!r}")
     if spec.shape == ():

@@ -50,6 +50,14 @@ SCENARIOS: dict[str, tuple[str, str]] = {
         "scenarios/bennu_paper_nav.toml",
         "the paper's landing flown on navigation: a thermal-infrared camera and an altimeter mounted to see the body",
     ),
+    "bennu-tag-physical": (
+        "scenarios/bennu_tag_physical.toml",
+        "bennu-tag in a physical environment: heterogeneous body, flat-plate SRP, gravity gradient, mass and inertia errors",
+    ),
+    "bennu-paper-physical": (
+        "scenarios/bennu_paper_physical.toml",
+        "the paper's landing in a physical environment (no drawn disturbance; as bennu-tag-physical)",
+    ),
     "itokawa-like": (
         "scenarios/itokawa_like.toml",
         "a generated 535 x 294 x 209 m contact binary (1900 kg/m^3, 12.13 h), a site on its smaller lobe",

@@ -11,10 +11,12 @@ from dataclasses import dataclass, fields, is_dataclass
 from pathlib import Path
 from typing import Any, TypeVar, get_type_hints
 
+import numpy as np
 import tomli_w
 
 from .fields import encode, is_si, parse_field, spec_of
 from .navigation import NavigationSection
+from .physical import PhysicalSection
 from .quantities import ConfigError
 from .sections import (
     AsteroidSection,
@@ -53,6 +55,7 @@ class Config:
     tube: TubeSection
     simulation: SimulationSection
     navigation: NavigationSection
+    physical: PhysicalSection
     source: str = "<memory>"
     defaulted: tuple[str, ...] = ()  # "section.field" taken from the packaged defaults (not content)
 
@@ -115,11 +118,10 @@ RENAMED_FIELDS: dict[tuple[str, str], str] = {("mpc", "N"): "horizon", ("mpc", "
 RENAMED_VALUES: dict[tuple[str, str, str], str] = {
     ("mpc", "input_cost", "paper"): "absolute",
     ("simulation", "integrator", "dopri"): "dopri5",
+    ("disturbance", "model", "ellipsoid_uniform"): "drawn",
 }
 #: Fields that nothing read; ignored with a warning.
-REMOVED_FIELDS: frozenset[tuple[str, str]] = frozenset(
-    {("asteroid", "G"), ("asteroid", "shape_mean_radius"), ("disturbance", "model")}
-)
+REMOVED_FIELDS: frozenset[tuple[str, str]] = frozenset({("asteroid", "G"), ("asteroid", "shape_mean_radius")})
 
 #: Old fields whose meaning changed (section, old) -> how to write it now; a ConfigError.
 REPLACED_FIELDS: dict[tuple[str, str], str] = {
@@ -233,8 +235,34 @@ def _check_navigation(c: Config) -> None:
             raise ConfigError(f"{c.source}: navigation.{sensor}_max_range: {hi} m must exceed {sensor}_min_range = {lo} m")
 
 
+def _check_physical(c: Config) -> None:
+    """The plate_* arrays have one entry per plate and each plate reflects at most what it receives; the truth's
+    SRP with disturbance.model = "physical" is the plates', not simulation.srp_scale's."""
+    p = c.physical
+    n = p.n_plates
+    for name in ("plate_normal_B", "plate_center_B", "plate_specular", "plate_diffuse"):
+        rows = np.asarray(getattr(p, name)).shape[0]
+        if rows != n:
+            raise ConfigError(
+                f"{c.source}: physical.{name}: {rows} entries, but physical.plate_area has {n} (one per plate)"
+            )
+    total = np.asarray(p.plate_specular) + np.asarray(p.plate_diffuse)
+    if np.any(total > 1.0):
+        i = int(np.argmax(total > 1.0))
+        raise ConfigError(
+            f"{c.source}: physical.plate_diffuse: plate {i}: specular + diffuse = {total[i]:g} exceeds 1 "
+            "(a plate reflects at most what it receives)"
+        )
+    if c.disturbance.model == "physical" and c.simulation.srp_scale != 1.0:
+        raise ConfigError(
+            f'{c.source}: simulation.srp_scale: must be 1 with disturbance.model = "physical" (the truth\'s SRP is '
+            "the physical section's flat plates; the controller keeps environment.beta_srp)"
+        )
+
+
 def _check_consistency(c: Config) -> None:
     _check_navigation(c)
+    _check_physical(c)
     ratio = c.mpc.t_f / c.mpc.dt
     if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
         raise ConfigError(f"{c.source}: mpc.t_f: {c.mpc.t_f} s is not a multiple of mpc.dt = {c.mpc.dt} s")

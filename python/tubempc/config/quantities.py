@@ -35,6 +35,9 @@ KINDS: dict[str, str] = {
     "rate random walk": "rad/s^2/Hz^0.5",
     "velocity random walk": "m/s^2/Hz^0.5",
     "acceleration random walk": "m/s^3/Hz^0.5",
+    "mass": "kg",
+    "area": "m^2",
+    "pressure": "N/m^2",
 }
 
 UREG: Any = pint.UnitRegistry()

@@ -280,11 +280,20 @@ class IdentificationSection:
 
 @dataclass(frozen=True, eq=False)
 class DisturbanceSection:
-    """Simulated disturbance (tubempc.models.disturbances): additive, uniform in the ellipsoids with the
-    per-axis squared semi-axes S_*, plus actuator mismatch. Project defaults, not the paper's (which does
-    not give its realisation)."""
+    """Simulated disturbance (tubempc.models.disturbances): model = "drawn", additive, uniform in the
+    ellipsoids with the per-axis squared semi-axes S_*, plus actuator mismatch; model = "physical", the
+    [physical] environment of the truth with the same actuator errors applied in B, and no draw. Project
+    defaults, not the paper's (which does not give its realisation)."""
 
     seed: int = field(metadata=integer("seed of the draws", check=NONNEGATIVE))
+    model: str = field(
+        metadata=option(
+            '"drawn" (an additive draw per step, uniform in the S_* ellipsoids, the model the identification assumes) '
+            'or "physical" (no draw: the [physical] environment of the truth; docs/model.md "Physical environment")',
+            "drawn",
+            "physical",
+        )
+    )
     S_p_position: FloatArray = field(
         metadata=quantity("length^2", "squared semi-axes of the position disturbance", (3,), NONNEGATIVE)
     )

@@ -257,6 +257,7 @@ class ProximityModel:
         initial_step: float = 0.0,
         disturbance: Disturbance = None,
         settings: _dyn.PropagatorSettings | None = None,
+        environment: _dyn.PhysicalEnvironment | None = None,
     ) -> PropagationResult:
         """Propagates the 13-state over dt (s) with u held constant (zero-order hold).
 
@@ -264,7 +265,10 @@ class ProximityModel:
         ``rtol``/``atol``, at most ``max_steps`` steps); ``settings`` (a ``_core.dynamics.PropagatorSettings``,
         e.g. :func:`tubempc.scenario.propagator_settings`) replaces all of them. ``disturbance``: None, a
         constant 6-vector [acceleration in L (m/s^2); angular acceleration in B (rad/s^2)] or a callable
-        ``(t, state) -> 6-vector``. Numerical failures are reported in ``result.status``.
+        ``(t, state) -> 6-vector``. ``environment``: a ``_core.dynamics.PhysicalEnvironment`` whose forces and
+        torques the C++ propagation adds at every evaluation (then ``u`` is the delivered input,
+        ``environment.deliver``, and ``disturbance`` must be None; this model must be the environment's truth:
+        its inertia, its SRP off). Numerical failures are reported in ``result.status``.
         """
         if settings is not None:
             integrator, substeps, rtol, atol = settings.method, settings.substeps, settings.rtol, settings.atol
@@ -275,6 +279,13 @@ class ProximityModel:
                 known = ", ".join(repr(n) for n in [*_dyn.Integrator.names(), "dopri"])
                 raise ValueError(f"method must be one of {known}, got {method!r}")
             integrator = _dyn.Integrator.from_string(name)
+        if environment is not None:
+            if disturbance is not None:
+                raise ValueError("propagate: give a disturbance or a physical environment, not both")
+            prop = _dyn.PropagatorSettings()
+            prop.method, prop.substeps, prop.rtol, prop.atol = integrator, substeps, rtol, atol
+            prop.max_steps, prop.initial_step = max_steps, initial_step
+            return self._impl.propagate_physical(environment, t0, _vec(state), _vec(u), dt, prop)
         constant = np.zeros(6)
         callback = None
         if callable(disturbance):

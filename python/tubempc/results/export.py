@@ -38,7 +38,7 @@ from .. import _core
 from ..config import Config
 from ..design.library import controller_designs, controller_settings
 from ..models.dynamics import ProximityModel
-from ..scenario.build import Scenario, build_scenario, mpc_settings, propagator_settings
+from ..scenario.build import Scenario, ScenarioError, build_scenario, mpc_settings, propagator_settings
 from ..scenario.navigation import NAV_SEED_OFFSET, error_set_scale, landmark_catalogue, navigation_settings
 from ..scenario.shapes import Shape, save_shape
 
@@ -103,6 +103,11 @@ def export_scenario(
     """
     from .. import __version__
 
+    if cfg.disturbance.model == "physical":
+        raise ScenarioError(
+            f'{cfg.source}: disturbance.model: "physical" is not part of the scenario file (format version 5 holds a '
+            'homogeneous truth body and no environment); export the scenario with disturbance.model = "drawn"'
+        )
     seed = cfg.disturbance.seed if seed is None else int(seed)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -20,6 +20,7 @@ from .. import _core
 from ..config import Config
 from ..models.dynamics import ProximityModel
 from .actuators import ActuatorConfigError, ScenarioActuation, scenario_actuation
+from .physical import PhysicalConfigError, PhysicalTruth, physical_truth
 from .reference import ReferenceSettings, ReferenceTrajectory, load_or_generate_reference
 from .shapes import Shape, bennu_like_shape, load_shape
 from .sites import Site, inside, ray_cast, site_from_lat_lon, site_from_vector, terminal_state
@@ -68,8 +69,10 @@ class Scenario:
     """Everything a closed-loop run needs that does not depend on the method or the seed.
 
     ``model`` is the controller's model, ``truth`` the simulated plant (it may differ in density, SRP
-    and shape resolution); ``x0``, ``xf`` the boundary states [r_L (m), v_L (m/s), phi (rad),
-    omega_BL_B (rad/s)]; ``reference`` the fixed-time reference trajectory (paper Section 3.1).
+    and shape resolution; with disturbance.model = "physical" its gravity is the heterogeneous body of
+    ``physical``, its inertia the truth's and its SRP the flat plates'); ``x0``, ``xf`` the boundary states
+    [r_L (m), v_L (m/s), phi (rad), omega_BL_B (rad/s)]; ``reference`` the fixed-time reference trajectory
+    (paper Section 3.1).
     """
 
     config: Config
@@ -83,6 +86,9 @@ class Scenario:
     site: Site | None = None
     #: The actuators of spacecraft.actuators (None: "ideal").
     actuation: ScenarioActuation | None = None
+    #: The truth's physical environment of disturbance.model = "physical" (None: "drawn"), the one description
+    #: of its physics (tubempc.scenario.physical).
+    physical: PhysicalTruth | None = None
     #: LMI designs computed once for this scenario (tubempc.design.library.controller_designs).
     tube_designs: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
     #: What the closed loop takes from the configuration, built once (tubempc.sim.setup.loop_setup).
@@ -378,10 +384,23 @@ def build_scenario(
     model = ProximityModel(gravity, model_params(cfg, site=site))
     sim = cfg.simulation
     truth_shape = shape if sim.truth_shape_subdivisions == 0 else scenario_shape(cfg, sim.truth_shape_subdivisions)[0]
-    truth_gravity = _core.gravity.PolyhedronGravity(
-        truth_shape.vertices, truth_shape.faces, cfg.asteroid.density * sim.density_scale
-    )
-    truth = ProximityModel(truth_gravity, model_params(cfg, sim.srp_scale, site=site))
+    physical = None
+    if cfg.disturbance.model == "physical":
+        try:
+            physical = physical_truth(cfg, gravity, truth_shape)
+        except PhysicalConfigError as exc:
+            raise ScenarioError(str(exc)) from exc
+        truth_params = {
+            **model_params(cfg, site=site),
+            "inertia_B": physical.inertia_true_B.tolist(),
+            "srp_enabled": False,  # the flat plates' SRP, in the environment
+        }
+        truth = ProximityModel(physical.gravity(), truth_params)
+    else:
+        truth_gravity = _core.gravity.PolyhedronGravity(
+            truth_shape.vertices, truth_shape.faces, cfg.asteroid.density * sim.density_scale
+        )
+        truth = ProximityModel(truth_gravity, model_params(cfg, sim.srp_scale, site=site))
     x0, xf = boundary_states(cfg, shape, model, site)
     check_boundary(cfg, shape, model, x0, xf)
     try:
@@ -390,6 +409,11 @@ def build_scenario(
         )
     except ActuatorConfigError as exc:
         raise ScenarioError(f"{cfg.source}: spacecraft.actuators: {exc}") from exc
+    if physical is not None and actuation is not None and actuation.suite.mass != cfg.physical.mass:
+        raise ScenarioError(
+            f"{cfg.source}: physical.mass: {cfg.physical.mass:g} kg, but the actuators' preset "
+            f"({cfg.spacecraft.actuators!r}) is {actuation.suite.mass:g} kg: the controller knows one mass"
+        )
     u_max, T_max = input_bounds(cfg, actuation)
     check_gravity(cfg, model, xf, u_max)
     frac = sim.reference_input_fraction
@@ -430,7 +454,7 @@ def build_scenario(
         if sim.unconverged_reference == "error":
             raise ScenarioError(message + '; simulation.unconverged_reference = "warn" flies it anyway')
         warnings.warn(message + '; flown anyway (simulation.unconverged_reference = "warn")', RuntimeWarning, stacklevel=2)
-    return Scenario(cfg, shape, shape_src, model, truth, x0, xf, ref, site, actuation)
+    return Scenario(cfg, shape, shape_src, model, truth, x0, xf, ref, site, actuation, physical)
 
 
 def _bounds_origin(cfg: Config, actuation: ScenarioActuation | None) -> str:

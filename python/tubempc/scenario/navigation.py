@@ -230,19 +230,23 @@ def tube_gauge(e: Array, Pe: Array, P_est: Array, iterations: int = 60) -> float
     return math.sqrt(max(gc, gd, g(a), g(b)))
 
 
-def propagate_sampled(nav: Navigation, truth: Any, t0: float, state: Array, u_applied: Array, settings: Any) -> Array:
+def propagate_sampled(
+    nav: Navigation, truth: Any, t0: float, state: Array, u_applied: Array, settings: Any, environment: Any = None
+) -> Array:
     """The truth propagated over one control period in nav.n_sub sub-steps of nav.h (``truth`` the
-    plant's ProximityModel, ``settings`` its propagator's), each sub-step's end recorded in ``nav`` for
-    the sensors (the accelerometer's non-gravitational acceleration: the applied thrust and the SRP);
-    returns the 13-state at the period's end, before the additive disturbance."""
+    plant's ProximityModel, ``settings`` its propagator's, ``environment`` its physical environment or None),
+    each sub-step's end recorded in ``nav`` for the sensors (the accelerometer's non-gravitational
+    acceleration: the applied thrust and the SRP, the flat plates' at the sub-step's end in a physical
+    environment); returns the 13-state at the period's end, before the additive disturbance."""
     for j in range(nav.n_sub):
-        prop = truth.propagate(t0 + j * nav.h, state, u_applied, nav.h, settings=settings)
+        prop = truth.propagate(t0 + j * nav.h, state, u_applied, nav.h, settings=settings, environment=environment)
         if prop.status.name != "Success":
             raise RuntimeError(f"truth propagation failed at t = {t0 + j * nav.h:g} s: {prop.status.name}")
         state = np.asarray(prop.state)
         nav.t[j] = t0 + (j + 1) * nav.h
         nav.truth[j] = state
-        nav.accel[j] = u_applied[:3] + nav.srp_L
+        srp_L = nav.srp_L if environment is None else np.asarray(environment.srp_acceleration_L(state))
+        nav.accel[j] = u_applied[:3] + srp_L
     return state
 
 

@@ -15,7 +15,9 @@ Each control step k (dt = 2 s, T = t_f / dt steps) is one call of the C++ contro
 Around it, this module simulates the plant: truth propagation of the 13-state (quaternion attitude)
 with the truth model (which may differ from the controller's: density, SRP, shape resolution), the
 actuator mismatch, and the additive disturbance of paper Eq. (16) and (18) applied to the state
-increment; and records everything into a :class:`tubempc.results.RunRecord`.
+increment (``disturbance.model = "drawn"``), or, with ``"physical"``, no draw: the truth's physical
+environment in the C++ propagation (``Scenario.physical``; docs/model.md "Physical environment"); and
+records everything into a :class:`tubempc.results.RunRecord`.
 
 The controller's state x = [r_L, v_L, phi, omega_BL_B] takes phi = log(q_B/L) on the branch nearest
 to the reference (so that phi follows the reference through ``|phi| = pi``).
@@ -98,7 +100,10 @@ def _new_plant(scn: Scenario, seed: int) -> ProjectPlant:
         from .basilisk import BasiliskPlant
 
         kind = BasiliskPlant
-    return kind(scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, truth0, system)
+    environment = None if scn.physical is None else scn.physical.environment(seed)
+    return kind(
+        scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, truth0, system, environment=environment
+    )
 
 
 def _record_actuation(rec: RunRecord, k: int, plant: ProjectPlant, dt: float) -> None:
@@ -254,19 +259,26 @@ def _applied(scn: Scenario, plant: ProjectPlant, rec: RunRecord, max_steps: int 
     per state component: mean, standard deviation and largest |w|) for checking that they were."""
     sim = scn.config.simulation
     w = rec.w_true
+    truth: dict[str, Any] = {
+        "density_scale": sim.density_scale,
+        "srp_scale": sim.srp_scale,
+        "truth_shape_subdivisions": sim.truth_shape_subdivisions,
+    }
+    if scn.physical is None:
+        disturbance, ideal_actuators = plant.disturbance.describe(), plant.actuators.describe()
+    else:  # no draw; the actuator errors are the environment's, in B
+        disturbance = {"model": "physical", "seed": rec.seed}
+        ideal_actuators = scn.physical.actuator_errors(rec.seed)[2]
+        truth["physical"] = scn.physical.describe()
     return {
         "seed": rec.seed,
         "max_steps": max_steps,
         "plant": plant.describe(),
-        "disturbance": plant.disturbance.describe(),
-        "actuators": plant.actuators.describe()
+        "disturbance": disturbance,
+        "actuators": ideal_actuators
         if plant.actuation is None
         else describe_actuation(plant.actuation, loop_setup(scn).actuation),
-        "truth": {
-            "density_scale": sim.density_scale,
-            "srp_scale": sim.srp_scale,
-            "truth_shape_subdivisions": sim.truth_shape_subdivisions,
-        },
+        "truth": truth,
         "realised_disturbance": {
             "mean": w.mean(axis=0).tolist(),
             "std": w.std(axis=0).tolist(),

@@ -39,6 +39,7 @@ class ProjectPlant:
     delivered: Any = None  # the last period's (u_delivered, ActuationStep or None)
     nav: Navigation | None = None  # with navigation: propagated in sub-steps the sensors sample
     nav_error_set: Array = field(default_factory=lambda: np.zeros((0, 0)))  # E of the estimate flown
+    environment: Any = None  # _core.dynamics.PhysicalEnvironment (disturbance.model = "physical"), or None
 
     #: The name ``simulation.plant`` gives this plant.
     NAME = "project"
@@ -54,7 +55,10 @@ class ProjectPlant:
         return np.asarray(u_applied, dtype=np.float64)
 
     def step(self, k: int, u: Array) -> tuple[Array, Array]:
-        """Propagates one control period with input ``u``; returns x_{k+1} and the disturbance drawn."""
+        """Propagates one control period with input ``u``; returns x_{k+1} and the disturbance drawn (zero in
+        the physical environment, which draws none)."""
+        if self.environment is not None:
+            return self._step_physical(k, u)
         scn, dt = self.scn, self.scn.config.mpc.dt
         u_applied = self.apply_actuators(k, u)
         if self.nav is not None:
@@ -72,6 +76,27 @@ class ProjectPlant:
         if self.nav is not None:
             self.nav.truth[-1] = self.state  # the sensors' last sample is after the disturbance
         return x_next, np.concatenate([w_p, w_r])
+
+    def _step_physical(self, k: int, u: Array) -> tuple[Array, Array]:
+        """One period in the physical environment: the command (through the actuators, if any) delivered with the
+        truth's mass and actuator errors at the period's start attitude, the environment's forces and torques
+        in the C++ propagation, no additive draw."""
+        scn, dt, env = self.scn, self.scn.config.mpc.dt, self.environment
+        if self.actuation is None:
+            u_cmd, st = u, None
+        else:
+            u_cmd, st = actuate(self.actuation, k * dt, u, self.state)
+        u_applied = np.asarray(env.deliver(u_cmd, self.state[6:10]), dtype=np.float64)
+        self.delivered = (u_applied, st)
+        if self.nav is not None:
+            end = propagate_sampled(self.nav, scn.truth, k * dt, self.state, u_applied, self.propagator, env)
+        else:
+            prop = scn.truth.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator, environment=env)
+            if prop.status.name != "Success":
+                raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
+            end = np.asarray(prop.state)
+        self.state = end
+        return scn.truth.truth_to_state(end, scn.reference.x[k + 1, 6:9]), np.zeros(12)
 
     def describe(self) -> dict[str, Any]:
         """The plant's name and what it integrates with (saved with the run)."""

@@ -4,6 +4,7 @@
 
 #include "test_fields.hpp"
 #include "tubempc/dynamics/linearized_proximity.hpp"
+#include "tubempc/dynamics/physical_environment.hpp"
 #include "tubempc_testing/allocation_counter.hpp"
 
 namespace {
@@ -63,6 +64,42 @@ TEST(NoAllocation, DiscretizeConstraintsAndHorizon) {
   EXPECT_EQ((Ad - horizon.A[0]).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_EQ((cd - horizon.c[0]).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_GT(allocations(), 0);  // the counter does count (the horizon allocated)
+}
+
+TEST(NoAllocation, PhysicalEnvironmentAndItsPropagation) {
+  if (!tubempc_testing::kAllocationCounterEnabled) GTEST_SKIP() << "counting needs glibc, no sanitizer";
+  PhysicalSettings s;
+  for (int i = 0; i < 10; ++i) {
+    FlatPlate p;
+    p.area = 1.0 + i;
+    p.normal_B = Eigen::Vector3d(std::cos(i), std::sin(i), 0.3 * i - 1.0);
+    p.center_B = Eigen::Vector3d(0.1 * i, -0.2, 0.3);
+    p.specular = 0.1;
+    p.diffuse = 0.2;
+    s.plates.push_back(p);
+  }
+  const Eigen::Matrix3d J = Eigen::Vector3d(2750.0, 2750.0, 2030.0).asDiagonal();
+  const PhysicalEnvironment env(s, J, 5.0, 1.685e11);
+  ModelParams p;
+  p.srp_enabled = false;
+  p.inertia_B = env.inertia_B();
+  const ProximityModel truth(testing::cluster(), p);
+  TruthState st;
+  st << 300.0, -150.0, 200.0, 0.02, 0.08, -0.05, 0, 0, 0, 1, 0.05, -0.03, 0.04;
+  st.segment<4>(6) = math::exp_map(Eigen::Vector3d(0.4, 2.5, -0.3));
+  InputVector u;
+  u << 1e-3, -2e-3, 5e-4, 0.3, -0.2, 0.1;
+  PropagatorSettings set;
+  set.substeps = 2;
+  const long before = allocations();
+  const InputVector delivered = env.deliver(u, st.segment<4>(6));
+  const Disturbance6 d = env(0.0, st);
+  const Eigen::Vector3d a = env.srp_acceleration_L(st);
+  const PropagationResult res = propagate(truth, env, 0.0, st, delivered, 2.0, set);
+  const long after = allocations();
+  EXPECT_EQ(after - before, 0);
+  EXPECT_EQ(res.status, PropagationStatus::Success);
+  EXPECT_TRUE(d.allFinite() && a.allFinite() && res.state.allFinite());
 }
 
 }  // namespace

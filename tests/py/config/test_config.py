@@ -185,10 +185,10 @@ def test_invalid_toml_and_missing_file(tmp_path: Path) -> None:
             lambda c: not hasattr(c.asteroid, "G"),
         ),
         (
-            r"^seed = 0",
-            'seed = 0\nmodel = "ellipsoid_uniform"',
-            "disturbance.model: the field is no longer used",
-            lambda c: c.disturbance.seed == 0,
+            r'^model = "drawn"',
+            'model = "ellipsoid_uniform"',
+            "value 'ellipsoid_uniform' renamed to 'drawn'",
+            lambda c: c.disturbance.model == "drawn",
         ),
     ],
 )

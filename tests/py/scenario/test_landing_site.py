@@ -110,6 +110,8 @@ def test_packaged_scenarios_load_and_the_default_is_the_papers() -> None:
         "bennu-tag-nav",
         "bennu-tag-osirisrex",
         "bennu-paper-nav",
+        "bennu-tag-physical",
+        "bennu-paper-physical",
         "itokawa-like",
     ]
     within = load_config(scenario="bennu-paper-within-prior")
