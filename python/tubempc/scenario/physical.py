@@ -93,7 +93,23 @@ class PhysicalTruth:
     srp: bool
     gravity_gradient: bool
     actuator_error_bounds: dict[str, float]
-    settings: Any  # _core.dynamics.PhysicalSettings
+    #: The scalar fields of ``dynamics::PhysicalSettings`` by name (the [physical] fields of the same names).
+    settings_fields: dict[str, Any]
+
+    def settings(self) -> Any:
+        """The C++ settings (``_core.dynamics.PhysicalSettings``) of this description (plain data, so that the
+        description pickles)."""
+        s = _core.dynamics.PhysicalSettings()
+        for name, value in self.settings_fields.items():
+            setattr(s, name, value)
+        plates = []
+        for p in self.plates:
+            plate = _core.dynamics.FlatPlate()
+            plate.area, plate.normal_B, plate.center_B = p.area, p.normal_B, p.center_B
+            plate.specular, plate.diffuse = p.specular, p.diffuse
+            plates.append(plate)
+        s.plates = plates
+        return s
 
     def gravity(self) -> Any:
         """The truth body's field (``_core.gravity.CompositeGravity``), its centre of mass at the origin."""
@@ -109,7 +125,9 @@ class PhysicalTruth:
     def environment(self, seed: int) -> Any:
         """A run's C++ environment (``_core.dynamics.PhysicalEnvironment``) with its actuator errors."""
         E_F, E_T, _ = self.actuator_errors(seed)
-        return _core.dynamics.PhysicalEnvironment(self.settings, self.inertia_model_B, self.gm, self.orbit_radius, E_F, E_T)
+        return _core.dynamics.PhysicalEnvironment(
+            self.settings(), self.inertia_model_B, self.gm, self.orbit_radius, E_F, E_T
+        )
 
     def describe(self) -> dict[str, Any]:
         """JSON-ready summary (what a run record keeps): the parts without their meshes, the spacecraft, the
@@ -263,5 +281,5 @@ def physical_truth(cfg: Config, controller_body: Any, truth_shape: Shape) -> Phy
             "scale_error_r": d.scale_error_r,
             "misalignment_r": d.misalignment_r,
         },
-        settings=settings,
+        settings_fields={name: getattr(settings, name) for name in _core.dynamics.PhysicalSettings.field_names()},
     )

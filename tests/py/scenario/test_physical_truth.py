@@ -3,6 +3,7 @@ environment"): the heterogeneous body, its one description, the C++ settings of 
 
 from __future__ import annotations
 
+import pickle
 from dataclasses import fields
 from pathlib import Path
 
@@ -68,6 +69,19 @@ def test_the_truth_spacecraft_and_its_model(tag) -> None:  # type: ignore[no-unt
     np.testing.assert_array_equal(env.inertia_B, ph.inertia_true_B)
     d = ph.describe()
     assert d["model"] == "physical" and [p["name"] for p in d["parts"]] == ["body", "core", "lobe"]
+    # the description is plain data: it pickles (Monte Carlo workers), and its C++ settings are the section's
+    again = pickle.loads(pickle.dumps(ph))
+    assert again.gm == ph.gm and len(again.parts) == 3
+    np.testing.assert_array_equal(again.parts[2].shape.vertices, ph.parts[2].shape.vertices)
+    s, ref = again.settings(), physical_settings(cfg)
+    for name in _core.dynamics.PhysicalSettings.field_names():
+        np.testing.assert_array_equal(getattr(s, name), getattr(ref, name))
+    for a, b in zip(s.plates, ref.plates, strict=True):
+        for member in _core.dynamics.FlatPlate.field_names():
+            np.testing.assert_array_equal(getattr(a, member), getattr(b, member))
+    truth = pickle.loads(pickle.dumps(tag.truth))
+    r = np.array([150.0, 200.0, 220.0])
+    np.testing.assert_array_equal(truth.gravity_L(10.0, r)[0], tag.truth.gravity_L(10.0, r)[0])
 
 
 def test_the_cpp_settings_are_the_sections_fields_of_the_same_names() -> None:
