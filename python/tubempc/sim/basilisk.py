@@ -27,7 +27,13 @@ in tests/py/sim/test_basilisk.py):
   spacecraft integrates the step that ends then; Basilisk's thruster counts its firing from that time
   and switches only at the integrator's stages: the plant ends a step at every pulse's end and rewrites
   the time-stamped commands at every step;
-- the RKF45 integrator with a central body misreports ``r_BN_N``: the plant keeps Basilisk's RK4.
+- the RKF45 integrator with a central body misreports ``r_BN_N``: the plant keeps Basilisk's RK4;
+- ``PolyhedralGravityModel`` takes its volume as sum |r1 . (r2 x r3)| / 6, the mesh's only if it is
+  star-shaped about the origin: a physical body's lobe, off the origin, is given mu = G rho times that
+  volume (:func:`basilisk_volume`);
+- the gravity effector adds to the spacecraft the pull of every non-central body on the central body's
+  origin: for the parts of a heterogeneous body that pull is internal, and the plant takes it off;
+- the eclipse module knows a body's radius only by a planet's name or as "custom" (the ephemeris's name).
 
 The paper's drawn disturbance (``disturbance.model = "drawn"``) enters Basilisk as a force and a torque:
 the draw w_k = [dr, dv] (and [dphi, domega]) becomes two constant accelerations on the two halves of the
@@ -86,6 +92,14 @@ def unsupported(scn: Scenario) -> list[str]:
     return reasons
 
 
+def basilisk_volume(vertices: Array, faces: npt.NDArray[np.int64]) -> float:
+    """The volume Basilisk's ``PolyhedralGravityModel`` takes for a mesh (m^3): sum |r1 . (r2 x r3)| / 6 over
+    the faces, which is the mesh's volume only if it is star-shaped about the origin (a part of a
+    heterogeneous body away from the origin is not)."""
+    r = np.asarray(vertices, dtype=np.float64)[np.asarray(faces)]
+    return float(np.abs(np.einsum("ij,ij->i", r[:, 0], np.cross(r[:, 1], r[:, 2]))).sum() / 6.0)
+
+
 def split_increment(d_pos: Array, d_vel: Array, half: float) -> tuple[Array, Array]:
     """The two constant accelerations, on [0, h] and [h, 2 h] (h = ``half``), whose double-integrator
     response over 2 h is the increment (``d_pos``, ``d_vel``): a1 = dr/h^2 - dv/(2 h), a2 = 3 dv/(2 h) - dr/h^2."""
@@ -127,8 +141,12 @@ class BasiliskTruth:
         p = truth.params
         self.n = float(truth.mean_motion)
         self.R = float(p.orbit_radius)
-        self.mass = IDEAL_MASS_KG if actuation is None else float(actuation.settings.mass)
-        self.inertia_B = np.asarray(p.inertia_B, dtype=np.float64)
+        phys = scn.physical
+        if phys is not None:  # the truth's mass and inertia
+            self.mass, self.inertia_B = float(phys.mass_true), np.asarray(phys.inertia_true_B, dtype=np.float64)
+        else:
+            self.mass = IDEAL_MASS_KG if actuation is None else float(actuation.settings.mass)
+            self.inertia_B = np.asarray(p.inertia_B, dtype=np.float64)
         self.max_step_ns = max(1, round(cfg.mpc.dt / cfg.simulation.substeps * _NS))
         self.t_ns = 0
         self._messaging = messaging
@@ -138,7 +156,8 @@ class BasiliskTruth:
         process.addTask(sim.CreateNewTask("plant", self.max_step_ns))
         eph = planetEphemeris.PlanetEphemeris()
         eph.ModelTag = "asteroid_ephemeris"
-        eph.setPlanetNames(planetEphemeris.StringVector(["asteroid"]))
+        # "custom": the name Basilisk's eclipse module needs to take the body's radius from rEqCustom
+        eph.setPlanetNames(planetEphemeris.StringVector(["custom"]))
         oe = planetEphemeris.ClassicElements()
         oe.a, oe.e, oe.i, oe.Omega, oe.omega, oe.f = self.R, 0.0, 0.0, 0.0, 0.0, 0.0
         eph.planetElements = planetEphemeris.classicElementVector([oe])
@@ -146,21 +165,51 @@ class BasiliskTruth:
         eph.declination = planetEphemeris.DoubleVector([math.pi / 2])
         eph.lst0 = planetEphemeris.DoubleVector([float(p.spin_angle0)])
         eph.rotRate = planetEphemeris.DoubleVector([float(p.spin_rate)])
-        eph.zeroBase = "asteroid"  # N's origin at the asteroid: no heliocentric rounding, correct body-relative effectors
+        eph.zeroBase = "custom"  # N's origin at the asteroid: no heliocentric rounding, correct body-relative effectors
         gravity = truth.gravity
+        phys = scn.physical
         factory = simIncludeGravBody.gravBodyFactory()
         sun = factory.createSun()
         sun.mu = float(p.mu_sun)
         self._sun_msg = messaging.SpicePlanetStateMsg()
         self._write_sun(0)
         sun.planetBodyInMsg.subscribeTo(self._sun_msg)
-        body = factory.createCustomGravObject("asteroid", float(gravity.gm))
-        body.isCentralBody = True
-        poly = PolyhedralGravityModel()
-        poly.xyzVertex = np.asarray(gravity.vertices, dtype=np.float64).tolist()
-        poly.orderFacet = (np.asarray(gravity.faces) + 1).tolist()
-        body.gravityModel = poly
-        body.planetBodyInMsg.subscribeTo(eph.planetOutMsgs[0])
+        # (name, vertices in A (m), faces, G M): the truth's homogeneous mesh, or its physical parts
+        if phys is None:
+            parts = [("asteroid", np.asarray(gravity.vertices), np.asarray(gravity.faces), float(gravity.gm))]
+        else:
+            g = float(_core.gravity.GRAVITATIONAL_CONSTANT)
+            parts = []
+            for i, part in enumerate(phys.parts):
+                vertices, faces = np.asarray(part.shape.vertices) + part.offset_A, np.asarray(part.shape.faces)
+                # Basilisk's density is mu / volPoly; its volPoly is right only for a mesh star-shaped about
+                # the origin (module docstring): the mu it is given makes mu / volPoly = G rho
+                parts.append(
+                    (
+                        "asteroid" if i == 0 else part.name,
+                        vertices,
+                        faces,
+                        g * part.density * basilisk_volume(vertices, faces),
+                    )
+                )
+        self.part_names = [name for name, *_ in parts]
+        # Basilisk adds to the spacecraft's acceleration each non-central body's pull on the central body's
+        # origin; for parts of the central body that pull is internal: the plant takes it off (in A, below)
+        self._internal_pull_A = np.zeros(3)
+        for i, (name, vertices, faces, gm) in enumerate(parts):
+            body = factory.createCustomGravObject(name, gm)
+            poly = PolyhedralGravityModel()
+            poly.xyzVertex = np.asarray(vertices, dtype=np.float64).tolist()
+            poly.orderFacet = (np.asarray(faces) + 1).tolist()
+            body.gravityModel = poly
+            body.planetBodyInMsg.subscribeTo(eph.planetOutMsgs[0])
+            if i == 0:
+                body.isCentralBody = True
+            else:
+                poly.muBody = gm
+                poly.initializeParameters()
+                self._internal_pull_A += np.asarray(poly.computeField([0.0, 0.0, 0.0]), dtype=np.float64).ravel()
+        self._spin = (float(p.spin_angle0), float(p.spin_rate))
         sc = spacecraft.Spacecraft()
         sc.ModelTag = "spacecraft"
         factory.addBodiesTo(sc)
@@ -176,15 +225,21 @@ class BasiliskTruth:
         ext = extForceTorque.ExtForceTorque()
         ext.ModelTag = "command_and_disturbance"
         sc.addDynamicEffector(ext)
-        srp = radiationPressure.RadiationPressure()
-        srp.ModelTag = "srp"
-        srp.setUseCannonballModel()
-        a_srp = float(np.asarray(truth.srp_acceleration_L)[0])
-        srp.coefficientReflection = 1.0
-        # cannonball: |F| = C_R A (flux / c) (1 AU / d)^2; A from beta_SRP / R^2 = |F| / m at d = R
-        au_m = astroConstants.AU * 1000.0
-        srp.area = a_srp * self.R**2 * self.mass * astroConstants.SPEED_LIGHT / (astroConstants.SOLAR_FLUX_EARTH * au_m**2)
-        srp.sunEphmInMsg.subscribeTo(self._sun_msg)
+        if phys is None:
+            srp = radiationPressure.RadiationPressure()
+            srp.ModelTag = "srp"
+            srp.setUseCannonballModel()
+            a_srp = float(np.asarray(truth.srp_acceleration_L)[0])
+            srp.coefficientReflection = 1.0
+            # cannonball: |F| = C_R A (flux / c) (1 AU / d)^2; A from beta_SRP / R^2 = |F| / m at d = R
+            au_m = astroConstants.AU * 1000.0
+            srp.area = (
+                a_srp * self.R**2 * self.mass * astroConstants.SPEED_LIGHT / (astroConstants.SOLAR_FLUX_EARTH * au_m**2)
+            )
+            srp.sunEphmInMsg.subscribeTo(self._sun_msg)
+            self.srp_description: dict[str, Any] = {"model": "cannonball", "area_m2": float(srp.area)}
+        else:
+            srp = self._physical_effectors(sc, phys, models, eph)
         sc.addDynamicEffector(srp)
         models += [(ext, 200), (srp, 200), (sc, 100)]
         for model, priority in models:
@@ -198,7 +253,55 @@ class BasiliskTruth:
         self.sim, self.sc, self.ext = sim, sc, ext
         self._models = [m for m, _ in sorted(models, key=lambda mp: -mp[1])]
         self._states = [sc.dynManager.getStateObject(n) for n in ("hubPosition", "hubVelocity", "hubSigma", "hubOmega")]
-        self.srp_area = float(srp.area)
+
+    def _physical_effectors(self, sc: Any, phys: Any, models: list[tuple[Any, int]], eph: Any) -> Any:
+        """The physical environment's terms in Basilisk: the flat plates (``facetSRPDynamicEffector``; areas
+        scaled by the environment's solar pressure over Basilisk's 1368 W/m^2 / c, which it hard-codes), the
+        body's shadow (``eclipse``: a sphere of the shadow radius, with penumbra, against the project's
+        cylinder) and the gravity-gradient torque of every part (``GravityGradientEffector``, point masses
+        at the origin whose mu add up to the truth's G M). Returns the SRP effector."""
+        from Basilisk.simulation import GravityGradientEffector, eclipse, facetSRPDynamicEffector
+
+        facet = facetSRPDynamicEffector.FacetSRPDynamicEffector()
+        facet.ModelTag = "plates"
+        bsk_pressure = 1368.0 / 299792458.0 * (149597870700.0 / self.R) ** 2
+        scale = float(phys.pressure) / bsk_pressure if phys.srp else 0.0
+        facet.setNumFacets(len(phys.plates))
+        for plate in phys.plates:
+            facet.addFacet(
+                float(plate.area) * scale,
+                np.eye(3).tolist(),
+                np.asarray(plate.normal_B, dtype=np.float64).tolist(),
+                [1.0, 0.0, 0.0],  # articulation axis, unused
+                np.asarray(plate.center_B, dtype=np.float64).tolist(),
+                float(plate.diffuse),
+                float(plate.specular),
+            )
+        facet.sunInMsg.subscribeTo(self._sun_msg)
+        if phys.shadow_radius > 0.0:
+            shadow = eclipse.Eclipse()
+            shadow.ModelTag = "shadow"
+            shadow.sunInMsg.subscribeTo(self._sun_msg)
+            shadow.addSpacecraftToModel(sc.scStateOutMsg)
+            shadow.addPlanetToModel(eph.planetOutMsgs[0])
+            shadow.rEqCustom = float(phys.shadow_radius)
+            facet.sunEclipseInMsg.subscribeTo(shadow.eclipseOutMsgs[0])
+            models.append((shadow, 280))
+        if phys.gravity_gradient:
+            gg = GravityGradientEffector.GravityGradientEffector()
+            gg.ModelTag = "gravity_gradient"
+            for name in self.part_names:
+                gg.addPlanetName(name)
+            sc.addDynamicEffector(gg)
+            models.append((gg, 200))
+        self.srp_description = {
+            "model": "facetSRPDynamicEffector",
+            "plates": len(phys.plates),
+            "area_scale": scale,
+            "shadow": "eclipse" if phys.shadow_radius > 0.0 else None,
+            "gravity_gradient": bool(phys.gravity_gradient),
+        }
+        return facet
 
     def _add_actuators(
         self, sc: Any, actuation: Any, models: list[tuple[Any, int]], mass: float, inertia_B: Array
@@ -340,7 +443,9 @@ class BasiliskTruth:
         if end_ns <= self.t_ns:
             raise ValueError(f"segment end {end_ns} ns is not after {self.t_ns} ns")
         mid = 0.5 * (self.t_ns + end_ns) / _NS
-        self.ext.extForce_N = (self.mass * self.C_NL(mid) @ a_L).tolist()
+        theta = self._spin[0] + self._spin[1] * mid  # C_NA = Rz(theta_0 + omega_A t)
+        internal = _rz(theta) @ self._internal_pull_A
+        self.ext.extForce_N = (self.mass * (self.C_NL(mid) @ a_L - internal)).tolist()
         self.ext.extTorquePntB_B = np.asarray(torque_B, dtype=np.float64).tolist()
         n = -(-(end_ns - self.t_ns) // self.max_step_ns)
         start = self.t_ns
@@ -381,8 +486,16 @@ class BasiliskPlant(ProjectPlant):
         assert self.bsk is not None
         scn, dt = self.scn, self.scn.config.mpc.dt
         t0_ns, dt_ns = round(k * dt * _NS), round(dt * _NS)
-        u_applied = self.apply_actuators(k, u)
-        w_p, w_r = self.disturbance.sample(k)
+        if self.environment is None:
+            u_applied = self.apply_actuators(k, u)
+            w_p, w_r = self.disturbance.sample(k)
+        else:  # physical: no draw; ideal actuators deliver with the truth's mass and errors (as the project's plant)
+            if self.actuation is None:
+                u_applied = np.asarray(self.environment.deliver(u, self.state[6:10]), dtype=np.float64)
+                self.delivered = (u_applied, None)
+            else:  # Basilisk's thrusters, with their own errors, deliver to the truth's mass
+                u_applied = self.apply_actuators(k, u)
+            w_p = w_r = np.zeros(6)
         half = 0.5 * dt
         a = split_increment(w_p[0:3], w_p[3:6], half)
         phi = np.asarray(_core.so3.log_map(self.state[6:10]), dtype=np.float64)
@@ -414,7 +527,8 @@ class BasiliskPlant(ProjectPlant):
             if nav is not None and end_ns in samples:
                 j = samples[end_ns]
                 nav.t[j], nav.truth[j] = end_ns / _NS, self.bsk.state()
-                nav.accel[j] = u_applied[:3] + nav.srp_L
+                srp_L = nav.srp_L if self.environment is None else self.environment.srp_acceleration_L(nav.truth[j])
+                nav.accel[j] = u_applied[:3] + np.asarray(srp_L, dtype=np.float64)
             start = end_ns
         self.state = state = self.bsk.state()
         x_next = scn.truth.truth_to_state(state, scn.reference.x[k + 1, 6:9])
@@ -429,7 +543,7 @@ class BasiliskPlant(ProjectPlant):
             "integrator": "rk4",
             "max_step_s": self.bsk.max_step_ns / _NS,
             "mass_kg": self.bsk.mass,
-            "srp": {"model": "cannonball", "area_m2": self.bsk.srp_area, "coefficient_reflection": 1.0},
+            "srp": self.bsk.srp_description,
             "actuators": "ideal (extForceTorque)"
             if self.bsk.thrusters is None
             else "thrusterDynamicEffector, reactionWheelStateEffector",
@@ -450,7 +564,8 @@ class CrossCheck:
 
 def cross_check(scn: Scenario, inputs: Array | None = None, steps: int | None = None) -> CrossCheck:
     """Flies ``inputs`` ((T, 6) [u_p (m/s^2, L); T (N m, B)]; default the reference's) open loop through
-    both plants from x0, ideal actuators without mismatch and no additive disturbance."""
+    both plants from x0, ideal actuators without mismatch and no additive disturbance (in a physical
+    environment, its truth with the actuator errors of seed 0)."""
     import time
 
     from ..models.disturbances import ActuatorMismatch, AdditiveDisturbance
@@ -469,6 +584,7 @@ def cross_check(scn: Scenario, inputs: Array | None = None, steps: int | None = 
                 ActuatorMismatch(0, 0.0, 0.0, 0.0, 0.0),
                 propagator_settings(scn.config),
                 state0.copy(),
+                environment=None if scn.physical is None else scn.physical.environment(0),
             )
         )
     diffs = np.zeros((T, 4))
