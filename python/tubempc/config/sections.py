@@ -73,6 +73,13 @@ class SpacecraftSection:
     u_max: float = field(metadata=quantity("acceleration", "per-axis bound of the translational input", check=POSITIVE))
     T_max: float = field(metadata=quantity("torque", "per-axis bound of the torque", check=POSITIVE))
     boresight_B: FloatArray = field(metadata=number("optical axis in B (the line-of-sight cone's axis)", (3,), NONZERO))
+    input_gain_error: float = field(
+        metadata=number(
+            "ideal actuators: bound on the delivered input's relative error (the mass and thrust scale known to this "
+            "fraction), carried by both methods' tubes as an input-error set (M38); 0: the paper's exact input",
+            check=(lambda v: 0.0 <= v < 1.0, "in [0, 1)"),
+        )
+    )
     actuators: str = field(
         metadata=option(
             '"ideal" (the paper\'s continuous input within u_max, T_max) or an actuator preset name or TOML path, '

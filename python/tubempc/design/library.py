@@ -56,12 +56,26 @@ def subsystem_design(res: DesignResult, P_W: Array) -> Any:
     return _core.control.SubsystemDesign(res.K, res.alpha, P_W, res.Pe)
 
 
+def actuation_error_shapes(scn: Scenario) -> tuple[Array, Array] | None:
+    """The input-error sets of the actuators, {e : e^T E^-1 e <= 1} per subsystem: the actuators' certified
+    ones (M38), or with ideal actuators and ``spacecraft.input_gain_error`` = eps > 0 the balls of radius
+    eps sqrt(3) u_max and eps sqrt(3) T_max (|e| <= eps |u| for any u in the input box); None: the input is
+    exact."""
+    if scn.actuation is not None:
+        return scn.actuation.error_shapes()
+    eps = scn.config.spacecraft.input_gain_error
+    if eps <= 0.0:
+        return None
+    u_max, T_max = scn.input_bounds
+    return (3.0 * (eps * u_max) ** 2 * np.eye(3), 3.0 * (eps * T_max) ** 2 * np.eye(3))
+
+
 def input_error_shapes(scn: Scenario, method: str) -> tuple[Array, Array] | None:
     """The input-error sets ``method``'s tube carries per subsystem (``ControllerSettings.actuation_error``): the
     actuators' certified ones (M38), with TBMPC-FFA's feed-forward box added when it is on (M43, the call the
     controller makes itself); None for ideal actuators without a feed-forward."""
     ident = scn.config.identification
-    E = scn.actuation.error_shapes() if scn.actuation is not None else None
+    E = actuation_error_shapes(scn)
     if method != "ffa" or not ident.feedforward:
         return E
     u_max, T_max = scn.input_bounds
@@ -194,8 +208,9 @@ def controller_settings(
     tube.alpha_search_period = t.alpha_search_period
     tube.background_designs = background_designs
     s.tube = tube
-    if scn.actuation is not None:  # the controller adds the feed-forward's box itself
-        s.actuation_error = list(scn.actuation.error_shapes())
+    E = actuation_error_shapes(scn)
+    if E is not None:  # the controller adds the feed-forward's box itself
+        s.actuation_error = list(E)
     return s
 
 
