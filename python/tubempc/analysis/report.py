@@ -169,8 +169,14 @@ def _paper_under_physics(folder: Path) -> bool:
     cfg, _ = _scenario(folder)
     if cfg is None or cfg.disturbance.model != "physical":
         return False
-    drawn = {"simulation.plant": "project", "disturbance.model": "drawn", "simulation.truth_shape_subdivisions": 0}
-    return cfg.with_overrides(drawn) == load_config()
+    paper = load_config()
+    drawn = {
+        "simulation.plant": "project",
+        "disturbance.model": "drawn",
+        "simulation.truth_shape_subdivisions": 0,
+        "disturbance.growth_r": paper.disturbance.growth_r,  # of the draw, which physics does not make
+    }
+    return cfg.with_overrides(drawn) == paper
 
 
 def _mission_view(folder: Path, cfg: Config | None, methods: list[str]) -> tuple[str, str]:
