@@ -28,7 +28,7 @@ in tests/py/sim/test_basilisk.py):
   and switches only at the integrator's stages: the plant ends a step at every pulse's end and rewrites
   the time-stamped commands at every step;
 - the RKF45 integrator with a central body misreports ``r_BN_N``: the plant keeps Basilisk's RK4;
-- ``PolyhedralGravityModel`` takes its volume as sum |r1 . (r2 x r3)| / 6, the mesh's only if it is
+- ``PolyhedralGravityModel`` takes its volume as ``sum |r1 . (r2 x r3)| / 6``, the mesh's only if it is
   star-shaped about the origin: a physical body's lobe, off the origin, is given mu = G rho times that
   volume (:func:`basilisk_volume`);
 - the gravity effector adds to the spacecraft the pull of every non-central body on the central body's
@@ -93,7 +93,7 @@ def unsupported(scn: Scenario) -> list[str]:
 
 
 def basilisk_volume(vertices: Array, faces: npt.NDArray[np.int64]) -> float:
-    """The volume Basilisk's ``PolyhedralGravityModel`` takes for a mesh (m^3): sum |r1 . (r2 x r3)| / 6 over
+    """The volume Basilisk's ``PolyhedralGravityModel`` takes for a mesh (m^3): ``sum |r1 . (r2 x r3)| / 6`` over
     the faces, which is the mesh's volume only if it is star-shaped about the origin (a part of a
     heterogeneous body away from the origin is not)."""
     r = np.asarray(vertices, dtype=np.float64)[np.asarray(faces)]
