@@ -375,11 +375,98 @@ EXTRACTORS: dict[str, Callable[[dict[str, Any], str], list[tuple[str, str]]]] = 
 }
 
 
+MIPS = 200.0  # the reference processor of the instruction counts' column
+
+
+def _instructions_rows(d: dict[str, Any]) -> list[str]:
+    """The rows of the instruction-count table of one instructions_<scenario>.json (tubempc bench instructions):
+    per method and component the median, p99 and max instructions per step, the same as ms on a 200 MIPS
+    processor, and what the worst step did."""
+
+    def ms(ir: float) -> str:
+        return f"{ir / (MIPS * 1e6) * 1e3:.3g}"
+
+    names = {
+        "controller": "controller step",
+        "navigation": "navigation call (with the sensors' simulation)",
+        "estimator": "onboard estimator (navigation less the sensors)",
+        "actuation": "actuation step",
+    }
+    rows = []
+    for method, m in d["methods"].items():
+        comps = [(names[c], v) for c, v in m["components"].items()]
+        if len(m["onboard"]["parts"]) > 1:
+            comps.append((" + ".join(m["onboard"]["parts"]) + " per period", m["onboard"]))
+        for what, c in comps:
+            w = c["worst"]
+            if "scp_iterations" in w:
+                did = (
+                    f"k = {w['step']}: {w['scp_iterations']} SCP iteration(s), {w['active_set_solves']} active-set "
+                    f"solve(s) with {w['active_set_iterations']} factorisations ({w['active_set_failures']} failed), "
+                    f"{w['qp_iterations']} PIQP iterations, {w['model_evaluations']} nodes discretised, "
+                    f"{w['gravity_evaluations']} gravity evaluations "
+                    f"({100 * w['gravity_instructions'] / w['instructions']:.0f} % of the step), "
+                    f"LDL^T {100 * w['ldlt_instructions'] / w['instructions']:.0f} %; over the mission "
+                    f"gravity {100 * c['share_gravity']:.0f} %, LDL^T {100 * c['share_ldlt']:.0f} %"
+                )
+            elif "sensor_instructions" in w:
+                did = (
+                    f"k = {w['step']}: {w['measurements']} measurements folded in, {w['gravity_evaluations']} gravity "
+                    f"evaluations, sensors' simulation {100 * w['sensor_instructions'] / w['instructions']:.0f} %"
+                )
+            elif "allocation_iterations" in w:
+                did = f"k = {w['step']}: {w['allocation_iterations']} allocation iterations"
+            else:
+                did = f"k = {w['step']}"
+            rows.append(
+                f"| {d['scenario']} | {method} | {what} | {c['median']:.3g} | {c['p99']:.3g} | {c['max']:.3g} | "
+                f"{ms(c['median'])} / {ms(c['p99'])} / {ms(c['max'])} | {did} |"
+            )
+    return rows
+
+
+def _instructions_section(files: list[tuple[str, dict[str, Any]]]) -> list[str]:
+    if not files:
+        return []
+    lines = [
+        "",
+        "## Instructions per step",
+        "",
+        "Instructions counted by valgrind's callgrind in each call of the C++ example flying the exported",
+        "scenario (`tubempc bench instructions`: the run's seed, disturbance, navigation and actuators; only the",
+        "calls are counted); ms on a 200 MIPS processor = instructions / 200e6 (one instruction per cycle: an",
+        "order of magnitude for a RAD750- or LEON4-class core). The same binary and input give the same counts;",
+        "another machine's glibc may pick other variants of its string and math routines.",
+        "",
+        "| scenario | method | step | median | p99 | max | ms on a 200 MIPS processor (median / p99 / max) | "
+        "the worst step |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for _, d in files:
+        lines += _instructions_rows(d)
+    lines.append("")
+    lines.append("| file | runs, largest relative difference between them | command | machine, date, build |")
+    lines.append("| --- | --- | --- | --- |")
+    for name, d in files:
+        m = d.get("machine", {})
+        b = d.get("example_build", {})
+        lines.append(
+            f"| {name}.json | {d['runs']}, {d['max_relative_difference_between_runs']:.2g}; instrumented flights "
+            f"{d['instrumented_wall_s']:.0f} s | `{portable_command(m.get('command', '?'), name, 'instructions', d)}` | "
+            f"{m.get('cpu', '?')}, {m.get('cores', '?')} cores; {m.get('date', '?')}; {d['valgrind']}, "
+            f"{b.get('compiler', '?')} {b.get('cxx_flags', '')} |"
+        )
+    return lines
+
+
+SECTIONS = {"instructions": _instructions_section}
+
+
 def _kind(name: str) -> str:
-    for kind in EXTRACTORS:
+    for kind in [*EXTRACTORS, *SECTIONS]:
         if name == kind or name.startswith(kind + "_"):
             return kind
-    raise SystemExit(f"{name}.json: no extractor for this benchmark (known: {', '.join(EXTRACTORS)})")
+    raise SystemExit(f"{name}.json: no extractor for this benchmark (known: {', '.join([*EXTRACTORS, *SECTIONS])})")
 
 
 def main() -> int:
@@ -395,14 +482,20 @@ def main() -> int:
         "| what | figure | command | machine, date |",
         "| --- | --- | --- | --- |",
     ]
+    sections: dict[str, list[tuple[str, dict[str, Any]]]] = {kind: [] for kind in SECTIONS}
     for path in sorted(DATA.glob("*.json")):
         d = json.loads(path.read_text(encoding="utf-8"))
         m = d.get("machine", {})
         where = f"{m.get('cpu', '?')}, {m.get('cores', '?')} cores; {m.get('date', '?')}"
         kind = _kind(path.stem)
+        if kind in SECTIONS:
+            sections[kind].append((path.stem, d))
+            continue
         command = portable_command(d.get("command") or m.get("command", "?"), path.stem, kind, d)
         for what, figure in EXTRACTORS[kind](d, path.stem):
             lines.append(f"| {what} | {figure} | `{command}` | {where} |")
+    for kind, files in sections.items():
+        lines += SECTIONS[kind](files)
     out = ROOT / "docs" / "benchmarks.md"
     out.write_text("\n".join(lines) + "\n", encoding="utf-8")
     print(f"wrote {out}")

@@ -24,7 +24,14 @@
 // glibc only, not with sanitizers). Exit status: 0 success, 1 an allocation inside a controller,
 // navigation or actuation step, 2 bad arguments or input, 3 a failed truth propagation.
 //
-//   closed_loop SCENARIO_FILE [--method tbmpc|ffa|both] [--disturbance W.txt] [--json OUT.json]
+// --instructions (run under valgrind --tool=callgrind --collect-atstart=no --combine-dumps=yes): each
+// controller, navigation and actuation step is bracketed by callgrind's client requests (collection on
+// for the call alone, then a dump named "<method> <controller|navigation|actuation> <k>"), so that the
+// profile holds one part per step with its instructions and calls; nothing else of the loop is counted
+// (tubempc bench instructions reads the parts). Natively, the requests are a few no-op instructions
+// outside the counted calls; the option needs <valgrind/callgrind.h> at build time and valgrind at run time.
+//
+//   closed_loop SCENARIO_FILE [--method tbmpc|ffa|both] [--disturbance W.txt] [--json OUT.json] [--instructions]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -58,6 +65,14 @@
 // (tests/cpp/support/tubempc_testing/allocation_counter.hpp: glibc only, left out of sanitizer builds).
 #include "tubempc_testing/allocation_counter.hpp"
 
+// ---- instruction counting (callgrind's client requests) -----------------------------------------
+#if defined(__has_include)
+#if __has_include(<valgrind/callgrind.h>)
+#include <valgrind/callgrind.h>
+#define TUBEMPC_EXAMPLE_CALLGRIND 1
+#endif
+#endif
+
 using namespace tubempc;
 
 namespace {
@@ -65,6 +80,48 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 using tubempc_testing::AllocationWindow;
+
+#ifdef TUBEMPC_EXAMPLE_CALLGRIND
+constexpr bool kCallgrindAvailable = true;
+#else
+constexpr bool kCallgrindAvailable = false;
+#endif
+
+// The instructions of one call, as one part of callgrind's profile: collection is on for the call
+// alone (begin .. end) and the part is dumped under `label` right after; nothing when `on` is false.
+class CountedCall {
+ public:
+  CountedCall(bool on, const char* method, const char* what, int k) : on_(on) {
+    if (!on_) return;
+    std::snprintf(label_, sizeof label_, "%s %s %d", method, what, k);
+#ifdef TUBEMPC_EXAMPLE_CALLGRIND
+    CALLGRIND_ZERO_STATS;
+    CALLGRIND_TOGGLE_COLLECT;
+#endif
+  }
+  ~CountedCall() {
+    if (!on_) return;
+#ifdef TUBEMPC_EXAMPLE_CALLGRIND
+    CALLGRIND_TOGGLE_COLLECT;
+    CALLGRIND_DUMP_STATS_AT(label_);
+#endif
+  }
+  CountedCall(const CountedCall&) = delete;
+  CountedCall& operator=(const CountedCall&) = delete;
+
+ private:
+  bool on_;
+  char label_[64] = {};
+};
+
+// Whether this process runs under valgrind (false without the header).
+bool running_on_valgrind() {
+#ifdef TUBEMPC_EXAMPLE_CALLGRIND
+  return RUNNING_ON_VALGRIND != 0;
+#else
+  return false;
+#endif
+}
 
 struct Stats {
   double median, p99, max;  // s
@@ -88,6 +145,12 @@ void write_array(std::FILE* f, const char* name, const double* data, std::size_t
   std::fprintf(f, "]%s\n", last ? "" : ",");
 }
 
+void write_int_array(std::FILE* f, const char* name, const std::vector<int>& v, bool last = false) {
+  std::fprintf(f, "        \"%s\": [", name);
+  for (std::size_t i = 0; i < v.size(); ++i) std::fprintf(f, "%s%d", i ? ", " : "", v[i]);
+  std::fprintf(f, "]%s\n", last ? "" : ",");
+}
+
 // A JSON string literal of s.
 std::string json_string(const std::string& s) {
   std::string out = "\"";
@@ -108,7 +171,8 @@ std::string json_string(const std::string& s) {
 
 int usage(const char* argv0) {
   std::fprintf(stderr,
-               "usage: %s SCENARIO_FILE [--method tbmpc|ffa|both] [--disturbance W.txt] [--json OUT.json]\n",
+               "usage: %s SCENARIO_FILE [--method tbmpc|ffa|both] [--disturbance W.txt] [--json OUT.json] "
+               "[--instructions]\n",
                argv0);
   return 2;
 }
@@ -131,6 +195,20 @@ Eigen::MatrixXd read_disturbance(const std::string& path, int T) {
   return w;
 }
 
+// What one step did, per step (the counters of the steps' results).
+struct StepCounts {
+  std::vector<int> scp_iterations;                  // QPs solved (mpc::StepResult::scp_iterations)
+  std::vector<int> active_set_solves;               // of them by the active set
+  std::vector<int> active_set_iterations;           // active-set factorisations (incl. failed tries)
+  std::vector<int> active_set_failures;             // active-set tries that did not verify
+  std::vector<int> qp_iterations;                   // PIQP interior-point iterations (one factorisation each)
+  std::vector<int> model_evaluations;               // nodes discretised by the controller's model
+  std::vector<int> mpc_status;                      // mpc::Status as its integer
+  std::vector<int> navigation_gravity_evaluations;  // the filter's (nav::NavigationStep)
+  std::vector<int> navigation_measurements;         // measurements folded in (camera: landmarks)
+  std::vector<int> allocation_iterations;           // the actuators' allocation (active-set iterations)
+};
+
 // One method's flight.
 struct Flight {
   std::string method;
@@ -149,6 +227,7 @@ struct Flight {
   double delta_v = 0.0, propellant = 0.0;               // actuators' totals (m/s, kg)
   long pulses = 0;
   double nav_error_position = 0.0;  // |r_L - r^_L| at the end (m), with navigation
+  StepCounts counts;
   int exit_code = 0;
 };
 
@@ -173,8 +252,8 @@ Eigen::Vector3d srp_acceleration(const dynamics::ModelParams& p) {
 
 Flight fly(const io::ScenarioFile& scn, control::Method method,
            const std::shared_ptr<const dynamics::ProximityModel>& model,
-           const dynamics::ProximityModel& truth, const Casters& casters,
-           const Eigen::MatrixXd& disturbance) {
+           const dynamics::ProximityModel& truth, const Casters& casters, const Eigen::MatrixXd& disturbance,
+           bool count_instructions) {
   Flight f;
   f.method = control::to_string(method);
   const auto t_setup = Clock::now();
@@ -231,14 +310,18 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
     f.time_actuation.resize(static_cast<std::size_t>(T));
   }
   f.setup_s = std::chrono::duration<double>(Clock::now() - t_setup).count();
+  const char* name = control::to_string(method);
   for (int k = 0; k < T; ++k) {
     const double t_k = scn.reference.t0 + k * dt;
     dynamics::InputVector u;
     const control::ControlStep* step = nullptr;
     {
       AllocationWindow window;
-      if (navigation) controller.set_estimation_error(P_est);
-      step = &controller.step(k, x_hat);
+      {
+        const CountedCall counted(count_instructions, name, "controller", k);
+        if (navigation) controller.set_estimation_error(P_est);
+        step = &controller.step(k, x_hat);
+      }
       f.allocations_controller += window.count();
     }
     // the bookkeeping (strings, maps) is outside the counted window
@@ -257,6 +340,13 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
     f.fallbacks +=
         r.mpc->status == mpc::Status::FallbackShiftedPlan || r.mpc->status == mpc::Status::FallbackSafeInput;
     f.scp_iterations += r.mpc->scp_iterations;
+    f.counts.scp_iterations.push_back(r.mpc->scp_iterations);
+    f.counts.active_set_solves.push_back(r.mpc->active_set_solves);
+    f.counts.active_set_iterations.push_back(r.mpc->active_set_iterations);
+    f.counts.active_set_failures.push_back(r.mpc->active_set_failures);
+    f.counts.qp_iterations.push_back(r.mpc->qp_iterations);
+    f.counts.model_evaluations.push_back(r.mpc->model_evaluations);
+    f.counts.mpc_status.push_back(static_cast<int>(r.mpc->status));
     // J_p, J_r of the paper's Eq. (54)-(55) (identity weights), the node k term
     const dynamics::StateVector e = x - scn.reference.z.col(k);
     f.J_p += e.head<6>().squaredNorm() + u.head<3>().squaredNorm();
@@ -268,12 +358,16 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
       {
         AllocationWindow window;
         const Eigen::Matrix3d C_BL = math::rotation_matrix(state.segment<4>(6)).transpose();
-        a = &actuation->step(t_k, u, C_BL);
+        {
+          const CountedCall counted(count_instructions, name, "actuation", k);
+          a = &actuation->step(t_k, u, C_BL);
+        }
         u_applied = a->u_delivered;
         f.allocations_actuation += window.count();
       }
       f.time_actuation[i] = std::chrono::duration<double>(Clock::now() - t_act).count();
       ++f.actuation_statuses[actuators::to_string(a->status)];
+      f.counts.allocation_iterations.push_back(a->allocation.iterations);
     }
     dynamics::PropagationResult p;
     {
@@ -309,14 +403,21 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
       const auto t_nav = Clock::now();
       {
         AllocationWindow window;
-        est =
-            &navigation->step(t_sample, truth_sample, accel_sample, scn.reference.z.col(k + 1).segment<3>(6));
+        {
+          const CountedCall counted(count_instructions, name, "navigation", k);
+          est = &navigation->step(t_sample, truth_sample, accel_sample,
+                                  scn.reference.z.col(k + 1).segment<3>(6));
+        }
         x_hat = est->x_hat;
         P_est.noalias() = ns.error_set_scale * est->P_x;
         f.allocations_navigation += window.count();
       }
       f.time_navigation[i] = std::chrono::duration<double>(Clock::now() - t_nav).count();
       ++f.navigation_statuses[nav::to_string(est->status)];
+      f.counts.navigation_gravity_evaluations.push_back(est->gravity_evaluations);
+      int folded = 0;
+      for (const int n : est->accepted) folded += n;
+      f.counts.navigation_measurements.push_back(folded);
     } else {
       x_hat = x;
     }
@@ -433,7 +534,20 @@ void write_flight(std::FILE* out, const Flight& f, bool last) {
     write_array(out, name, v->data(), v->size());
   }
   std::fprintf(out, "  ");
-  write_array(out, "time_mpc_s", f.time_mpc.data(), f.time_mpc.size(), true);
+  write_array(out, "time_mpc_s", f.time_mpc.data(), f.time_mpc.size());
+  std::fprintf(out, "      \"step_counts\": {\n");
+  const StepCounts& c = f.counts;
+  write_int_array(out, "scp_iterations", c.scp_iterations);
+  write_int_array(out, "active_set_solves", c.active_set_solves);
+  write_int_array(out, "active_set_iterations", c.active_set_iterations);
+  write_int_array(out, "active_set_failures", c.active_set_failures);
+  write_int_array(out, "qp_iterations", c.qp_iterations);
+  write_int_array(out, "model_evaluations", c.model_evaluations);
+  write_int_array(out, "mpc_status", c.mpc_status);
+  write_int_array(out, "navigation_gravity_evaluations", c.navigation_gravity_evaluations);
+  write_int_array(out, "navigation_measurements", c.navigation_measurements);
+  write_int_array(out, "allocation_iterations", c.allocation_iterations, true);
+  std::fprintf(out, "      }\n");
   std::fprintf(out, "    }%s\n", last ? "" : ",");
 }
 
@@ -441,9 +555,12 @@ void write_flight(std::FILE* out, const Flight& f, bool last) {
 
 int main(int argc, char** argv) {
   std::string scenario_path, json_path, disturbance_path, method_arg = "both";
+  bool count_instructions = false;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
-    if (arg == "--json" && i + 1 < argc) {
+    if (arg == "--instructions") {
+      count_instructions = true;
+    } else if (arg == "--json" && i + 1 < argc) {
       json_path = argv[++i];
     } else if (arg == "--disturbance" && i + 1 < argc) {
       disturbance_path = argv[++i];
@@ -457,6 +574,12 @@ int main(int argc, char** argv) {
   }
   if (scenario_path.empty() || (method_arg != "both" && method_arg != "tbmpc" && method_arg != "ffa"))
     return usage(argv[0]);
+  if (count_instructions && !(kCallgrindAvailable && running_on_valgrind())) {
+    std::fprintf(stderr, "error: --instructions needs %s\n",
+                 kCallgrindAvailable ? "a run under valgrind --tool=callgrind --collect-atstart=no"
+                                     : "<valgrind/callgrind.h> at build time (Debian: valgrind)");
+    return 2;
+  }
 
   io::ScenarioFile scn;
   std::shared_ptr<const dynamics::ProximityModel> model;
@@ -516,7 +639,7 @@ int main(int argc, char** argv) {
   for (const control::Method m : {control::Method::Tbmpc, control::Method::Ffa}) {
     if (method_arg != "both" && method_arg != control::to_string(m)) continue;
     try {
-      flights.push_back(fly(scn, m, model, *truth, casters, disturbance));
+      flights.push_back(fly(scn, m, model, *truth, casters, disturbance, count_instructions));
     } catch (const std::exception& e) {
       std::fprintf(stderr, "error: %s: %s\n", control::to_string(m), e.what());
       return 2;
@@ -533,10 +656,15 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "error: cannot write %s\n", json_path.c_str());
       return 2;
     }
-    std::fprintf(
-        f, "{\n  \"scenario\": %s,\n  \"steps\": %d,\n  \"allocations_counted\": %s,\n  \"methods\": {\n",
-        json_string(scenario_path).c_str(), scn.mission_steps(),
-        tubempc_testing::kAllocationCounterEnabled ? "true" : "false");
+    const core::BuildInfo& build = core::build_info();
+    std::fprintf(f,
+                 "{\n  \"scenario\": %s,\n  \"steps\": %d,\n  \"allocations_counted\": %s,\n  \"build\": "
+                 "{\"version\": %s, \"compiler\": %s, \"cxx_flags\": %s, \"eigen_simd\": %s},\n"
+                 "  \"methods\": {\n",
+                 json_string(scenario_path).c_str(), scn.mission_steps(),
+                 tubempc_testing::kAllocationCounterEnabled ? "true" : "false",
+                 json_string(build.version).c_str(), json_string(build.compiler).c_str(),
+                 json_string(build.cxx_flags).c_str(), json_string(build.eigen_simd).c_str());
     for (std::size_t i = 0; i < flights.size(); ++i) write_flight(f, flights[i], i + 1 == flights.size());
     std::fprintf(f, "  }\n}\n");
     std::fclose(f);
