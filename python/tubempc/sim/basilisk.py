@@ -167,7 +167,6 @@ class BasiliskTruth:
         eph.rotRate = planetEphemeris.DoubleVector([float(p.spin_rate)])
         eph.zeroBase = "custom"  # N's origin at the asteroid: no heliocentric rounding, correct body-relative effectors
         gravity = truth.gravity
-        phys = scn.physical
         factory = simIncludeGravBody.gravBodyFactory()
         sun = factory.createSun()
         sun.mu = float(p.mu_sun)
