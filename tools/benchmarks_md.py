@@ -348,10 +348,12 @@ def _navigation(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
 
 
 def _test_command(d: dict[str, Any]) -> list[tuple[str, str]]:
+    phases = d.get("phases_s")  # absent in files written before the phases were timed
+    split = "" if not phases else "; " + ", ".join(f"{k} {v:.0f} s" for k, v in phases.items())
     return [
         (
             f"test command `{d['command']}`",
-            f"{d['seconds'] / 60:.1f} min ({d['seconds']:.0f} s)",
+            f"{d['seconds'] / 60:.1f} min ({d['seconds']:.0f} s{split})",
         )
     ]
 

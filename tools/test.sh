@@ -9,6 +9,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 start=$(date +%s)
+# Seconds of each phase, in order, for build/test/test_command.json.
+phases=()
+mark=$start
+phase_done() { now=$(date +%s); phases+=("$1=$(( now - mark ))"); mark=$now; }
 
 missing=()
 [ -f /usr/include/gtest/gtest.h ] || missing+=(libgtest-dev)
@@ -35,27 +39,35 @@ export CMAKE_BUILD_PARALLEL_LEVEL=${CMAKE_BUILD_PARALLEL_LEVEL:-$(nproc)}
   --config-settings=build-dir=build/test \
   --config-settings=cmake.define.TUBEMPC_BUILD_TESTS=ON \
   --config-settings=cmake.define.TUBEMPC_INSTALL=ON
+phase_done install
 
 bash tools/lint.sh
+phase_done lint
 
 ctest --test-dir build/test --output-on-failure -j"$(nproc)"
+phase_done ctest
 
 bash tools/install_test.sh --build build/test --python .venv/bin/python
+phase_done install_test
 
 # The documentation site, warnings as errors; its three tutorials run in it (the third embeds the C++
 # core installed from build/test).
 TUBEMPC_BUILD_DIR=build/test bash tools/docs.sh
+phase_done docs
 
-# pytest exit code 5 means "no tests collected": a failure here.
+# pytest on every core (pytest-xdist; a test file stays on one worker, so its module fixtures are built
+# once); exit code 5 means "no tests collected": a failure here.
 set +e
-.venv/bin/python -m pytest "$@"
+.venv/bin/python -m pytest -n "$(nproc)" --dist loadfile "$@"
 rc=$?
 set -e
+phase_done pytest
 if [ "$rc" = 5 ]; then echo "pytest collected no tests" >&2; exit 1; fi
 if [ "$rc" = 0 ]; then
   .venv/bin/python -c "import json, sys; from tubempc.results.machine import machine_info
 machine = {**machine_info(), 'command': 'bash tools/test.sh'}
-json.dump({'command': 'bash tools/test.sh', 'seconds': float(sys.argv[1]), 'machine': machine},
-          open('build/test/test_command.json', 'w'), indent=1)" "$(( $(date +%s) - start ))"
+phases = {k: float(v) for k, v in (p.split('=') for p in sys.argv[2:])}
+json.dump({'command': 'bash tools/test.sh', 'seconds': float(sys.argv[1]), 'phases_s': phases, 'machine': machine},
+          open('build/test/test_command.json', 'w'), indent=1)" "$(( $(date +%s) - start ))" "${phases[@]}"
 fi
 exit "$rc"
