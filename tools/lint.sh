@@ -2,7 +2,8 @@
 # The lint of the test command: fails on any finding. tools/format.sh applies the formatters.
 #   ruff check and ruff format --check (pyproject.toml), mypy --strict (pyproject.toml),
 #   clang-format --dry-run -Werror (.clang-format) on the C++ sources, headers, bindings, tests and examples,
-#   and tools/check_stubs.py: the stubs python/tubempc/_*.pyi declare what the built tubempc._core binds.
+#   tools/check_stubs.py: the stubs python/tubempc/_*.pyi declare what the built tubempc._core binds,
+#   and tools/cpp_analysis.sh: clang-tidy (.clang-tidy) and cppcheck on cpp/, with a build's compile_commands.json.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=${VENV_BIN:-.venv/bin}
@@ -12,4 +13,5 @@ BIN=${VENV_BIN:-.venv/bin}
 git ls-files 'cpp/*.hpp' 'cpp/*.cpp' 'python/src/*.hpp' 'python/src/*.cpp' 'tests/cpp/*.hpp' 'tests/cpp/*.cpp' \
   'examples/*.cpp' | xargs clang-format --dry-run -Werror
 "$BIN/python" tools/check_stubs.py
+PYTHON="$BIN/python" bash tools/cpp_analysis.sh
 echo "lint passed"

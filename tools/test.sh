@@ -18,10 +18,12 @@ missing=()
 [ -f /usr/include/gtest/gtest.h ] || missing+=(libgtest-dev)
 command -v doxygen > /dev/null || missing+=(doxygen)
 command -v clang-format > /dev/null || missing+=(clang-format)
+command -v clang-tidy > /dev/null || missing+=(clang-tidy)
+command -v cppcheck > /dev/null || missing+=(cppcheck)
 command -v chromium > /dev/null || missing+=(chromium)
 if [ ${#missing[@]} -gt 0 ]; then
   echo "installing Debian's ${missing[*]} (GoogleTest for ctest, Doxygen for the header check and the C++ reference," \
-    "clang-format for the lint, Chromium for the report's 3D view test)"
+    "clang-format, clang-tidy and cppcheck for the lint, Chromium for the report's 3D view test)"
   if [ "$(id -u)" = 0 ]; then SUDO=""; else SUDO="sudo"; fi
   $SUDO apt-get update -q && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q "${missing[@]}"
 fi
@@ -41,7 +43,7 @@ export CMAKE_BUILD_PARALLEL_LEVEL=${CMAKE_BUILD_PARALLEL_LEVEL:-$(nproc)}
   --config-settings=cmake.define.TUBEMPC_INSTALL=ON
 phase_done install
 
-bash tools/lint.sh
+TUBEMPC_BUILD_DIR=build/test bash tools/lint.sh
 phase_done lint
 
 ctest --test-dir build/test --output-on-failure -j"$(nproc)"

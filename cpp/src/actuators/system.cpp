@@ -50,7 +50,7 @@ void ActuationSystem::reset(const Eigen::Ref<const Eigen::VectorXd>& wheel_momen
   out_.wheel_momentum = wheels_.momentum();
 }
 
-const ActuationStep& ActuationSystem::step(double t, const Vector6& u, const Eigen::Matrix3d& C_BL) {
+const ActuationStep& ActuationSystem::step(double t, const Vector6& u, const Eigen::Matrix3d& C_BL) noexcept {
   const auto t0 = std::chrono::steady_clock::now();
   const double dt = settings_.modulation.period, mass = settings_.mass;
   const bool attitude_ok = C_BL.allFinite();

@@ -29,7 +29,7 @@ const char* to_string(Method m) { return core::enum_name(m); }
 const char* to_string(MeasuredInput m) { return core::enum_name(m); }
 
 Eigen::Matrix3d input_error_with_feedforward(const Eigen::Matrix3d& E, const Eigen::Vector3d& rho) {
-  const Eigen::Matrix3d box = 3.0 * rho.cwiseAbs2().asDiagonal().toDenseMatrix();
+  Eigen::Matrix3d box = 3.0 * rho.cwiseAbs2().asDiagonal().toDenseMatrix();
   const double a = E.trace(), b = box.trace();
   if (!(b > 0.0)) return E;
   if (!(a > 0.0)) return box;

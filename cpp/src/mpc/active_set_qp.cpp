@@ -94,11 +94,12 @@ void ActiveSetQp::setup(const SpMat& P_upper, const SpMat& A, const SpMat& G,
   pos_A_.resize(A.nonZeros());
   pos_G_.resize(G.nonZeros());
   for (int c = 0, k = 0; c < n; ++c)
-    for (SpMat::InnerIterator it(P_upper, c); it; ++it) pos_P_(k++) = position(it.row(), c);
+    for (SpMat::InnerIterator it(P_upper, c); it; ++it) pos_P_(k++) = position(static_cast<int>(it.row()), c);
   for (int c = 0, k = 0; c < n; ++c)
-    for (SpMat::InnerIterator it(A, c); it; ++it) pos_A_(k++) = position(c, n + it.row());
+    for (SpMat::InnerIterator it(A, c); it; ++it) pos_A_(k++) = position(c, n + static_cast<int>(it.row()));
   for (int c = 0, k = 0; c < n; ++c)
-    for (SpMat::InnerIterator it(G, c); it; ++it) pos_G_(k++) = position(c, n + m_ + it.row());
+    for (SpMat::InnerIterator it(G, c); it; ++it)
+      pos_G_(k++) = position(c, n + m_ + static_cast<int>(it.row()));
   pos_B_.resize(nb);
   for (int k = 0; k < nb; ++k) pos_B_(k) = position(bound_var_(k), n + m_ + p_ + k);
   pos_diag_.resize(nk);

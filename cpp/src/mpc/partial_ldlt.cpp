@@ -14,7 +14,8 @@ void PartialLdlt::analyze(const SpMat& K_upper) {
     throw std::invalid_argument("PartialLdlt::analyze: the matrix must be square and compressed");
   // The pattern with unit diagonal and zero off-diagonal entries: Eigen's factorisation of it stores
   // every structural entry of L (its algorithm is symbolic in the pattern), with D = I.
-  SpMat pattern = K_upper;
+  // written through the iterators' valueRef below, which clang-tidy does not see
+  SpMat pattern = K_upper;  // NOLINT(performance-unnecessary-copy-initialization)
   for (int c = 0; c < n; ++c) {
     bool diagonal = false;
     for (SpMat::InnerIterator it(pattern, c); it; ++it) {

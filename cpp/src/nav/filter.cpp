@@ -273,6 +273,8 @@ void NavigationFilter::hold_gravity(const Eigen::Vector3d& r_A, const gravity::G
     const double c = (g.gradient - gravity_G0_A_).norm() / d;
     const double tol = settings_.gravity_expansion_tolerance;
     if (tol > 0.0 && d > 0.0 && std::isfinite(c))
+      // clang-tidy 14 reads the conditional's double constant kInf as a narrowing to double
+      // NOLINTNEXTLINE(bugprone-narrowing-conversions,cppcoreguidelines-narrowing-conversions)
       hold = std::max(hold, std::min(c > 0.0 ? std::sqrt(2.0 * tol / c) : kInf, r_A.norm() / 8.0));
   }
   gravity_r0_A_ = r_A;
@@ -522,7 +524,7 @@ Eigen::Vector3d NavigationFilter::omega_BL_B() const {
 }
 
 Eigen::Vector3d NavigationFilter::phi_near(const Eigen::Vector3d& phi_ref) const {
-  const Eigen::Vector3d phi = math::log_map(x_.q_BL);
+  Eigen::Vector3d phi = math::log_map(x_.q_BL);
   const double angle = phi.norm();
   if (!(angle > 0.0) || !phi_ref.allFinite()) return phi;
   Eigen::Vector3d best = phi;

@@ -55,7 +55,7 @@ RayCaster::RayCaster(const gravity::Shape& shape) {
   }
   size_ = (hi - lo).norm();
   center_ = 0.5 * (hi + lo);
-  nodes_.reserve(static_cast<std::size_t>(2 * m / kLeafFaces + 2));
+  nodes_.reserve(2 * static_cast<std::size_t>(m) / kLeafFaces + 2);
   build(0, m, centroids, 1);
   if (depth_ > kMaxDepth) throw std::invalid_argument("RayCaster: hierarchy deeper than kMaxDepth");
 }

@@ -67,7 +67,7 @@ RayHit Altimeter::true_range(const Eigen::Vector3d& r_A, const Eigen::Vector3d& 
   return caster_->cast(r_A, boresight_A, max_range);
 }
 
-SensorStatus Altimeter::measure(const SensorTruth& truth, AltimeterMeasurement& out) {
+SensorStatus Altimeter::measure(const SensorTruth& truth, AltimeterMeasurement& out) noexcept {
   out.t = truth.t;
   out.range = 0.0;
   if (!finite(truth)) return out.status = SensorStatus::InvalidInput;
@@ -168,7 +168,7 @@ bool NavCamera::visible(int i, const SensorTruth& truth, Eigen::Vector2d& pixel)
   return visible_from(i, truth.C_AL * truth.r_L, C_CA, -truth.C_AL.col(0), pixel);  // the Sun is along -x_L
 }
 
-SensorStatus NavCamera::measure(const SensorTruth& truth, CameraFrame& out) {
+SensorStatus NavCamera::measure(const SensorTruth& truth, CameraFrame& out) noexcept {
   out.t = truth.t;
   out.count = 0;
   if (!finite(truth)) return out.status = SensorStatus::InvalidInput;
@@ -208,7 +208,7 @@ Imu::Imu(const ImuSettings& settings, std::uint64_t seed) : settings_(settings),
   b_a_ = settings_.accel_bias_sigma * normal3(rng_);
 }
 
-SensorStatus Imu::measure(const SensorTruth& truth, ImuSample& out) {
+SensorStatus Imu::measure(const SensorTruth& truth, ImuSample& out) noexcept {
   out.t = truth.t;
   if (!finite(truth)) return out.status = SensorStatus::InvalidInput;
   const bool lost = rng_.uniform() < settings_.dropout_probability;
@@ -240,7 +240,7 @@ StarTracker::StarTracker(const StarTrackerSettings& settings, std::uint64_t seed
   settings_.validate();
 }
 
-SensorStatus StarTracker::measure(const SensorTruth& truth, StarTrackerMeasurement& out) {
+SensorStatus StarTracker::measure(const SensorTruth& truth, StarTrackerMeasurement& out) noexcept {
   out.t = truth.t;
   if (!finite(truth)) return out.status = SensorStatus::InvalidInput;
   if (rng_.uniform() < settings_.dropout_probability) return out.status = SensorStatus::Dropout;

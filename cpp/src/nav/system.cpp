@@ -83,7 +83,7 @@ NavigationSystem::NavigationSystem(std::shared_ptr<const dynamics::ProximityMode
     : model_(std::move(model)),
       settings_((settings.validate(), settings)),
       altimeter_(sensor_caster, settings.altimeter, 4 * seed + 1),
-      camera_(sensor_caster, landmarks, settings.camera, 4 * seed + 2),
+      camera_(std::move(sensor_caster), landmarks, settings.camera, 4 * seed + 2),
       imu_(settings.imu, 4 * seed + 3),
       star_tracker_(settings.star_tracker, 4 * seed + 4),
       filter_(model_, std::move(filter_caster), std::move(landmarks), settings.filter),
@@ -252,7 +252,7 @@ const NavigationStep& NavigationSystem::step(
     const Eigen::Ref<const Eigen::VectorXd>& t,
     const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, dynamics::kNtruth, Eigen::RowMajor>>& truth,
     const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& accel_nongrav_L,
-    const Eigen::Vector3d& phi_ref) {
+    const Eigen::Vector3d& phi_ref) noexcept {
   clear_step();
   if (!initialized_) {
     out_.status = NavigationStatus::NotInitialized;

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "actuator_fixtures.hpp"
@@ -185,4 +186,33 @@ TEST(DisturbanceWithActuationError, ContainsTheSumAndIsNoLargerThanTheTraceChoic
   EXPECT_EQ(disturbance_with_actuation_error(Eigen::Matrix<double, 6, 6>::Identity(),
                                              Eigen::Matrix<double, 6, 3>::Ones(), Eigen::Matrix3d::Zero()),
             (Eigen::Matrix<double, 6, 6>::Identity()));
+}
+
+// No exception escapes the actuation step (noexcept) on bad numbers: every component of the command and of
+// the attitude NaN, +-inf or huge gives a status and a finite delivered input.
+TEST(ActuationSystem, NoExceptionEscapesAStepOnBadNumbers) {
+  // the call itself, its arguments already bound (their conversions are not the step's)
+  static_assert(noexcept(std::declval<ActuationSystem&>().step(0.0, std::declval<const Vector6&>(),
+                                                               std::declval<const Eigen::Matrix3d&>())));
+  ActuationSystem sys(actuator_test::cube_cluster(), actuator_test::pyramid_wheels(0.2, 1.0),
+                      settings(1.0, 100.0, 1e-3));
+  const double bad[] = {std::nan(""), HUGE_VAL, -HUGE_VAL, 1e300};
+  double t = 0.0;
+  for (const double v : bad) {
+    for (int i = 0; i < 6; ++i) {
+      Vector6 u = Vector6::Constant(0.1);
+      u(i) = v;
+      const ActuationStep& st = sys.step(t++, u, Eigen::Matrix3d::Identity());
+      EXPECT_TRUE(st.u_delivered.allFinite()) << i << " " << v;
+      if (!std::isfinite(v)) EXPECT_EQ(st.status, AllocationStatus::InvalidCommand) << i;
+    }
+    for (int i = 0; i < 9; ++i) {
+      Eigen::Matrix3d C = Eigen::Matrix3d::Identity();
+      C(i / 3, i % 3) = v;
+      const ActuationStep& st = sys.step(t++, Vector6::Constant(0.1), C);
+      EXPECT_TRUE(st.u_delivered.allFinite()) << i << " " << v;
+      EXPECT_TRUE(st.wheel_momentum.allFinite()) << i << " " << v;
+    }
+  }
+  EXPECT_TRUE(sys.step(t, Vector6::Constant(0.1), Eigen::Matrix3d::Identity()).u_delivered.allFinite());
 }

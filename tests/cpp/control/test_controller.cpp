@@ -230,3 +230,34 @@ TEST(Controller, FeedforwardCancelsAnInputBias) {
   EXPECT_GT(without, 0.0);
   EXPECT_LT(with, 0.5 * without) << with << " " << without;
 }
+
+// Bad numbers never escape a step as an exception: every component of x_k and of the estimation-error set
+// NaN, +-inf or huge gives a finite command, and the next good step flies on.
+TEST(Controller, NoExceptionEscapesAStepOnBadNumbers) {
+  for (const Method method : {Method::Ffa, Method::Tbmpc}) {
+    Mission m(method);
+    Controller ctrl(m.model, m.mpc, m.settings);
+    ctrl.setup(m.ref, m.designs);
+    const double bad[] = {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity(),
+                          -std::numeric_limits<double>::infinity(), 1e300};
+    int k = 0;
+    for (const double v : bad) {
+      for (int i = 0; i < 12; ++i, k = (k + 1) % kT) {
+        Eigen::VectorXd x = m.ref.z.col(k);
+        x(i) = v;
+        const ControlStep* r = nullptr;
+        ASSERT_NO_THROW(r = &ctrl.step(k, x)) << i << " " << v;
+        EXPECT_TRUE(r->u.allFinite()) << i << " " << v;
+        Eigen::MatrixXd P_est = 1e-6 * Eigen::MatrixXd::Identity(12, 12);
+        P_est(i, i) = v;
+        ASSERT_NO_THROW(ctrl.set_estimation_error(P_est)) << i << " " << v;
+        ASSERT_NO_THROW(r = &ctrl.step(k, m.ref.z.col(k))) << i << " " << v;
+        EXPECT_TRUE(r->u.allFinite()) << i << " " << v;
+        ctrl.set_estimation_error(Eigen::MatrixXd());
+      }
+    }
+    const ControlStep& good = ctrl.step(0, m.ref.z.col(0));
+    EXPECT_TRUE(good.u.allFinite());
+    EXPECT_FALSE(tubempc::mpc::is_fallback(good.mpc->status)) << tubempc::mpc::to_string(good.mpc->status);
+  }
+}

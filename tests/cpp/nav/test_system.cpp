@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "nav_fixtures.hpp"
 #include "tubempc/nav/system.hpp"
@@ -205,4 +206,44 @@ TEST(NavigationSystem, SettingsNameTheBadField) {
   ns = system_settings();
   ns.initial_sigma(4) = -1.0;
   EXPECT_THROW(ns.validate(), std::invalid_argument);
+}
+
+// No exception escapes the navigation step (noexcept) on bad numbers: NaN, +-inf or huge values in any
+// column of a truth sample, in the non-gravitational acceleration, in a sample time or in phi_ref give a
+// status and a finite estimate; a good period after them flies on.
+TEST(NavigationSystem, NoExceptionEscapesAStepOnBadNumbers) {
+  const nav_test::World w = nav_test::make_world();
+  nav::NavigationSystem sys(w.model, w.caster, w.caster, w.landmarks, system_settings(), 3);
+  // the call itself, its arguments already bound (their conversions to Eigen::Ref are not the step's)
+  static_assert(noexcept(sys.step(std::declval<const Eigen::Ref<const Eigen::VectorXd>&>(),
+                                  std::declval<const Eigen::Ref<const Rows13>&>(),
+                                  std::declval<const Eigen::Ref<const Rows3>&>(),
+                                  std::declval<const Eigen::Vector3d&>())));
+  nav_test::RunSettings rs;
+  dynamics::TruthState s;
+  s << rs.r0_L, rs.v0_L, nav_test::nadir_attitude(rs.r0_L), rs.omega0_BL_B;
+  sys.initialize(0.0, s, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+  const Period good = truth_period(w, 0.0, s, 20, 0.1);
+  const double bad[] = {std::nan(""), HUGE_VAL, -HUGE_VAL, 1e300};
+  for (const double v : bad) {
+    for (int col = 0; col < dynamics::kNtruth; ++col) {
+      Period p = good;
+      p.x(7, col) = v;
+      const nav::NavigationStep& st = sys.step(p.t, p.x, p.a, Eigen::Vector3d::Zero());
+      EXPECT_TRUE(st.x_hat.allFinite()) << col << " " << v;
+      EXPECT_TRUE(st.P_x.allFinite()) << col << " " << v;
+    }
+    for (int col = 0; col < 3; ++col) {
+      Period p = good;
+      p.a(4, col) = v;
+      EXPECT_TRUE(sys.step(p.t, p.x, p.a, Eigen::Vector3d::Zero()).x_hat.allFinite()) << col << " " << v;
+      EXPECT_TRUE(sys.step(good.t, good.x, good.a, Eigen::Vector3d::Constant(v)).x_hat.allFinite()) << v;
+    }
+    Period p = good;
+    p.t(5) = v;
+    EXPECT_EQ(sys.step(p.t, p.x, p.a, Eigen::Vector3d::Zero()).status, nav::NavigationStatus::InvalidInput)
+        << v;
+  }
+  const nav::NavigationStep& after = sys.step(good.t, good.x, good.a, Eigen::Vector3d::Zero());
+  EXPECT_TRUE(after.x_hat.allFinite());
 }

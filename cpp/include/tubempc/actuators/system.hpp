@@ -92,7 +92,7 @@ class ActuationSystem {
   /// @param u the command [u_p (m/s^2, L); T (N m, B)].
   /// @param C_BL the rotation from L to B over the period (C_BL = Exp(phi)^T).
   /// @return the period's actuation (valid until the next call).
-  const ActuationStep& step(double t, const Vector6& u, const Eigen::Matrix3d& C_BL);
+  const ActuationStep& step(double t, const Vector6& u, const Eigen::Matrix3d& C_BL) noexcept;
 
   /// Back to the start of a mission: remainders, totals and wheel momenta (to `wheel_momentum`, N m s).
   /// @param wheel_momentum the wheels' momenta (m; |h_j| <= h_max_j).

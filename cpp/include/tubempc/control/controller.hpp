@@ -134,6 +134,8 @@ class Controller {
   ~Controller();
   Controller(const Controller&) = delete;
   Controller& operator=(const Controller&) = delete;
+  Controller(Controller&&) = delete;             ///< holds its MPC and set-up storage in place
+  Controller& operator=(Controller&&) = delete;  ///< likewise
 
   /// Prepares a mission: the MPC's setup, the reference discretised at every node for the tube update,
   /// the identifiers at their prior and the tube policies with their designs.

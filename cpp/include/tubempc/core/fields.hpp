@@ -125,16 +125,16 @@ constexpr int fixed_size(Dim d) {
 /// for_each_field) is a field too: its own fields are the records `<prefix><name>.<field>` (each
 /// optional or not by its own FieldInfo); its FieldInfo has no unit, rows and cols One, and a doc.
 struct FieldInfo {
-  const char* name;  ///< member and record name (scenario files prefix it, e.g. "mpc.")
-  const char* unit;  ///< SI unit ("" if dimensionless, an integer, a flag, an option or a nested struct)
+  const char* name = "";  ///< member and record name (scenario files prefix it, e.g. "mpc.")
+  const char* unit = "";  ///< SI unit ("" if dimensionless, an integer, a flag, an option or a nested struct)
   /// Whether a scenario file may omit it (then it keeps its default); an optional dynamic-size matrix
   /// may also be written empty (`0 0`).
-  bool optional;
-  bool allow_infinite;   ///< whether +-inf is a valid value (doubles only)
-  Dim rows = Dim::One;   ///< rows of a matrix field (One for scalars)
-  Dim cols = Dim::One;   ///< columns of a matrix field (One for scalars and vectors)
-  const char* doc = "";  ///< the Python attribute's docstring ("" for none)
-  bool in_file = true;   ///< whether scenario files have the record (false: a run-time or Python-only field)
+  bool optional = false;
+  bool allow_infinite = false;  ///< whether +-inf is a valid value (doubles only)
+  Dim rows = Dim::One;          ///< rows of a matrix field (One for scalars)
+  Dim cols = Dim::One;          ///< columns of a matrix field (One for scalars and vectors)
+  const char* doc = "";         ///< the Python attribute's docstring ("" for none)
+  bool in_file = true;  ///< whether scenario files have the record (false: a run-time or Python-only field)
 };
 
 /// A visitor that accepts every field (for has_fields).

@@ -97,6 +97,8 @@ class TubeMPC {
   ~TubeMPC();
   TubeMPC(const TubeMPC&) = delete;
   TubeMPC& operator=(const TubeMPC&) = delete;
+  TubeMPC(TubeMPC&&) = delete;             ///< holds its QP workspaces in place
+  TubeMPC& operator=(TubeMPC&&) = delete;  ///< likewise
 
   /// Stores the mission reference (T >= 1) and prepares everything; the terminal weight solves the
   /// DARE with the model's discretisation at the final node (zbar_T, u_ref_{T-1}, t0 + T dt).

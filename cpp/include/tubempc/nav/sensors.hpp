@@ -91,7 +91,7 @@ class Altimeter {
   /// @param truth the true state.
   /// @param out   receives the sample (time, status, range).
   /// @return out.status.
-  SensorStatus measure(const SensorTruth& truth, AltimeterMeasurement& out);
+  SensorStatus measure(const SensorTruth& truth, AltimeterMeasurement& out) noexcept;
   /// @return the settings.
   const AltimeterSettings& settings() const { return settings_; }
   /// @return the ray caster.
@@ -199,7 +199,7 @@ class NavCamera {
   /// @param truth the true state.
   /// @param out   receives the frame.
   /// @return out.status.
-  SensorStatus measure(const SensorTruth& truth, CameraFrame& out);
+  SensorStatus measure(const SensorTruth& truth, CameraFrame& out) noexcept;
   /// @return the settings.
   const CameraSettings& settings() const { return settings_; }
   /// @return the landmark catalogue (frame A).
@@ -261,7 +261,7 @@ class Imu {
   /// @param truth the true state.
   /// @param out   receives the sample.
   /// @return out.status.
-  SensorStatus measure(const SensorTruth& truth, ImuSample& out);
+  SensorStatus measure(const SensorTruth& truth, ImuSample& out) noexcept;
   /// @return the current true gyro bias b_g in B (rad/s).
   const Eigen::Vector3d& gyro_bias() const { return b_g_; }
   /// @return the current true accelerometer bias b_a in B (m/s^2).
@@ -311,7 +311,7 @@ class StarTracker {
   /// @param truth the true state.
   /// @param out   receives the sample.
   /// @return out.status.
-  SensorStatus measure(const SensorTruth& truth, StarTrackerMeasurement& out);
+  SensorStatus measure(const SensorTruth& truth, StarTrackerMeasurement& out) noexcept;
   /// @return the settings.
   const StarTrackerSettings& settings() const { return settings_; }
 

@@ -146,7 +146,7 @@ class NavigationSystem {
       const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, dynamics::kNtruth, Eigen::RowMajor>>&
           truth,
       const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& accel_nongrav_L,
-      const Eigen::Vector3d& phi_ref);
+      const Eigen::Vector3d& phi_ref) noexcept;
 
   /// @return the last call's result.
   const NavigationStep& last() const { return out_; }
