@@ -3,7 +3,7 @@
 # GoogleTest suites built into build/sanitize at -O1 -g (NDEBUG kept, as the release build the tests check),
 # every test run; any sanitizer report fails the test that made it (-fno-sanitize-recover=all). The
 # allocation-counting suites (tests/cpp/*_alloc) are left out, since they replace malloc as ASan does; the
-# examples need the Python package and are not built. CI runs it after the test command (.ci/run): it does
+# examples need the Python package and are not built. Run by hand before a release (README): it does
 # not fit the test command's time (docs/decisions.md "Static analysis and sanitizers").
 set -euo pipefail
 cd "$(dirname "$0")/.."
