@@ -308,9 +308,7 @@ def _statistics_section(
     rows = []
     for m, ms in st.methods.items():
         for name, ss in ms.metrics.items():
-            pct = [
-                f"{_fmt(p.value)} [{_fmt_or_dash(p.lower)}, {_fmt_or_dash(p.upper)}]" for p in ss.percentiles
-            ]
+            pct = [f"{_fmt(p.value)} [{_fmt_or_dash(p.lower)}, {_fmt_or_dash(p.upper)}]" for p in ss.percentiles]
             worst = f"{_fmt(ss.worst[0].value)} (run {ss.worst[0].index}, seed {ss.worst[0].seed})" if ss.worst else "-"
             if ss.drivers:
                 d = ss.drivers[0]
@@ -579,7 +577,9 @@ def write_report(root: Path) -> tuple[Path, Path]:
                 + (f" (paper: {PAPER_REDUCTION_TABLE4:.1f} % below)." if paper else ".")
             )
         if mc.statistics is not None:
-            _statistics_section(mc.statistics, mc_dir.relative_to(root) if mc_dir != root else Path("."), section, table, paragraph)
+            _statistics_section(
+                mc.statistics, mc_dir.relative_to(root) if mc_dir != root else Path("."), section, table, paragraph
+            )
         figures += sorted(mc_dir.glob("fig*.png"))
     claims = paper_claims(
         folder[id(run)] if run is not None else None,

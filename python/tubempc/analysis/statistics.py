@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -150,13 +149,15 @@ def _col(table: pa.Table, name: str) -> Array | None:
 def _max(*cols: Array | None) -> Array | None:
     if any(c is None for c in cols):
         return None
-    return np.maximum.reduce([c for c in cols if c is not None])
+    out: Array = np.maximum.reduce([c for c in cols if c is not None])
+    return out
 
 
 def _sum(*cols: Array | None) -> Array | None:
     if any(c is None for c in cols):
         return None
-    return np.add.reduce([c for c in cols if c is not None])
+    out: Array = np.add.reduce([c for c in cols if c is not None])
+    return out
 
 
 Metric = Callable[[pa.Table, str], "Array | None"]
@@ -281,31 +282,34 @@ def campaign_statistics(
         if done.num_rows == 0 or f"{m}.J_p" not in done.column_names:
             continue
         n = done.num_rows
+        exc = METRICS["max_tube_excursion"][2](done, m)
+        pos, vel = _col(done, f"{m}.terminal_error.position"), _col(done, f"{m}.terminal_error.velocity")
+        cone = _sum(
+            _col(done, f"{m}.constraint_violations.glide_slope_steps"), _col(done, f"{m}.constraint_violations.los_steps")
+        )
+        inside = _col(done, f"{m}.states_inside_body")
+        counted = inside is not None and bool(np.all(np.isfinite(inside)))
+        kinds: dict[str, tuple[Array | npt.NDArray[np.bool_] | None, str | None]] = {
+            "tube_exit": (None if exc is None else exc > 1.0, None),
+            "touchdown": (
+                None if pos is None or vel is None else (pos > TOUCHDOWN_GOAL[0]) | (vel > TOUCHDOWN_GOAL[1]),
+                touchdown,
+            ),
+            "cone_violation": (None if cone is None else cone > 0, None),
+            "inside_body": (
+                None if inside is None else inside > 0,
+                None if counted else "the runs did not count the states inside the body",
+            ),
+        }
         failures: dict[str, FailureBound] = {}
         flags: list[npt.NDArray[np.bool_]] = []
-
-        def kind(name: str, flag: Array | None, reason: str | None) -> None:
+        for name, (flag, reason) in kinds.items():
             if reason is not None or flag is None:
                 failures[name] = _not_evaluated(reason or "not recorded")
-                return
+                continue
             f = np.asarray(flag, dtype=bool)
             flags.append(f)
             failures[name] = failure_bound(int(f.sum()), n, confidence)
-
-        exc = METRICS["max_tube_excursion"][2](done, m)
-        kind("tube_exit", None if exc is None else exc > 1.0, None)
-        pos, vel = _col(done, f"{m}.terminal_error.position"), _col(done, f"{m}.terminal_error.velocity")
-        td = None if pos is None or vel is None else (pos > TOUCHDOWN_GOAL[0]) | (vel > TOUCHDOWN_GOAL[1])
-        kind("touchdown", td, touchdown)
-        cone = _sum(_col(done, f"{m}.constraint_violations.glide_slope_steps"), _col(done, f"{m}.constraint_violations.los_steps"))
-        kind("cone_violation", None if cone is None else cone > 0, None)
-        inside = _col(done, f"{m}.states_inside_body")
-        counted = inside is not None and bool(np.all(np.isfinite(inside)))
-        kind(
-            "inside_body",
-            None if inside is None else inside > 0,
-            None if counted else "the runs did not count the states inside the body",
-        )
         any_failed = int(np.logical_or.reduce(flags).sum()) if flags else 0
         included = [k for k, b in failures.items() if b.evaluated]
         failures["any"] = FailureBound(
@@ -354,4 +358,3 @@ def _percent(p: float) -> str:
     if p >= 0.1:
         return f"{100 * p:.3g} %"
     return f"{100 * p:.2g} %" if p >= 1e-4 else f"{p:.2g}"
-

@@ -19,9 +19,9 @@ import pyarrow.compute as pc
 from matplotlib.figure import Figure
 
 from ..config import Config, load_config
+from ..results.campaign_store import CampaignStore, RunOutput, differing_columns, differing_steps, flatten
 from ..results.machine import machine_info
 from ..results.pinning import pin_config, shape_record
-from ..results.campaign_store import CampaignStore, RunOutput, differing_columns, differing_steps, flatten
 from ..results.records import RunRecord, save_record
 from ..results.summaries import (
     CampaignMethodResult,
@@ -248,7 +248,9 @@ def _method_summary(runs: pa.Table, m: str) -> MonteCarloMethodSummary:
         J_r=MeanSpread(mean=float(jr.mean()), three_sigma=float(3 * jr.std(ddof=1)) if jr.size > 1 else 0.0),
         runs_outside_tube=int(np.sum(exc > 1.0)),
         max_tube_excursion=float(exc.max()),
-        runs_with_cone_violation=int(np.sum(c("constraint_violations.glide_slope_steps") + c("constraint_violations.los_steps") > 0)),
+        runs_with_cone_violation=int(
+            np.sum(c("constraint_violations.glide_slope_steps") + c("constraint_violations.los_steps") > 0)
+        ),
         terminal_position_error_max_m=float(c("terminal_error.position").max()),
         runs_inside_body=int(np.sum(inside > 0)),
         runs_guarantee_lost=int(np.sum(lost)),
@@ -269,7 +271,7 @@ def montecarlo_summary(
     plant: str | None = None,
     confidence: float = 0.95,
     percentiles: tuple[float, ...] = DEFAULT_PERCENTILES,
-    touchdown: str | None = "not judged",
+    touchdown: str | None = "the caller did not say whether the runs end in a touchdown",
 ) -> MonteCarloSummary:
     """Table 4 (mean and 3 sigma of J_p and J_r per method), the runs that ever left the tube, for runs
     flown on navigation the fraction whose average NEES lies inside its bounds, and the campaign's
@@ -286,9 +288,7 @@ def montecarlo_summary(
         reduction = 100.0 * (1.0 - per_method["ffa"].J_p.mean / per_method["tbmpc"].J_p.mean)
     statistics = None
     if runs.num_rows:
-        statistics = campaign_statistics(
-            runs, methods, confidence=confidence, percentiles=percentiles, touchdown=touchdown
-        )
+        statistics = campaign_statistics(runs, methods, confidence=confidence, percentiles=percentiles, touchdown=touchdown)
     failed = runs.filter(pc.equal(runs.column("status"), "failed"))
     return MonteCarloSummary(
         runs=done.num_rows,
@@ -453,7 +453,9 @@ def _envelope_figures(cfg: Config, store: CampaignStore, out: Path, methods: tup
         if not errs:
             continue
         drawn = [errs[i] for i in sorted(errs)]
-        shown = f"{len(runs)} Monte Carlo runs" if len(drawn) == len(runs) else f"{len(drawn)} of {len(runs)} Monte Carlo runs"
+        shown = (
+            f"{len(runs)} Monte Carlo runs" if len(drawn) == len(runs) else f"{len(drawn)} of {len(runs)} Monte Carlo runs"
+        )
         translation = ["x (m)", "y (m)", "z (m)", "vx (m/s)", "vy (m/s)", "vz (m/s)"]
         for tag, sl, labels in (
             ("17_translation", slice(0, 6), translation),

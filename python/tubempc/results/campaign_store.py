@@ -36,6 +36,7 @@ convert DIR``), the only reader of that layout.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import os
@@ -136,15 +137,20 @@ def flatten(value: Any, prefix: str = "") -> dict[str, Scalar]:
     out: dict[str, Scalar] = {}
 
     def walk(v: Any, path: str) -> None:
-        if isinstance(v, Mapping):
+        t = type(v)
+        if t is float or t is str or t is bool or v is None:
+            if not path:
+                raise ValueError("store: a run's result must be a mapping")
+            out[path] = v
+        elif t is dict or (t is not list and t is not tuple and t is not np.ndarray and isinstance(v, Mapping)):
             for k, item in v.items():
-                if not isinstance(k, str) or not _KEY.match(k):
+                if type(k) is not str or not _KEY.match(k):
                     raise ValueError(f"store column {path!r}: key {k!r} must be a non-empty string without '.', '[', ']'")
                 walk(item, f"{path}.{k}" if path else k)
-        elif isinstance(v, list | tuple | np.ndarray):
+        elif t is list or t is tuple or t is np.ndarray:
             if not path:
                 raise ValueError("store: a run's result must be a mapping, not a list")
-            for i, item in enumerate(v):
+            for i, item in enumerate(v.tolist() if t is np.ndarray else v):
                 walk(item, f"{path}[{i}]")
         else:
             if not path:
@@ -179,7 +185,7 @@ def unflatten(flat: Mapping[str, Scalar]) -> dict[str, Any]:
             continue
         toks = _tokens(path)
         node: Any = root
-        for tok, nxt in zip(toks[:-1], toks[1:], strict=True):
+        for tok, nxt in itertools.pairwise(toks):
             empty: Any = [] if isinstance(nxt, int) else {}
             if isinstance(tok, int):
                 while len(node) <= tok:
@@ -200,6 +206,9 @@ def unflatten(flat: Mapping[str, Scalar]) -> dict[str, Any]:
 
 
 # --- types ------------------------------------------------------------------------------------------
+
+
+_SCALAR_TYPES = {bool: pa.bool_(), int: pa.int64(), float: pa.float64(), str: pa.string(), type(None): pa.null()}
 
 
 def _column_type(name: str, values: Iterable[Scalar]) -> pa.DataType:
@@ -279,7 +288,7 @@ def _runs_table(flat: list[dict[str, Scalar]]) -> pa.Table:
         values = [f.get(n) for f in flat]
         t = _EMPTY_RUNS[n] if n in _EMPTY_RUNS else _column_type(n, values)
         if t == pa.float64():
-            values = [None if v is None else float(v) for v in values]  # type: ignore[arg-type]
+            values = [None if v is None else float(v) for v in values]
         arrays.append(pa.array(values, type=t))
         fields.append(pa.field(n, t))
     return pa.Table.from_arrays(arrays, schema=pa.schema(fields))
@@ -294,7 +303,10 @@ def _array_columns(name: str, a: npt.NDArray[Any]) -> Iterator[tuple[str, npt.ND
 
 
 def _steps_table(rows: list[RunRow]) -> pa.Table | None:
-    tables = []
+    """The steps table of a batch: the columns gathered as numpy arrays over the batch's runs and groups,
+    then made Arrow arrays once (a cell past the end of an array, or of an array a run lacks, is null)."""
+    blocks: list[tuple[int, str, int, dict[str, npt.NDArray[Any]]]] = []  # (index, group, rows, columns)
+    dtypes: dict[str, np.dtype[Any]] = {}
     for r in rows:
         if r.output is None:
             continue
@@ -303,8 +315,7 @@ def _steps_table(rows: list[RunRow]) -> pa.Table | None:
                 continue
             if not _KEY.match(group):
                 raise ValueError(f"store: step group {group!r} must be a non-empty string without '.', '[', ']'")
-            cols: dict[str, pa.Array] = {}
-            length = max(len(np.asarray(a)) for a in arrays.values())
+            cols: dict[str, npt.NDArray[Any]] = {}
             for name, a in arrays.items():
                 arr = np.asarray(a)
                 if arr.ndim < 1 or not _KEY.match(name) or name in _STEP_KEYS:
@@ -312,20 +323,29 @@ def _steps_table(rows: list[RunRow]) -> pa.Table | None:
                 if arr.dtype.kind not in "fiub":
                     raise ValueError(f"store: step array {group}.{name} has dtype {arr.dtype} (numbers only)")
                 for col, v in _array_columns(name, arr):
-                    mask = np.arange(length) >= len(v)
-                    padded = np.zeros(length, dtype=v.dtype)
-                    padded[: len(v)] = v
-                    cols[col] = pa.array(padded, mask=mask if mask.any() else None)
-            keys = {
-                "index": pa.array(np.full(length, r.index, dtype=np.int64)),
-                "group": pa.array([group] * length, type=pa.string()),
-                "step": pa.array(np.arange(length, dtype=np.int32)),
-            }
-            tables.append(pa.table({**keys, **cols}))
-    if not tables:
+                    cols[col] = v
+                    dtypes[col] = np.result_type(dtypes[col], v.dtype) if col in dtypes else v.dtype
+            blocks.append((r.index, group, max(len(v) for v in cols.values()), cols))
+    if not blocks:
         return None
-    schema = _unified_schema((t.schema for t in tables), _STEP_KEYS)
-    return pa.concat_tables([_conform(t, schema) for t in tables])
+    total = sum(n for _, _, n, _ in blocks)
+    out: dict[str, pa.Array] = {
+        "index": pa.array(np.concatenate([np.full(n, i, dtype=np.int64) for i, _, n, _ in blocks])),
+        "group": pa.array([g for _, g, n, _ in blocks for _ in range(n)], type=pa.string()),
+        "step": pa.array(np.concatenate([np.arange(n, dtype=np.int32) for _, _, n, _ in blocks])),
+    }
+    for col, dtype in dtypes.items():
+        values = np.zeros(total, dtype=dtype)
+        valid = np.zeros(total, dtype=bool)
+        at = 0
+        for _, _, n, cols in blocks:
+            got = cols.get(col)
+            if got is not None:
+                values[at : at + len(got)] = got
+                valid[at : at + len(got)] = True
+            at += n
+        out[col] = pa.array(values, mask=None if valid.all() else ~valid)
+    return pa.table(out)
 
 
 # --- files ------------------------------------------------------------------------------------------
@@ -451,11 +471,13 @@ class CampaignStoreWriter:
         that is not a scalar, a bad key, a column of another type than the store's) is a ValueError
         naming the column, and the run is not buffered."""
         flat = _flat_row(row)
-        types = dict(self._types)
+        new: dict[str, pa.DataType] = {}
         for name, value in flat.items():
-            t = _EMPTY_RUNS[name] if name in _EMPTY_RUNS else _column_type(name, [value])
-            types[name] = _unify(name, types[name], t) if name in types else t
-        self._types = types
+            t = _EMPTY_RUNS[name] if name in _EMPTY_RUNS else _SCALAR_TYPES[type(value)]
+            have = self._types.get(name)
+            if have is None or have != t:
+                new[name] = t if have is None else _unify(name, have, t)
+        self._types.update(new)
         self._buffer.append((row, flat))
         if len(self._buffer) >= self.flush_runs or time.monotonic() - self._last >= self.flush_seconds:
             self.flush()
@@ -600,9 +622,7 @@ class CampaignStore:
             schema = _unified_schema((t.schema for t in tables), BASE_COLUMNS)
             rank = np.concatenate([np.full(t.num_rows, i, dtype=np.int64) for i, t in enumerate(tables)])
             winners = _winners(pa.concat_tables([_conform(t, schema) for t in tables]), pa.array(rank))
-            self._part_of = dict(
-                zip(winners.column("index").to_pylist(), winners.column("__part").to_pylist(), strict=True)
-            )
+            self._part_of = dict(zip(winners.column("index").to_pylist(), winners.column("__part").to_pylist(), strict=True))
             self._runs = winners.drop_columns(["__ok", "__part", "__row"])
         return self._runs
 
@@ -680,7 +700,9 @@ class CampaignStore:
         t = t.filter(pc.is_valid(t.column(cols[0]))).sort_by([("index", "ascending"), ("step", "ascending")])
         idx, counts = np.unique(t.column("index").to_numpy(), return_counts=True)
         if len(set(counts.tolist())) > 1:
-            raise ValueError(f"{self.steps_dir}: {group}.{name} has runs of different lengths {sorted(set(counts.tolist()))}")
+            raise ValueError(
+                f"{self.steps_dir}: {group}.{name} has runs of different lengths {sorted(set(counts.tolist()))}"
+            )
         arrays = _arrays_of(t.select(["index", "group", "step", *cols]))
         a = arrays[name]
         return idx.astype(np.int64), a.reshape(len(idx), int(counts[0]), *a.shape[1:])
@@ -714,7 +736,7 @@ _EMPTY_RUNS = {
 def _arrays_of(t: pa.Table) -> dict[str, npt.NDArray[Any]]:
     """A group's rows of one run (sorted by step) as its arrays: the columns ``name`` or ``name[i]...``
     gathered by name, each cut where its nulls begin (all-null columns: arrays that run did not have)."""
-    cols: dict[str, list[tuple[tuple[int, ...], pa.ChunkedArray]]] = {}
+    cols: dict[str, list[tuple[tuple[int, ...], Any]]] = {}
     for name in t.column_names:
         if name in _STEP_KEYS:
             continue
@@ -730,7 +752,8 @@ def _arrays_of(t: pa.Table) -> dict[str, npt.NDArray[Any]]:
         dtype = parts[0][1].type.to_pandas_dtype()
         a = np.zeros((n, *shape), dtype=dtype)
         for idx, c in parts:
-            a[(slice(None), *idx)] = c.slice(0, n).to_numpy(zero_copy_only=False)
+            where: tuple[slice | int, ...] = (slice(None), *idx)
+            a[where] = c.slice(0, n).to_numpy(zero_copy_only=False)
         out[name] = a
     return out
 

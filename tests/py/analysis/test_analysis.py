@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -47,7 +48,9 @@ def test_montecarlo_summary_resume_and_report(tmp_path: Path) -> None:
         jp = np.array([r.J_p for r in runs])
         assert row.J_p.mean == pytest.approx(jp.mean())
         assert row.J_p.three_sigma == pytest.approx(3 * jp.std(ddof=1))
-        assert row.runs_outside_tube == sum(max(r.max_tube_excursion.translation, r.max_tube_excursion.rotation) > 1 for r in runs)
+        assert row.runs_outside_tube == sum(
+            max(r.max_tube_excursion.translation, r.max_tube_excursion.rotation) > 1 for r in runs
+        )
         # the vectorised counts over the store's columns are the per-run results' own
         assert row.runs_guarantee_lost == sum(bool(guarantee_lost(r)) for r in runs)
         assert row.runs_with_cone_violation == sum(r.constraint_violations.steps > 0 for r in runs)
@@ -61,6 +64,10 @@ def test_montecarlo_summary_resume_and_report(tmp_path: Path) -> None:
     html, md = write_report(out)
     text = md.read_text()
     assert "paper" in text and "Monte Carlo" in text and html.read_text().count("data:image/png;base64") >= 2
+    # the statistics: failure bounds (0 of 3 runs: below 1 - 0.05^(1/3) = 63.2 %), the kind without a touchdown
+    assert "## Failure probabilities" in text and "| ffa | tube exit | 0/3 | 0 % | 63.16 % |" in text
+    assert "not evaluated: the mission ends without a touchdown" in text
+    assert "## Percentiles, worst runs and drivers" in text and "fewer than 10, too few for rank correlations" in text
 
 
 def test_sweep_rejects_bad_lambdas(tmp_path: Path) -> None:
@@ -159,3 +166,55 @@ def test_report_compares_a_run_with_actuators_with_the_ideal_actuator_run(tmp_pa
     assert "## Actuators against ideal actuators" in text
     assert f"| ffa | {got['steps_outside_tube']:g} ({got['ideal_steps_outside_tube']:g}) |" in text
     assert f"| {got['terminal_error_ratio']:.4g} |" in text and f"| {got['net_delta_v_ratio']:.4g} |" in text
+
+
+def test_a_campaign_stores_the_same_on_one_and_two_workers_and_on_dask(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The closed loop's campaign (3 short runs of TBMPC-FFA): the same store, to the bit (but the run
+    times), from the command on one worker, from 2 local workers in batches of 2, and from a Dask
+    cluster; the command prints the failure bounds at the confidence asked for."""
+    import functools
+
+    import tubempc.analysis.studies
+    from tubempc.cli import main
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from test_campaign import contents
+
+    monkeypatch.setattr(
+        tubempc.analysis.studies, "montecarlo", functools.partial(tubempc.analysis.studies.montecarlo, max_steps=3)
+    )
+    args = ["montecarlo", "--runs", "3", "--method", "ffa", "--seed", "4", "--confidence", "0.9", "--quiet"]
+    assert main([*args, "--workers", "1", "--percentiles", "50,95", "--out", str(tmp_path / "one")]) == 0
+    text = capsys.readouterr().out
+    assert "one-sided Clopper-Pearson upper bounds at 90 % confidence" in text
+    assert "ffa tube_exit: 0 of 3 runs, < 53.6 % at 90 % confidence" in text  # 1 - 0.1^(1/3)
+    assert "ffa touchdown: not evaluated: the mission ends without a touchdown" in text
+    s = load_summary(tmp_path / "one" / "summary.json")
+    assert s.statistics is not None and [p.percent for p in s.statistics.methods["ffa"].metrics["J_p"].percentiles] == [
+        50.0,
+        95.0,
+    ]
+    cfg = load_config()
+    montecarlo(
+        cfg, 3, tmp_path / "two", master_seed=4, workers=2, batch_size=2, methods=("ffa",), progress=False, max_steps=3
+    )
+    want = contents(tmp_path / "one")
+    for name in ("two",):
+        got = contents(tmp_path / name)
+        assert got[0].equals(want[0]) and got[1].equals(want[1])
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        montecarlo(
+            cfg,
+            3,
+            tmp_path / "dask",
+            master_seed=4,
+            scheduler=cluster.scheduler_address,
+            methods=("ffa",),
+            progress=False,
+            max_steps=3,
+        )
+    got = contents(tmp_path / "dask")
+    assert got[0].equals(want[0]) and got[1].equals(want[1])

@@ -177,9 +177,7 @@ def _fresh(tmp_path: Path) -> Path:
 
 
 def test_a_worker_that_dies_fails_its_batch_not_the_campaign(tmp_path: Path) -> None:
-    camp = run_campaign(
-        functools.partial(dying_run, at=1), 4, tmp_path, 2, workers=2, batch_size=2, progress=False
-    )
+    camp = run_campaign(functools.partial(dying_run, at=1), 4, tmp_path, 2, workers=2, batch_size=2, progress=False)
     assert set(camp.failures) >= {0, 1} and all("BrokenProcessPool" in e for e in camp.failures.values())
     assert set(camp.completed) | set(camp.failures) == {0, 1, 2, 3}
 

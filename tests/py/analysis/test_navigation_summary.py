@@ -190,10 +190,10 @@ def test_a_campaign_on_navigation_keeps_each_runs_navigation_and_the_nees_share(
     NEES, the campaign's summary the share of runs whose NEES is inside its bounds; a re-flight equals
     the record, navigation included."""
     from tubempc.analysis import montecarlo
+    from tubempc.analysis.studies import campaign_run_result
     from tubempc.cli import main
     from tubempc.commands import EXIT_OK
     from tubempc.config import load_config
-    from tubempc.analysis.studies import campaign_run_result
     from tubempc.results.campaign_store import CampaignStore
 
     out = tmp_path / "mc"

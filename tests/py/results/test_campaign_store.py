@@ -25,7 +25,7 @@ from tubempc.results.campaign_store import (
 )
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "analysis"))
-from test_campaign import contents, toy_run  # noqa: E402
+from test_campaign import contents, toy_run
 
 
 def _row(i: int, ok: bool = True, **result: object) -> RunRow:
@@ -60,7 +60,7 @@ def test_flatten_names_every_scalar_and_unflatten_inverts_it() -> None:
         flatten({"a": {"b.c": 1}})
     with pytest.raises(ValueError, match="outside int64"):
         flatten({"seed": 2**63})
-    with pytest.raises(ValueError, match="'a.f'"):
+    with pytest.raises(ValueError, match=r"'a\.f'"):
         flatten({"a": {"f": object()}})
 
 
@@ -122,7 +122,7 @@ def test_columns_that_differ_between_parts_are_unified(tmp_path: Path) -> None:
     assert store.row(1)["extra.new"] == "y" and store.row(0)["extra.new"] is None
     assert differing_columns(store.row(0), flatten({**toy_run(0, 1000).result, "extra": {"k": 1}})) == []
     with CampaignStoreWriter(tmp_path, flush_seconds=0.0) as w:
-        with pytest.raises(ValueError, match="'extra.k': type double in one part, string in another"):
+        with pytest.raises(ValueError, match=r"'extra\.k': type double in one part, string in another"):
             w.add(_row(3, extra={"k": "text"}))  # refused before it is written: the store stays readable
         w.add(_row(4))
     assert CampaignStore(tmp_path).indices() == [0, 1, 2, 4]
@@ -213,5 +213,5 @@ def test_a_folder_of_the_old_layout_is_refused_then_converted(tmp_path: Path) ->
     run_campaign(toy_run, 4, tmp_path / "new", 6, workers=1, progress=False)
     got, want = contents(old), contents(tmp_path / "new")
     assert got[0].equals(want[0]) and got[1].equals(want[1])
-    with pytest.raises(ValueError, match="no runs/run_<i>.json"):
+    with pytest.raises(ValueError, match=r"no runs/run_<i>\.json"):
         main(["--debug", "campaign", "convert", str(old)])

@@ -231,12 +231,12 @@ def test_a_campaign_counts_the_runs_that_lost_a_guarantee(tmp_path: Path) -> Non
 
 
 def test_a_reflight_checks_arrays_and_configuration_and_has_its_own_status(tmp_path: Path) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
     from tubempc.analysis import montecarlo
     from tubempc.cli import main
     from tubempc.commands import EXIT_OK, EXIT_REFLIGHT_DIFFERS
-
-    import pyarrow as pa
-    import pyarrow.parquet as pq
 
     out = tmp_path / "mc"
     montecarlo(load_config(), 1, out, master_seed=3, workers=1, progress=False, max_steps=4, methods=("ffa",))
