@@ -28,6 +28,10 @@ the next level, and :meth:`CampaignStoreWriter.close` merges everything into one
 campaign of 10^5 runs ends as two files). A run that is written again (a failed run re-run) has
 several rows until a merge: the reader takes an "ok" row over a "failed" one, then the newest part.
 
+While a campaign runs, its parts may differ in columns (a status only later runs took): read it then with
+:class:`CampaignStore`, which unifies them (pandas and pyarrow take the first part's columns); at its end
+there is one part per table.
+
 Every part keeps ``tubempc.store_format`` (:data:`STORE_FORMAT`) in its Parquet metadata. Campaign
 folders written before the store (``runs/run_<i>.json`` and ``runs/run_<i>.npz``) are refused by the
 reader with the command that converts them (:func:`convert_legacy_campaign`, ``tubempc campaign
@@ -402,7 +406,6 @@ def _winners(runs: pa.Table, part_order: pa.Array) -> pa.Table:
     the part's rank per row), sorted by index."""
     ok = pc.equal(runs.column("status"), "ok").fill_null(False).cast(pa.int8())
     keyed = runs.append_column("__ok", ok).append_column("__part", part_order)
-    keyed = keyed.append_column("__row", pa.array(np.arange(runs.num_rows, dtype=np.int64)))
     order = keyed.sort_by([("index", "ascending"), ("__ok", "descending"), ("__part", "descending")])
     idx = order.column("index").to_numpy()
     first = np.ones(len(idx), dtype=bool)
@@ -522,7 +525,7 @@ class CampaignStoreWriter:
         keep_by_part = {
             i: winners.filter(pc.equal(winners.column("__part"), i)).column("index").to_numpy() for i in range(len(parts))
         }
-        runs = winners.drop_columns(["__ok", "__part", "__row"])
+        runs = winners.drop_columns(["__ok", "__part"])
         step_schemas, step_paths = [], []
         for i, p in enumerate(parts):
             path = self.steps_dir / p.name
@@ -623,7 +626,7 @@ class CampaignStore:
             rank = np.concatenate([np.full(t.num_rows, i, dtype=np.int64) for i, t in enumerate(tables)])
             winners = _winners(pa.concat_tables([_conform(t, schema) for t in tables]), pa.array(rank))
             self._part_of = dict(zip(winners.column("index").to_pylist(), winners.column("__part").to_pylist(), strict=True))
-            self._runs = winners.drop_columns(["__ok", "__part", "__row"])
+            self._runs = winners.drop_columns(["__ok", "__part"])
         return self._runs
 
     def indices(self, status: str | None = None) -> list[int]:

@@ -105,8 +105,13 @@ def test_a_campaign_run_reflies_to_the_bit_and_a_changed_record_is_caught(tmp_pa
 
     cfg = load_config().with_overrides({"disturbance.scale_error_p": 0.05, "disturbance.misalignment_p": "1 deg"})
     out = tmp_path / "mc"
-    montecarlo(cfg, 2, out, master_seed=7, workers=2, progress=False, max_steps=12)
+    s = montecarlo(cfg, 2, out, master_seed=7, workers=2, progress=False, max_steps=12)
     applied = CampaignStore(out).result(1)["applied"]
+    # the summary names the worst runs with their seeds; the worst by TBMPC-FFA's J_p re-flies alone
+    assert s.statistics is not None
+    worst = s.statistics.methods["ffa"].metrics["J_p"].worst[0]
+    assert worst.seed == CampaignStore(out).row(worst.index)["seed"]
+    assert main(["run", "--from-campaign", str(out), "--index", str(worst.index), "--out", str(tmp_path / "w")]) == EXIT_OK
     # the dispersions actually drawn and realised are in the record
     assert applied["max_steps"] == 12 and applied["actuators"]["scale_error_p"] == 0.05
     assert len(applied["actuators"]["scale_p"]) == 3 and applied["actuators"]["scale_p"] != [1.0, 1.0, 1.0]
