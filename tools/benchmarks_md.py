@@ -368,7 +368,8 @@ def _store(d: dict[str, Any]) -> list[tuple[str, str]]:
             f"{1e3 * d['read_steps_s_per_run']:.3g} ms/run, one run alone {1e3 * d['read_one_run_s']:.3g} ms; "
             f"{per_run / 1e3:.3g} kB/run ({d['runs_bytes_per_run']:.0f} B runs table, "
             f"{d['steps_bytes_per_run'] / 1e3:.3g} kB per-step arrays), {d['files']} files; 10^5 runs: "
-            f"{per_run * 1e5 / 1e9:.2g} GB",
+            f"{per_run * 1e5 / 1e9:.2g} GB"
+            + (f" (load average {d['load_average_1min']:.1f} during the run)" if "load_average_1min" in d else ""),
         )
     ]
 

@@ -9,6 +9,7 @@ as a re-flight reads them)."""
 from __future__ import annotations
 
 import argparse
+import os
 import shutil
 import tempfile
 import time
@@ -117,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
             "runs_bytes_per_run": runs_bytes / args.runs,
             "steps_bytes_per_run": steps_bytes / args.runs,
             "files": files,
+            "load_average_1min": os.getloadavg()[0],  # the machine is shared: others' processes slow the timings
             "machine": info,
         }
         print(

@@ -298,19 +298,12 @@ def _runs_table(flat: list[dict[str, Scalar]]) -> pa.Table:
     return pa.Table.from_arrays(arrays, schema=pa.schema(fields))
 
 
-def _array_columns(name: str, a: npt.NDArray[Any]) -> Iterator[tuple[str, npt.NDArray[Any]]]:
-    if a.ndim == 1:
-        yield name, a
-        return
-    for idx in np.ndindex(*a.shape[1:]):
-        yield name + "".join(f"[{i}]" for i in idx), a[(slice(None), *idx)]
-
-
 def _steps_table(rows: list[RunRow]) -> pa.Table | None:
-    """The steps table of a batch: the columns gathered as numpy arrays over the batch's runs and groups,
-    then made Arrow arrays once (a cell past the end of an array, or of an array a run lacks, is null)."""
-    blocks: list[tuple[int, str, int, dict[str, npt.NDArray[Any]]]] = []  # (index, group, rows, columns)
-    dtypes: dict[str, np.dtype[Any]] = {}
+    """The steps table of a batch: each array gathered over the batch's runs and groups into one numpy
+    array (a cell past the end of a run's array, or of an array a run lacks, is null), split into its
+    columns and made Arrow arrays once."""
+    blocks: list[tuple[int, str, int, dict[str, npt.NDArray[Any]]]] = []  # (index, group, rows, arrays)
+    kinds: dict[str, tuple[tuple[int, ...], np.dtype[Any]]] = {}  # name -> (component shape, dtype)
     for r in rows:
         if r.output is None:
             continue
@@ -319,36 +312,48 @@ def _steps_table(rows: list[RunRow]) -> pa.Table | None:
                 continue
             if not _KEY.match(group):
                 raise ValueError(f"store: step group {group!r} must be a non-empty string without '.', '[', ']'")
-            cols: dict[str, npt.NDArray[Any]] = {}
+            got: dict[str, npt.NDArray[Any]] = {}
             for name, a in arrays.items():
                 arr = np.asarray(a)
                 if arr.ndim < 1 or not _KEY.match(name) or name in _STEP_KEYS:
                     raise ValueError(f"store: step array {group}.{name} must be named plainly and have a step axis")
                 if arr.dtype.kind not in "fiub":
                     raise ValueError(f"store: step array {group}.{name} has dtype {arr.dtype} (numbers only)")
-                for col, v in _array_columns(name, arr):
-                    cols[col] = v
-                    dtypes[col] = np.result_type(dtypes[col], v.dtype) if col in dtypes else v.dtype
-            blocks.append((r.index, group, max(len(v) for v in cols.values()), cols))
+                shape, dtype = arr.shape[1:], arr.dtype
+                if name in kinds:
+                    have_shape, have_dtype = kinds[name]
+                    if have_shape != shape:
+                        raise ValueError(f"store: step array {group}.{name} of shape {shape} per step, {have_shape} before")
+                    dtype = np.result_type(have_dtype, dtype)
+                kinds[name] = (shape, dtype)
+                got[name] = arr
+            blocks.append((r.index, group, max(len(v) for v in got.values()), got))
     if not blocks:
         return None
     total = sum(n for _, _, n, _ in blocks)
     out: dict[str, pa.Array] = {
         "index": pa.array(np.concatenate([np.full(n, i, dtype=np.int64) for i, _, n, _ in blocks])),
-        "group": pa.array([g for _, g, n, _ in blocks for _ in range(n)], type=pa.string()),
+        "group": pa.DictionaryArray.from_arrays(
+            pa.array(np.concatenate([np.full(n, k, dtype=np.int32) for k, (_, _, n, _) in enumerate(blocks)])),
+            pa.array([g for _, g, _, _ in blocks], type=pa.string()),
+        ).cast(pa.string()),
         "step": pa.array(np.concatenate([np.arange(n, dtype=np.int32) for _, _, n, _ in blocks])),
     }
-    for col, dtype in dtypes.items():
-        values = np.zeros(total, dtype=dtype)
+    for name, (shape, dtype) in kinds.items():
+        values = np.zeros((total, *shape), dtype=dtype)
         valid = np.zeros(total, dtype=bool)
         at = 0
-        for _, _, n, cols in blocks:
-            got = cols.get(col)
-            if got is not None:
-                values[at : at + len(got)] = got
-                valid[at : at + len(got)] = True
+        for _, _, n, arrays in blocks:
+            a = arrays.get(name)
+            if a is not None:
+                values[at : at + len(a)] = a
+                valid[at : at + len(a)] = True
             at += n
-        out[col] = pa.array(values, mask=None if valid.all() else ~valid)
+        mask = None if valid.all() else ~valid
+        flat = values.reshape(total, -1)
+        for j, idx in enumerate(np.ndindex(*shape)):
+            col = name + "".join(f"[{i}]" for i in idx)
+            out[col] = pa.array(flat[:, j] if shape else values, mask=mask)
     return pa.table(out)
 
 
