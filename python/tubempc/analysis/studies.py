@@ -47,8 +47,10 @@ __all__ = [
     "MONTECARLO_METRICS",
     "TOUCHDOWN_ERROR",
     "Reflight",
+    "campaign_run_output",
     "campaign_run_result",
     "dispersion_figure",
+    "fly_campaign_run",
     "montecarlo",
     "montecarlo_summary",
     "refly_montecarlo_run",
@@ -72,7 +74,7 @@ def _scenario(cfg: Config, cache_dir: str) -> Scenario:
 MONTECARLO_METRICS = tuple(f.name for f in dataclasses.fields(CampaignMethodResult))
 
 
-def _fly_montecarlo_run(
+def fly_campaign_run(
     cfg: Config, scn: Scenario, methods: tuple[str, ...], max_steps: int | None, tube_threads: int, seed: int
 ) -> tuple[CampaignRunResult, dict[str, RunRecord]]:
     """Every method with disturbance seed ``seed`` as a campaign flies it: the run's result (metrics per
@@ -91,7 +93,7 @@ def _fly_montecarlo_run(
     return CampaignRunResult(methods=out, applied=applied), records
 
 
-def _run_output(flown: CampaignRunResult, records: dict[str, RunRecord]) -> RunOutput:
+def campaign_run_output(flown: CampaignRunResult, records: dict[str, RunRecord]) -> RunOutput:
     """A campaign run as the store keeps it: its result (metrics per method, the dispersions applied and,
     for runs flown on navigation, ``nav_touchdown_error.<method>``: x_T - x_f, 12 values) and per method
     the per-step arrays: the error x - z (T, 12) and the tube half-widths sqrt(diag Pe) (T, 12), float32,
@@ -132,9 +134,9 @@ def _montecarlo_run(
     seed: int,
 ) -> RunOutput:
     """One Monte Carlo run: every method with the same disturbance seed; its metrics, the dispersions
-    applied and its per-step arrays for the campaign's store (:func:`_run_output`)."""
-    out, records = _fly_montecarlo_run(cfg, _scenario(cfg, cache_dir), methods, max_steps, tube_threads, seed)
-    return _run_output(out, records)
+    applied and its per-step arrays for the campaign's store (:func:`campaign_run_output`)."""
+    out, records = fly_campaign_run(cfg, _scenario(cfg, cache_dir), methods, max_steps, tube_threads, seed)
+    return campaign_run_output(out, records)
 
 
 @dataclass(frozen=True)
@@ -188,11 +190,11 @@ def refly_montecarlo_run(campaign_dir: Path, index: int, out: Path) -> Reflight:
             differences.append(f"shape file {cfg.asteroid.shape} (its sha256 is not the campaign's)")
     methods = tuple(m for m in METHODS if m in result.methods)
     scn = build_scenario(cfg, cache_dir=campaign_dir / "cache")
-    flown, records = _fly_montecarlo_run(cfg, scn, methods, result.applied.get("max_steps"), 1, int(str(row["seed"])))
+    flown, records = fly_campaign_run(cfg, scn, methods, result.applied.get("max_steps"), 1, int(str(row["seed"])))
     out.mkdir(parents=True, exist_ok=True)
     for m, rec in records.items():
         save_record(out / f"{m}.h5", rec, config=cfg.to_dict(), metadata=flown.methods[m].to_json())
-    output = _run_output(flown, records)
+    output = campaign_run_output(flown, records)
     differences += differing_columns(row, flatten(output.result), ignore=("run_time_s",))
     differences += [f"steps:{d}" for d in differing_steps(store.steps(index), output.steps)]
     comparison = Reflight(

@@ -53,7 +53,7 @@ def _size(folder: Path) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..analysis.studies import _fly_montecarlo_run, _run_output
+    from ..analysis.studies import campaign_run_output, fly_campaign_run
     from ..config import load_config
     from ..scenario.build import METHODS, build_scenario
 
@@ -68,9 +68,9 @@ def run(args: argparse.Namespace) -> int:
     try:
         scn = build_scenario(cfg, cache_dir=tmp / "cache")
         t0 = time.perf_counter()
-        flown, records = _fly_montecarlo_run(cfg, scn, methods, None, 1, 0)
+        flown, records = fly_campaign_run(cfg, scn, methods, None, 1, 0)
         fly_s = time.perf_counter() - t0
-        template = _run_output(flown, records)
+        template = campaign_run_output(flown, records)
         steps_per_run = {m: {k: list(v.shape) for k, v in a.items()} for m, a in template.steps.items()}
         print(f"one real run of {args.scenario} ({', '.join(methods)}) flown in {fly_s:.2f} s; writing {args.runs} runs")
         rng = np.random.default_rng(1)
