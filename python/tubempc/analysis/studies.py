@@ -69,7 +69,7 @@ def _scenario(cfg: Config, cache_dir: str) -> Scenario:
     return _SCENARIOS[key]
 
 
-#: The metrics a Monte Carlo run keeps per method (the fields of its record's "result",
+#: The metrics a Monte Carlo run keeps per method (its ``<method>.*`` columns in the campaign's store,
 #: :class:`tubempc.results.summaries.CampaignMethodResult`; run_time_s is the machine's).
 MONTECARLO_METRICS = tuple(f.name for f in dataclasses.fields(CampaignMethodResult))
 

@@ -110,6 +110,17 @@ def run(args: argparse.Namespace) -> int:
         for m, ms in st.methods.items():
             for kind, b in ms.failures.items():
                 print(f"  {m} {kind}: {describe_bound(b, st.confidence)}")
+        for m, ms in st.methods.items():
+            jp = ms.metrics.get("J_p")
+            if jp is None or not jp.worst:
+                continue
+            w = jp.worst[0]
+            driver = (
+                f"{jp.drivers[0].dispersion} (Spearman {jp.drivers[0].rho:+.2f}, p {jp.drivers[0].p_value:.2g})"
+                if jp.drivers
+                else f"- ({jp.drivers_note})"
+            )
+            print(f"{m:6s} worst J_p {w.value:.4g}: run {w.index} (seed {w.seed}); J_p's top driver {driver}")
     print(
         f"{s.runs} runs done ({s.executed_now} now, {len(s.failed_runs)} failed) in {s.wall_time_s:.1f} s; "
         f"{args.out}/summary.json"
