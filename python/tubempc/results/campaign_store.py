@@ -344,10 +344,10 @@ def _steps_table(rows: list[RunRow]) -> pa.Table | None:
         valid = np.zeros(total, dtype=bool)
         at = 0
         for _, _, n, arrays in blocks:
-            a = arrays.get(name)
-            if a is not None:
-                values[at : at + len(a)] = a
-                valid[at : at + len(a)] = True
+            part = arrays.get(name)
+            if part is not None:
+                values[at : at + len(part)] = part
+                valid[at : at + len(part)] = True
             at += n
         mask = None if valid.all() else ~valid
         flat = values.reshape(total, -1)
