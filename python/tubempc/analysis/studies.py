@@ -19,6 +19,7 @@ import pyarrow.compute as pc
 from matplotlib.figure import Figure
 
 from ..config import Config, load_config
+from ..design.library import SharedDesigns, adopt_shared_designs, shared_designs
 from ..results.campaign_store import CampaignStore, RunOutput, differing_columns, differing_steps, flatten
 from ..results.machine import machine_info
 from ..results.pinning import pin_config, shape_record
@@ -130,12 +131,16 @@ def _montecarlo_run(
     methods: tuple[str, ...],
     max_steps: int | None,
     tube_threads: int,
+    designs: SharedDesigns,
     index: int,
     seed: int,
 ) -> RunOutput:
-    """One Monte Carlo run: every method with the same disturbance seed; its metrics, the dispersions
-    applied and its per-step arrays for the campaign's store (:func:`campaign_run_output`)."""
-    out, records = fly_campaign_run(cfg, _scenario(cfg, cache_dir), methods, max_steps, tube_threads, seed)
+    """One Monte Carlo run: every method with the same disturbance seed, on the set-up designs the
+    campaign made once (``designs``); its metrics, the dispersions applied and its per-step arrays for the
+    campaign's store (:func:`campaign_run_output`)."""
+    scn = _scenario(cfg, cache_dir)
+    adopt_shared_designs(scn, designs)
+    out, records = fly_campaign_run(cfg, scn, methods, max_steps, tube_threads, seed)
     return campaign_run_output(out, records)
 
 
@@ -345,7 +350,10 @@ def montecarlo(
     cfg.save(out / "config.toml")
     # Several runs at once already occupy the cores: then each run designs its two tubes sequentially.
     parallel_runs = scheduler is not None or (workers or os.cpu_count() or 1) > 1
-    fn = functools.partial(_montecarlo_run, cfg, str(cache), tuple(methods), max_steps, 1 if parallel_runs else 2)
+    # The set-up that no run's dispersion changes, made once here for every worker: the reference (in the
+    # cache) and the methods' LMI designs and tube library.
+    designs = shared_designs(scn, tuple(methods))
+    fn = functools.partial(_montecarlo_run, cfg, str(cache), tuple(methods), max_steps, 1 if parallel_runs else 2, designs)
     t0 = time.perf_counter()
     camp = run_campaign(
         fn,
