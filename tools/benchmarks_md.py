@@ -358,6 +358,24 @@ def _test_command(d: dict[str, Any]) -> list[tuple[str, str]]:
     ]
 
 
+def _store(d: dict[str, Any]) -> list[tuple[str, str]]:
+    """tubempc bench store: the campaign store's write and read times and bytes per run."""
+    per_run = d["runs_bytes_per_run"] + d["steps_bytes_per_run"]
+    return [
+        (
+            f"campaign store (Parquet), {d['runs']} runs made from one flown {d['scenario']} run "
+            f"({', '.join(d['methods'])}: {d['runs_columns']} columns per run, {d['steps_rows'] // d['runs']} step rows)",
+            f"write {1e3 * d['write_s_per_run']:.3g} ms/run (parts, merges and the final merge); read the runs "
+            f"table {1e6 * d['read_runs_table_s_per_run']:.3g} us/run, every per-step array "
+            f"{1e3 * d['read_steps_s_per_run']:.3g} ms/run, one run alone {1e3 * d['read_one_run_s']:.3g} ms; "
+            f"{per_run / 1e3:.3g} kB/run ({d['runs_bytes_per_run']:.0f} B runs table, "
+            f"{d['steps_bytes_per_run'] / 1e3:.3g} kB per-step arrays), {d['files']} files; 10^5 runs: "
+            f"{per_run * 1e5 / 1e9:.2g} GB"
+            + (f" (load average {d['load_average_1min']:.1f} during the run)" if "load_average_1min" in d else ""),
+        )
+    ]
+
+
 EXTRACTORS: dict[str, Callable[[dict[str, Any], str], list[tuple[str, str]]]] = {
     "gravity": lambda d, _: _gravity(d),
     "dynamics": lambda d, _: _dynamics(d),
@@ -374,6 +392,7 @@ EXTRACTORS: dict[str, Callable[[dict[str, Any], str], list[tuple[str, str]]]] = 
     "actuation": _actuation,
     "navigation": _navigation,
     "plant": lambda d, _: _plant_bench(d),
+    "store": lambda d, _: _store(d),
 }
 
 

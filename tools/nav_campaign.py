@@ -1,7 +1,8 @@
 """Navigation figures of a Monte Carlo campaign flown with ``[navigation]`` on (issue #30's goals):
 touchdown position and velocity errors, cone violations, the true state in the output-feedback tube
 z + Omega (+) E at every step, the estimate in the certified tube Omega, and the filter's consistency
-(the average NEES over the first ``--nees-runs`` runs at each step against its 95 % chi-square bounds).
+(the average NEES over the first ``--nees-runs`` runs at each step against its 95 % chi-square bounds),
+read from the campaign's store.
 
     python tools/nav_campaign.py CAMPAIGN_DIR [OUT.json] [--method ffa] [--nees-runs 100] [--figure PNG] [--command TEXT]
 """
@@ -15,37 +16,54 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
 from scipy.stats import chi2
 
+from tubempc.results.campaign_store import CampaignStore
 from tubempc.results.machine import machine_info
+
+#: The per-step navigation arrays a campaign's store keeps per method.
+_NAV_ARRAYS = ("nav_gauge", "nav_gauge_estimate", "nav_nees", "nav_error", "nav_sigma", "nav_landmarks")
 
 
 def summarise(folder: Path, method: str, nees_runs: int) -> dict[str, Any]:
-    """The campaign's navigation figures for one method."""
-    results, arrays = [], []
-    for path in sorted((folder / "runs").glob("run_*.json")):
-        run = json.loads(path.read_text(encoding="utf-8"))
-        if not run.get("ok") or method not in run["result"]:
-            continue
-        results.append(run["result"][method])
-        with np.load(path.with_suffix(".npz")) as d:
-            arrays.append({k.removeprefix(f"{method}_"): d[k] for k in d.files if k.startswith(f"{method}_nav_")})
-    if not results or "nav_nees" not in arrays[0]:
+    """The campaign's navigation figures for one method (from its store, tubempc.results.campaign_store)."""
+    store = CampaignStore(folder)
+    runs = store.runs()
+    runs = runs.filter(pc.equal(runs.column("status"), "ok"))
+    if f"{method}.J_p" not in runs.column_names or runs.num_rows == 0:
+        raise SystemExit(f"{folder}: no run of {method!r}")
+    stacked = {name: store.stacked_steps(method, name) for name in _NAV_ARRAYS}
+    if stacked["nav_nees"][1].size == 0:
         raise SystemExit(f"{folder}: no run of {method!r} flown with navigation")
-    pos = np.array([r["terminal_error"]["position"] for r in results])
-    vel = np.array([r["terminal_error"]["velocity"] for r in results])
-    cone = np.array([sum(r["constraint_violations"][k] for k in ("glide_slope_steps", "los_steps")) for r in results])
-    gauge = np.stack([a["nav_gauge"] for a in arrays])  # (runs, T, 2)
-    gauge_est = np.stack([a["nav_gauge_estimate"] for a in arrays])
-    nees = np.stack([a["nav_nees"] for a in arrays]).astype(float)  # (runs, T + 1)
-    err, sig = np.stack([a["nav_error"] for a in arrays]), np.stack([a["nav_sigma"] for a in arrays])
-    landmarks = np.stack([a["nav_landmarks"] for a in arrays])
-    m = min(nees_runs, len(results))
+    if any(not np.array_equal(idx, stacked["nav_nees"][0]) for idx, _ in stacked.values()):
+        raise SystemExit(f"{folder}: the runs' navigation arrays are incomplete")
+    ordered = np.asarray(runs.column("index").to_numpy())
+    if not np.array_equal(ordered, stacked["nav_nees"][0]):
+        raise SystemExit(f"{folder}: some runs of {method!r} have no navigation arrays")
+
+    def col(name: str) -> np.ndarray:
+        c = runs.column(f"{method}.{name}") if f"{method}.{name}" in runs.column_names else None
+        if c is None:
+            return np.zeros(runs.num_rows)
+        return np.nan_to_num(np.asarray(c.cast(pa.float64()).to_numpy(zero_copy_only=False), dtype=float))
+
+    results = runs.num_rows
+    pos = col("terminal_error.position")
+    vel = col("terminal_error.velocity")
+    cone = col("constraint_violations.glide_slope_steps") + col("constraint_violations.los_steps")
+    gauge = stacked["nav_gauge"][1]  # (runs, T, 2)
+    gauge_est = stacked["nav_gauge_estimate"][1]
+    nees = stacked["nav_nees"][1].astype(float)  # (runs, T + 1)
+    err, sig = stacked["nav_error"][1], stacked["nav_sigma"][1]
+    landmarks = stacked["nav_landmarks"][1]
+    m = min(nees_runs, results)
     avg = nees[:m, 1:].mean(axis=0)  # per step, over runs (k >= 1: after the first period)
     lo, hi = chi2.ppf([0.025, 0.975], 15 * m) / m
     return {
         "method": method,
-        "runs": len(results),
+        "runs": results,
         "touchdown_position_error_m": {
             "max": float(pos.max()),
             "p99_7": float(np.quantile(pos, 0.997)),
@@ -59,7 +77,7 @@ def summarise(folder: Path, method: str, nees_runs: int) -> dict[str, Any]:
             "runs_over_2_cm_s": int(np.sum(vel > 0.02)),
         },
         "runs_with_cone_violation": int(np.sum(cone > 0)),
-        "runs_inside_body": int(sum((r.get("states_inside_body") or 0) > 0 for r in results)),
+        "runs_inside_body": int(np.sum(col("states_inside_body") > 0)),
         "output_feedback_tube": {
             "max_gauge_true_state": float(gauge.max()),
             "runs_true_state_outside": int(np.sum(gauge.max(axis=(1, 2)) > 1.0)),
@@ -77,7 +95,7 @@ def summarise(folder: Path, method: str, nees_runs: int) -> dict[str, Any]:
         },
         "error_inside_3_sigma_fraction": float(np.mean(np.abs(err) <= 3.0 * sig)),
         "landmarks_per_frame": {"mean": float(landmarks.mean()), "min": float(landmarks.min())},
-        "run_time_s_mean": float(np.mean([r["run_time_s"] for r in results])),
+        "run_time_s_mean": float(np.mean(col("run_time_s"))),
     }
 
 

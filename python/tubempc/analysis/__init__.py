@@ -4,6 +4,7 @@
 - :mod:`.runner`: ``tubempc run`` (both methods, summary, figures);
 - :mod:`.campaign` and :mod:`.studies`: resumable seeded campaigns, the Monte Carlo and the
   forgetting-factor sweep;
+- :mod:`.statistics`: a campaign's failure bounds, percentiles, worst runs and drivers;
 - :mod:`.claims`: the paper's claims checked against results folders;
 - :mod:`.figures`, :mod:`.view3d` and :mod:`.report`: figures, the 3D view and the HTML/Markdown report.
 

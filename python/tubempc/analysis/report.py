@@ -16,12 +16,14 @@ from __future__ import annotations
 import base64
 import datetime
 import html
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from .. import __version__
 from ..config import Config, ConfigError, load_config
 from ..results.summaries import (
+    CampaignStatistics,
+    FailureBound,
     MethodResult,
     MonteCarloSummary,
     NavigationSummary,
@@ -144,8 +146,8 @@ def _caption(stem: str) -> str:
         method = stem.rsplit("_", 1)[-1]
         group = "translational" if stem.startswith("fig17") else "rotational"
         return (
-            f"{method}: {group} errors x - z of every Monte Carlo run against the largest tube half-width "
-            f"(paper Fig. {stem[3:5]})."
+            f"{method}: {group} errors x - z of the Monte Carlo runs (the first 300 by index at most) against the "
+            f"largest tube half-width over every run (paper Fig. {stem[3:5]})."
         )
     return CAPTIONS.get(stem, stem)
 
@@ -267,6 +269,63 @@ def _scenario_text(cfg: Config | None, paper: bool) -> str:
         f"{m.t_f:g} s, dt {m.dt:g} s, horizon {m.horizon}, lambda_p {cfg.identification.lambda_p:g}, lambda_r "
         f"{cfg.identification.lambda_r:g}"
     )
+
+
+def _statistics_section(
+    st: CampaignStatistics,
+    where: Path,
+    section: Callable[[str, str], None],
+    table: Callable[[list[str], list[list[str]]], None],
+    paragraph: Callable[[str], None],
+) -> None:
+    """The campaign's statistics (tubempc.analysis.statistics): failure bounds, percentiles with their
+    confidence intervals, the worst runs with their seeds and the dispersions driving each metric."""
+    conf = f"{100 * st.confidence:g} %"
+    section(
+        "Failure probabilities",
+        f"Each failure kind's count over the runs and the one-sided Clopper-Pearson upper bound on its probability at "
+        f"{conf} confidence (0 failures in n runs: 1 - {1 - st.confidence:g}^(1/n), about 3/n at 95 %). A kind "
+        "that cannot be judged for this campaign says why.",
+    )
+    rows = [["(campaign)", "failed run", *_bound_cells(st.failed_run)]]
+    for m, ms in st.methods.items():
+        for kind, b in ms.failures.items():
+            rows.append([m, kind.replace("_", " "), *_bound_cells(b)])
+    table(["method", "failure kind", "runs failing", "rate", f"upper bound ({conf})", "note"], rows)
+    paragraph(
+        "tube exit: the largest tube excursion above 1; touchdown: the terminal error above 1 m or 2 cm/s (where the "
+        "mission ends in a touchdown); cone violation: a step outside the glide slope or the line of sight; inside "
+        "body: a state inside the body; any: any of them or a failed run, over every run attempted."
+    )
+    section(
+        "Percentiles, worst runs and drivers",
+        f"Percentiles with distribution-free {conf} confidence intervals (order statistics; '-' where the runs are "
+        "too few), the worst run with its seed (re-fly it alone: tubempc run --from-campaign "
+        f"{where} --index I), and the applied dispersion with the largest Spearman rank correlation (p: the "
+        "probability of so large a correlation without one; * significant after Bonferroni over the "
+        f"{st.dispersions_varied} dispersions that varied).",
+    )
+    rows = []
+    for m, ms in st.methods.items():
+        for name, ss in ms.metrics.items():
+            pct = [f"{_fmt(p.value)} [{_fmt_or_dash(p.lower)}, {_fmt_or_dash(p.upper)}]" for p in ss.percentiles]
+            worst = f"{_fmt(ss.worst[0].value)} (run {ss.worst[0].index}, seed {ss.worst[0].seed})" if ss.worst else "-"
+            if ss.drivers:
+                d = ss.drivers[0]
+                driver = f"{d.dispersion} rho {d.rho:+.2f}, p {d.p_value:.2g}{' *' if d.significant else ''}"
+            else:
+                driver = ss.drivers_note or "-"
+            rows.append([m, name.replace("_", " "), *pct, worst, driver])
+    first = next(iter(st.methods.values()), None)
+    metrics = next(iter(first.metrics.values()), None) if first is not None else None
+    head = [f"p{p.percent:g} [CI]" for p in metrics.percentiles] if metrics is not None else []
+    table(["method", "metric", *head, "worst (run, seed)", "top driver"], rows)
+
+
+def _bound_cells(b: FailureBound) -> list[str]:
+    if not b.evaluated or b.failures is None or b.runs is None or b.rate is None or b.upper_bound is None:
+        return ["-", "-", "-", f"not evaluated: {b.reason}"]
+    return [f"{b.failures}/{b.runs}", f"{_fmt(100 * b.rate)} %", f"{_fmt(100 * b.upper_bound)} %", b.reason or ""]
 
 
 def write_report(root: Path) -> tuple[Path, Path]:
@@ -516,6 +575,10 @@ def write_report(root: Path) -> tuple[Path, Path]:
             paragraph(
                 f"TBMPC-FFA's mean J_p is {below_or_above(red)} TBMPC's"
                 + (f" (paper: {PAPER_REDUCTION_TABLE4:.1f} % below)." if paper else ".")
+            )
+        if mc.statistics is not None:
+            _statistics_section(
+                mc.statistics, mc_dir.relative_to(root) if mc_dir != root else Path("."), section, table, paragraph
             )
         figures += sorted(mc_dir.glob("fig*.png"))
     claims = paper_claims(

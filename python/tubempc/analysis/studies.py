@@ -14,9 +14,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
 from matplotlib.figure import Figure
 
 from ..config import Config, load_config
+from ..design.library import SharedDesigns, adopt_shared_designs, shared_designs
+from ..results.campaign_store import CampaignStore, RunOutput, differing_columns, differing_steps, flatten
 from ..results.machine import machine_info
 from ..results.pinning import pin_config, shape_record
 from ..results.records import RunRecord, save_record
@@ -28,6 +32,7 @@ from ..results.summaries import (
     MonteCarloSummary,
     SweepRow,
     SweepSummary,
+    fallback_steps,
     write_summary,
 )
 from ..scenario.build import METHODS, Scenario, build_scenario
@@ -37,11 +42,16 @@ from . import figures
 from .campaign import CampaignResult, run_campaign
 from .claims import TOUCHDOWN_GOAL
 from .runner import guarantee_lost, run_summary
+from .statistics import DEFAULT_PERCENTILES, campaign_statistics, touchdown_reason
 
 __all__ = [
     "MONTECARLO_METRICS",
+    "TOUCHDOWN_ERROR",
     "Reflight",
+    "campaign_run_output",
+    "campaign_run_result",
     "dispersion_figure",
+    "fly_campaign_run",
     "montecarlo",
     "montecarlo_summary",
     "refly_montecarlo_run",
@@ -60,12 +70,12 @@ def _scenario(cfg: Config, cache_dir: str) -> Scenario:
     return _SCENARIOS[key]
 
 
-#: The metrics a Monte Carlo run keeps per method (the fields of its record's "result",
+#: The metrics a Monte Carlo run keeps per method (its ``<method>.*`` columns in the campaign's store,
 #: :class:`tubempc.results.summaries.CampaignMethodResult`; run_time_s is the machine's).
 MONTECARLO_METRICS = tuple(f.name for f in dataclasses.fields(CampaignMethodResult))
 
 
-def _fly_montecarlo_run(
+def fly_campaign_run(
     cfg: Config, scn: Scenario, methods: tuple[str, ...], max_steps: int | None, tube_threads: int, seed: int
 ) -> tuple[CampaignRunResult, dict[str, RunRecord]]:
     """Every method with disturbance seed ``seed`` as a campaign flies it: the run's result (metrics per
@@ -84,41 +94,54 @@ def _fly_montecarlo_run(
     return CampaignRunResult(methods=out, applied=applied), records
 
 
-def _run_arrays(records: dict[str, RunRecord]) -> dict[str, np.ndarray]:
-    """A campaign run's arrays (runs/run_<i>.npz): per method the error x - z (T, 12) and the tube
-    half-widths sqrt(diag Pe) (T, 12), float32."""
-    arrays: dict[str, np.ndarray] = {}
+def campaign_run_output(flown: CampaignRunResult, records: dict[str, RunRecord]) -> RunOutput:
+    """A campaign run as the store keeps it: its result (metrics per method, the dispersions applied and,
+    for runs flown on navigation, ``nav_touchdown_error.<method>``: x_T - x_f, 12 values) and per method
+    the per-step arrays: the error x - z (T, 12) and the tube half-widths sqrt(diag Pe) (T, 12), float32,
+    and the navigation's (:meth:`tubempc.scenario.navigation.NavigationRecord.campaign_arrays`)."""
+    result = flown.to_json()
+    steps: dict[str, dict[str, np.ndarray]] = {}
     for m, rec in records.items():
-        arrays[f"{m}_error"] = (rec.x[:-1] - rec.z).astype(np.float32)
-        arrays[f"{m}_half_width"] = np.sqrt(
-            np.concatenate([np.diagonal(rec.Pe_p, axis1=1, axis2=2), np.diagonal(rec.Pe_r, axis1=1, axis2=2)], axis=1)
-        ).astype(np.float32)
+        arrays = {
+            "error": (rec.x[:-1] - rec.z).astype(np.float32),
+            "half_width": np.sqrt(
+                np.concatenate([np.diagonal(rec.Pe_p, axis1=1, axis2=2), np.diagonal(rec.Pe_r, axis1=1, axis2=2)], axis=1)
+            ).astype(np.float32),
+        }
         if rec.navigation is not None:  # flown on the estimate: the navigation's per-step record
-            arrays.update({f"{m}_{k}": np.asarray(v, dtype=np.float32) for k, v in rec.navigation.campaign_arrays().items()})
-            arrays[f"{m}_nav_touchdown_error"] = rec.x[-1] - rec.zbar[-1]  # x_T - x_f (12), the dispersion
-    return arrays
+            arrays.update({k: np.asarray(v, dtype=np.float32) for k, v in rec.navigation.campaign_arrays().items()})
+            result.setdefault(TOUCHDOWN_ERROR, {})[m] = (rec.x[-1] - rec.zbar[-1]).tolist()  # the dispersion
+        steps[m] = arrays
+    return RunOutput(result, steps)
+
+
+#: The key of a run's result holding, per method flown on navigation, x_T - x_f (12 values).
+TOUCHDOWN_ERROR = "nav_touchdown_error"
+
+
+def campaign_run_result(result: dict[str, Any], where: str = "result") -> CampaignRunResult:
+    """A stored run's result (:meth:`tubempc.results.campaign_store.CampaignStore.result`) as its
+    :class:`tubempc.results.summaries.CampaignRunResult`."""
+    return CampaignRunResult.from_json({k: v for k, v in result.items() if k != TOUCHDOWN_ERROR}, where)
 
 
 def _montecarlo_run(
     cfg: Config,
     cache_dir: str,
-    runs_dir: str,
     methods: tuple[str, ...],
     max_steps: int | None,
     tube_threads: int,
+    designs: SharedDesigns,
     index: int,
     seed: int,
-) -> dict[str, Any]:
-    """One Monte Carlo run: every method with the same disturbance seed. Metrics and the dispersions
-    applied go in the result; the error trajectories x - z and tube half-widths in runs/run_<i>.npz
-    (for the envelopes)."""
-    out, records = _fly_montecarlo_run(cfg, _scenario(cfg, cache_dir), methods, max_steps, tube_threads, seed)
-    arrays = _run_arrays(records)
-    path = Path(runs_dir) / f"run_{index:05d}.npz"
-    tmp = path.with_name(f".{path.name}.tmp.npz")
-    np.savez_compressed(tmp, allow_pickle=False, **arrays)
-    os.replace(tmp, path)
-    return out.to_json()
+) -> RunOutput:
+    """One Monte Carlo run: every method with the same disturbance seed, on the set-up designs the
+    campaign made once (``designs``); its metrics, the dispersions applied and its per-step arrays for the
+    campaign's store (:func:`campaign_run_output`)."""
+    scn = _scenario(cfg, cache_dir)
+    adopt_shared_designs(scn, designs)
+    out, records = fly_campaign_run(cfg, scn, methods, max_steps, tube_threads, seed)
+    return campaign_run_output(out, records)
 
 
 @dataclass(frozen=True)
@@ -145,17 +168,18 @@ class Reflight:
 def refly_montecarlo_run(campaign_dir: Path, index: int, out: Path) -> Reflight:
     """Flies run ``index`` of the campaign in ``campaign_dir`` again, alone, from its configuration and
     its record's seed and cut, writes ``out/<method>.h5`` and ``out/refly.json`` and returns the
-    comparison: every metric (but run_time_s) and the applied dispersions against the record's, with
-    ``equal`` True when all are the same to the bit."""
-    path = campaign_dir / "runs" / f"run_{index:05d}.json"
-    if not path.exists():
-        raise ValueError(f"{path}: no such run in the campaign (see {campaign_dir / 'runs'})")
-    record = json.loads(path.read_text(encoding="utf-8"))
-    if not record.get("ok"):
-        raise ValueError(f"{path}: the run failed in the campaign: {record.get('error')}")
-    result = CampaignRunResult.from_json(record["result"], f"{path}: result")
+    comparison: every column of its row in the campaign's store (metrics, dispersions; not the run
+    times) and its per-step arrays against the re-flight's, with ``equal`` True when all are the same
+    to the bit."""
+    store = CampaignStore(campaign_dir)
+    where = f"{store.runs_dir}: run {index}"
+    row = store.row(index)
+    if row["status"] != "ok":
+        raise ValueError(f"{where} failed in the campaign: {row.get('error')}")
+    stored = store.result(index)
+    result = campaign_run_result(stored, where)
     if result.applied is None:
-        raise ValueError(f"{path}: written before runs recorded their dispersions; rerun the campaign")
+        raise ValueError(f"{where}: written before runs recorded their dispersions; rerun the campaign")
     cfg = load_config(campaign_dir / "config.toml")
     manifest_path = campaign_dir / "campaign.json"
     manifest = json.loads(manifest_path.read_text(encoding="utf-8")) if manifest_path.exists() else {}
@@ -171,23 +195,19 @@ def refly_montecarlo_run(campaign_dir: Path, index: int, out: Path) -> Reflight:
             differences.append(f"shape file {cfg.asteroid.shape} (its sha256 is not the campaign's)")
     methods = tuple(m for m in METHODS if m in result.methods)
     scn = build_scenario(cfg, cache_dir=campaign_dir / "cache")
-    flown, records = _fly_montecarlo_run(cfg, scn, methods, result.applied["max_steps"], 1, int(record["seed"]))
+    flown, records = fly_campaign_run(cfg, scn, methods, result.applied.get("max_steps"), 1, int(str(row["seed"])))
     out.mkdir(parents=True, exist_ok=True)
     for m, rec in records.items():
         save_record(out / f"{m}.h5", rec, config=cfg.to_dict(), metadata=flown.methods[m].to_json())
-    # JSON round trip: the record's numbers were read from JSON (floats survive it exactly).
-    again = CampaignRunResult.from_json(json.loads(json.dumps(flown.to_json())))
-    for m in methods:
-        now, then = again.methods[m].to_json(), record["result"][m]
-        differences += [f"{m}.{k}" for k in MONTECARLO_METRICS if k != "run_time_s" and k in then and now.get(k) != then[k]]
-    differences += ["applied"] if again.applied != result.applied else []
-    differences += _array_differences(campaign_dir / "runs" / f"run_{index:05d}.npz", _run_arrays(records))
+    output = campaign_run_output(flown, records)
+    differences += differing_columns(row, flatten(output.result), ignore=("run_time_s",))
+    differences += [f"steps:{d}" for d in differing_steps(store.steps(index), output.steps)]
     comparison = Reflight(
         campaign=str(campaign_dir),
         index=index,
-        seed=int(record["seed"]),
-        methods={m: {"J_p": again.methods[m].J_p, "J_r": again.methods[m].J_r} for m in methods},
-        guarantee_lost={m: guarantee_lost(again.methods[m]) for m in methods},
+        seed=int(str(row["seed"])),
+        methods={m: {"J_p": flown.methods[m].J_p, "J_r": flown.methods[m].J_r} for m in methods},
+        guarantee_lost={m: guarantee_lost(flown.methods[m]) for m in methods},
         differences=differences,
         machine=machine_info(),
     )
@@ -195,25 +215,54 @@ def refly_montecarlo_run(campaign_dir: Path, index: int, out: Path) -> Reflight:
     return comparison
 
 
-def _array_differences(path: Path, arrays: dict[str, np.ndarray]) -> list[str]:
-    """The arrays of a campaign run's file that are not those of its re-flight, to the bit (their
-    names; the file itself when it is missing or unreadable)."""
-    if not path.exists():
-        return [f"{path.name} (missing)"]
-    try:
-        with np.load(path, allow_pickle=False) as stored:
-            names = set(stored.files)
-            out = [f"{path.name}:{k}" for k in sorted(names - set(arrays))]
-            for k, a in sorted(arrays.items()):
-                if k not in names:
-                    out.append(f"{path.name}:{k} (missing)")
-                    continue
-                b = stored[k]
-                if b.dtype != a.dtype or b.shape != a.shape or b.tobytes() != a.tobytes():
-                    out.append(f"{path.name}:{k}")
-    except (OSError, ValueError) as exc:
-        return [f"{path.name} (unreadable: {exc})"]
-    return out
+def _fallbacks(runs: pa.Table, method: str) -> np.ndarray:
+    """Fallback steps per run (the statuses that are fallbacks, :func:`tubempc.results.summaries.fallback_steps`)."""
+    prefix = f"{method}.statuses."
+    total = np.zeros(runs.num_rows)
+    for name in runs.column_names:
+        if name.startswith(prefix) and fallback_steps({name[len(prefix) :]: 1}):
+            total += np.nan_to_num(_column(runs, name))
+    return total
+
+
+def _column(runs: pa.Table, name: str) -> np.ndarray:
+    """A numeric column (null: NaN; absent: all NaN)."""
+    if name not in runs.column_names or pa.types.is_null(runs.column(name).type):
+        return np.full(runs.num_rows, np.nan)
+    return np.asarray(runs.column(name).cast(pa.float64()).to_numpy(zero_copy_only=False), dtype=float)
+
+
+def _method_summary(runs: pa.Table, m: str) -> MonteCarloMethodSummary:
+    """Table 4's row of method ``m`` over the completed runs' rows (vectorised over the store's columns;
+    the same numbers as :func:`tubempc.analysis.runner.guarantee_lost` and the per-run results give)."""
+
+    def c(name: str) -> np.ndarray:
+        return _column(runs, f"{m}.{name}")
+
+    jp, jr = c("J_p"), c("J_r")
+    exc = np.maximum(c("max_tube_excursion.translation"), c("max_tube_excursion.rotation"))
+    inside = np.nan_to_num(c("states_inside_body"))
+    lost = (
+        (c("steps_outside_tube") > 0)
+        | (_fallbacks(runs, m) > 0)
+        | (inside > 0)
+        | (np.nan_to_num(c("actuation.not_delivered_steps")) > 0)
+    )
+    nees = c("navigation.nees.inside")
+    nees = nees[np.isfinite(nees)]
+    return MonteCarloMethodSummary(
+        J_p=MeanSpread(mean=float(jp.mean()), three_sigma=float(3 * jp.std(ddof=1)) if jp.size > 1 else 0.0),
+        J_r=MeanSpread(mean=float(jr.mean()), three_sigma=float(3 * jr.std(ddof=1)) if jr.size > 1 else 0.0),
+        runs_outside_tube=int(np.sum(exc > 1.0)),
+        max_tube_excursion=float(exc.max()),
+        runs_with_cone_violation=int(
+            np.sum(c("constraint_violations.glide_slope_steps") + c("constraint_violations.los_steps") > 0)
+        ),
+        terminal_position_error_max_m=float(c("terminal_error.position").max()),
+        runs_inside_body=int(np.sum(inside > 0)),
+        runs_guarantee_lost=int(np.sum(lost)),
+        nees_inside_fraction=float(np.mean(nees)) if nees.size else None,
+    )
 
 
 def montecarlo_summary(
@@ -223,43 +272,34 @@ def montecarlo_summary(
     master_seed: int,
     config_hash: str,
     wall_time_s: float,
+    n_runs: int | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
     plant: str | None = None,
+    confidence: float = 0.95,
+    percentiles: tuple[float, ...] = DEFAULT_PERCENTILES,
+    touchdown: str | None = "the caller did not say whether the runs end in a touchdown",
 ) -> MonteCarloSummary:
-    """Table 4 (mean and 3 sigma of J_p and J_r per method) and the runs that ever left the tube; for runs
-    flown on navigation, the fraction whose average NEES lies inside its bounds (each run's result keeps
-    its :class:`tubempc.results.summaries.NavigationSummary`: the touchdown estimation error, the NEES, ...)."""
-    where = campaign.out_dir / "runs"
-    results = [
-        CampaignRunResult.from_json(r, f"{where}/run_{i:05d}.json: result") for i, r in sorted(campaign.results.items())
-    ]
-    per_method: dict[str, MonteCarloMethodSummary] = {}
-    for m in methods:
-        rows = [r.methods[m] for r in results]
-        if not rows:
-            continue
-        jp = np.array([r.J_p for r in rows])
-        jr = np.array([r.J_r for r in rows])
-        exc = np.array([max(r.max_tube_excursion.translation, r.max_tube_excursion.rotation) for r in rows])
-        nees = [r.navigation.nees for r in rows if r.navigation is not None and r.navigation.nees is not None]
-        per_method[m] = MonteCarloMethodSummary(
-            J_p=MeanSpread(mean=float(jp.mean()), three_sigma=float(3 * jp.std(ddof=1)) if jp.size > 1 else 0.0),
-            J_r=MeanSpread(mean=float(jr.mean()), three_sigma=float(3 * jr.std(ddof=1)) if jr.size > 1 else 0.0),
-            runs_outside_tube=int(np.sum(exc > 1.0)),
-            max_tube_excursion=float(exc.max()),
-            runs_with_cone_violation=int(sum(r.constraint_violations.steps > 0 for r in rows)),
-            terminal_position_error_max_m=float(max(r.terminal_error.position for r in rows)),
-            runs_inside_body=int(sum((r.states_inside_body or 0) > 0 for r in rows)),
-            runs_guarantee_lost=int(sum(bool(guarantee_lost(r)) for r in rows)),
-            nees_inside_fraction=float(np.mean([t.inside for t in nees])) if nees else None,
-        )
+    """Table 4 (mean and 3 sigma of J_p and J_r per method), the runs that ever left the tube, for runs
+    flown on navigation the fraction whose average NEES lies inside its bounds, and the campaign's
+    statistics (:func:`tubempc.analysis.statistics.campaign_statistics`: failure bounds at
+    ``confidence``, ``percentiles``, worst runs, drivers; ``touchdown`` why the runs have no touchdown
+    to judge, None: they have), over the stored runs of index below ``n_runs`` (default: every one)."""
+    runs = campaign.store.runs()
+    if n_runs is not None:
+        runs = runs.filter(pc.less(runs.column("index"), n_runs))
+    done = runs.filter(pc.equal(runs.column("status"), "ok"))
+    per_method = {m: _method_summary(done, m) for m in methods if done.num_rows and f"{m}.J_p" in done.column_names}
     reduction = None
     if {"tbmpc", "ffa"} <= set(per_method):
         reduction = 100.0 * (1.0 - per_method["ffa"].J_p.mean / per_method["tbmpc"].J_p.mean)
+    statistics = None
+    if runs.num_rows:
+        statistics = campaign_statistics(runs, methods, confidence=confidence, percentiles=percentiles, touchdown=touchdown)
+    failed = runs.filter(pc.equal(runs.column("status"), "failed"))
     return MonteCarloSummary(
-        runs=len(campaign.results),
-        failed_runs=sorted(campaign.failures),
+        runs=done.num_rows,
+        failed_runs=[int(i) for i in failed.column("index").to_pylist()],
         methods=per_method,
         J_p_mean_reduction_percent=reduction,
         master_seed=master_seed,
@@ -270,6 +310,7 @@ def montecarlo_summary(
         scheduler=scheduler,
         machine=machine_info(),
         plant=plant,
+        statistics=statistics,
     )
 
 
@@ -281,27 +322,38 @@ def montecarlo(
     master_seed: int = 0,
     workers: int | None = None,
     scheduler: str | None = None,
+    batch_size: int | None = None,
     methods: tuple[str, ...] = METHODS,
     retry_failed: bool = False,
     only: list[int] | None = None,
     progress: bool = True,
     max_steps: int | None = None,
+    confidence: float = 0.95,
+    percentiles: tuple[float, ...] = DEFAULT_PERCENTILES,
 ) -> MonteCarloSummary:
-    """Runs (or resumes) a campaign into ``out`` and writes ``out/summary.json`` and the envelope figures.
+    """Runs (or resumes) a campaign into ``out`` (its store, :mod:`tubempc.results.campaign_store`) and
+    writes ``out/summary.json`` (with the statistics at ``confidence`` and ``percentiles``) and the
+    figures. ``batch_size``: runs per worker task (default
+    :func:`tubempc.analysis.campaign.default_batch_size`).
 
     ``max_steps`` cuts every run short (quick checks); None runs the whole mission."""
+    if not 0.0 < confidence < 1.0:
+        raise ValueError(f"confidence must lie in (0, 1), got {confidence}")
+    bad = [p for p in percentiles if not 0.0 < p < 100.0]
+    if bad:
+        raise ValueError(f"percentiles must lie in (0, 100), got {bad}")
     out.mkdir(parents=True, exist_ok=True)
+    CampaignStore(out)  # a folder of the layout before the store: refused before anything is written
     cfg = pin_config(cfg, out)  # the folder keeps its shape file: it re-flies wherever it is copied
     cache = out / "cache"
     scn = build_scenario(cfg, cache_dir=cache)  # the reference once, before the workers read it from the cache
     cfg.save(out / "config.toml")
-    runs_dir = out / "runs"
-    runs_dir.mkdir(exist_ok=True)
     # Several runs at once already occupy the cores: then each run designs its two tubes sequentially.
     parallel_runs = scheduler is not None or (workers or os.cpu_count() or 1) > 1
-    fn = functools.partial(
-        _montecarlo_run, cfg, str(cache), str(runs_dir), tuple(methods), max_steps, 1 if parallel_runs else 2
-    )
+    # The set-up that no run's dispersion changes, made once here for every worker: the reference (in the
+    # cache) and the methods' LMI designs and tube library.
+    designs = shared_designs(scn, tuple(methods))
+    fn = functools.partial(_montecarlo_run, cfg, str(cache), tuple(methods), max_steps, 1 if parallel_runs else 2, designs)
     t0 = time.perf_counter()
     camp = run_campaign(
         fn,
@@ -312,22 +364,28 @@ def montecarlo(
         shape_file=shape_record(cfg),
         workers=workers,
         scheduler=scheduler,
+        batch_size=batch_size,
         retry_failed=retry_failed,
         only=only,
         progress=progress,
     )
+    b = cfg.boundary
     summary = montecarlo_summary(
         camp,
         tuple(methods),
         master_seed=master_seed,
         config_hash=cfg.hash(),
         wall_time_s=time.perf_counter() - t0,
+        n_runs=runs,
         workers=workers,
         scheduler=scheduler,
         plant=cfg.simulation.plant,
+        confidence=confidence,
+        percentiles=percentiles,
+        touchdown=touchdown_reason(b.terminal, b.touchdown_speed, cfg.mpc.n_steps, max_steps),
     )
     write_summary(out / "summary.json", summary)
-    _envelope_figures(cfg, camp, out, tuple(methods))
+    _envelope_figures(cfg, camp.store, out, tuple(methods))
     for m in methods:  # a campaign flown on navigation to a site: the touchdown dispersion on the site map
         fig = dispersion_figure(scn, out, m)
         if fig is not None:
@@ -337,21 +395,22 @@ def montecarlo(
 
 def touchdown_offsets(scn: Scenario, out: Path, method: str) -> np.ndarray:
     """The touchdown offsets of ``method``'s runs in the campaign folder ``out`` (those that kept
-    ``<method>_nav_touchdown_error``, x_T - x_f, in runs/run_<i>.npz: runs flown on navigation):
-    (n, 2) (east, north) (m) in the site's tangent plane (:func:`tubempc.scenario.sites.tangent_axes`),
-    the position error taken from L to A at t_f. Empty without a site or such runs."""
+    ``nav_touchdown_error.<method>``, x_T - x_f, in the store: runs flown on navigation): (n, 2) (east,
+    north) (m) in the site's tangent plane (:func:`tubempc.scenario.sites.tangent_axes`), the position
+    error taken from L to A at t_f. Empty without a site or such runs."""
     if scn.site is None:
         return np.zeros((0, 2))
+    runs = CampaignStore(out).runs()
+    runs = runs.filter(pc.equal(runs.column("status"), "ok"))
+    cols = [f"{TOUCHDOWN_ERROR}.{method}[{i}]" for i in range(3)]
+    if not all(c in runs.column_names for c in cols):
+        return np.zeros((0, 2))
+    dr_L = np.column_stack([_column(runs, c) for c in cols])
+    dr_L = dr_L[np.all(np.isfinite(dr_L), axis=1)]
     C_AL = np.asarray(scn.model.C_AL(scn.config.mpc.t_f))
     east, north = tangent_axes(scn.site.normal_A)
-    offsets = []
-    for npz in sorted((out / "runs").glob("run_*.npz")):
-        with np.load(npz) as d:
-            key = f"{method}_nav_touchdown_error"
-            if key in d.files:
-                dr_A = C_AL @ d[key][:3].astype(float)
-                offsets.append([dr_A @ east, dr_A @ north])
-    return np.array(offsets).reshape(-1, 2)
+    dr_A = dr_L @ C_AL.T
+    return np.column_stack([dr_A @ east, dr_A @ north]).reshape(-1, 2)
 
 
 def dispersion_figure(scn: Scenario, out: Path, method: str, probability: float = 0.997) -> Figure | None:
@@ -374,20 +433,39 @@ def dispersion_figure(scn: Scenario, out: Path, method: str, probability: float 
     )
 
 
-def _envelope_figures(cfg: Config, camp: CampaignResult, out: Path, methods: tuple[str, ...]) -> None:
+#: Runs whose error trajectories the envelope figures draw (the first by index; the largest tube
+#: half-width is taken over every run).
+ENVELOPE_RUNS = 300
+
+
+def _envelope_figures(cfg: Config, store: CampaignStore, out: Path, methods: tuple[str, ...]) -> None:
     t = np.arange(cfg.mpc.n_steps + 1) * cfg.mpc.dt
+    err_cols = [f"error[{j}]" for j in range(12)]
+    hw_cols = [f"half_width[{j}]" for j in range(12)]
+    drawn_runs = set(store.indices("ok")[:ENVELOPE_RUNS])
     for m in methods:
-        errs: list[np.ndarray] = []
-        widths: list[np.ndarray] = []
-        for i in sorted(camp.results):
-            p = out / "runs" / f"run_{i:05d}.npz"
-            if p.exists():
-                with np.load(p) as d:
-                    errs.append(d[f"{m}_error"].astype(float))
-                    widths.append(d[f"{m}_half_width"].astype(float))
+        errs: dict[int, np.ndarray] = {}
+        hw = np.full((0, 12), -np.inf)  # the largest half-width per step over every run
+        runs: set[int] = set()
+        for part in store.iter_steps(m, [*err_cols, *hw_cols]):  # one part file at a time
+            if not set(err_cols + hw_cols) <= set(part.column_names):
+                continue
+            part = part.filter(pc.is_valid(part.column(hw_cols[0]))).sort_by([("index", "ascending"), ("step", "ascending")])
+            idx, step = part.column("index").to_numpy(), part.column("step").to_numpy()
+            w = np.column_stack([part.column(c).to_numpy(zero_copy_only=False) for c in hw_cols]).astype(float)
+            if len(step) and step.max() >= len(hw):
+                hw = np.vstack([hw, np.full((step.max() + 1 - len(hw), 12), -np.inf)])
+            np.maximum.at(hw, step, w)
+            runs.update(int(i) for i in np.unique(idx))
+            for i in sorted(drawn_runs & set(np.unique(idx).tolist())):
+                rows = idx == i
+                errs[i] = np.column_stack([part.column(c).filter(pa.array(rows)).to_numpy() for c in err_cols]).astype(float)
         if not errs:
             continue
-        hw = np.max(np.stack(widths), axis=0)
+        drawn = [errs[i] for i in sorted(errs)]
+        shown = (
+            f"{len(runs)} Monte Carlo runs" if len(drawn) == len(runs) else f"{len(drawn)} of {len(runs)} Monte Carlo runs"
+        )
         translation = ["x (m)", "y (m)", "z (m)", "vx (m/s)", "vy (m/s)", "vz (m/s)"]
         for tag, sl, labels in (
             ("17_translation", slice(0, 6), translation),
@@ -399,11 +477,7 @@ def _envelope_figures(cfg: Config, camp: CampaignResult, out: Path, methods: tup
         ):
             figures.save(
                 figures.montecarlo_envelopes(
-                    t,
-                    [e[:, sl] for e in errs],
-                    hw[:, sl],
-                    labels,
-                    f"{m}: {len(errs)} Monte Carlo runs, x - z against the tube",
+                    t, [e[:, sl] for e in drawn], hw[:, sl], labels, f"{m}: {shown}, x - z against the tube"
                 ),
                 out / f"fig{tag}_{m}.png",
             )

@@ -94,7 +94,7 @@ def _refly(args: argparse.Namespace) -> int:
         )
         return EXIT_REFLIGHT_DIFFERS
     print(
-        f"run {args.index} (seed {cmp.seed}) re-flown: every metric, dispersion and array (runs/run_*.npz) "
+        f"run {args.index} (seed {cmp.seed}) re-flown: every metric, dispersion and per-step array "
         "equals the campaign record, under the campaign's configuration hash"
     )
     print(f"results in {args.out}/ (refly.json, <method>.h5)")

@@ -30,12 +30,15 @@ from ..scenario.build import P_INPUTS, P_STATES, R_INPUTS, R_STATES, Scenario
 from .tube import DesignResult, TubeDesigner
 
 __all__ = [
+    "SharedDesigns",
+    "adopt_shared_designs",
     "controller_designs",
     "controller_settings",
     "initial_tube",
     "library_scales",
     "memory_weight",
     "new_controller",
+    "shared_designs",
     "subsystem_design",
     "tube_designers",
 ]
@@ -172,6 +175,48 @@ def controller_designs(scn: Scenario, method: str) -> Any:
             )
         scn.tube_designs[key] = d
     return scn.tube_designs[key]
+
+
+#: A method's set-up designs as plain arrays (picklable: sent to a campaign's workers): per field of
+#: ``_core.control.ControllerDesigns`` ("initial_p", "initial_r", "library_p", "library_r") the
+#: (K, alpha, P_W, Pe) of each ``_core.control.SubsystemDesign``.
+SharedDesigns = dict[str, dict[str, list[tuple[Array, float, Array, Array]]]]
+
+_DESIGN_FIELDS = ("initial_p", "initial_r", "library_p", "library_r")
+
+
+def shared_designs(scn: Scenario, methods: tuple[str, ...]) -> SharedDesigns:
+    """The set-up designs of ``methods`` (:func:`controller_designs`, made here once) as plain arrays, for
+    the workers of a campaign to adopt (:func:`adopt_shared_designs`) instead of designing them again:
+    a ``SubsystemDesign`` is its four fields, so the copy flies the same bits."""
+    out: SharedDesigns = {}
+    for m in methods:
+        d = controller_designs(scn, m)
+        out[m] = {}
+        for name in _DESIGN_FIELDS:
+            value = getattr(d, name)
+            designs = value if isinstance(value, list) else [value]
+            out[m][name] = [
+                (np.array(x.K), float(x.alpha), np.array(x.P_W), np.array(x.Pe)) for x in designs if x is not None
+            ]
+    return out
+
+
+def adopt_shared_designs(scn: Scenario, shared: SharedDesigns) -> None:
+    """Gives the scenario the set-up designs another process made (:func:`shared_designs`): the methods'
+    :func:`controller_designs` return them without designing."""
+    for m, fields in shared.items():
+        key = f"designs:{m}"
+        if key in scn.tube_designs:
+            continue
+        d = _core.control.ControllerDesigns()
+        for name in _DESIGN_FIELDS:
+            designs = [_core.control.SubsystemDesign(K, alpha, P_W, Pe) for K, alpha, P_W, Pe in fields[name]]
+            if name.startswith("library"):
+                setattr(d, name, designs)
+            elif designs:
+                setattr(d, name, designs[0])
+        scn.tube_designs[key] = d
 
 
 def _identifier_settings(lam: float, w0: Array, S0: Array, prior_memory: float, eig_floor: float, pw_scale: float) -> Any:

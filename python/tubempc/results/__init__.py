@@ -2,6 +2,7 @@
 
 - :mod:`.records`: :class:`RunRecord` (a run's arrays) and its HDF5 file;
 - :mod:`.summaries`: the typed summary.json / sweep.json files;
+- :mod:`.campaign_store`: a campaign's runs and per-step arrays (Parquet);
 - :mod:`.pinning`: results folders that re-open anywhere (the shape file copied beside them);
 - :mod:`.export`: scenario files for C++ programs;
 - :mod:`.machine`: the machine a result was measured on.

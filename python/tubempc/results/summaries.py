@@ -31,17 +31,23 @@ __all__ = [
     "ActuationSummary",
     "CampaignMethodResult",
     "CampaignRunResult",
+    "CampaignStatistics",
     "Comparison",
     "ConstraintViolations",
     "ControlEffort",
+    "Driver",
     "EnvelopeFit",
+    "FailureBound",
     "GroupErrors",
     "MeanSpread",
     "MethodResult",
+    "MethodStatistics",
+    "MetricStatistics",
     "MonteCarloMethodSummary",
     "MonteCarloSummary",
     "NavigationSummary",
     "NeesTest",
+    "PercentileEstimate",
     "ReferenceSummary",
     "RunMetrics",
     "RunSummary",
@@ -50,6 +56,7 @@ __all__ = [
     "Summary",
     "SweepRow",
     "SweepSummary",
+    "WorstRun",
     "fallback_steps",
     "load_summary",
     "parse_summary",
@@ -401,7 +408,8 @@ class SweepSummary(_Json):
 
 @dataclass(frozen=True, kw_only=True)
 class CampaignMethodResult(MethodResult):
-    """What a Monte Carlo run keeps per method (runs/run_<i>.json): the fields of :class:`MethodResult`."""
+    """What a Monte Carlo run keeps per method (its ``<method>.*`` columns in the campaign's store,
+    :mod:`tubempc.results.campaign_store`): the fields of :class:`MethodResult`."""
 
     @classmethod
     def of(cls, metrics: RunMetrics) -> CampaignMethodResult:
@@ -416,7 +424,7 @@ class CampaignMethodResult(MethodResult):
 
 @dataclass(frozen=True)
 class CampaignRunResult:
-    """A Monte Carlo run's result (the "result" of runs/run_<i>.json): per method its metrics, and the
+    """A Monte Carlo run's result (its row in the campaign's store, unflattened): per method its metrics, and the
     dispersions the run applied (the same for every method; None in records written before they were
     kept). JSON layout: {"<method>": {...}, ..., "applied": {...}}."""
 
@@ -463,6 +471,92 @@ class MonteCarloMethodSummary(_Json):
 
 
 @dataclass(frozen=True, kw_only=True)
+class FailureBound(_Json):
+    """A failure kind over a campaign (:mod:`tubempc.analysis.statistics`): ``failures`` of ``runs``,
+    the observed ``rate`` and the one-sided Clopper-Pearson ``upper_bound`` on its probability at the
+    statistics' confidence; or, not ``evaluated``, the ``reason`` (a kind that cannot be judged is not
+    reported as 0). For the kind "any", ``reason`` lists the kinds it joins."""
+
+    evaluated: bool
+    failures: int | None = field(default=None, metadata=_OMIT)
+    runs: int | None = field(default=None, metadata=_OMIT)
+    rate: float | None = field(default=None, metadata=_OMIT)
+    upper_bound: float | None = field(default=None, metadata=_OMIT)
+    reason: str | None = field(default=None, metadata=_OMIT)
+
+
+@dataclass(frozen=True, kw_only=True)
+class PercentileEstimate(_Json):
+    """A percentile of a metric over the runs (``value``, interpolated) with its distribution-free
+    confidence interval [``lower``, ``upper``] of order statistics, of exact binomial ``coverage`` (>= the
+    statistics' confidence); an end is None when the runs are too few for it."""
+
+    percent: float
+    value: float
+    lower: float | None = field(default=None, metadata=_OMIT)
+    upper: float | None = field(default=None, metadata=_OMIT)
+    coverage: float | None = field(default=None, metadata=_OMIT)
+
+
+@dataclass(frozen=True, kw_only=True)
+class WorstRun(_Json):
+    """A run among the worst by a metric: its index and seed (``tubempc run --from-campaign DIR --index
+    I`` re-flies it alone) and its value."""
+
+    index: int
+    seed: int
+    value: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class Driver(_Json):
+    """An applied dispersion (its column in the campaign's store) and its Spearman rank correlation with a
+    metric over the runs, with the p-value of no correlation; ``significant``: p below (1 - confidence)
+    over the number of dispersions tested (Bonferroni)."""
+
+    dispersion: str
+    rho: float
+    p_value: float
+    significant: bool
+
+
+@dataclass(frozen=True, kw_only=True)
+class MetricStatistics(_Json):
+    """A metric of one method over a campaign's runs: its mean and largest value, percentiles with their
+    confidence intervals, the worst runs and the dispersions that drive it most (empty, with
+    ``drivers_note`` saying why, when none can be ranked)."""
+
+    runs: int
+    mean: float
+    max: float
+    percentiles: list[PercentileEstimate]
+    worst: list[WorstRun]
+    drivers: list[Driver]
+    drivers_note: str | None = field(default=None, metadata=_OMIT)
+
+
+@dataclass(frozen=True, kw_only=True)
+class MethodStatistics(_Json):
+    """A method's failure kinds (tubempc.analysis.statistics.FAILURE_KINDS) and metrics."""
+
+    failures: dict[str, FailureBound]
+    metrics: dict[str, MetricStatistics]
+
+
+@dataclass(frozen=True, kw_only=True)
+class CampaignStatistics(_Json):
+    """What a review board asks of a campaign (:mod:`tubempc.analysis.statistics`): per method the
+    failure bounds and the metrics' statistics, the campaign's failed runs, at ``confidence``; the
+    number of applied dispersions that varied (the drivers' candidates)."""
+
+    confidence: float
+    runs_attempted: int
+    failed_run: FailureBound
+    dispersions_varied: int
+    methods: dict[str, MethodStatistics]
+
+
+@dataclass(frozen=True, kw_only=True)
 class MonteCarloSummary(_Json):
     """A campaign's summary.json (``tubempc montecarlo``, :func:`tubempc.analysis.studies`)."""
 
@@ -479,6 +573,7 @@ class MonteCarloSummary(_Json):
     scheduler: str | None = None
     machine: dict[str, Any] = field(default_factory=dict)
     plant: str | None = field(default=None, metadata=_OMIT)  # simulation.plant; None: a file before it (the project's)
+    statistics: CampaignStatistics | None = field(default=None, metadata=_OMIT)  # None: a file before them
     format_version: int = field(default=FORMAT_VERSION, compare=False)
 
 

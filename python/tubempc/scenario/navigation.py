@@ -314,7 +314,7 @@ class NavigationRecord:
         self.time_step, self.time_filter = self.time_step[:n_run], self.time_filter[:n_run]
 
     def campaign_arrays(self) -> dict[str, Array]:
-        """What a Monte Carlo run keeps (runs/run_<i>.npz, prefixed by the method): the estimation error
+        """What a Monte Carlo run keeps (its per-step arrays in the campaign's store): the estimation error
         and its sigmas, the NEES, the landmarks in view and the output-feedback tube's gauges."""
         return {
             "nav_error": self.error,

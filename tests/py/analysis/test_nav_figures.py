@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import json
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +17,7 @@ from tubempc.analysis import figures, touchdown_offsets
 from tubempc.analysis.view3d import FootprintCaster, camera_footprint, mission_view_html
 from tubempc.cli import main
 from tubempc.config import load_config
+from tubempc.results.campaign_store import CampaignStore
 from tubempc.scenario import build_scenario
 from tubempc.scenario.sites import site_map, tangent_axes
 from tubempc.sim.closed_loop import simulate
@@ -170,9 +170,11 @@ def test_montecarlo_of_a_navigation_campaign_draws_the_touchdown_dispersion(
     assert (out / "fig21_touchdown_ffa.png").stat().st_size > 10_000
     offsets = touchdown_offsets(tag_nav, out, "ffa")
     assert offsets.shape == (3, 2) and np.all(np.isfinite(offsets))
+    store = CampaignStore(out)
     for i, (e, n) in enumerate(offsets):  # the horizontal part of each run's terminal position error
-        run = json.loads((out / "runs" / f"run_{i:05d}.json").read_text())
-        assert np.hypot(e, n) <= run["result"]["ffa"]["terminal_error"]["position"] + 1e-9
+        run = store.result(i)
+        assert np.hypot(e, n) <= run["ffa"]["terminal_error"]["position"] + 1e-9
+        assert len(run["nav_touchdown_error"]["ffa"]) == 12
     other = tmp_path / "paper"  # without navigation: no dispersion figure
     assert main(["montecarlo", "--runs", "1", "--workers", "1", "--method", "ffa", "--out", str(other), "--quiet"]) == 0
     assert (other / "summary.json").exists() and not list(other.glob("fig21*"))

@@ -190,17 +190,18 @@ def test_a_campaign_on_navigation_keeps_each_runs_navigation_and_the_nees_share(
     NEES, the campaign's summary the share of runs whose NEES is inside its bounds; a re-flight equals
     the record, navigation included."""
     from tubempc.analysis import montecarlo
+    from tubempc.analysis.studies import campaign_run_result
     from tubempc.cli import main
     from tubempc.commands import EXIT_OK
     from tubempc.config import load_config
-    from tubempc.results.summaries import CampaignRunResult
+    from tubempc.results.campaign_store import CampaignStore
 
     out = tmp_path / "mc"
     cfg = load_config(scenario="bennu-tag-nav")
     s = montecarlo(cfg, 2, out, master_seed=0, workers=1, progress=False, max_steps=3, methods=("ffa",))
     navs = []
     for i in range(2):
-        result = CampaignRunResult.from_json(json.loads((out / "runs" / f"run_{i:05d}.json").read_text())["result"])
+        result = campaign_run_result(CampaignStore(out).result(i))
         nav = result.methods["ffa"].navigation
         assert nav is not None and nav.nees is not None and nav.nees.steps == 4
         assert np.isfinite(nav.touchdown_error.position) and 0.0 < nav.touchdown_error.position < 5.0

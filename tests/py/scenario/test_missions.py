@@ -231,6 +231,9 @@ def test_a_campaign_counts_the_runs_that_lost_a_guarantee(tmp_path: Path) -> Non
 
 
 def test_a_reflight_checks_arrays_and_configuration_and_has_its_own_status(tmp_path: Path) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
     from tubempc.analysis import montecarlo
     from tubempc.cli import main
     from tubempc.commands import EXIT_OK, EXIT_REFLIGHT_DIFFERS
@@ -239,16 +242,17 @@ def test_a_reflight_checks_arrays_and_configuration_and_has_its_own_status(tmp_p
     montecarlo(load_config(), 1, out, master_seed=3, workers=1, progress=False, max_steps=4, methods=("ffa",))
     assert EXIT_REFLIGHT_DIFFERS not in (0, 1, 2, 3, 4, 5, 130)
     assert main(["run", "--from-campaign", str(out), "--index", "0", "--out", str(tmp_path / "a")]) == EXIT_OK
-    # an edited array of the run's file
-    npz = out / "runs" / "run_00000.npz"
-    with np.load(npz) as d:
-        arrays = {k: d[k].copy() for k in d.files}
-    original = npz.read_bytes()
-    arrays["ffa_error"][2, 0] += np.float32(1e-3)
-    np.savez_compressed(npz, **arrays)
+    # an edited array of the run's per-step arrays in the store
+    (part,) = (out / "store" / "steps").glob("part-*.parquet")
+    original = part.read_bytes()
+    t = pq.read_table(part)
+    values = t.column("error[0]").to_numpy().copy()
+    values[2] += np.float32(1e-3)  # run 0's step 2 (the only run: rows in step order)
+    t = t.set_column(t.column_names.index("error[0]"), "error[0]", pa.array(values))
+    pq.write_table(t, part)
     assert main(["run", "--from-campaign", str(out), "--index", "0", "--out", str(tmp_path / "b")]) == EXIT_REFLIGHT_DIFFERS
-    assert json.loads((tmp_path / "b" / "refly.json").read_text())["differences"] == ["run_00000.npz:ffa_error"]
-    npz.write_bytes(original)
+    assert json.loads((tmp_path / "b" / "refly.json").read_text())["differences"] == ["steps:ffa.error"]
+    part.write_bytes(original)
     # a configuration that is not the campaign's (its hash)
     manifest = json.loads((out / "campaign.json").read_text())
     (out / "campaign.json").write_text(json.dumps({**manifest, "config_hash": "0" * 64}))
