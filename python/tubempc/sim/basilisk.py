@@ -474,6 +474,9 @@ class BasiliskPlant(ProjectPlant):
     bsk: BasiliskTruth | None = field(default=None, init=False)
 
     NAME = "basilisk"
+    #: The drawn disturbance as forces and torques over the period's two halves (B1): the accelerometer is not
+    #: told the forces (they stand for unmodelled gravity), the gyro measures the rate the torques give.
+    DISTURBANCE_DELIVERY = "half_period_forces"
 
     def __post_init__(self) -> None:
         self.bsk = BasiliskTruth(self.scn, self.state, self.actuation)
