@@ -218,7 +218,8 @@ FilterStatus NavigationFilter::propagate(double t_to, const ImuSample& imu) {
     const Eigen::Vector3d f_hat = f_B_ - x_.accel_bias_B;
     const double mid = (static_cast<double>(s) + 0.5) / static_cast<double>(n_sub);
     const Eigen::Vector3d w_BI =
-        (ramp ? Eigen::Vector3d(omega_start + mid * (omega_BI_B_ - omega_start)) : omega_BI_B_) - x_.gyro_bias_B;
+        (ramp ? Eigen::Vector3d(omega_start + mid * (omega_BI_B_ - omega_start)) : omega_BI_B_) -
+        x_.gyro_bias_B;
     const Eigen::Matrix3d C_LB = math::rotation_matrix(x_.q_BL);
     const Eigen::Matrix3d C_AL = model_->C_AL(t);
     const Eigen::Vector3d r_A = C_AL * x_.r_L;

@@ -321,7 +321,8 @@ TEST(NavigationFilter, GyroRateIsInterpolatedBetweenSamplesThatBracketTheInterva
       ASSERT_EQ(f.propagate((k + 1) * h, sample), nav::FilterStatus::Ok);
     }
     const dynamics::TruthState s = truth_at(10.0);
-    const double error = math::log_map(math::quat_mul(math::quat_conj(f.state().q_BL), s.segment<4>(6))).norm();
+    const double error =
+        math::log_map(math::quat_mul(math::quat_conj(f.state().q_BL), s.segment<4>(6))).norm();
     if (at_end)
       EXPECT_LT(error, 1e-9) << "the turn interpolated between bracketing samples";
     else

@@ -281,10 +281,11 @@ TEST(NavigationSystem, PeriodNoiseMatchesHowThePlantDeliversTheDisturbance) {
   // average NEES of the second case was 8.0 times its degrees of freedom (the first 1.0).
   const nav_test::World w = nav_test::make_world();
   nav::NavigationSettings ns = system_settings();
-  ns.star_tracker.period = ns.filter.star_tracker.period = 1.0;  // one sample inside the period, as bennu-tag-nav
+  // one star-tracker sample inside the period, as bennu-tag-nav's
+  ns.star_tracker.period = ns.filter.star_tracker.period = 1.0;
   Eigen::Matrix<double, 12, 1> w_sigma;
-  w_sigma << Eigen::Vector3d::Constant(0.01), Eigen::Vector3d::Constant(2e-3), Eigen::Vector3d::Constant(3e-3),
-      Eigen::Vector3d::Constant(1e-4);
+  w_sigma << Eigen::Vector3d::Constant(0.01), Eigen::Vector3d::Constant(2e-3),
+      Eigen::Vector3d::Constant(3e-3), Eigen::Vector3d::Constant(1e-4);
   const int runs = 24, periods = 20;
   const double z = 1.959963984540054, k = 15.0 * runs;
   for (const Delivery delivery : {Delivery::Jump, Delivery::HalfPeriodForces}) {

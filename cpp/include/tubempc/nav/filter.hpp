@@ -262,7 +262,7 @@ class NavigationFilter {
   NavCovariance Qc_{NavCovariance::Zero()};       // continuous process noise density (units of dx^2 / s)
   Eigen::Vector3d f_B_{Eigen::Vector3d::Zero()};  // last good specific force (m/s^2)
   Eigen::Vector3d omega_BI_B_{Eigen::Vector3d::Zero()};  // last good gyro rate (rad/s)
-  double rate_time_{0.0};     // time of that sample (s)
+  double rate_time_{0.0};                                // time of that sample (s)
   bool rate_sampled_{false};  // omega_BI_B_ is a gyro sample (not initialize's assumption)
   // The gravity's expansion point r0 in A (m), a(r0) (m/s^2) and G(r0) (1/s^2), in A.
   Eigen::Vector3d gravity_r0_A_{Eigen::Vector3d::Zero()};
