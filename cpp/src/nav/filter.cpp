@@ -163,6 +163,7 @@ FilterStatus NavigationFilter::initialize(const NavState& x0, const NavCovarianc
   pending_span_ = 0.0;
   f_B_ = x_.accel_bias_B;  // no IMU sample yet: zero specific force and rate
   omega_BI_B_ = x_.gyro_bias_B + math::rotation_matrix(x_.q_BL).transpose() * omega_LI_L_;
+  rate_sampled_ = false;
   initialized_ = true;
   return FilterStatus::Ok;
 }
@@ -178,9 +179,18 @@ FilterStatus NavigationFilter::add_process_noise(const NavCovariance& Q) {
 FilterStatus NavigationFilter::propagate(double t_to, const ImuSample& imu) {
   if (!initialized_ || !std::isfinite(t_to) || t_to < x_.t) return FilterStatus::InvalidInput;
   FilterStatus status = FilterStatus::Ok;
+  // Two gyro samples that bracket the interval (the last good one at the filter's time, this one at
+  // t_to): the attitude follows the rate interpolated linearly between them (M30), exact for a
+  // constant angular acceleration; otherwise the rate is held.
+  const Eigen::Vector3d omega_start = omega_BI_B_;
+  bool ramp = false;
   if (imu.status == SensorStatus::Ok && imu.specific_force_B.allFinite() && imu.omega_BI_B.allFinite()) {
+    const double tol = 1e-9 * (1.0 + std::abs(t_to));
+    ramp = rate_sampled_ && std::abs(rate_time_ - x_.t) <= tol && std::abs(imu.t - t_to) <= tol;
     f_B_ = imu.specific_force_B;
     omega_BI_B_ = imu.omega_BI_B;
+    rate_time_ = imu.t;
+    rate_sampled_ = true;
   } else {
     status = FilterStatus::ImuHeld;
   }
@@ -206,7 +216,10 @@ FilterStatus NavigationFilter::propagate(double t_to, const ImuSample& imu) {
   for (int s = 0; s < n_sub; ++s) {
     const double t = x_.t;
     const Eigen::Vector3d f_hat = f_B_ - x_.accel_bias_B;
-    const Eigen::Vector3d w_BI = omega_BI_B_ - x_.gyro_bias_B;
+    const double mid = (static_cast<double>(s) + 0.5) / static_cast<double>(n_sub);
+    const Eigen::Vector3d w_BI =
+        (ramp ? Eigen::Vector3d(omega_start + mid * (omega_BI_B_ - omega_start)) : omega_BI_B_) -
+        x_.gyro_bias_B;
     const Eigen::Matrix3d C_LB = math::rotation_matrix(x_.q_BL);
     const Eigen::Matrix3d C_AL = model_->C_AL(t);
     const Eigen::Vector3d r_A = C_AL * x_.r_L;
@@ -239,7 +252,7 @@ FilterStatus NavigationFilter::propagate(double t_to, const ImuSample& imu) {
     const Vec6 d1 = A * z + c;
     const Vec6 d2 = A * d1, d3 = A * d2, d4 = A * d3;
     z += h * d1 + (h * h / 2.0) * d2 + (h * h * h / 6.0) * d3 + (h * h * h * h / 24.0) * d4;
-    // Attitude: constant rate over the sub-step.
+    // Attitude: the rate at the sub-step's midpoint held over it.
     const Eigen::Vector3d w_BL = w_BI - C_LB.transpose() * omega_LI_L_;
     x_.q_BL = math::quat_normalize(math::quat_mul(x_.q_BL, math::exp_map(w_BL * h)));
     x_.r_L = z.head<3>();

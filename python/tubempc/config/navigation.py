@@ -199,8 +199,9 @@ class NavigationSection:
     )
     period_noise: str = field(
         metadata=option(
-            'the filter\'s model of the per-period disturbance: "disturbance" (the covariance of the [disturbance] '
-            'draw at its largest growth, times period_noise_scale^2, added at each period\'s end) or "none"',
+            'the filter\'s model of the per-period disturbance: "disturbance" (the covariance of what of the '
+            "[disturbance] draw no sensor senses as the plant delivers it, at its largest growth, times "
+            'period_noise_scale^2, added at each period\'s end; docs/model.md M39) or "none"',
             "disturbance",
             "none",
         )

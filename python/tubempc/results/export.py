@@ -62,7 +62,8 @@ def _body(model: ProximityModel, shape_file: str) -> Any:
 
 
 def _navigation(scn: Scenario, seed: int) -> Any:
-    """The ``navigation.*`` records: what :func:`tubempc.scenario.navigation.new_navigation` builds for ``seed``."""
+    """The ``navigation.*`` records: what :func:`tubempc.scenario.navigation.new_navigation` builds for ``seed``
+    in the project's plant (its drawn disturbance a jump at the period's end, as the C++ example flies it)."""
     n = _core.io.NavigationScenario()
     cfg = scn.config
     n.enabled = cfg.navigation.enabled

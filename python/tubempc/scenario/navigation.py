@@ -24,6 +24,7 @@ from .. import _core
 from ..config import Config
 
 __all__ = [
+    "DISTURBANCE_DELIVERIES",
     "NAV_SEED_OFFSET",
     "Navigation",
     "NavigationRecord",
@@ -43,6 +44,15 @@ Array = npt.NDArray[np.float64]
 #: actuator errors seed + 1); the system gives each sensor its own stream from it.
 NAV_SEED_OFFSET = 1_000_003
 
+#: How a plant delivers the drawn per-period disturbance (``disturbance.model = "drawn"``), which decides
+#: what of it the IMU senses and so what the filter adds as process noise (docs/model.md M39): "jump" (the
+#: project's plant adds it to the state at the period's end: nothing senses it, noise on r, v and theta at
+#: the end) or "half_period_forces" (Basilisk's applies it as forces and torques over the two halves of the
+#: period, B1: the forces stand for unmodelled gravity, which no accelerometer senses, noise on r and v at
+#: the end; the gyro senses the torques' rotation, no noise on theta). Each plant names its own
+#: (``ProjectPlant.DISTURBANCE_DELIVERY``).
+DISTURBANCE_DELIVERIES = ("jump", "half_period_forces")
+
 
 def error_set_scale(probability: float, dof: int = 12) -> float:
     """c with P(chi2_dof <= c) = probability: E = {e : e^T P^-1 e <= c} holds a Gaussian error of
@@ -58,10 +68,13 @@ def _uniform_ellipsoid_variance(S_diag: Array, growth: float, dim: int) -> Array
     return np.asarray(S_diag, dtype=float) * growth**2 / (dim + 2)
 
 
-def navigation_settings(cfg: Config) -> Any:
+def navigation_settings(cfg: Config, delivery: str = "jump") -> Any:
     """The C++ ``NavigationSettings`` of a configuration: the true sensors and the filter's identical
-    model of them, the initial sigmas and the filter's model of the per-period disturbance. Every
-    [navigation] field that names its C++ member (``cpp="camera.min_range"``) sets it; the rest derive."""
+    model of them, the initial sigmas and the filter's model of the per-period disturbance as the plant
+    delivers it (``delivery``, one of :data:`DISTURBANCE_DELIVERIES`; M39). Every [navigation] field that
+    names its C++ member (``cpp="camera.min_range"``) sets it; the rest derive."""
+    if delivery not in DISTURBANCE_DELIVERIES:
+        raise ValueError(f"disturbance delivery {delivery!r}: must be one of {', '.join(DISTURBANCE_DELIVERIES)}")
     n, nav = cfg.navigation, _core.nav
     alt, cam, imu = nav.AltimeterSettings(), nav.CameraSettings(), nav.ImuSettings()
     star, filt = nav.StarTrackerSettings(), nav.FilterSettings()
@@ -84,6 +97,8 @@ def navigation_settings(cfg: Config) -> Any:
         var_p = _uniform_ellipsoid_variance(np.diag(d.S_p), max(1.0, d.growth_p), 6)
         var_r = _uniform_ellipsoid_variance(np.diag(d.S_r), max(1.0, d.growth_r), 6)
         sigma = n.period_noise_scale * np.sqrt(np.concatenate([var_p, var_r[:3]]))
+        if delivery == "half_period_forces" and d.model == "drawn":
+            sigma[6:9] = 0.0  # the torques turn the body at a rate the gyro measures: the filter follows it
     s.period_noise_sigma = sigma
     s.max_samples = max(1, round(cfg.mpc.dt / n.imu_period))
     s.validate()
@@ -131,14 +146,15 @@ class Navigation:
         return self.scale * np.asarray(P_x, dtype=float)
 
 
-def new_navigation(scn: Any, seed: int) -> Navigation | None:
-    """The navigation of a run with seed ``seed`` (None when ``navigation.enabled`` is false). The
-    sensors ray-cast the truth's shape; the filter and the landmark catalogue use the controller's."""
+def new_navigation(scn: Any, seed: int, delivery: str = "jump") -> Navigation | None:
+    """The navigation of a run with seed ``seed`` (None when ``navigation.enabled`` is false) in a plant
+    that delivers the drawn disturbance as ``delivery`` (:data:`DISTURBANCE_DELIVERIES`). The sensors
+    ray-cast the truth's shape; the filter and the landmark catalogue use the controller's."""
     cfg: Config = scn.config
     n = cfg.navigation
     if not n.enabled:
         return None
-    settings = navigation_settings(cfg)
+    settings = navigation_settings(cfg, delivery)
     filter_caster = _core.nav.RayCaster(scn.shape)
     system = _core.nav.NavigationSystem(
         scn.model.core,

@@ -472,11 +472,21 @@ class BasiliskPlant(ProjectPlant):
     unused: Basilisk integrates)."""
 
     bsk: BasiliskTruth | None = field(default=None, init=False)
+    #: each thruster's force when it fires (N, in B: its true column of M34 times F_max), with actuators
+    thrust_B: Array = field(default_factory=lambda: np.zeros((3, 0)), init=False)
 
     NAME = "basilisk"
+    #: The drawn disturbance as forces and torques over the period's two halves (B1): the accelerometer is not
+    #: told the forces (they stand for unmodelled gravity), the gyro measures the rate the torques give.
+    DISTURBANCE_DELIVERY = "half_period_forces"
 
     def __post_init__(self) -> None:
         self.bsk = BasiliskTruth(self.scn, self.state, self.actuation)
+        if self.actuation is not None:
+            cluster = self.actuation.cluster
+            self.thrust_B = np.asarray(cluster.true_mapping, dtype=np.float64)[:3] * np.asarray(
+                cluster.max_thrust, dtype=np.float64
+            )
 
     def step(self, k: int, u: Array) -> tuple[Array, Array]:
         """Propagates one control period in Basilisk with input ``u`` and the period's drawn disturbance
@@ -505,6 +515,9 @@ class BasiliskPlant(ProjectPlant):
         ends = {*samples, t0_ns + dt_ns // 2, t0_ns + dt_ns}
         st = self.delivered[1]
         pulse_start = pulse_end = wheel_torque = None
+        # with thrusters and navigation: the velocity their pulses give per unit mass over each sub-step (B, m/s),
+        # what an integrating accelerometer senses (the period-average u_applied is not what Basilisk applies)
+        sensed_B = np.zeros((nav.n_sub, 3)) if nav is not None and st is not None else None
         if st is not None:  # Basilisk's thrusters and wheels deliver; the command itself is not applied
             # each pulse centred in the period (M34): its impulse's centroid is the period-average force's
             on_ns = np.round(np.asarray(st.on_time, dtype=np.float64) * _NS).astype(np.int64)
@@ -523,11 +536,20 @@ class BasiliskPlant(ProjectPlant):
                 assert pulse_start is not None and pulse_end is not None
                 on = (pulse_start <= start) & (pulse_end >= end_ns) & (pulse_end > pulse_start)
                 self.bsk.advance(end_ns, a_L, torque, on, wheel_torque)
+                if sensed_B is not None and nav is not None:  # a segment lies inside one sub-step
+                    sub = int((start - t0_ns) * nav.n_sub // dt_ns)
+                    sensed_B[sub] += self.thrust_B @ on.astype(np.float64) * ((end_ns - start) / _NS / self.bsk.mass)
             if nav is not None and end_ns in samples:
                 j = samples[end_ns]
                 nav.t[j], nav.truth[j] = end_ns / _NS, self.bsk.state()
                 srp_L = nav.srp_L if self.environment is None else self.environment.srp_acceleration_L(nav.truth[j])
-                nav.accel[j] = u_applied[:3] + np.asarray(srp_L, dtype=np.float64)
+                # the accelerometer senses the thrust and the SRP, not the drawn disturbance's forces (docs/model.md M39)
+                if sensed_B is None:
+                    thrust_L = u_applied[:3]
+                else:  # the sub-step's mean, turned into L with the attitude the IMU turns it back with
+                    C_LB = np.asarray(_core.so3.rotation_matrix(nav.truth[j][6:10]), dtype=np.float64)
+                    thrust_L = C_LB @ sensed_B[j] / nav.h
+                nav.accel[j] = thrust_L + np.asarray(srp_L, dtype=np.float64)
             start = end_ns
         self.state = state = self.bsk.state()
         x_next = scn.truth.truth_to_state(state, scn.reference.x[k + 1, 6:9])

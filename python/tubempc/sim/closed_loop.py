@@ -227,7 +227,7 @@ def simulate(
 
 def _start_navigation(scn: Scenario, plant: ProjectPlant, rec: RunRecord, seed: int) -> tuple[Navigation | None, Any]:
     """The run's navigation, started at the initial state (None, None: the controller reads the truth)."""
-    nav = new_navigation(scn, seed)
+    nav = new_navigation(scn, seed, plant.DISTURBANCE_DELIVERY)
     if nav is None:
         return None, None
     plant.nav = nav

@@ -43,6 +43,9 @@ class ProjectPlant:
 
     #: The name ``simulation.plant`` gives this plant.
     NAME = "project"
+    #: How this plant delivers the drawn disturbance (:data:`tubempc.scenario.navigation.DISTURBANCE_DELIVERIES`):
+    #: added to the state at the period's end, which no sensor senses (docs/model.md M39).
+    DISTURBANCE_DELIVERY = "jump"
 
     def apply_actuators(self, k: int, u: Array) -> Array:
         """The input the actuators deliver over period k for the command ``u`` (kept in ``delivered``)."""

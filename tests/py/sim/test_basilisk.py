@@ -4,6 +4,7 @@ by name."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -106,6 +107,26 @@ def test_closed_loop_flies_and_names_its_plant(scenario) -> None:  # type: ignor
     assert np.all(np.isfinite(rec.x)) and np.all(rec.excursion <= 1.0)
 
 
+def test_navigation_flies_with_the_noise_of_forces_and_torques(scenario, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """With navigation, a Basilisk run's filter takes the draw as Basilisk delivers it (docs/model.md M39):
+    no attitude noise, the gyro measuring the torques' turn."""
+    from tubempc.sim import closed_loop
+
+    scn = dataclasses.replace(scenario, config=scenario.config.with_overrides({"navigation.enabled": True}))
+    built: list[np.ndarray] = []
+    new_navigation = closed_loop.new_navigation
+
+    def spy(scn, seed, delivery="jump"):  # type: ignore[no-untyped-def]
+        nav = new_navigation(scn, seed, delivery)
+        built.append(np.asarray(nav.system.settings.period_noise_sigma))
+        return nav
+
+    monkeypatch.setattr(closed_loop, "new_navigation", spy)
+    rec = simulate(scn, "ffa", seed=1, max_steps=2, design_worker="none")
+    assert rec.navigation is not None and np.all(np.isfinite(rec.navigation.x_hat))
+    assert len(built) == 1 and np.all(built[0][:6] > 0.0) and np.all(built[0][6:] == 0.0)
+
+
 def test_refused_by_name(scenario, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     assert unsupported(scenario) == []
     odd = build_scenario(scenario.config.with_overrides({"simulation.integrator": "dopri5"}), cache_dir=tmp_path)
@@ -196,6 +217,40 @@ def test_thrusters_and_wheels_fly_the_tag(osirisrex) -> None:  # type: ignore[no
     dh_project = np.asarray(system.wheels.momentum) - h0_project
     assert np.linalg.norm(dh_project) > 0.1
     np.testing.assert_allclose(plant.bsk.wheel_momentum() - h0_basilisk, dh_project, rtol=1e-9, atol=1e-12)
+
+
+def test_the_accelerometer_senses_the_pulses(osirisrex) -> None:  # type: ignore[no-untyped-def]
+    """With navigation on Basilisk's thrusters, each IMU sample's specific force is the mean over its 0.1 s
+    of the pulses Basilisk fires (M34, centred in the period), not the period's average: the samples add up
+    to the on-times' impulse per unit mass in B, the ones outside every pulse sense only the SRP, and a
+    pulse shorter than the period senses more than the average."""
+    from tubempc.scenario.navigation import Navigation
+
+    cfg = osirisrex.config
+    zero = np.zeros((6, 6))
+    system = osirisrex.actuation.system(1)
+    plant = BasiliskPlant(
+        osirisrex,
+        AdditiveDisturbance(zero, zero, seed=0),
+        ActuatorMismatch(0, 0.0, 0.0, 0.0, 0.0),
+        propagator_settings(cfg),
+        osirisrex.model.state_to_truth(osirisrex.x0),
+        system,
+    )
+    srp_L = np.asarray(osirisrex.truth.srp_acceleration_L, dtype=np.float64)
+    h, dt = 0.1, cfg.mpc.dt
+    plant.nav = nav = Navigation(system=None, scale=1.0, h=h, n_sub=round(dt / h), srp_L=srp_L)
+    plant.step(0, np.array([2e-4, -1e-4, 3e-4, 0.0, 0.0, 0.0]))
+    u_average, st = plant.delivered
+    on_time = np.asarray(st.on_time, dtype=np.float64)
+    assert 0.0 < on_time.max() < 0.5 * dt
+    C_BL = np.stack([np.asarray(_core.so3.rotation_matrix(x[6:10])).T for x in nav.truth])
+    f_B = np.einsum("jab,jb->ja", C_BL, nav.accel - srp_L)  # what the IMU is told, in B
+    impulse_B = plant.thrust_B @ (np.round(on_time * 1e9) / 1e9) / plant.bsk.mass  # type: ignore[union-attr]
+    np.testing.assert_allclose(f_B.sum(axis=0) * h, impulse_B, rtol=1e-12, atol=1e-18)
+    quiet = np.linalg.norm(f_B, axis=1) == 0.0
+    assert quiet.sum() >= 10  # the pulses centred in the period leave its ends quiet: SRP only
+    assert np.linalg.norm(f_B, axis=1).max() > 1.5 * np.linalg.norm(u_average[:3])
 
 
 def test_basilisk_volume_is_right_only_about_the_origin() -> None:

@@ -19,8 +19,17 @@ from tubempc.analysis.metrics import run_metrics
 from tubempc.config import ConfigError, load_config
 from tubempc.results import load_record, save_record
 from tubempc.scenario import build_scenario
-from tubempc.scenario.navigation import NavigationRecord, error_set_scale, navigation_settings, tube_gauge
+from tubempc.scenario.navigation import (
+    DISTURBANCE_DELIVERIES,
+    NavigationRecord,
+    error_set_scale,
+    navigation_settings,
+    tube_gauge,
+)
+from tubempc.sim import closed_loop
+from tubempc.sim.basilisk import BasiliskPlant
 from tubempc.sim.closed_loop import simulate
+from tubempc.sim.plant import ProjectPlant
 
 
 @pytest.fixture(scope="module")
@@ -110,6 +119,39 @@ def test_a_short_descent_on_the_estimate(tag_nav, tmp_path: Path) -> None:  # ty
     assert s.nees.mean == pytest.approx(np.mean(nav.nees), rel=1e-12)
     assert s.camera_frames == 21 and s.landmarks_used == int(nav.accepted[:, 1].sum()) > 0
     assert s.max_gauge.translation == nav.gauge[:, 0].max() and s.steps_outside_output_tube == 0
+
+
+def test_period_noise_is_what_the_plants_delivery_leaves_unsensed(tag_nav, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """M39: the project's plant adds the draw at the period's end, where nothing senses it (noise on r, v and
+    the attitude); Basilisk's applies it as half-period forces and torques, whose turn the gyro measures (no
+    attitude noise); without a draw (the physical environment) both keep the jump's; a run hands its plant's
+    delivery to the navigation."""
+    cfg = tag_nav.config
+    d, n = cfg.disturbance, cfg.navigation
+    var = np.concatenate([np.diag(d.S_p) * max(1.0, d.growth_p) ** 2, np.diag(d.S_r)[:3] * max(1.0, d.growth_r) ** 2])
+    drawn = n.period_noise_scale * np.sqrt(var / 8.0)  # a uniform draw in a 6-dimensional ellipsoid: S / 8
+    assert drawn[6:].min() > 0.0
+    jump = np.asarray(navigation_settings(cfg).period_noise_sigma)
+    forces = np.asarray(navigation_settings(cfg, "half_period_forces").period_noise_sigma)
+    np.testing.assert_allclose(jump, drawn, rtol=1e-14)
+    np.testing.assert_array_equal(forces[:6], jump[:6])
+    np.testing.assert_array_equal(forces[6:], np.zeros(3))
+    physical = load_config(scenario="bennu-tag-physical")
+    no_draw = [navigation_settings(physical, delivery).period_noise_sigma for delivery in DISTURBANCE_DELIVERIES]
+    np.testing.assert_array_equal(no_draw[0], no_draw[1])
+    with pytest.raises(ValueError, match="disturbance delivery 'impulse'"):
+        navigation_settings(cfg, "impulse")
+    assert (ProjectPlant.DISTURBANCE_DELIVERY, BasiliskPlant.DISTURBANCE_DELIVERY) == DISTURBANCE_DELIVERIES
+    handed: list[str] = []
+
+    def spy(scn, seed, delivery="jump"):  # type: ignore[no-untyped-def]
+        handed.append(delivery)
+        return new_navigation(scn, seed, delivery)
+
+    new_navigation = closed_loop.new_navigation
+    monkeypatch.setattr(closed_loop, "new_navigation", spy)
+    simulate(tag_nav, "ffa", seed=0, max_steps=1, design_worker="none")
+    assert handed == ["jump"]
 
 
 def test_broken_sensors_fly_on_prediction_without_nan(tag_nav) -> None:  # type: ignore[no-untyped-def]

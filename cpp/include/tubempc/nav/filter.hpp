@@ -158,8 +158,10 @@ class NavigationFilter {
   /// @return Ok, or InvalidInput (non-finite input or P0 not positive definite; nothing changed).
   FilterStatus initialize(const NavState& x0, const NavCovariance& P0);
 
-  /// Propagates from the filter's time to t_to holding the IMU sample (taken at the filter's time)
-  /// over the interval, in sub-steps of at most max_step: attitude by the gyro's rate, translation
+  /// Propagates from the filter's time to t_to with the IMU sample over the interval, in sub-steps of
+  /// at most max_step: attitude by the gyro's rate (interpolated linearly between the last good sample
+  /// and this one when they bracket the interval, i.e. were taken at the filter's time and at t_to;
+  /// otherwise this sample's rate held), translation
   /// by M1 with the polyhedral gravity's first-order expansion (about the last evaluation point, see
   /// FilterSettings::gravity_relinearization_distance) plus the measured specific force, covariance by
   /// the Taylor series of the error dynamics to third order.
@@ -260,6 +262,8 @@ class NavigationFilter {
   NavCovariance Qc_{NavCovariance::Zero()};       // continuous process noise density (units of dx^2 / s)
   Eigen::Vector3d f_B_{Eigen::Vector3d::Zero()};  // last good specific force (m/s^2)
   Eigen::Vector3d omega_BI_B_{Eigen::Vector3d::Zero()};  // last good gyro rate (rad/s)
+  double rate_time_{0.0};                                // time of that sample (s)
+  bool rate_sampled_{false};  // omega_BI_B_ is a gyro sample (not initialize's assumption)
   // The gravity's expansion point r0 in A (m), a(r0) (m/s^2) and G(r0) (1/s^2), in A.
   Eigen::Vector3d gravity_r0_A_{Eigen::Vector3d::Zero()};
   Eigen::Vector3d gravity_a0_A_{Eigen::Vector3d::Zero()};

@@ -11,10 +11,12 @@
 /// additive disturbance) to `step`. At each sample the IMU is sampled (its specific force is the
 /// non-gravitational acceleration over the sub-step ending there, as an integrating accelerometer's;
 /// its rate the angular velocity at the sample), the filter is propagated to the sample's time with
-/// it, and the sensors whose period divides the sample's tick are sampled and folded in. The additive per-period disturbance (paper Eq. 16/18)
-/// is an instantaneous jump of the state: no IMU senses it, so the filter takes it as a process noise
-/// added at the period's end (`NavigationSettings::period_noise_sigma`) before that sample's
-/// measurements; the jump of the angular velocity is read by the gyro at that sample.
+/// it, and the sensors whose period divides the sample's tick are sampled and folded in. What of the
+/// additive per-period disturbance (paper Eq. 16/18) no sensor senses is a process noise added at the
+/// period's end (`NavigationSettings::period_noise_sigma`) before that sample's measurements: for the
+/// project's plant, which adds it to the state there (a jump), on r, v and the attitude (the jump of the
+/// angular velocity is read by the gyro at that sample); for Basilisk's, which applies it as forces and
+/// torques over the period, on r and v (the gyro measures the torques' turn; docs/model.md M39).
 #pragma once
 
 #include <Eigen/Dense>
@@ -52,8 +54,8 @@ struct NavigationSettings {
   /// the biases' are the IMU's gyro_bias_sigma and accel_bias_sigma.
   Eigen::Matrix<double, 9, 1> initial_sigma =
       (Eigen::Matrix<double, 9, 1>() << 1.0, 1.0, 1.0, 0.01, 0.01, 0.01, 1e-3, 1e-3, 1e-3).finished();
-  /// Standard deviations of the per-period additive disturbance as the filter models it
-  /// [r_L (m), v_L (m/s), theta (rad)], each >= 0, added to P at every period's end.
+  /// Standard deviations of the per-period additive disturbance as the filter models it: what of it no
+  /// sensor senses [r_L (m), v_L (m/s), theta (rad)], each >= 0, added to P at every period's end.
   Eigen::Matrix<double, 9, 1> period_noise_sigma = Eigen::Matrix<double, 9, 1>::Zero();
   int max_samples{256};  ///< most samples of one period (the call's bound), >= 1
   /// @throws std::invalid_argument naming the first bad field ("navigation.<field>", or the sensor's):
