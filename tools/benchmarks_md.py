@@ -347,6 +347,39 @@ def _navigation(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     ]
 
 
+def _physics(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
+    """A campaign in the dispersed physical environment (tools/physics_campaign.py): per method the tube, J_p, J_r
+    and the touchdown errors; then each of the paper's claims under physics, when measured."""
+    where = f"{d['scenario']}, {d['runs']} runs, master seed {d.get('master_seed')}{_plant(d)}"
+    rows = []
+    for m, r in d["methods"].items():
+        p, v, s, me = (
+            r["touchdown_position_error_m"],
+            r["touchdown_velocity_error_m_s"],
+            r["steps_outside_tube"],
+            r["drawn_mass_error"],
+        )
+        left = (
+            f" (drawn mass errors {me['runs_outside_tube'][0]:.3g} to {me['runs_outside_tube'][1]:.3g})"
+            if me["runs_outside_tube"]
+            else ""
+        )
+        rows.append(
+            (
+                f"physical environment dispersed, {m}, {where}",
+                f"runs outside the tube {r['runs_outside_tube']}/{r['runs']}{left}, steps outside {s['total']} (at most "
+                f"{s['max_per_run']} in a run), largest excursion {r['max_tube_excursion']:.3g}; J_p {r['J_p']['mean']:.4g} "
+                f"(3 sigma {r['J_p']['3sigma']:.2g}), J_r {r['J_r']['mean']:.4g} (3 sigma {r['J_r']['3sigma']:.2g}); "
+                f"touchdown error max {1e3 * p['max']:.3g} mm (mean {1e3 * p['mean']:.3g}), {1e3 * v['max']:.3g} mm/s "
+                f"(mean {1e3 * v['mean']:.3g}); runs inside the body {r['runs_inside_body']}, with cone violations "
+                f"{r['runs_with_cone_violation']}; campaign {d['campaign_wall_time_s']:.0f} s",
+            )
+        )
+    for c in d.get("claims", []):
+        rows.append((f"the paper's claim under physics, {where}: {c['claim']}", f"{c['measured']}; holds: {c['holds']}"))
+    return rows
+
+
 def _test_command(d: dict[str, Any]) -> list[tuple[str, str]]:
     phases = d.get("phases_s")  # absent in files written before the phases were timed
     split = "" if not phases else "; " + ", ".join(f"{k} {v:.0f} s" for k, v in phases.items())
@@ -393,6 +426,7 @@ EXTRACTORS: dict[str, Callable[[dict[str, Any], str], list[tuple[str, str]]]] = 
     "navigation": _navigation,
     "plant": lambda d, _: _plant_bench(d),
     "store": lambda d, _: _store(d),
+    "physics": _physics,
 }
 
 

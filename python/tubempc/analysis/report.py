@@ -17,6 +17,7 @@ import base64
 import datetime
 import html
 from collections.abc import Callable, Mapping
+from dataclasses import fields
 from pathlib import Path
 
 from .. import __version__
@@ -35,7 +36,7 @@ from ..results.summaries import (
 from .claims import PAPER_REDUCTION_TABLE3, PAPER_REDUCTION_TABLE4, PAPER_TABLE3, PAPER_TABLE4, paper_claims
 from .metrics import below_or_above
 
-__all__ = ["actuation_comparison", "write_report"]
+__all__ = ["actuation_comparison", "paper_under_physics", "write_report"]
 
 _WHY = (
     "The paper does not publish its disturbance realisation, its truth model or its spacecraft inertia, so "
@@ -165,7 +166,7 @@ def _scenario(folder: Path) -> tuple[Config | None, bool]:
     return cfg, cfg.with_overrides({"simulation.plant": "project"}) == load_config()
 
 
-def _paper_under_physics(folder: Path) -> bool:
+def paper_under_physics(folder: Path) -> bool:
     """Whether a result is the paper's scenario flown in the physical environment (bennu-paper-physical, in
     either plant): the paper's claims are then checked against physics (docs/model.md "Physical environment")."""
     cfg, _ = _scenario(folder)
@@ -178,6 +179,12 @@ def _paper_under_physics(folder: Path) -> bool:
         "simulation.truth_shape_subdivisions": 0,
         "disturbance.growth_r": paper.disturbance.growth_r,  # of the draw, which physics does not make
     }
+    # the environment's dispersions (its campaigns' draws, the actuator errors among them) are physics' own too
+    for section, names in (
+        ("physical", [f.name for f in fields(paper.physical) if f.name.endswith(("_dispersion", "_dispersion_B"))]),
+        ("disturbance", ["scale_error_p", "misalignment_p", "scale_error_r", "misalignment_r"]),
+    ):
+        drawn.update({f"{section}.{n}": getattr(getattr(paper, section), n) for n in names})
     return cfg.with_overrides(drawn) == paper
 
 
@@ -586,7 +593,7 @@ def write_report(root: Path) -> tuple[Path, Path]:
         folder[id(sweep)] if sweep is not None else None,
         folder[id(mc)] if mc is not None else None,
     )
-    physics = any(_paper_under_physics(folder[id(x)]) for x in (run, sweep, mc) if x is not None)
+    physics = any(paper_under_physics(folder[id(x)]) for x in (run, sweep, mc) if x is not None)
     if claims and physics:
         section(
             "The paper's claims under physics",

@@ -40,13 +40,15 @@ __all__ = ["guarantee_lost", "run_methods", "run_summary", "save_figures", "stat
 
 def states_inside_body(scn: Scenario, rec: RunRecord) -> int:
     """How many of the run's actual states x_k (k = 0..T) lie inside the body (the controller's shape, or in a
-    physical environment the truth's, where its centre of mass puts it; turned to its attitude at t_k = k dt): a
-    state inside the body is never a flown mission."""
+    physical environment the truth's, where the run's centre of mass puts it: a dispersed run's, from its record's
+    ``applied``; turned to its attitude at t_k = k dt): a state inside the body is never a flown mission."""
     dt = scn.config.mpc.dt
     r_A = np.array([np.asarray(scn.model.C_AL(k * dt)) @ x[:3] for k, x in enumerate(np.asarray(rec.x))])
     if scn.physical is not None:
         body = scn.physical.parts[0]
-        return int(np.sum(inside(body.shape, r_A - body.offset_A)))
+        flown = (rec.applied or {}).get("truth", {}).get("physical")
+        offset_A = body.offset_A if flown is None else np.asarray(flown["parts"][0]["offset_A"], dtype=float)
+        return int(np.sum(inside(body.shape, r_A - offset_A)))
     return int(np.sum(inside(scn.shape, r_A)))
 
 

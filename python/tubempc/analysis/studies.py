@@ -78,8 +78,8 @@ MONTECARLO_METRICS = tuple(f.name for f in dataclasses.fields(CampaignMethodResu
 def fly_campaign_run(
     cfg: Config, scn: Scenario, methods: tuple[str, ...], max_steps: int | None, tube_threads: int, seed: int
 ) -> tuple[CampaignRunResult, dict[str, RunRecord]]:
-    """Every method with disturbance seed ``seed`` as a campaign flies it: the run's result (metrics per
-    method and the dispersions applied) and the records."""
+    """Every method with disturbance seed ``seed`` as a campaign flies it (in a physical environment, the truth
+    dispersed from the seed): the run's result (metrics per method and the dispersions applied) and the records."""
     # The campaign's processes fill the cores: background designs run inline, with the same numbers
     # when their adoption is deterministic (tube_policy.py).
     worker = "inline" if cfg.tube.design_adoption == "deterministic" else None
@@ -87,7 +87,7 @@ def fly_campaign_run(
     applied: dict[str, Any] | None = None
     records: dict[str, RunRecord] = {}
     for m in methods:
-        rec = simulate(scn, m, seed, max_steps=max_steps, tube_threads=tube_threads, design_worker=worker)
+        rec = simulate(scn, m, seed, max_steps=max_steps, tube_threads=tube_threads, design_worker=worker, dispersed=True)
         out[m] = CampaignMethodResult.of(run_summary(scn, rec))
         applied = rec.applied  # the same for every method: one seed, one sequence of draws
         records[m] = rec

@@ -253,10 +253,59 @@ def _check_physical(c: Config) -> None:
             f"{c.source}: physical.plate_diffuse: plate {i}: specular + diffuse = {total[i]:g} exceeds 1 "
             "(a plate reflects at most what it receives)"
         )
+    _check_dispersion_ranges(c)
     if c.disturbance.model == "physical" and c.simulation.srp_scale != 1.0:
         raise ConfigError(
             f'{c.source}: simulation.srp_scale: must be 1 with disturbance.model = "physical" (the truth\'s SRP is '
             "the physical section's flat plates; the controller keeps environment.beta_srp)"
+        )
+
+
+def _check_dispersion_ranges(c: Config) -> None:
+    """Every value a campaign run can draw (the nominal +- its *_dispersion) satisfies the nominal's own check:
+    mass_error in (-0.5, 0.5), inertia_scale in (0.5, 2), each plate's coefficients in [0, 1] with specular +
+    diffuse <= 1. (The truth's inertia and the body's densities over their ranges are checked with the scenario:
+    tubempc.scenario.physical.)"""
+    p = c.physical
+
+    def refuse(name: str, what: str) -> None:
+        raise ConfigError(f"{c.source}: physical.{name}: {what}")
+
+    lo, hi = p.mass_error - p.mass_error_dispersion, p.mass_error + p.mass_error_dispersion
+    if not -0.5 < lo <= hi < 0.5:
+        refuse(
+            "mass_error_dispersion",
+            f"mass_error {p.mass_error:g} +- {p.mass_error_dispersion:g} spans [{lo:g}, {hi:g}], which leaves (-0.5, 0.5)",
+        )
+    scale, ds = np.asarray(p.inertia_scale), np.asarray(p.inertia_scale_dispersion)
+    if np.any(scale - ds <= 0.5) or np.any(scale + ds >= 2.0):
+        i = int(np.argmax((scale - ds <= 0.5) | (scale + ds >= 2.0)))
+        refuse(
+            "inertia_scale_dispersion",
+            f"axis {i}: inertia_scale {scale[i]:g} +- {ds[i]:g} spans [{scale[i] - ds[i]:g}, {scale[i] + ds[i]:g}], "
+            "which leaves (0.5, 2)",
+        )
+    specular, diffuse = np.asarray(p.plate_specular), np.asarray(p.plate_diffuse)
+    for name, values, d in (
+        ("plate_specular_dispersion", specular, p.plate_specular_dispersion),
+        ("plate_diffuse_dispersion", diffuse, p.plate_diffuse_dispersion),
+    ):
+        bad = (values - d < 0.0) | (values + d > 1.0)
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            coefficient = name.removesuffix("_dispersion")
+            refuse(
+                name,
+                f"plate {i}: {coefficient} {values[i]:g} +- {d:g} spans [{values[i] - d:g}, {values[i] + d:g}], which "
+                "leaves [0, 1]",
+            )
+    most = specular + diffuse + p.plate_specular_dispersion + p.plate_diffuse_dispersion
+    if np.any(most > 1.0):
+        i = int(np.argmax(most > 1.0))
+        refuse(
+            "plate_diffuse_dispersion",
+            f"plate {i}: specular + diffuse can reach {most[i]:g} over their dispersions, more than 1 (a plate reflects "
+            "at most what it receives)",
         )
 
 

@@ -26,7 +26,9 @@ class PhysicalSection:
     other densities, its mass the controller's times simulation.density_scale, moved so that its centre of mass
     is the origin), flat-plate solar radiation pressure on the spacecraft's surface, the gravity-gradient
     torque, the truth's mass and inertia, and the actuator errors of disturbance.scale_error_p, ... applied in
-    B. The plates are the plate_* arrays, one entry per plate."""
+    B. The plates are the plate_* arrays, one entry per plate. The *_dispersion fields are the half-widths of the
+    uniform draws a Monte Carlo campaign makes about these values per run; the actuator errors are drawn then too.
+    A single run flies these values with error-free actuators."""
 
     mass: float = field(
         metadata=quantity(
@@ -105,6 +107,54 @@ class PhysicalSection:
     )
     lobe_density: float = field(
         metadata=quantity("density", "the lobe's density minus the body's around it (negative: lighter; 0: no lobe)")
+    )
+    # Dispersions (docs/model.md "Dispersions of the physical environment"): each the half-width of a uniform draw
+    # about the value above, in its unit, drawn per Monte Carlo run from the run's seed; a single run flies the
+    # values above. 0: not dispersed.
+    mass_error_dispersion: float = field(
+        metadata=number("a campaign run's mass_error is drawn uniformly within mass_error +- this", check=NONNEGATIVE)
+    )
+    inertia_scale_dispersion: FloatArray = field(
+        metadata=number("a campaign run's inertia_scale is drawn uniformly within inertia_scale +- this", (3,), NONNEGATIVE)
+    )
+    inertia_products_dispersion: FloatArray = field(
+        metadata=quantity(
+            "moment of inertia",
+            "a campaign run's inertia_products are drawn uniformly within inertia_products +- this",
+            (3,),
+            NONNEGATIVE,
+        )
+    )
+    center_of_mass_dispersion_B: FloatArray = field(
+        metadata=quantity(
+            "length",
+            "a campaign run's centre of mass lies uniformly within +- this (per axis of B) of the nominal one: every "
+            "plate_center_B moves by minus the drawn offset",
+            (3,),
+            NONNEGATIVE,
+        )
+    )
+    plate_specular_dispersion: float = field(
+        metadata=number(
+            "a campaign run's plate_specular are drawn uniformly within plate_specular +- this, each plate its own",
+            check=NONNEGATIVE,
+        )
+    )
+    plate_diffuse_dispersion: float = field(
+        metadata=number(
+            "a campaign run's plate_diffuse are drawn uniformly within plate_diffuse +- this, each plate its own",
+            check=NONNEGATIVE,
+        )
+    )
+    core_density_dispersion: float = field(
+        metadata=quantity(
+            "density", "a campaign run's core_density is drawn uniformly within core_density +- this", check=NONNEGATIVE
+        )
+    )
+    lobe_density_dispersion: float = field(
+        metadata=quantity(
+            "density", "a campaign run's lobe_density is drawn uniformly within lobe_density +- this", check=NONNEGATIVE
+        )
     )
 
     @property

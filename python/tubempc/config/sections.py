@@ -288,8 +288,9 @@ class IdentificationSection:
 @dataclass(frozen=True, eq=False)
 class DisturbanceSection:
     """Simulated disturbance (tubempc.models.disturbances): model = "drawn", additive, uniform in the
-    ellipsoids with the per-axis squared semi-axes S_*, plus actuator mismatch; model = "physical", the
-    [physical] environment of the truth with the same actuator errors applied in B, and no draw. Project
+    ellipsoids with the per-axis squared semi-axes S_*, plus actuator mismatch (drawn in every run); model =
+    "physical", the [physical] environment of the truth and no draw, the same actuator errors applied in B as
+    dispersions (drawn in a Monte Carlo campaign's runs; a single run flies error-free actuators). Project
     defaults, not the paper's (which does not give its realisation)."""
 
     seed: int = field(metadata=integer("seed of the draws", check=NONNEGATIVE))

@@ -53,6 +53,7 @@ import numpy.typing as npt
 
 from .. import _core
 from ..scenario.build import Scenario
+from ..scenario.physical import PhysicalTruth
 from .plant import ProjectPlant
 
 __all__ = ["BasiliskPlant", "BasiliskPlantError", "BasiliskTruth", "basilisk_version", "split_increment", "unsupported"]
@@ -126,7 +127,11 @@ class BasiliskTruth:
     the bit) at the end of each integrator step, so that a step can end at any nanosecond: at a pulse's
     end, a sensor sample or the half period."""
 
-    def __init__(self, scn: Scenario, state: Array, actuation: Any = None) -> None:
+    def __init__(
+        self, scn: Scenario, state: Array, actuation: Any = None, truth: Any = None, physical: PhysicalTruth | None = None
+    ) -> None:
+        """``truth`` (a ``ProximityModel``) and ``physical``: the run's truth (a campaign's run may fly a dispersed
+        one, :func:`tubempc.sim.setup.run_truth`); None: the scenario's."""
         reasons = unsupported(scn)
         if reasons:
             raise BasiliskPlantError(
@@ -137,11 +142,11 @@ class BasiliskTruth:
         from Basilisk.simulation.polyhedralGravityModel import PolyhedralGravityModel
         from Basilisk.utilities import SimulationBaseClass, simIncludeGravBody
 
-        truth, cfg = scn.truth, scn.config
+        truth, cfg = scn.truth if truth is None else truth, scn.config
         p = truth.params
         self.n = float(truth.mean_motion)
         self.R = float(p.orbit_radius)
-        phys = scn.physical
+        phys = scn.physical if physical is None else physical
         if phys is not None:  # the truth's mass and inertia
             self.mass, self.inertia_B = float(phys.mass_true), np.asarray(phys.inertia_true_B, dtype=np.float64)
         else:
@@ -192,6 +197,7 @@ class BasiliskTruth:
                     )
                 )
         self.part_names = [name for name, *_ in parts]
+        self.part_mu = [float(gm) for *_, gm in parts]  # m^3/s^2, as Basilisk was given them
         # Basilisk adds to the spacecraft's acceleration each non-central body's pull on the central body's
         # origin; for parts of the central body that pull is internal: the plant takes it off (in A, below)
         self._internal_pull_A = np.zeros(3)
@@ -481,7 +487,8 @@ class BasiliskPlant(ProjectPlant):
     DISTURBANCE_DELIVERY = "half_period_forces"
 
     def __post_init__(self) -> None:
-        self.bsk = BasiliskTruth(self.scn, self.state, self.actuation)
+        super().__post_init__()
+        self.bsk = BasiliskTruth(self.scn, self.state, self.actuation, self.truth_model, self.physical)
         if self.actuation is not None:
             cluster = self.actuation.cluster
             self.thrust_B = np.asarray(cluster.true_mapping, dtype=np.float64)[:3] * np.asarray(
@@ -552,7 +559,7 @@ class BasiliskPlant(ProjectPlant):
                 nav.accel[j] = thrust_L + np.asarray(srp_L, dtype=np.float64)
             start = end_ns
         self.state = state = self.bsk.state()
-        x_next = scn.truth.truth_to_state(state, scn.reference.x[k + 1, 6:9])
+        x_next = self.truth_model.truth_to_state(state, scn.reference.x[k + 1, 6:9])
         return x_next, np.concatenate([w_p, w_r])
 
     def describe(self) -> dict[str, Any]:
@@ -583,14 +590,20 @@ class CrossCheck:
     seconds_per_step: dict[str, float]  # median wall time of a plant's step, per plant name
 
 
-def cross_check(scn: Scenario, inputs: Array | None = None, steps: int | None = None) -> CrossCheck:
+def cross_check(
+    scn: Scenario, inputs: Array | None = None, steps: int | None = None, *, dispersed_seed: int | None = None
+) -> CrossCheck:
     """Flies ``inputs`` ((T, 6) [u_p (m/s^2, L); T (N m, B)]; default the reference's) open loop through
     both plants from x0, ideal actuators without mismatch and no additive disturbance (in a physical
-    environment, its truth with the actuator errors of seed 0)."""
+    environment, its nominal truth, or with ``dispersed_seed`` the truth a campaign's run of that seed flies,
+    :func:`tubempc.sim.setup.run_truth`)."""
     import time
 
     from ..models.disturbances import ActuatorMismatch, AdditiveDisturbance
     from ..scenario.build import propagator_settings
+    from .setup import run_truth
+
+    truth, physical = run_truth(scn, 0 if dispersed_seed is None else dispersed_seed, dispersed_seed is not None)
 
     u_seq = np.asarray(scn.reference.u if inputs is None else inputs, dtype=np.float64)
     T = len(u_seq) if steps is None else min(int(steps), len(u_seq))
@@ -605,7 +618,9 @@ def cross_check(scn: Scenario, inputs: Array | None = None, steps: int | None = 
                 ActuatorMismatch(0, 0.0, 0.0, 0.0, 0.0),
                 propagator_settings(scn.config),
                 state0.copy(),
-                environment=None if scn.physical is None else scn.physical.environment(0),
+                environment=None if physical is None else physical.environment(),
+                truth=truth,
+                physical=physical,
             )
         )
     diffs = np.zeros((T, 4))

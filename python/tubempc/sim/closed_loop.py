@@ -40,7 +40,7 @@ from ..scenario.actuators import describe_actuation
 from ..scenario.build import METHODS, P_STATES, R_STATES, Scenario
 from ..scenario.navigation import Navigation, NavigationRecord, new_navigation, tube_gauge
 from .plant import ProjectPlant
-from .setup import loop_setup
+from .setup import loop_setup, run_truth
 
 __all__ = ["METHODS", "simulate"]
 
@@ -90,8 +90,9 @@ def _new_record(scn: Scenario, method: str, seed: int) -> RunRecord:
     return rec
 
 
-def _new_plant(scn: Scenario, seed: int) -> ProjectPlant:
-    """The run's plant: ``simulation.plant``'s, with the run's disturbance and actuator draws."""
+def _new_plant(scn: Scenario, seed: int, dispersed: bool) -> ProjectPlant:
+    """The run's plant: ``simulation.plant``'s, with the run's disturbance and actuator draws and its truth (in a
+    physical environment the nominal one, or with ``dispersed`` the one drawn from the seed: :func:`run_truth`)."""
     loop = loop_setup(scn)
     system = None if loop.actuation is None else loop.actuation.system(seed + 1)
     truth0 = scn.model.state_to_truth(scn.x0)
@@ -100,9 +101,17 @@ def _new_plant(scn: Scenario, seed: int) -> ProjectPlant:
         from .basilisk import BasiliskPlant
 
         kind = BasiliskPlant
-    environment = None if scn.physical is None else scn.physical.environment(seed)
+    truth, physical = run_truth(scn, seed, dispersed)
     return kind(
-        scn, loop.plant_disturbance(seed), loop.actuators(seed), loop.propagator, truth0, system, environment=environment
+        scn,
+        loop.plant_disturbance(seed),
+        loop.actuators(seed),
+        loop.propagator,
+        truth0,
+        system,
+        environment=None if physical is None else physical.environment(),
+        truth=truth,
+        physical=physical,
     )
 
 
@@ -133,8 +142,13 @@ def simulate(
     max_steps: int | None = None,
     tube_threads: int = 2,
     design_worker: str | None = None,
+    dispersed: bool = False,
 ) -> RunRecord:
     """One closed-loop run of ``method`` ("tbmpc" or "ffa") with disturbance seed ``seed``.
+
+    ``dispersed``: in a physical environment (disturbance.model = "physical"), fly the truth drawn from the seed
+    within the ``[physical]`` section's dispersions, as a Monte Carlo campaign's run does, instead of the nominal
+    truth a single run flies (:func:`tubempc.sim.setup.run_truth`; no effect with the drawn model).
 
     ``lambda_p``/``lambda_r`` override the configuration's forgetting factors; ``max_steps`` stops
     the run early (arrays are then cut to the steps run); ``tube_threads`` = 2 runs the two
@@ -153,7 +167,7 @@ def simulate(
     ctrl = new_controller(
         scn, method, loop.mpc_settings, lambda_p=lambda_p, lambda_r=lambda_r, background_designs=background
     )
-    plant = _new_plant(scn, seed)
+    plant = _new_plant(scn, seed, dispersed)
     rec = _new_record(scn, method, seed)
     x = scn.x0.copy()
     nav, est = _start_navigation(scn, plant, rec, seed)
@@ -264,12 +278,12 @@ def _applied(scn: Scenario, plant: ProjectPlant, rec: RunRecord, max_steps: int 
         "srp_scale": sim.srp_scale,
         "truth_shape_subdivisions": sim.truth_shape_subdivisions,
     }
-    if scn.physical is None:
+    if plant.physical is None:
         disturbance, ideal_actuators = plant.disturbance.describe(), plant.actuators.describe()
-    else:  # no draw; the actuator errors are the environment's, in B
-        disturbance = {"model": "physical", "seed": rec.seed}
-        ideal_actuators = scn.physical.actuator_errors(rec.seed)[2]
-        truth["physical"] = scn.physical.describe()
+    else:  # no draw; the actuator errors are the environment's, in B; the truth the run's (nominal or dispersed)
+        disturbance = {"model": "physical", "seed": rec.seed, "dispersed": plant.physical.drawn is not None}
+        ideal_actuators = dict(plant.physical.actuators)
+        truth["physical"] = plant.physical.describe()
     return {
         "seed": rec.seed,
         "max_steps": max_steps,

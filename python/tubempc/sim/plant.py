@@ -17,9 +17,11 @@ import numpy as np
 import numpy.typing as npt
 
 from ..models.disturbances import ActuatorMismatch, AdditiveDisturbance
+from ..models.dynamics import ProximityModel
 from ..scenario.actuators import actuate
 from ..scenario.build import P_STATES, R_STATES, Scenario
 from ..scenario.navigation import Navigation, propagate_sampled
+from ..scenario.physical import PhysicalTruth
 
 __all__ = ["ProjectPlant"]
 
@@ -40,12 +42,26 @@ class ProjectPlant:
     nav: Navigation | None = None  # with navigation: propagated in sub-steps the sensors sample
     nav_error_set: Array = field(default_factory=lambda: np.zeros((0, 0)))  # E of the estimate flown
     environment: Any = None  # _core.dynamics.PhysicalEnvironment (disturbance.model = "physical"), or None
+    truth: ProximityModel | None = None  # the run's truth model (None: the scenario's, Scenario.truth)
+    physical: PhysicalTruth | None = None  # the run's physical truth (None: the scenario's, Scenario.physical)
 
     #: The name ``simulation.plant`` gives this plant.
     NAME = "project"
     #: How this plant delivers the drawn disturbance (:data:`tubempc.scenario.navigation.DISTURBANCE_DELIVERIES`):
     #: added to the state at the period's end, which no sensor senses (docs/model.md M39).
     DISTURBANCE_DELIVERY = "jump"
+
+    def __post_init__(self) -> None:
+        if self.truth is None:
+            self.truth = self.scn.truth
+        if self.physical is None:
+            self.physical = self.scn.physical
+
+    @property
+    def truth_model(self) -> ProximityModel:
+        """The run's truth model (``truth``, set in ``__post_init__``)."""
+        assert self.truth is not None
+        return self.truth
 
     def apply_actuators(self, k: int, u: Array) -> Array:
         """The input the actuators deliver over period k for the command ``u`` (kept in ``delivered``)."""
@@ -65,17 +81,17 @@ class ProjectPlant:
         scn, dt = self.scn, self.scn.config.mpc.dt
         u_applied = self.apply_actuators(k, u)
         if self.nav is not None:
-            end = propagate_sampled(self.nav, scn.truth, k * dt, self.state, u_applied, self.propagator)
+            end = propagate_sampled(self.nav, self.truth_model, k * dt, self.state, u_applied, self.propagator)
         else:
-            prop = scn.truth.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator)
+            prop = self.truth_model.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator)
             if prop.status.name != "Success":
                 raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
             end = np.asarray(prop.state)
         w_p, w_r = self.disturbance.sample(k)
-        x_next = scn.truth.truth_to_state(end, scn.reference.x[k + 1, 6:9])
+        x_next = self.truth_model.truth_to_state(end, scn.reference.x[k + 1, 6:9])
         x_next[P_STATES] += w_p
         x_next[R_STATES] += w_r
-        self.state = scn.truth.state_to_truth(x_next)
+        self.state = self.truth_model.state_to_truth(x_next)
         if self.nav is not None:
             self.nav.truth[-1] = self.state  # the sensors' last sample is after the disturbance
         return x_next, np.concatenate([w_p, w_r])
@@ -92,14 +108,14 @@ class ProjectPlant:
         u_applied = np.asarray(env.deliver(u_cmd, self.state[6:10]), dtype=np.float64)
         self.delivered = (u_applied, st)
         if self.nav is not None:
-            end = propagate_sampled(self.nav, scn.truth, k * dt, self.state, u_applied, self.propagator, env)
+            end = propagate_sampled(self.nav, self.truth_model, k * dt, self.state, u_applied, self.propagator, env)
         else:
-            prop = scn.truth.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator, environment=env)
+            prop = self.truth_model.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator, environment=env)
             if prop.status.name != "Success":
                 raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
             end = np.asarray(prop.state)
         self.state = end
-        return scn.truth.truth_to_state(end, scn.reference.x[k + 1, 6:9]), np.zeros(12)
+        return self.truth_model.truth_to_state(end, scn.reference.x[k + 1, 6:9]), np.zeros(12)
 
     def describe(self) -> dict[str, Any]:
         """The plant's name and what it integrates with (saved with the run)."""

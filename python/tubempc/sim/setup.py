@@ -9,10 +9,12 @@ from ..config import DisturbanceSection, TubeSection
 from ..design.library import tube_designers
 from ..design.tube import TubeDesigner
 from ..models.disturbances import ActuatorMismatch, AdditiveDisturbance
+from ..models.dynamics import ProximityModel, params_to_config
 from ..scenario.actuators import ScenarioActuation
 from ..scenario.build import Scenario, mpc_settings, propagator_settings
+from ..scenario.physical import PhysicalTruth
 
-__all__ = ["LoopSetup", "loop_setup"]
+__all__ = ["LoopSetup", "loop_setup", "run_truth"]
 
 
 @dataclass(frozen=True)
@@ -62,3 +64,17 @@ def loop_setup(scn: Scenario) -> LoopSetup:
         )
     setup: LoopSetup = scn.loop_setup
     return setup
+
+
+def run_truth(scn: Scenario, seed: int, dispersed: bool) -> tuple[ProximityModel, PhysicalTruth | None]:
+    """The truth a run flies: its model (``ProximityModel``: gravity, inertia, ...) and, with disturbance.model =
+    "physical", its physical environment. A single run (``dispersed`` false) flies the scenario's nominal truth
+    (``Scenario.truth``, ``Scenario.physical``); a campaign's run (``dispersed``) in a physical environment flies
+    :meth:`tubempc.scenario.physical.PhysicalTruth.dispersed` of its seed: the body of its drawn density contrasts
+    and the truth's drawn inertia. The drawn model has no dispersion of its own here (its disturbance and actuator
+    errors are drawn from the seed in every run)."""
+    if scn.physical is None or not dispersed:
+        return scn.truth, scn.physical
+    physical = scn.physical.dispersed(seed)
+    params = {**params_to_config(scn.truth.params), "inertia_B": physical.inertia_true_B.tolist()}
+    return ProximityModel(physical.gravity(), params), physical

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -107,3 +108,25 @@ def test_sweep_claims_follow_the_sweep_rows(tmp_path: Path) -> None:
     (tmp_path / "sweep.json").write_text(json.dumps({**written, "rows": rows}))
     claims = {c.claim.split(" (")[0]: c for c in paper_claims(None, tmp_path)}
     assert claims[limit].verdict == "no" and "holds for every lambda_p >= 0.98" in claims[limit].measured
+
+
+def test_the_papers_scenario_under_physics_is_recognised_with_its_dispersions(tmp_path: Path) -> None:
+    """The report checks the paper's claims under physics on bennu-paper-physical in either plant, whatever its
+    dispersions (a campaign's draws are physics too), and on nothing that changes the paper's mission."""
+    from tubempc.analysis.report import paper_under_physics
+    from tubempc.config import load_config
+
+    def saved(cfg: Any, name: str) -> Path:
+        folder = tmp_path / name
+        folder.mkdir()
+        cfg.save(folder / "config.toml")
+        return folder
+
+    paper = load_config(scenario="bennu-paper-physical")
+    assert paper_under_physics(saved(paper, "paper"))
+    assert paper_under_physics(saved(paper.with_overrides({"simulation.plant": "basilisk"}), "basilisk"))
+    wider = paper.with_overrides({"physical.mass_error_dispersion": 0.01, "disturbance.scale_error_r": 0.0})
+    assert paper_under_physics(saved(wider, "wider"))
+    assert not paper_under_physics(saved(paper.with_overrides({"identification.lambda_p": 0.97}), "lambda"))
+    assert not paper_under_physics(saved(load_config(scenario="bennu-tag-physical"), "tag"))
+    assert not paper_under_physics(saved(load_config(), "drawn"))

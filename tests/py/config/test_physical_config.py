@@ -32,7 +32,22 @@ def test_the_physical_scenarios_parse_with_the_packaged_section() -> None:
     # the paper's mission; a partial file's drawn growth is an own mission's (unused without a draw)
     paper = load_config(scenario="bennu-paper-physical")
     physical = {"disturbance.model": "physical", "simulation.truth_shape_subdivisions": 24, "disturbance.growth_r": 1.0}
-    assert paper == default.with_overrides(physical)
+    # and the campaigns' dispersions (docs/model.md "Dispersions of the physical environment")
+    dispersions = {
+        "disturbance.scale_error_p": 0.01,
+        "disturbance.misalignment_p": "0.2 deg",
+        "disturbance.scale_error_r": 0.01,
+        "disturbance.misalignment_r": "0.2 deg",
+        "physical.mass_error_dispersion": 0.02,
+        "physical.inertia_scale_dispersion": [0.03, 0.03, 0.03],
+        "physical.inertia_products_dispersion": {"value": [10.0, 10.0, 10.0], "unit": "kg m^2"},
+        "physical.center_of_mass_dispersion_B": {"value": [0.02, 0.02, 0.05], "unit": "m"},
+        "physical.plate_specular_dispersion": 0.05,
+        "physical.plate_diffuse_dispersion": 0.02,
+        "physical.core_density_dispersion": "63 kg/m^3",
+        "physical.lobe_density_dispersion": "63 kg/m^3",
+    }
+    assert paper == default.with_overrides({**physical, **dispersions})
 
 
 def test_any_number_of_plates_in_any_unit(tmp_path: Path) -> None:

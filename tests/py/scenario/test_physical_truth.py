@@ -64,7 +64,7 @@ def test_the_truth_spacecraft_and_its_model(tag) -> None:  # type: ignore[no-unt
     assert all(abs(np.linalg.norm(p.normal_B) - 1.0) < 1e-15 for p in ph.plates)
     assert ph.pressure == pytest.approx(4.56e-6 * (_core.dynamics.ASTRONOMICAL_UNIT / cfg.environment.R) ** 2)
     assert ph.srp and ph.gravity_gradient and ph.shadow_radius == 246.0
-    env = ph.environment(0)
+    env = ph.environment()
     assert env.true_mass == ph.mass_true and env.gm == ph.gm
     np.testing.assert_array_equal(env.inertia_B, ph.inertia_true_B)
     d = ph.describe()

@@ -112,3 +112,97 @@ def test_a_physical_scenario_is_not_exported(tmp_path: Path) -> None:
 
     with pytest.raises(ScenarioError, match=r"disturbance\.model: \"physical\" is not part of the scenario file"):
         export_scenario(load_config(scenario="bennu-tag-physical"), tmp_path)
+
+
+def _nominal(cfg: Any) -> Any:
+    """The configuration with every dispersion of the physical environment and every actuator error at 0."""
+    from dataclasses import fields
+
+    zero: dict[str, Any] = {
+        f"physical.{f.name}": np.zeros_like(np.asarray(getattr(cfg.physical, f.name), dtype=float))
+        if np.ndim(getattr(cfg.physical, f.name))
+        else 0.0
+        for f in fields(cfg.physical)
+        if "_dispersion" in f.name
+    }
+    zero.update({f"disturbance.{n}": 0.0 for n in ("scale_error_p", "misalignment_p", "scale_error_r", "misalignment_r")})
+    return cfg.with_overrides(zero)
+
+
+def test_a_single_run_flies_the_nominal_truth_whatever_the_dispersions_and_seed(cache: Path) -> None:
+    """`tubempc run` (simulate without ``dispersed``) flies the [physical] values with error-free actuators: the
+    same to the bit as the scenario without dispersions, for any seed (the environment draws nothing)."""
+    cfg = load_config(scenario="bennu-tag-physical")
+    a = simulate(build_scenario(cfg, cache_dir=cache), "ffa", seed=3, max_steps=5)
+    b = simulate(build_scenario(_nominal(cfg), cache_dir=cache), "ffa", seed=11, max_steps=5)
+    assert a.x.tobytes() == b.x.tobytes() and a.u_delivered.tobytes() == b.u_delivered.tobytes()
+    assert a.applied["disturbance"]["dispersed"] is False and a.applied["truth"]["physical"]["drawn"] is None
+    assert a.applied["actuators"]["model"] == "nominal"
+
+
+def test_a_dispersed_run_delivers_the_command_with_its_drawn_mass_and_actuator_errors(cache: Path) -> None:
+    """A campaign's run (``dispersed``) flies the truth drawn from its seed: each period's delivered input is
+    C_LB E_F C_BL u_p m / m_true and E_T T with the drawn E_F, E_T and m_true (M47, computed here apart from the
+    C++ environment), the record keeps what was drawn, and two seeds fly two truths."""
+    from tubempc import _core
+
+    scn = build_scenario(load_config(scenario="bennu-tag-physical"), cache_dir=cache)
+    recs = [simulate(scn, "ffa", seed=s, max_steps=6, dispersed=True) for s in (21, 22)]
+    for seed, rec in zip((21, 22), recs, strict=True):
+        truth = scn.physical.dispersed(seed)
+        drawn = rec.applied["truth"]["physical"]
+        assert drawn == truth.describe() and drawn["drawn"]["seed"] == seed
+        assert rec.applied["disturbance"]["dispersed"] is True
+        E_F, E_T = np.asarray(truth.thrust_error_B), np.asarray(truth.torque_error_B)
+        assert rec.applied["actuators"]["scale_p"] == truth.actuators["scale_p"]
+        ratio = truth.mass_model / truth.mass_true
+        for k in range(6):
+            C_LB = np.asarray(_core.so3.rotation_matrix(_core.so3.exp_map(rec.x[k, 6:9])))
+            np.testing.assert_allclose(
+                rec.u_delivered[k, :3], C_LB @ E_F @ C_LB.T @ rec.u[k, :3] * ratio, rtol=1e-9, atol=1e-16
+            )
+            np.testing.assert_allclose(rec.u_delivered[k, 3:], E_T @ rec.u[k, 3:], rtol=1e-12, atol=1e-18)
+        assert np.all(rec.w_true == 0.0)
+    assert recs[0].x.tobytes() != recs[1].x.tobytes()
+
+
+def test_a_physical_campaign_disperses_its_runs_and_a_run_reflies_to_the_bit(tmp_path: Path) -> None:
+    """A Monte Carlo campaign of bennu-tag-physical: its runs fly different truths (no longer one run flown again),
+    each record keeps the truth it drew, and `tubempc run --from-campaign` flies one again to the bit."""
+    import json
+
+    from tubempc.analysis import montecarlo
+    from tubempc.cli import main
+    from tubempc.commands import EXIT_OK
+
+    out = tmp_path / "mc"
+    s = montecarlo(load_config(scenario="bennu-tag-physical"), 2, out, master_seed=0, workers=1, progress=False, max_steps=4)
+    applied = [json.loads((out / "runs" / f"run_{i:05d}.json").read_text())["result"]["applied"] for i in range(2)]
+    drawn = [a["truth"]["physical"]["drawn"] for a in applied]
+    assert drawn[0]["mass_error"] != drawn[1]["mass_error"]
+    assert applied[0]["truth"]["physical"]["mass_true"] != applied[1]["truth"]["physical"]["mass_true"]
+    assert s.methods["ffa"].J_p.three_sigma > 0.0  # the runs differ
+    assert main(["run", "--from-campaign", str(out), "--index", "1", "--out", str(tmp_path / "again")]) == EXIT_OK
+    assert json.loads((tmp_path / "again" / "refly.json").read_text())["equal"]
+
+
+def test_states_inside_the_body_are_counted_on_the_dispersed_runs_surface(cache: Path) -> None:
+    """A dispersed run's body has its own centre of mass: a state inside the nominal truth's surface lies
+    outside the dispersed one's when the drawn contrasts move the body back."""
+    from tubempc.analysis.runner import states_inside_body
+    from tubempc.results import RunRecord
+    from tubempc.scenario.sites import ray_cast
+
+    scn = build_scenario(load_config(scenario="bennu-tag-physical"), cache_dir=cache)
+    nominal = scn.physical
+    drawn = next(
+        t for t in (nominal.dispersed(s) for s in range(20)) if t.parts[0].offset_A[0] < nominal.parts[0].offset_A[0] - 0.1
+    )
+    body = nominal.parts[0]
+    direction = np.array([1.0, 0.0, 0.0])
+    point = ray_cast(body.shape, direction) + body.offset_A - 0.05 * direction  # inside the nominal truth
+    rec = RunRecord.allocate("tbmpc", 0, 1, scn.config.mpc.horizon)
+    rec.x[:, :3] = point  # at t = 0, where C_AL = I
+    assert states_inside_body(scn, rec) == 2
+    rec.applied = {"truth": {"physical": drawn.describe()}}
+    assert states_inside_body(scn, rec) == 0
