@@ -143,7 +143,8 @@ def _col(table: pa.Table, name: str) -> Array | None:
     c = table.column(name)
     if pa.types.is_null(c.type):
         return np.full(table.num_rows, np.nan)
-    return np.asarray(c.cast(pa.float64()).to_numpy(zero_copy_only=False), dtype=float)
+    # safe=False: integers beyond 2^53 (a seed) round to the nearest double instead of failing the cast
+    return np.asarray(c.cast(pa.float64(), safe=False).to_numpy(zero_copy_only=False), dtype=float)
 
 
 def _max(*cols: Array | None) -> Array | None:
@@ -204,7 +205,7 @@ def _dispersions(table: pa.Table) -> tuple[list[str], Array]:
     one value and no null, but the seeds (an identifier, not a dispersion)."""
     names, cols = [], []
     for name in table.column_names:
-        if not name.startswith("applied.") or name.rsplit(".", 1)[-1].split("[")[0] in ("seed", "max_steps"):
+        if not name.startswith("applied.") or name.rsplit(".", 1)[-1].split("[")[0] in ("seed", "stream", "max_steps"):
             continue
         t = table.column(name).type
         if not (pa.types.is_integer(t) or pa.types.is_floating(t) or pa.types.is_boolean(t)):

@@ -226,10 +226,10 @@ def _fallbacks(runs: pa.Table, method: str) -> np.ndarray:
 
 
 def _column(runs: pa.Table, name: str) -> np.ndarray:
-    """A numeric column (null: NaN; absent: all NaN)."""
+    """A numeric column (null: NaN; absent: all NaN; integers beyond 2^53 rounded to the nearest double)."""
     if name not in runs.column_names or pa.types.is_null(runs.column(name).type):
         return np.full(runs.num_rows, np.nan)
-    return np.asarray(runs.column(name).cast(pa.float64()).to_numpy(zero_copy_only=False), dtype=float)
+    return np.asarray(runs.column(name).cast(pa.float64(), safe=False).to_numpy(zero_copy_only=False), dtype=float)
 
 
 def _method_summary(runs: pa.Table, m: str) -> MonteCarloMethodSummary:

@@ -670,7 +670,8 @@ class CampaignStore:
             raise KeyError(name)
         col = runs.column(name)
         if pa.types.is_integer(col.type) or pa.types.is_floating(col.type) or pa.types.is_boolean(col.type):
-            return np.asarray(col.cast(pa.float64()).to_numpy(zero_copy_only=False), dtype=float)
+            # safe=False: integers beyond 2^53 (a seed) round to the nearest double instead of failing the cast
+            return np.asarray(col.cast(pa.float64(), safe=False).to_numpy(zero_copy_only=False), dtype=float)
         return np.asarray(col.to_pylist(), dtype=object)
 
     def iter_steps(self, group: str, columns: list[str] | None = None) -> Iterator[pa.Table]:

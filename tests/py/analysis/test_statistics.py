@@ -95,6 +95,10 @@ def _runs(n: int, *, seed: int = 0, inside: bool = True) -> pa.Table:
         "applied.noise": pa.array(noise),
         "applied.seed": pa.array(np.arange(n) * 7),  # an identifier: never a driver
         "applied.constant": pa.array(np.ones(n)),
+        # a random stream's key (an identifier, beyond 2^53: never a driver) and an integer beyond 2^53 that does
+        # not vary (read as a double: no failed cast)
+        "applied.drawn.stream[0]": pa.array(2**62 + 7 * np.arange(n, dtype=np.int64)),
+        "applied.big_constant": pa.array(np.full(n, 2**62 + 1, dtype=np.int64)),
     }
     if inside:
         cols["ffa.states_inside_body"] = masked(np.zeros(n, dtype=int))
@@ -141,7 +145,10 @@ def test_worst_runs_carry_their_seeds_and_the_driver_is_the_dispersion_that_move
     assert [w.seed for w in jp.worst] == (1000 + order).tolist() and jp.worst[0].value == np.nanmax(values)
     top = jp.drivers[0]
     assert top.dispersion == "applied.scale" and top.rho > 0.99 and top.significant and top.p_value < 1e-10
-    assert all(d.dispersion not in ("applied.seed", "applied.constant") for d in jp.drivers)
+    assert all(
+        d.dispersion not in ("applied.seed", "applied.constant", "applied.drawn.stream[0]", "applied.big_constant")
+        for d in jp.drivers
+    )
     assert st.dispersions_varied == 2  # scale and noise
     assert len(jp.drivers) == 2 and not jp.drivers[1].significant  # noise: no correlation at 200 runs
     # a constant metric has no driver, and says why
