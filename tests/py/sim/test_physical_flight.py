@@ -174,10 +174,11 @@ def test_a_physical_campaign_disperses_its_runs_and_a_run_reflies_to_the_bit(tmp
     from tubempc.analysis import montecarlo
     from tubempc.cli import main
     from tubempc.commands import EXIT_OK
+    from tubempc.results.campaign_store import CampaignStore
 
     out = tmp_path / "mc"
     s = montecarlo(load_config(scenario="bennu-tag-physical"), 2, out, master_seed=0, workers=1, progress=False, max_steps=4)
-    applied = [json.loads((out / "runs" / f"run_{i:05d}.json").read_text())["result"]["applied"] for i in range(2)]
+    applied = [CampaignStore(out).result(i)["applied"] for i in range(2)]
     drawn = [a["truth"]["physical"]["drawn"] for a in applied]
     assert drawn[0]["mass_error"] != drawn[1]["mass_error"]
     assert applied[0]["truth"]["physical"]["mass_true"] != applied[1]["truth"]["physical"]["mass_true"]
