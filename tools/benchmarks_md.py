@@ -499,6 +499,35 @@ def _instructions_section(files: list[tuple[str, dict[str, Any]]]) -> list[str]:
     ]
     for _, d in files:
         lines += _instructions_rows(d)
+    memory = [(name, d) for name, d in files if d.get("setup_memory_bytes")]
+    if memory:
+        lines += [
+            "",
+            "Heap memory each component keeps after its set-up (kB, the blocks' usable sizes; peak in brackets;",
+            "counted by the example's allocation counter in the native flight): the scenario file, the gravity models",
+            "and ray casters shared by both methods, then per method the controller's construction (the MPC and its QP",
+            "solvers) and setup (the reference discretised for the tube update, the designs), the navigation and the",
+            "actuation.",
+            "",
+            "| scenario | shared | tbmpc | ffa | the largest |",
+            "| --- | --- | --- | --- | --- |",
+        ]
+        for _, d in memory:
+            mem = d["setup_memory_bytes"]
+
+            def kb(parts: dict[str, Any]) -> str:
+                return ", ".join(
+                    f"{k.replace('_', ' ')} {v['retained'] / 1e3:.4g} ({v['peak'] / 1e3:.4g})"
+                    for k, v in parts.items()
+                    if v is not None
+                )
+
+            big = mem["largest"]
+            per = [kb(mem["methods"].get(m, {})) or "-" for m in ("tbmpc", "ffa")]
+            lines.append(
+                f"| {d['scenario']} | {kb(mem['shared'])} | {per[0]} | {per[1]} | {big['component'].replace('_', ' ')}: "
+                f"{big['retained'] / 1e6:.3g} MB |"
+            )
     lines.append("")
     lines.append("| file | runs, largest relative difference between them | command | machine, date, build |")
     lines.append("| --- | --- | --- | --- |")

@@ -42,6 +42,7 @@
 #include <map>
 #include <memory>
 #include <new>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -209,6 +210,18 @@ struct StepCounts {
   std::vector<int> allocation_iterations;           // the actuators' allocation (active-set iterations)
 };
 
+// The heap memory a component's set-up keeps (retained) and the most it held at once (peak), in bytes
+// (usable block sizes, AllocationWindow); -1: not counted (no glibc, or a sanitizer build).
+struct SetupMemory {
+  long long retained = -1, peak = -1;
+  // Adds what `window` saw (a component set up in more than one window).
+  void add(const AllocationWindow& window) {
+    if (!tubempc_testing::kAllocationCounterEnabled) return;
+    retained = std::max(retained, 0LL) + window.retained_bytes();
+    peak = std::max(peak, 0LL) + window.peak_bytes();
+  }
+};
+
 // One method's flight.
 struct Flight {
   std::string method;
@@ -220,6 +233,9 @@ struct Flight {
   double setup_s = 0.0;
   long allocations_controller = 0, allocations_truth = 0;
   long allocations_navigation = 0, allocations_actuation = 0;  // with navigation / actuators
+  // set-up, per component; the controller's construction (the MPC, its QP solvers) and its setup (the
+  // reference discretised for the tube update, the designs, the estimation-error set)
+  SetupMemory memory_controller_construction, memory_controller, memory_navigation, memory_actuation;
   std::map<std::string, int> statuses, tube_statuses;
   std::map<std::string, int> navigation_statuses, actuation_statuses;  // with navigation / actuators
   std::vector<double> time_controller, time_identify, time_tube, time_mpc;
@@ -260,9 +276,15 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
   control::ControllerSettings settings = scn.controller;
   settings.method = method;
   settings.tube.background_designs = false;  // no Python here: the library stands in for a due design
+  std::optional<AllocationWindow> memory;    // each component's set-up, in bytes
+  memory.emplace();
   control::Controller controller(std::make_shared<dynamics::LinearizedProximityModel>(model), scn.settings,
                                  settings);
+  f.memory_controller_construction.add(*memory);
+  memory.emplace();
   controller.setup(scn.reference, method == control::Method::Tbmpc ? scn.tbmpc_designs : scn.ffa_designs);
+  f.memory_controller.add(*memory);
+  memory.reset();
   const int T = scn.mission_steps();
   const double dt = scn.settings.dt;
   for (auto* v : {&f.time_controller, &f.time_identify, &f.time_tube, &f.time_mpc})
@@ -284,6 +306,7 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> accel_sample;
   const Eigen::Vector3d srp_L = srp_acceleration(scn.truth.params);
   if (ns.enabled) {
+    memory.emplace();
     navigation = std::make_unique<nav::NavigationSystem>(model, casters.sensor, casters.filter, ns.landmarks,
                                                          ns.settings, ns.seed);
     h = navigation->base_period();
@@ -294,19 +317,29 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
     f.time_navigation.resize(static_cast<std::size_t>(T));
     const nav::NavigationStep& est =
         navigation->initialize(scn.reference.t0, state, srp_L, scn.reference.z.col(0).segment<3>(6));
+    f.memory_navigation.add(*memory);
+    memory.reset();
     ++f.navigation_statuses[nav::to_string(est.status)];
     x_hat = est.x_hat;
     P_est.noalias() = ns.error_set_scale * est.P_x;
+    memory.emplace();
     controller.set_estimation_error(P_est);  // the first call sizes the controller's storage
+    f.memory_controller.add(*memory);
+    memory.reset();
   }
   // Actuators: the run's actuation system (the truth's thrusters, the wheels at their initial momenta).
   const io::ActuatorScenario& as = scn.actuators;
   std::unique_ptr<actuators::ActuationSystem> actuation;
   if (as.enabled) {
-    actuators::ReactionWheels wheels(as.wheels, as.momentum_dump);
-    wheels.set_momentum(as.wheel_momentum);
-    actuation = std::make_unique<actuators::ActuationSystem>(actuators::ThrusterCluster(as.thrusters), wheels,
-                                                             as.settings);
+    memory.emplace();
+    {
+      actuators::ReactionWheels wheels(as.wheels, as.momentum_dump);
+      wheels.set_momentum(as.wheel_momentum);
+      actuation = std::make_unique<actuators::ActuationSystem>(actuators::ThrusterCluster(as.thrusters),
+                                                               wheels, as.settings);
+    }  // the wheels' copy released: the window keeps what the system holds
+    f.memory_actuation.add(*memory);
+    memory.reset();
     f.time_actuation.resize(static_cast<std::size_t>(T));
   }
   f.setup_s = std::chrono::duration<double>(Clock::now() - t_setup).count();
@@ -483,12 +516,19 @@ void print_flight(const Flight& f) {
                 f.propellant, f.pulses);
     for (const auto& [name, n] : f.actuation_statuses) std::printf(" %s %d", name.c_str(), n);
   }
-  if (tubempc_testing::kAllocationCounterEnabled)
+  if (tubempc_testing::kAllocationCounterEnabled) {
     std::printf(
         "\n       heap allocations after setup: controller step %ld, navigation %ld, actuation %ld, truth "
         "propagation %ld\n",
         f.allocations_controller, f.allocations_navigation, f.allocations_actuation, f.allocations_truth);
-  else
+    std::printf("       set-up memory kept (peak) [kB]:");
+    for (const auto& [name, m] :
+         {std::pair{"controller construction", &f.memory_controller_construction},
+          std::pair{"controller setup", &f.memory_controller}, std::pair{"navigation", &f.memory_navigation},
+          std::pair{"actuation", &f.memory_actuation}})
+      if (m->retained >= 0) std::printf(" %s %.1f (%.1f)", name, 1e-3 * m->retained, 1e-3 * m->peak);
+    std::printf("\n");
+  } else
     std::printf("\n       heap allocations: not counted (needs glibc and no sanitizer)\n");
 }
 
@@ -502,6 +542,15 @@ void write_counts(std::FILE* out, const char* name, const std::map<std::string, 
   std::fprintf(out, "},\n");
 }
 
+// "name": {"retained": bytes, "peak": bytes} (null: not counted or not flown), then `end`.
+void write_memory(std::FILE* out, const char* name, const SetupMemory& m, const char* end) {
+  if (m.retained < 0) {
+    std::fprintf(out, "\"%s\": null%s", name, end);
+  } else {
+    std::fprintf(out, "\"%s\": {\"retained\": %lld, \"peak\": %lld}%s", name, m.retained, m.peak, end);
+  }
+}
+
 void write_flight(std::FILE* out, const Flight& f, bool last) {
   std::fprintf(out, "    \"%s\": {\n", f.method.c_str());
   std::fprintf(out, "      \"J_p\": %.17g,\n      \"J_r\": %.17g,\n", f.J_p, f.J_r);
@@ -513,7 +562,11 @@ void write_flight(std::FILE* out, const Flight& f, bool last) {
       out,
       "      \"steps_outside_tube\": %d,\n      \"fallback_steps\": %d,\n      \"scp_iterations\": %d,\n",
       f.steps_outside, f.fallbacks, f.scp_iterations);
-  std::fprintf(out, "      \"setup_s\": %.17g,\n", f.setup_s);
+  std::fprintf(out, "      \"setup_s\": %.17g,\n      \"setup_memory_bytes\": {", f.setup_s);
+  write_memory(out, "controller_construction", f.memory_controller_construction, ", ");
+  write_memory(out, "controller_setup", f.memory_controller, ", ");
+  write_memory(out, "navigation", f.memory_navigation, ", ");
+  write_memory(out, "actuation", f.memory_actuation, "},\n");
   std::fprintf(out, "      \"allocations_controller\": %ld,\n      \"allocations_truth\": %ld,\n",
                f.allocations_controller, f.allocations_truth);
   std::fprintf(out, "      \"allocations_navigation\": %ld,\n      \"allocations_actuation\": %ld,\n",
@@ -586,8 +639,13 @@ int main(int argc, char** argv) {
   std::shared_ptr<const dynamics::ProximityModel> truth;
   Casters casters;
   Eigen::MatrixXd disturbance;
+  SetupMemory memory_scenario, memory_models;  // the scenario file; the two gravity models and ray casters
   try {
+    std::optional<AllocationWindow> memory;
+    memory.emplace();
     scn = io::read_scenario(scenario_path);
+    memory_scenario.add(*memory);
+    memory.emplace();
     if (!scn.has_controller)
       throw std::invalid_argument(scenario_path + ": a version-" +
                                   std::to_string(io::kScenarioFormatVersion) +
@@ -617,6 +675,8 @@ int main(int argc, char** argv) {
     truth = std::make_shared<dynamics::ProximityModel>(
         std::make_shared<gravity::PolyhedronGravity>(std::move(truth_shape), scn.truth.density),
         scn.truth.params);
+    memory_models.add(*memory);
+    memory.reset();
     if (!disturbance_path.empty()) disturbance = read_disturbance(disturbance_path, scn.mission_steps());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
@@ -659,12 +719,15 @@ int main(int argc, char** argv) {
     const core::BuildInfo& build = core::build_info();
     std::fprintf(f,
                  "{\n  \"scenario\": %s,\n  \"steps\": %d,\n  \"allocations_counted\": %s,\n  \"build\": "
-                 "{\"version\": %s, \"compiler\": %s, \"cxx_flags\": %s, \"eigen_simd\": %s},\n"
-                 "  \"methods\": {\n",
+                 "{\"version\": %s, \"compiler\": %s, \"cxx_flags\": %s, \"eigen_simd\": %s},\n",
                  json_string(scenario_path).c_str(), scn.mission_steps(),
                  tubempc_testing::kAllocationCounterEnabled ? "true" : "false",
                  json_string(build.version).c_str(), json_string(build.compiler).c_str(),
                  json_string(build.cxx_flags).c_str(), json_string(build.eigen_simd).c_str());
+    std::fprintf(f, "  \"setup_memory_bytes\": {");
+    write_memory(f, "scenario", memory_scenario, ", ");
+    write_memory(f, "models_and_ray_casters", memory_models, "},\n");
+    std::fprintf(f, "  \"methods\": {\n");
     for (std::size_t i = 0; i < flights.size(); ++i) write_flight(f, flights[i], i + 1 == flights.size());
     std::fprintf(f, "  }\n}\n");
     std::fclose(f);

@@ -366,10 +366,29 @@ def run(args: argparse.Namespace) -> int:
         "instrumented_wall_s": wall,
         "max_relative_difference_between_runs": spread,
         "methods": runs[0]["methods"],
+        "setup_memory_bytes": setup_memory(native),
     }
     _print(result)
     write_json(args.json, result)
     return 0
+
+
+def setup_memory(flight: dict[str, Any]) -> dict[str, Any] | None:
+    """The heap memory each component keeps after its set-up, from the example's JSON (bytes, the blocks' usable
+    sizes: ``{"retained", "peak"}`` per component, the shared ones and each method's) and the component that
+    keeps the most (``largest``); None when the example did not count (no glibc, or a sanitizer build)."""
+    shared = flight.get("setup_memory_bytes")
+    if not flight.get("allocations_counted") or shared is None:
+        return None
+    parts = {f"shared {name}": m for name, m in shared.items() if m is not None}
+    for method, f in flight["methods"].items():
+        parts.update({f"{method} {name}": m for name, m in f["setup_memory_bytes"].items() if m is not None})
+    largest = max(parts, key=lambda name: parts[name]["retained"])
+    return {
+        "shared": shared,
+        "methods": {method: f["setup_memory_bytes"] for method, f in flight["methods"].items()},
+        "largest": {"component": largest, **parts[largest]},
+    }
 
 
 def _print(result: dict[str, Any]) -> None:
@@ -390,6 +409,13 @@ def _print(result: dict[str, Any]) -> None:
             f"{w['model_evaluations']} nodes discretised, {w['gravity_evaluations']} gravity evaluations "
             f"({100 * w['gravity_instructions'] / w['instructions']:.0f} % of its instructions), LDL^T "
             f"{100 * w['ldlt_instructions'] / w['instructions']:.0f} %"
+        )
+    memory = result["setup_memory_bytes"]
+    if memory is not None:
+        big = memory["largest"]
+        print(
+            f"set-up memory kept, the largest: {big['component']} {big['retained'] / 1e6:.3g} MB "
+            f"(peak {big['peak'] / 1e6:.3g} MB)"
         )
     print(
         f"largest relative difference between the {result['runs']} runs: "

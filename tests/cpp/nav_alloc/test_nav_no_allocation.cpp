@@ -3,6 +3,8 @@
 // (tests/cpp/support/tubempc_testing/allocation_counter.hpp, glibc only).
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+
 #include "../nav/nav_fixtures.hpp"
 #include "tubempc/nav/system.hpp"
 #include "tubempc_testing/allocation_counter.hpp"
@@ -15,6 +17,30 @@ TEST(NavAllocation, CounterSeesAllocations) {
   AllocationWindow window;
   std::vector<nav::Landmark> v(3);
   EXPECT_GE(window.count(), 1);
+}
+
+// The bytes a window reports (the set-up memory of examples/cpp/closed_loop): a block's usable size is at
+// least its request; what is freed is no longer retained, but stays in the peak; a reallocation moves the
+// block's bytes.
+TEST(NavAllocation, CounterMeasuresTheBytesAScopeKeeps) {
+  if (!tubempc_testing::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  // through volatile pointers, which the compiler cannot elide
+  void* (*volatile allocate)(std::size_t) = std::malloc;
+  void* (*volatile reallocate)(void*, std::size_t) = std::realloc;
+  void (*volatile release)(void*) = std::free;
+  AllocationWindow window;
+  void* a = allocate(8000);
+  EXPECT_GE(window.retained_bytes(), 8000);
+  EXPECT_LT(window.retained_bytes(), 8000 + 64);
+  void* b = reallocate(allocate(16), 1 << 20);
+  EXPECT_GE(window.retained_bytes(), 8000 + (1 << 20));
+  EXPECT_LT(window.retained_bytes(), 8000 + (1 << 20) + 8192);  // the 16-byte block is not kept
+  release(a);
+  release(b);
+  EXPECT_EQ(window.retained_bytes(), 0);
+  EXPECT_GE(window.peak_bytes(), 8000 + (1 << 20));
+  EXPECT_GE(window.allocated_bytes(), 8000 + 16 + (1 << 20));
+  EXPECT_EQ(window.count(), 5);  // 2 mallocs, a realloc, 2 frees
 }
 
 TEST(NavAllocation, SensorsAndFilterDoNotAllocateAfterSetup) {

@@ -153,6 +153,44 @@ def test_cpp_example_flies_the_python_run(exported: tuple[Path, Scenario], tmp_p
     assert sum(cpp["tube_statuses"].values()) == scn.n_steps
 
 
+def test_cpp_example_reports_the_memory_each_component_keeps_after_set_up(
+    exported: tuple[Path, Scenario], tmp_path: Path
+) -> None:
+    """The set-up memory of ``tubempc bench instructions`` (examples/cpp/closed_loop's allocation counter): every
+    component flown reports what it keeps, at least the arrays it must hold (the controller's reference, the
+    shape's vertices and faces), never more than its peak; components not flown report null; the largest is
+    named."""
+    from tubempc.benchmarks.instructions import setup_memory
+    from tubempc.testing.examples import find_example
+
+    try:
+        example = find_example(None)
+    except FileNotFoundError as exc:
+        pytest.skip(f"no built C++ example: {exc}")
+    path, scn = exported
+    out = tmp_path / "native.json"
+    proc = subprocess.run([str(example), str(path), "--method", "ffa", "--json", str(out)], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    flight = json.loads(out.read_text())
+    if not flight["allocations_counted"]:
+        pytest.skip("the example does not count allocations (no glibc, or a sanitizer build)")
+    memory = setup_memory(flight)
+    assert memory is not None
+    ffa = memory["methods"]["ffa"]
+    assert ffa["navigation"] is None and ffa["actuation"] is None  # not flown by the default scenario
+    reference_bytes = (scn.n_steps + 1) * 12 * 8  # the reference's states, doubles
+    assert ffa["controller_setup"]["retained"] >= reference_bytes
+    shape = scn.shape
+    shape_bytes = 3 * 8 * len(shape.vertices) + 3 * 4 * len(shape.faces)  # both gravity models hold the shape
+    assert memory["shared"]["models_and_ray_casters"]["retained"] >= 2 * shape_bytes
+    parts = {**memory["shared"], **ffa}
+    for name, m in parts.items():
+        if m is not None:
+            assert 0 <= m["retained"] <= m["peak"], name
+    largest = max(m["retained"] for m in parts.values() if m is not None)
+    assert memory["largest"]["retained"] == largest and memory["largest"]["component"].split(" ", 1)[1] in parts
+
+
 def test_written_file_reads_back_to_the_same_text(exported: tuple[Path, Scenario], tmp_path: Path) -> None:
     path, _ = exported
     again = tmp_path / "again.txt"
