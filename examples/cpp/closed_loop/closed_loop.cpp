@@ -233,8 +233,8 @@ struct Flight {
   double setup_s = 0.0;
   long allocations_controller = 0, allocations_truth = 0;
   long allocations_navigation = 0, allocations_actuation = 0;  // with navigation / actuators
-  // set-up, per component; the controller's construction (the MPC, its QP solvers) and its setup (the
-  // reference discretised for the tube update, the designs, the estimation-error set)
+  // set-up, per component; the controller's construction and its setup (the MPC's setup with its QP
+  // solvers' workspaces, the reference discretised for the tube update, the designs, the estimation-error set)
   SetupMemory memory_controller_construction, memory_controller, memory_navigation, memory_actuation;
   std::map<std::string, int> statuses, tube_statuses;
   std::map<std::string, int> navigation_statuses, actuation_statuses;  // with navigation / actuators
