@@ -347,6 +347,14 @@ def _navigation(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     ]
 
 
+def _campaign_time(d: dict[str, Any]) -> str:
+    """A physics campaign's time: the runs' own (summed over the workers' runs: a resumed campaign's wall time is its
+    last invocation's) where recorded, else the campaign's wall time."""
+    if "runs_time_s" in d:
+        return f"runs {d['runs_time_s']:.0f} s summed over the runs ({d.get('workers')} worker(s))"
+    return f"campaign {d['campaign_wall_time_s']:.0f} s"
+
+
 def _physics(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     """A campaign in the dispersed physical environment (tools/physics_campaign.py): per method the tube, J_p, J_r
     and the touchdown errors; then each of the paper's claims under physics, when measured."""
@@ -372,7 +380,7 @@ def _physics(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
                 f"(3 sigma {r['J_p']['3sigma']:.2g}), J_r {r['J_r']['mean']:.4g} (3 sigma {r['J_r']['3sigma']:.2g}); "
                 f"touchdown error max {1e3 * p['max']:.3g} mm (mean {1e3 * p['mean']:.3g}), {1e3 * v['max']:.3g} mm/s "
                 f"(mean {1e3 * v['mean']:.3g}); runs inside the body {r['runs_inside_body']}, with cone violations "
-                f"{r['runs_with_cone_violation']}; campaign {d['campaign_wall_time_s']:.0f} s",
+                f"{r['runs_with_cone_violation']}; {_campaign_time(d)}",
             )
         )
     for c in d.get("claims", []):

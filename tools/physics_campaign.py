@@ -6,6 +6,7 @@ given the nominal run's folder (and a sweep's), the paper's claims under physics
 (tubempc.analysis.claims). Writes the JSON that tools/benchmarks_md.py reads (docs/benchmarks/physics_<name>.json).
 
     python tools/physics_campaign.py CAMPAIGN_DIR [OUT.json] [--run RUN_DIR] [--sweep SWEEP_DIR] [--command TEXT]
+        [--name NAME]
 """
 
 from __future__ import annotations
@@ -126,6 +127,10 @@ def main() -> int:
     p.add_argument("--run", type=Path, help="the nominal run's folder (tubempc run --out), for the paper's claims")
     p.add_argument("--sweep", type=Path, help="a sweep's folder (tubempc sweep --out), for the paper's claims")
     p.add_argument("--command", default="", help="the commands that made the folders, as the page shows them")
+    p.add_argument(
+        "--name",
+        help="what the page calls the campaign's configuration (default: the packaged scenario it flew, else its file)",
+    )
     a = p.parse_args()
     summary = json.loads((a.folder / "summary.json").read_text(encoding="utf-8"))
     config = a.folder / "config.toml"
@@ -134,11 +139,13 @@ def main() -> int:
     out.update(summarise(a.folder))
     out["claims"] = claims(a.run, a.sweep, a.folder)
     out["config_hash"] = summary.get("config_hash")
+    # the last invocation's wall time (a resumed campaign's is its last part's); the runs' own is the sum below
     out["campaign_wall_time_s"] = summary.get("wall_time_s")
+    out["runs_time_s"] = float(np.nansum(CampaignStore(a.folder).column("run_time_s")))
     out["workers"] = summary.get("workers")
     out["command"] = a.command
     out["machine"] = summary.get("machine") or machine_info()
-    out["scenario"] = _scenario_name(config)
+    out["scenario"] = a.name or _scenario_name(config)
     text = json.dumps(out, indent=2)
     print(text)
     if a.json:
