@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "bindings.hpp"
+#include "tubempc/nav/faults.hpp"
 #include "tubempc/nav/filter.hpp"
 #include "tubempc/nav/random.hpp"
 #include "tubempc/nav/ray_caster.hpp"
@@ -292,6 +293,33 @@ void bind_nav(py::module_& m) {
   bind_named_enum<Sensor>(s, "Sensor", "The four sensors, in the order of NavigationStep's per-sensor lists");
   bind_named_enum<NavigationStatus>(s, "NavigationStatus", "Outcome of a navigation call");
   s.attr("N_SENSORS") = kSensors;
+  bind_named_enum<SensorFaultKind>(s, "SensorFaultKind", "Kinds of injected sensor fault (nav/faults.hpp)");
+  bind_named_enum<NavFault>(s, "NavFault", "A detection of the navigation step (nav/faults.hpp)");
+  s.attr("N_NAV_FAULTS") = kNavFaults;
+  s.attr("MAX_SENSOR_FAULTS") = kMaxSensorFaults;
+  py::class_<SensorFault>(s, "SensorFault", "One injected sensor fault over [t_start, t_start + duration)")
+      .def(py::init<>())
+      .def_readwrite("kind", &SensorFault::kind)
+      .def_readwrite("t_start", &SensorFault::t_start, "onset (s)")
+      .def_readwrite("duration", &SensorFault::duration, "how long (s), > 0 (inf: to the end)")
+      .def_readwrite("magnitude", &SensorFault::magnitude,
+                     "size in the kind's unit: px, m, rad/s, m/s^2 or 1 (a scale step)")
+      .def_readwrite("axis_B", &SensorFault::axis_B, "direction of a bias step in B")
+      .def("active", &SensorFault::active, py::arg("t"))
+      .def("validate", &SensorFault::validate);
+  py::class_<FaultDetectionSettings>(s, "FaultDetectionSettings", "The navigation step's fault detection")
+      .def(py::init<>())
+      .def_readwrite("enabled", &FaultDetectionSettings::enabled)
+      .def_readwrite("exclude", &FaultDetectionSettings::exclude)
+      .def_readwrite("false_alarm_probability", &FaultDetectionSettings::false_alarm_probability)
+      .def_readwrite("persistence", &FaultDetectionSettings::persistence)
+      .def_readwrite("outage_time", &FaultDetectionSettings::outage_time, "(s)")
+      .def_readwrite("max_position_sigma", &FaultDetectionSettings::max_position_sigma, "(m)")
+      .def("validate", &FaultDetectionSettings::validate);
+  s.def("chi_square_upper_quantile", &chi_square_upper_quantile, py::arg("q"), py::arg("dof"),
+        "x with P(X > x) = q for a chi-square X with dof degrees of freedom");
+  s.def("chi_square_upper_tail", &chi_square_upper_tail, py::arg("x"), py::arg("dof"),
+        "P(X > x) for a chi-square X with dof degrees of freedom");
   py::class_<NavigationSettings> navigation(
       s, "NavigationSettings", "True sensors, the filter (its model of them), initial and per-period sigmas");
   navigation.def(py::init<>()).def("validate", &NavigationSettings::validate);
@@ -318,7 +346,13 @@ void bind_nav(py::module_& m) {
       .def_readonly("nis_dof", &NavigationStep::nis_dof)
       .def_readonly("time_sensors", &NavigationStep::time_sensors)
       .def_readonly("time_filter", &NavigationStep::time_filter)
-      .def_readonly("gravity_evaluations", &NavigationStep::gravity_evaluations);
+      .def_readonly("gravity_evaluations", &NavigationStep::gravity_evaluations)
+      .def_readonly("fault_detected", &NavigationStep::fault_detected)
+      .def_property_readonly("fault_cause", [](const NavigationStep& r) { return std::string(to_string(r.fault_cause)); },
+                             "the first detection's name (\"none\" while fault_detected is false)")
+      .def_readonly("detected_at", &NavigationStep::detected_at)
+      .def_readonly("excluded", &NavigationStep::excluded)
+      .def_readonly("failed", &NavigationStep::failed);
   py::class_<NavigationSystem>(s, "NavigationSystem",
                                "The sensors and the filter of a run: one call per control period")
       .def(py::init<std::shared_ptr<const dynamics::ProximityModel>, std::shared_ptr<const RayCaster>,
@@ -338,7 +372,17 @@ void bind_nav(py::module_& m) {
       .def_property_readonly("filter", &NavigationSystem::filter, py::return_value_policy::reference_internal)
       .def_property_readonly("imu", &NavigationSystem::imu, py::return_value_policy::reference_internal)
       .def_property_readonly("settings", &NavigationSystem::settings)
-      .def_property_readonly("base_period", &NavigationSystem::base_period);
+      .def_property_readonly("base_period", &NavigationSystem::base_period)
+      .def("set_faults", &NavigationSystem::set_faults, py::arg("faults"), py::arg("detection"))
+      .def_property_readonly("fault_detection", &NavigationSystem::fault_detection)
+      .def(
+          "nis_threshold",
+          [](const NavigationSystem& n, int dof) {
+            if (dof < 1 || dof > kMaxNisDof)
+              throw std::invalid_argument("nis_threshold: dof must be in [1, " + std::to_string(kMaxNisDof) + "]");
+            return n.nis_threshold(dof);
+          },
+          py::arg("dof"), "the NIS test's threshold for a sample of dof degrees of freedom");
 }
 
 }  // namespace tubempc::python

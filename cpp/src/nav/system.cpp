@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -94,6 +95,147 @@ NavigationSystem::NavigationSystem(std::shared_ptr<const dynamics::ProximityMode
             ticks(settings_.star_tracker.period, h)};
   for (int i = 0; i < 9; ++i)
     Q_period_(i, i) = settings_.period_noise_sigma(i) * settings_.period_noise_sigma(i);
+  set_faults({}, FaultDetectionSettings{});
+  reset_detection(0.0);
+}
+
+void NavigationSystem::set_faults(const std::vector<SensorFault>& faults, const FaultDetectionSettings& detection) {
+  if (faults.size() > static_cast<std::size_t>(kMaxSensorFaults))
+    throw std::invalid_argument("faults: at most " + std::to_string(kMaxSensorFaults) +
+                                " injected sensor faults, got " + std::to_string(faults.size()));
+  for (const SensorFault& f : faults) f.validate();
+  detection.validate();
+  std::array<double, kMaxNisDof + 1> threshold{};
+  for (int dof = 1; dof <= kMaxNisDof; ++dof)
+    threshold[static_cast<std::size_t>(dof)] = chi_square_upper_quantile(detection.false_alarm_probability, dof);
+  n_faults_ = static_cast<int>(faults.size());
+  for (int i = 0; i < n_faults_; ++i) {
+    faults_[static_cast<std::size_t>(i)] = faults[static_cast<std::size_t>(i)];
+    faults_[static_cast<std::size_t>(i)].axis_B.normalize();
+  }
+  detection_ = detection;
+  nis_threshold_ = threshold;
+}
+
+void NavigationSystem::inject_imu(double t) {
+  if (imu_sample_.status != SensorStatus::Ok) return;
+  for (int i = 0; i < n_faults_; ++i) {
+    const SensorFault& f = faults_[static_cast<std::size_t>(i)];
+    if (!f.active(t)) continue;
+    switch (f.kind) {
+      case SensorFaultKind::GyroBiasStep:
+        imu_sample_.omega_BI_B += f.magnitude * f.axis_B;
+        break;
+      case SensorFaultKind::AccelBiasStep:
+        imu_sample_.specific_force_B += f.magnitude * f.axis_B;
+        break;
+      case SensorFaultKind::GyroScaleStep:
+        imu_sample_.omega_BI_B *= 1.0 + f.magnitude;
+        break;
+      case SensorFaultKind::AccelScaleStep:
+        imu_sample_.specific_force_B *= 1.0 + f.magnitude;
+        break;
+      default:
+        break;
+    }
+  }
+}
+
+void NavigationSystem::inject_aiding(Sensor s, double t) {
+  for (int i = 0; i < n_faults_; ++i) {
+    const SensorFault& f = faults_[static_cast<std::size_t>(i)];
+    if (!f.active(t)) continue;
+    switch (f.kind) {
+      case SensorFaultKind::CameraOutage:
+        if (s == Sensor::Camera) frame_.status = SensorStatus::Failed;
+        break;
+      case SensorFaultKind::LandmarkOutlier:
+        if (s == Sensor::Camera && frame_.status == SensorStatus::Ok && frame_.count >= 1)
+          frame_.observations[0].pixel.x() += f.magnitude;
+        break;
+      case SensorFaultKind::LandmarkMismatch:
+        if (s == Sensor::Camera && frame_.status == SensorStatus::Ok && frame_.count >= 2)
+          std::swap(frame_.observations[0].landmark, frame_.observations[1].landmark);
+        break;
+      case SensorFaultKind::AltimeterDropout:
+        if (s == Sensor::Altimeter) alt_.status = SensorStatus::Failed;
+        break;
+      case SensorFaultKind::AltimeterSpike:
+        if (s == Sensor::Altimeter && alt_.status == SensorStatus::Ok) alt_.range += f.magnitude;
+        break;
+      case SensorFaultKind::StarTrackerLoss:
+        if (s == Sensor::StarTracker) star_.status = SensorStatus::Failed;
+        break;
+      default:
+        break;
+    }
+  }
+}
+
+void NavigationSystem::declare(NavFault f, double t) {
+  double& at = out_.detected_at[static_cast<std::size_t>(f)];
+  if (std::isnan(at)) at = t;
+  if (!out_.fault_detected) {
+    out_.fault_detected = true;
+    out_.fault_cause = f;
+  }
+}
+
+void NavigationSystem::check_sample(Sensor s, double t, SensorStatus st, const UpdateResult* r) {
+  if (!detection_.enabled) return;
+  const int i = static_cast<int>(s);
+  if (st == SensorStatus::Ok) last_ok_[i] = t;
+  if (r == nullptr) return;
+  // Failed: the accepted measurements' NIS beyond the quantile, or every measurement refused by the gate.
+  const bool bad = r->accepted == 0 ? r->status == FilterStatus::Rejected
+                                    : r->dof >= 1 && r->dof <= kMaxNisDof &&
+                                          r->nis > nis_threshold_[static_cast<std::size_t>(r->dof)];
+  if (!bad) {
+    failing_[i] = 0;
+    return;
+  }
+  ++out_.failed[i];
+  if (++failing_[i] < detection_.persistence) return;
+  failing_[i] = 0;
+  // A second aiding sensor failing while another is faulty or failing: the common cause, the IMU.
+  bool other = false;
+  for (const Sensor o : {Sensor::Altimeter, Sensor::Camera, Sensor::StarTracker}) {
+    const int j = static_cast<int>(o);
+    if (j != i) other = other || out_.excluded[j] || failing_[j] > 0;
+  }
+  other = other || !std::isnan(out_.detected_at[static_cast<int>(NavFault::AltimeterFault)]) ||
+          !std::isnan(out_.detected_at[static_cast<int>(NavFault::CameraFault)]) ||
+          !std::isnan(out_.detected_at[static_cast<int>(NavFault::StarTrackerFault)]);
+  if (other) {
+    declare(NavFault::ImuFault, t);
+    return;
+  }
+  declare(s == Sensor::Altimeter ? NavFault::AltimeterFault
+          : s == Sensor::Camera  ? NavFault::CameraFault
+                                 : NavFault::StarTrackerFault,
+          t);
+  if (detection_.exclude) out_.excluded[i] = true;
+}
+
+void NavigationSystem::check_health(double t) {
+  if (!detection_.enabled) return;
+  const auto outage = [&](Sensor s, NavFault f) {
+    if (t - last_ok_[static_cast<int>(s)] > detection_.outage_time) declare(f, t);
+  };
+  outage(Sensor::Altimeter, NavFault::AltimeterOutage);
+  outage(Sensor::Camera, NavFault::CameraOutage);
+  outage(Sensor::StarTracker, NavFault::StarTrackerOutage);
+  const double sigma_r = std::sqrt(filter_.covariance().block<3, 3>(0, 0).trace());
+  if (!(sigma_r <= detection_.max_position_sigma)) declare(NavFault::CovarianceGrowth, t);
+}
+
+void NavigationSystem::reset_detection(double t0) {
+  failing_.fill(0);
+  last_ok_.fill(t0);
+  out_.fault_detected = false;
+  out_.fault_cause = NavFault::None;
+  out_.detected_at.fill(std::numeric_limits<double>::quiet_NaN());
+  out_.excluded.fill(false);
 }
 
 SensorTruth NavigationSystem::sensor_truth(double t, const dynamics::TruthState& s,
@@ -127,7 +269,9 @@ void NavigationSystem::count(Sensor s, SensorStatus st) {
 
 void NavigationSystem::propagate_to(const SensorTruth& truth) {
   const Clock::time_point t0 = Clock::now();
-  count(Sensor::Imu, imu_.measure(truth, imu_sample_));
+  const SensorStatus st = imu_.measure(truth, imu_sample_);
+  inject_imu(truth.t);
+  count(Sensor::Imu, st);
   const Clock::time_point t1 = Clock::now();
   out_.filter_status = worse(out_.filter_status, filter_.propagate(truth.t, imu_sample_));
   out_.time_sensors += seconds(t0, t1);
@@ -146,23 +290,39 @@ void NavigationSystem::sample(const SensorTruth& truth, bool all) {
     t0 = Clock::now();
     out_.time_filter += seconds(t1, t0);
   };
+  // Each aiding sensor: measured, its injected faults applied, folded in unless excluded, checked.
   if (due(Sensor::StarTracker)) {
-    count(Sensor::StarTracker, star_tracker_.measure(truth, star_));
+    star_tracker_.measure(truth, star_);
+    inject_aiding(Sensor::StarTracker, truth.t);
+    count(Sensor::StarTracker, star_.status);
     split();
-    if (star_.status == SensorStatus::Ok) record(filter_.update_star_tracker(star_), Sensor::StarTracker);
+    UpdateResult r;
+    const bool fold = star_.status == SensorStatus::Ok && !excluded(Sensor::StarTracker);
+    if (fold) record(r = filter_.update_star_tracker(star_), Sensor::StarTracker);
+    check_sample(Sensor::StarTracker, truth.t, star_.status, fold ? &r : nullptr);
     done();
   }
   if (due(Sensor::Altimeter)) {
-    count(Sensor::Altimeter, altimeter_.measure(truth, alt_));
+    altimeter_.measure(truth, alt_);
+    inject_aiding(Sensor::Altimeter, truth.t);
+    count(Sensor::Altimeter, alt_.status);
     split();
-    if (alt_.status == SensorStatus::Ok) record(filter_.update_altimeter(alt_), Sensor::Altimeter);
+    UpdateResult r;
+    const bool fold = alt_.status == SensorStatus::Ok && !excluded(Sensor::Altimeter);
+    if (fold) record(r = filter_.update_altimeter(alt_), Sensor::Altimeter);
+    check_sample(Sensor::Altimeter, truth.t, alt_.status, fold ? &r : nullptr);
     done();
   }
   if (due(Sensor::Camera)) {
-    count(Sensor::Camera, camera_.measure(truth, frame_));
+    camera_.measure(truth, frame_);
+    inject_aiding(Sensor::Camera, truth.t);
+    count(Sensor::Camera, frame_.status);
     out_.landmarks_visible = frame_.status == SensorStatus::Ok ? frame_.count : 0;
     split();
-    if (frame_.status == SensorStatus::Ok) record(filter_.update_camera(frame_), Sensor::Camera);
+    UpdateResult r;
+    const bool fold = frame_.status == SensorStatus::Ok && !excluded(Sensor::Camera);
+    if (fold) record(r = filter_.update_camera(frame_), Sensor::Camera);
+    check_sample(Sensor::Camera, truth.t, frame_.status, fold ? &r : nullptr);
     done();
   }
   out_.time_sensors += seconds(t0, Clock::now());
@@ -170,6 +330,7 @@ void NavigationSystem::sample(const SensorTruth& truth, bool all) {
 
 void NavigationSystem::finish(const Eigen::Vector3d& phi_ref) {
   const Clock::time_point t0 = Clock::now();
+  check_health(filter_.state().t);
   const dynamics::StateVector x = filter_.model_state(phi_ref);
   const dynamics::StateMatrix P = filter_.model_covariance(phi_ref);
   out_.gravity_evaluations = static_cast<int>(filter_.gravity_evaluations() - gravity_evaluations_before_);
@@ -205,6 +366,7 @@ void NavigationSystem::clear_step() {
   out_.filter_status = FilterStatus::Ok;
   out_.time_sensors = out_.time_filter = 0.0;
   out_.gravity_evaluations = 0;
+  out_.failed.fill(0);
   gravity_evaluations_before_ = filter_.gravity_evaluations();
 }
 
@@ -241,6 +403,7 @@ const NavigationStep& NavigationSystem::initialize(double t0, const dynamics::Tr
   tick_ = 0;
   t0_ = t0;
   initialized_ = true;
+  reset_detection(t0);
   const SensorTruth st0 = sensor_truth(t0, truth, accel_nongrav_L);
   propagate_to(st0);  // zero length: registers the gyro's rate for the estimate's angular velocity
   sample(st0, true);

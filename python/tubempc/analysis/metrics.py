@@ -21,8 +21,9 @@ Definitions used throughout (the paper gives no index range; this is the project
 from __future__ import annotations
 
 import collections
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -36,6 +37,7 @@ from ..results.summaries import (
     ConstraintViolations,
     ControlEffort,
     EnvelopeFit,
+    FaultSummary,
     GroupErrors,
     NavigationSummary,
     NeesTest,
@@ -57,6 +59,7 @@ __all__ = [
     "actuation_summary",
     "below_or_above",
     "control_effort",
+    "fault_summary",
     "fit_exponential_convergence",
     "navigation_summary",
     "nees_bounds",
@@ -313,7 +316,28 @@ def nees_test(nees: Array, dof: int, probability: float = 0.95) -> NeesTest | No
     )
 
 
-def navigation_summary(nav: NavigationRecord) -> NavigationSummary:
+def fault_summary(applied: Mapping[str, Any]) -> FaultSummary | None:
+    """A run's injected fault and its detection (:class:`tubempc.results.summaries.FaultSummary`) from its
+    ``applied`` (``fault``, ``fault_detection``); None when no fault was injected and none detected (or a run
+    recorded before them)."""
+    fault, det = applied.get("fault"), applied.get("fault_detection") or {}
+    detected = bool(det.get("detected", False))
+    if fault is None and not detected:
+        return None
+    cause = str(det.get("cause", "none"))
+    t_detect = (det.get("detected_at") or {}).get(cause) if detected else None
+    onset = None if fault is None else float(fault["start"])
+    return FaultSummary(
+        injected="none" if fault is None else str(fault["kind"]),
+        onset=onset,
+        detected=detected,
+        cause=cause,
+        detection_time=None if t_detect is None else float(t_detect),
+        latency=None if t_detect is None or onset is None else float(t_detect) - onset,
+    )
+
+
+def navigation_summary(nav: NavigationRecord, applied: Mapping[str, Any] | None = None) -> NavigationSummary:
     """How a run's navigation went (:class:`tubempc.results.summaries.NavigationSummary`), from its record:
 
     - the estimation error x - x^ at the last step (touchdown for a whole run), norm per state group;
@@ -346,6 +370,7 @@ def navigation_summary(nav: NavigationRecord) -> NavigationSummary:
             translation=float(gauge[:, 0].max(initial=0.0)), rotation=float(gauge[:, 1].max(initial=0.0))
         ),
         steps_outside_output_tube=int(np.sum(np.any(gauge > 1.0 + EXCURSION_TOLERANCE, axis=1))),
+        faults=None if applied is None else fault_summary(applied),
     )
 
 
@@ -387,7 +412,7 @@ def run_metrics(rec: RunRecord, dt: float, x_f: Array) -> RunMetrics:
         run_time_s=rec.wall_time_s,
         seed=rec.seed,
         actuation=actuation_summary(rec, dt),
-        navigation=None if rec.navigation is None else navigation_summary(rec.navigation),
+        navigation=None if rec.navigation is None else navigation_summary(rec.navigation, rec.applied),
     )
 
 

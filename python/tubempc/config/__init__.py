@@ -13,6 +13,7 @@ unit, shape, check, documentation line and, for [navigation], the C++ setting it
 
 from __future__ import annotations
 
+from .faults import FAULT_KINDS, FaultsSection
 from .load import OWN_MISSION_DEFAULTS, SCENARIOS, load_config, scenario_file
 from .navigation import NavigationSection
 from .parse import (
@@ -42,6 +43,7 @@ from .sections import (
 
 __all__ = [
     "BORESIGHT_DEFAULTS",
+    "FAULT_KINDS",
     "OWN_MISSION_DEFAULTS",
     "PLANTS",
     "REMOVED_FIELDS",
@@ -57,6 +59,7 @@ __all__ = [
     "ConstraintsSection",
     "DisturbanceSection",
     "EnvironmentSection",
+    "FaultsSection",
     "IdentificationSection",
     "MpcSection",
     "NavigationSection",

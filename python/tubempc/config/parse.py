@@ -14,6 +14,7 @@ from typing import Any, TypeVar, get_type_hints
 import numpy as np
 import tomli_w
 
+from .faults import FAULT_KINDS, SENSOR_FAULT_KINDS, FaultsSection
 from .fields import encode, is_si, parse_field, spec_of
 from .navigation import NavigationSection
 from .physical import PhysicalSection
@@ -56,6 +57,7 @@ class Config:
     simulation: SimulationSection
     navigation: NavigationSection
     physical: PhysicalSection
+    faults: FaultsSection
     source: str = "<memory>"
     defaulted: tuple[str, ...] = ()  # "section.field" taken from the packaged defaults (not content)
 
@@ -309,9 +311,36 @@ def _check_dispersion_ranges(c: Config) -> None:
         )
 
 
+def _check_faults(c: Config) -> None:
+    """Every random kind is a fault kind; a fault inside the run."""
+    f = c.faults
+    kinds = f.random_kind_list
+    if not kinds:
+        raise ConfigError(f"{c.source}: faults.random_kinds: no kind given (known: {', '.join(FAULT_KINDS)})")
+    for k in kinds:
+        if k not in FAULT_KINDS:
+            raise ConfigError(
+                f"{c.source}: faults.random_kinds: {k!r} is not a fault kind (known: {', '.join(FAULT_KINDS)})"
+            )
+    sensor = [k for k in (kinds if f.random else (f.kind,)) if k in SENSOR_FAULT_KINDS]
+    if sensor and not c.navigation.enabled:
+        name = "faults.random_kinds" if f.random else "faults.kind"
+        raise ConfigError(f"{c.source}: {name}: the sensor fault {sensor[0]!r} needs navigation.enabled = true")
+    if f.kind != "none" and not f.random and f.start >= c.mpc.t_f:
+        raise ConfigError(
+            f"{c.source}: faults.start: {f.start} s is not before the end of the run (mpc.t_f = {c.mpc.t_f} s)"
+        )
+    if f.random and f.random_window[1] > c.mpc.t_f:
+        raise ConfigError(
+            f"{c.source}: faults.random_window: its end {f.random_window[1]} s is after the end of the run "
+            f"(mpc.t_f = {c.mpc.t_f} s)"
+        )
+
+
 def _check_consistency(c: Config) -> None:
     _check_navigation(c)
     _check_physical(c)
+    _check_faults(c)
     ratio = c.mpc.t_f / c.mpc.dt
     if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
         raise ConfigError(f"{c.source}: mpc.t_f: {c.mpc.t_f} s is not a multiple of mpc.dt = {c.mpc.dt} s")

@@ -38,6 +38,7 @@ __all__ = [
     "Driver",
     "EnvelopeFit",
     "FailureBound",
+    "FaultSummary",
     "GroupErrors",
     "MeanSpread",
     "MethodResult",
@@ -263,6 +264,21 @@ class NeesTest(_Json):
 
 
 @dataclass(frozen=True, kw_only=True)
+class FaultSummary(_Json):
+    """A run's injected fault and its navigation's fault detection (docs/model.md M49-M50;
+    :func:`tubempc.analysis.metrics.fault_summary`): the kind injected ("none": no fault), its onset (s), whether a
+    fault was detected, the first detection's name ("none") and time (s), and the latency from the onset to it (s;
+    None: no fault injected or none detected)."""
+
+    injected: str
+    onset: float | None = field(default=None, metadata=_OMIT)
+    detected: bool
+    cause: str
+    detection_time: float | None = field(default=None, metadata=_OMIT)
+    latency: float | None = field(default=None, metadata=_OMIT)
+
+
+@dataclass(frozen=True, kw_only=True)
 class NavigationSummary(_Json):
     """How a run flown on navigation went (:func:`tubempc.analysis.metrics.navigation_summary`, from its
     :class:`tubempc.scenario.navigation.NavigationRecord`): the estimation error x - x^ at touchdown (the
@@ -282,6 +298,7 @@ class NavigationSummary(_Json):
     landmarks_per_frame_min: float | None = field(default=None, metadata=_OMIT)
     max_gauge: SubsystemValues
     steps_outside_output_tube: int  # steps whose gauge exceeds 1 in either subsystem
+    faults: FaultSummary | None = field(default=None, metadata=_OMIT)  # None: no fault injected, none detected
 
 
 @dataclass(frozen=True, kw_only=True)

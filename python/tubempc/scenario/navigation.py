@@ -146,10 +146,13 @@ class Navigation:
         return self.scale * np.asarray(P_x, dtype=float)
 
 
-def new_navigation(scn: Any, seed: int, delivery: str = "jump") -> Navigation | None:
+def new_navigation(scn: Any, seed: int, delivery: str = "jump", fault: dict[str, Any] | None = None) -> Navigation | None:
     """The navigation of a run with seed ``seed`` (None when ``navigation.enabled`` is false) in a plant
     that delivers the drawn disturbance as ``delivery`` (:data:`DISTURBANCE_DELIVERIES`). The sensors
-    ray-cast the truth's shape; the filter and the landmark catalogue use the controller's."""
+    ray-cast the truth's shape; the filter and the landmark catalogue use the controller's. Its fault
+    detection is [faults]' (a run's injected fault: :func:`tubempc.scenario.faults.inject`)."""
+    from .faults import detection_settings
+
     cfg: Config = scn.config
     n = cfg.navigation
     if not n.enabled:
@@ -164,6 +167,7 @@ def new_navigation(scn: Any, seed: int, delivery: str = "jump") -> Navigation | 
         settings,
         int(seed) + NAV_SEED_OFFSET,
     )
+    system.set_faults([], detection_settings(cfg))
     n_sub = round(cfg.mpc.dt / n.imu_period)
     return Navigation(
         system, error_set_scale(n.error_set_probability), n.imu_period, n_sub, np.asarray(scn.truth.srp_acceleration_L)
@@ -266,6 +270,15 @@ def propagate_sampled(
     return state
 
 
+#: The fault detection's fields of a NavigationRecord and their shapes for T + 1 steps (a file written before them).
+_FAULT_FIELDS: dict[str, Any] = {
+    "fault_detected": lambda n: (n,),
+    "fault_cause": lambda n: (n,),
+    "failed": lambda n: (n, 4),
+    "excluded": lambda n: (n, 4),
+}
+
+
 @dataclass
 class NavigationRecord:
     """Per-step navigation of a run (k = 0..T: the estimate the controller flew at step k)."""
@@ -284,6 +297,11 @@ class NavigationRecord:
     time_filter: Array  # (T,) of that call, the onboard estimator's part (C++ clock; sensors excluded) (s)
     # (T+1, 4) samples taken per sensor in the call (camera: frames); NaN in a file written before they were kept
     samples: Array
+    # Fault detection (nav/faults.hpp, M50), per step k = 0..T; in a file written before it: none detected.
+    fault_detected: Array  # (T+1,) 1 once a fault was detected (latched), else 0
+    fault_cause: list[str]  # (T+1) the first detection's name ("none" while none)
+    failed: Array  # (T+1, 4) samples per sensor whose NIS test failed in the call
+    excluded: Array  # (T+1, 4) 1 for a sensor declared faulty and no longer folded in
 
     @classmethod
     def allocate(cls, n_steps: int) -> NavigationRecord:
@@ -304,6 +322,10 @@ class NavigationRecord:
             z(n_steps),
             z(n_steps),
             z((T1, 4)),
+            z(T1),
+            [],
+            z((T1, 4)),
+            z((T1, 4)),
         )
 
     def add(self, k: int, est: Any, x_true: Array, state_true: Array, imu: Any) -> None:
@@ -320,12 +342,28 @@ class NavigationRecord:
         self.landmarks[k] = est.landmarks_visible
         self.accepted[k] = list(est.accepted)
         self.samples[k] = list(est.samples)
+        self.fault_detected[k] = float(est.fault_detected)
+        self.fault_cause.append(str(est.fault_cause))
+        self.failed[k] = list(est.failed)
+        self.excluded[k] = [float(e) for e in est.excluded]
 
     def truncate(self, n_run: int) -> None:
         """Cuts to the first ``n_run`` steps."""
-        for name in ("x_hat", "sigma", "error", "nees", "landmarks", "accepted", "samples"):
+        for name in (
+            "x_hat",
+            "sigma",
+            "error",
+            "nees",
+            "landmarks",
+            "accepted",
+            "samples",
+            "fault_detected",
+            "failed",
+            "excluded",
+        ):
             setattr(self, name, getattr(self, name)[: n_run + 1])
         self.status, self.sensor_status = self.status[: n_run + 1], self.sensor_status[: n_run + 1]
+        self.fault_cause = self.fault_cause[: n_run + 1]
         self.gauge, self.gauge_estimate = self.gauge[:n_run], self.gauge_estimate[:n_run]
         self.time_step, self.time_filter = self.time_step[:n_run], self.time_filter[:n_run]
 
@@ -358,6 +396,11 @@ class NavigationRecord:
             if f.name == "samples" and "nav_samples" not in raw:  # written before the samples were kept: unknown
                 values[f.name] = np.full((len(raw["nav_nees"]), 4), np.nan)
                 continue
+            if f.name in _FAULT_FIELDS and f"nav_{f.name}" not in raw:  # written before the detection: none
+                n1 = len(raw["nav_nees"])
+                values[f.name] = ["none"] * n1 if f.name == "fault_cause" else np.zeros(_FAULT_FIELDS[f.name](n1))
+                continue
             v = raw[f"nav_{f.name}"]
-            values[f.name] = [str(s) for s in v] if f.name in ("status", "sensor_status") else np.asarray(v, dtype=float)
+            strings = f.name in ("status", "sensor_status", "fault_cause")
+            values[f.name] = [str(s) for s in v] if strings else np.asarray(v, dtype=float)
         return cls(**values)

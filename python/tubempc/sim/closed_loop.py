@@ -38,6 +38,7 @@ from ..design.tube import tube_excursion
 from ..results.records import RunRecord
 from ..scenario.actuators import describe_actuation
 from ..scenario.build import METHODS, P_STATES, R_STATES, Scenario
+from ..scenario.faults import burst_window, inject, run_fault
 from ..scenario.navigation import Navigation, NavigationRecord, new_navigation, tube_gauge
 from .plant import ProjectPlant
 from .setup import loop_setup, run_truth
@@ -90,9 +91,10 @@ def _new_record(scn: Scenario, method: str, seed: int) -> RunRecord:
     return rec
 
 
-def _new_plant(scn: Scenario, seed: int, dispersed: bool) -> ProjectPlant:
+def _new_plant(scn: Scenario, seed: int, dispersed: bool, fault: dict[str, Any] | None = None) -> ProjectPlant:
     """The run's plant: ``simulation.plant``'s, with the run's disturbance and actuator draws and its truth (in a
-    physical environment the nominal one, or with ``dispersed`` the one drawn from the seed: :func:`run_truth`)."""
+    physical environment the nominal one, or with ``dispersed`` the one drawn from the seed: :func:`run_truth`),
+    and the run's disturbance burst (``fault``, the project's plant with the drawn disturbance only)."""
     loop = loop_setup(scn)
     system = None if loop.actuation is None else loop.actuation.system(seed + 1)
     truth0 = scn.model.state_to_truth(scn.x0)
@@ -102,7 +104,13 @@ def _new_plant(scn: Scenario, seed: int, dispersed: bool) -> ProjectPlant:
 
         kind = BasiliskPlant
     truth, physical = run_truth(scn, seed, dispersed)
-    return kind(
+    burst = burst_window(fault)
+    if burst is not None and (kind is not ProjectPlant or physical is not None):
+        raise ValueError(
+            'faults.kind: "disturbance_burst" scales the drawn disturbance of the project\'s plant: it needs '
+            'simulation.plant = "project" and disturbance.model = "drawn"'
+        )
+    plant = kind(
         scn,
         loop.plant_disturbance(seed),
         loop.actuators(seed),
@@ -113,6 +121,8 @@ def _new_plant(scn: Scenario, seed: int, dispersed: bool) -> ProjectPlant:
         truth=truth,
         physical=physical,
     )
+    plant.burst = burst
+    return plant
 
 
 def _record_actuation(rec: RunRecord, k: int, plant: ProjectPlant, dt: float) -> None:
@@ -167,10 +177,13 @@ def simulate(
     ctrl = new_controller(
         scn, method, loop.mpc_settings, lambda_p=lambda_p, lambda_r=lambda_r, background_designs=background
     )
-    plant = _new_plant(scn, seed, dispersed)
+    fault = run_fault(scn.config, seed)  # [faults]: the given one, or one drawn from the seed
+    plant = _new_plant(scn, seed, dispersed, fault)
     rec = _new_record(scn, method, seed)
     x = scn.x0.copy()
-    nav, est = _start_navigation(scn, plant, rec, seed)
+    nav, est = _start_navigation(scn, plant, rec, seed, fault)
+    # The navigation's fault detection, latched (nav/faults.hpp): a fault detected so far and its cause's name.
+    fault_detected, fault_cause = (False, "none") if est is None else (bool(est.fault_detected), str(est.fault_cause))
     x_hat = x if est is None else np.asarray(est.x_hat)
     bar = None
     if progress:
@@ -210,6 +223,7 @@ def simulate(
                 t_nav = time.perf_counter()
                 est = nav.step(scn.reference.x[k + 1, 6:9])
                 x_hat = _record_navigation(rec, k, est, x_next, plant, z1, Pe, time.perf_counter() - t_nav)
+                fault_detected, fault_cause = bool(est.fault_detected), str(est.fault_cause)
             else:
                 x_hat = x_next
             # with navigation: the estimate's excursion in the certified tube (the truth's is rec.navigation.gauge)
@@ -236,14 +250,32 @@ def simulate(
         if rec.navigation is not None:
             rec.navigation.truncate(n_run)
     rec.applied = _applied(scn, plant, rec, max_steps)
+    rec.applied["fault"] = fault  # None: fault-free
+    # the detection's outcome: every detection's first time (s; None: not detected), the same keys in every run
+    times = [math.nan] * len(_nav_fault_names()) if est is None else list(est.detected_at)
+    rec.applied["fault_detection"] = {
+        "detected": fault_detected,
+        "cause": fault_cause,
+        "detected_at": {n: float(t) if math.isfinite(t) else None for n, t in zip(_nav_fault_names(), times, strict=True)},
+    }
     return rec
 
 
-def _start_navigation(scn: Scenario, plant: ProjectPlant, rec: RunRecord, seed: int) -> tuple[Navigation | None, Any]:
+def _nav_fault_names() -> list[str]:
+    """The names of ``_core.nav.NavFault`` in the order of ``NavigationStep.detected_at`` (the C++ name table's)."""
+    from .. import _core
+
+    return list(_core.nav.NavFault.names())
+
+
+def _start_navigation(
+    scn: Scenario, plant: ProjectPlant, rec: RunRecord, seed: int, fault: dict[str, Any] | None = None
+) -> tuple[Navigation | None, Any]:
     """The run's navigation, started at the initial state (None, None: the controller reads the truth)."""
     nav = new_navigation(scn, seed, plant.DISTURBANCE_DELIVERY)
     if nav is None:
         return None, None
+    inject(nav.system, scn.config, fault)
     plant.nav = nav
     rec.navigation = NavigationRecord.allocate(scn.n_steps)
     est = nav.initialize(plant.state, scn.reference.x[0, 6:9])

@@ -44,6 +44,9 @@ class ProjectPlant:
     environment: Any = None  # _core.dynamics.PhysicalEnvironment (disturbance.model = "physical"), or None
     truth: ProximityModel | None = None  # the run's truth model (None: the scenario's, Scenario.truth)
     physical: PhysicalTruth | None = None  # the run's physical truth (None: the scenario's, Scenario.physical)
+    # A disturbance burst (faults.kind = "disturbance_burst"): (start s, end s, scale); the draw of a period
+    # starting in [start, end) is multiplied by scale (beyond the identified set; docs/model.md M51)
+    burst: tuple[float, float, float] | None = None
 
     #: The name ``simulation.plant`` gives this plant.
     NAME = "project"
@@ -88,6 +91,8 @@ class ProjectPlant:
                 raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
             end = np.asarray(prop.state)
         w_p, w_r = self.disturbance.sample(k)
+        if self.burst is not None and self.burst[0] <= k * dt < self.burst[1]:
+            w_p, w_r = self.burst[2] * w_p, self.burst[2] * w_r
         x_next = self.truth_model.truth_to_state(end, scn.reference.x[k + 1, 6:9])
         x_next[P_STATES] += w_p
         x_next[R_STATES] += w_r

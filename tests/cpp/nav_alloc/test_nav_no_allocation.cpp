@@ -143,3 +143,59 @@ TEST(NavAllocation, NavigationSystemStepDoesNotAllocate) {
   EXPECT_GT(ok, 5);
   EXPECT_EQ(allocations, 0);
 }
+
+TEST(NavAllocation, FaultInjectionAndDetectionDoNotAllocate) {
+  // Every injected kind acting and the detection raising outage, sensor and covariance statuses.
+  if (!tubempc_testing::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  const nav_test::World w = nav_test::make_world();
+  nav::NavigationSettings ns;
+  ns.imu.period = 0.1;
+  ns.filter.camera = ns.camera;
+  nav::NavigationSystem sys(w.model, w.caster, w.caster, w.landmarks, ns, 5);
+  std::vector<nav::SensorFault> faults;
+  for (nav::SensorFaultKind kind :
+       {nav::SensorFaultKind::LandmarkOutlier, nav::SensorFaultKind::LandmarkMismatch,
+        nav::SensorFaultKind::AltimeterSpike, nav::SensorFaultKind::GyroBiasStep,
+        nav::SensorFaultKind::AccelScaleStep, nav::SensorFaultKind::GyroScaleStep,
+        nav::SensorFaultKind::AccelBiasStep, nav::SensorFaultKind::CameraOutage}) {
+    nav::SensorFault f;
+    f.kind = kind;
+    f.t_start = kind == nav::SensorFaultKind::CameraOutage ? 10.0 : 2.0;
+    f.magnitude = 1e-3;
+    faults.push_back(f);
+  }
+  nav::FaultDetectionSettings det;
+  det.outage_time = 4.0;
+  det.max_position_sigma = 1.0;
+  sys.set_faults(faults, det);
+  nav_test::RunSettings rs;
+  dynamics::TruthState s;
+  s << rs.r0_L, rs.v0_L, nav_test::nadir_attitude(rs.r0_L), rs.omega0_BL_B;
+  const int n = 20;
+  Eigen::VectorXd t(n);
+  Eigen::Matrix<double, Eigen::Dynamic, dynamics::kNtruth, Eigen::RowMajor> x(n, dynamics::kNtruth);
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> a = decltype(a)::Zero(n, 3);
+  dynamics::PropagatorSettings ps;
+  ps.substeps = 1;
+  long allocations = 0;
+  {
+    AllocationWindow window;
+    sys.initialize(0.0, s, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+    allocations += window.count();
+  }
+  bool detected = false;
+  for (int k = 0; k < 10; ++k) {
+    for (int j = 0; j < n; ++j) {
+      s = dynamics::propagate(*w.model, 2.0 * k + 0.1 * j, s, dynamics::InputVector::Zero(), 0.1, {}, ps)
+              .state;
+      t(j) = 2.0 * k + 0.1 * (j + 1);
+      x.row(j) = s.transpose();
+    }
+    AllocationWindow window;
+    detected = sys.step(t, x, a, Eigen::Vector3d::Zero()).fault_detected;
+    allocations += window.count();
+  }
+  EXPECT_TRUE(detected);
+  EXPECT_FALSE(std::isnan(sys.last().detected_at[static_cast<int>(nav::NavFault::CameraOutage)]));
+  EXPECT_EQ(allocations, 0);
+}

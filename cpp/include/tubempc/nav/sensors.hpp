@@ -27,10 +27,11 @@ enum class SensorStatus {
   OutOfRange,         ///< the altimeter's beam meets no surface within [min_range, max_range]
   NoLandmarkVisible,  ///< no landmark passes the camera's visibility tests
   InvalidInput,       ///< the true state given to the sensor is not finite
+  Failed,             ///< an injected fault: the sensor gives no output (nav/faults.hpp)
 };
 /// Name of a sensor status.
 /// @param s the status.
-/// @return its name ("ok", "dropout", "out_of_range", "no_landmark_visible", "invalid_input").
+/// @return its name ("ok", "dropout", "out_of_range", "no_landmark_visible", "invalid_input", "failed").
 const char* to_string(SensorStatus s);
 
 /// The true state the sensors observe at one instant.
@@ -328,12 +329,13 @@ namespace tubempc::core {
 template <>
 struct EnumNames<nav::SensorStatus> {
   /// The values, their identifiers and names.
-  static constexpr std::array<EnumName<nav::SensorStatus>, 5> values{
+  static constexpr std::array<EnumName<nav::SensorStatus>, 6> values{
       {{nav::SensorStatus::Ok, "Ok", "ok"},
        {nav::SensorStatus::Dropout, "Dropout", "dropout"},
        {nav::SensorStatus::OutOfRange, "OutOfRange", "out_of_range"},
        {nav::SensorStatus::NoLandmarkVisible, "NoLandmarkVisible", "no_landmark_visible"},
-       {nav::SensorStatus::InvalidInput, "InvalidInput", "invalid_input"}}};
+       {nav::SensorStatus::InvalidInput, "InvalidInput", "invalid_input"},
+       {nav::SensorStatus::Failed, "Failed", "failed"}}};
 };
 
 }  // namespace tubempc::core

@@ -27,6 +27,7 @@
 
 #include "tubempc/core/fields.hpp"
 #include "tubempc/dynamics/proximity_model.hpp"
+#include "tubempc/nav/faults.hpp"
 #include "tubempc/nav/filter.hpp"
 #include "tubempc/nav/random.hpp"
 #include "tubempc/nav/sensors.hpp"
@@ -107,6 +108,13 @@ struct NavigationStep {
   /// estimate's conversion to the controller's state.
   double time_filter{0.0};
   int gravity_evaluations{0};  ///< the filter's polyhedral gravity evaluations in this call
+  /// Fault detection (nav/faults.hpp, M50), latched over the run: whether any fault was detected so far.
+  bool fault_detected{false};
+  NavFault fault_cause{NavFault::None};  ///< the first detection (None while fault_detected is false)
+  /// Per NavFault: the time of its first detection (s), NaN while not detected.
+  std::array<double, kNavFaults> detected_at{};
+  std::array<bool, kSensors> excluded{};  ///< per sensor: declared faulty and no longer folded in
+  std::array<int, kSensors> failed{};     ///< per sensor: samples of this call that failed their NIS test
 };
 
 /// The navigation system (see the file comment). Lifecycle: construct (allocates), `initialize` at
@@ -150,6 +158,17 @@ class NavigationSystem {
       const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& accel_nongrav_L,
       const Eigen::Vector3d& phi_ref) noexcept;
 
+  /// Sets the injected sensor faults and the detection's settings (set-up: before initialize).
+  /// @param faults    the injected faults (at most kMaxSensorFaults), each validated.
+  /// @param detection the detection's settings, validated.
+  /// @throws std::invalid_argument naming the bad field ("faults.<field>"), or for too many faults.
+  void set_faults(const std::vector<SensorFault>& faults, const FaultDetectionSettings& detection);
+  /// @return the detection's settings.
+  const FaultDetectionSettings& fault_detection() const { return detection_; }
+  /// @param dof degrees of freedom, in [1, kMaxNisDof].
+  /// @return the NIS test's threshold for a sample of dof degrees of freedom.
+  double nis_threshold(int dof) const { return nis_threshold_[static_cast<std::size_t>(dof)]; }
+
   /// @return the last call's result.
   const NavigationStep& last() const { return out_; }
   /// @return the filter.
@@ -172,6 +191,18 @@ class NavigationSystem {
   void count(Sensor s, SensorStatus st);
   void record(UpdateResult r, Sensor s);
   void finish(const Eigen::Vector3d& phi_ref);
+  // The injected faults acting at t on the IMU sample / the aiding sensors' outputs.
+  void inject_imu(double t);
+  void inject_aiding(Sensor s, double t);
+  // Whether sensor s is excluded (declared faulty, with exclusion on).
+  bool excluded(Sensor s) const { return out_.excluded[static_cast<int>(s)]; }
+  // The detection's bookkeeping after sensor s's sample at t: its status and, when folded in, the update.
+  void check_sample(Sensor s, double t, SensorStatus st, const UpdateResult* r);
+  // Declares a detection at t (the first time only).
+  void declare(NavFault f, double t);
+  // The outage and covariance tests at t (end of a call).
+  void check_health(double t);
+  void reset_detection(double t0);
 
   std::shared_ptr<const dynamics::ProximityModel> model_;
   NavigationSettings settings_;
@@ -191,6 +222,12 @@ class NavigationSystem {
   NavCovariance Q_period_{NavCovariance::Zero()};
   long gravity_evaluations_before_{0};  // the filter's count when the call started
   bool initialized_{false};
+  std::array<SensorFault, kMaxSensorFaults> faults_{};
+  int n_faults_{0};
+  FaultDetectionSettings detection_{};
+  std::array<double, kMaxNisDof + 1> nis_threshold_{};  // by degrees of freedom
+  std::array<int, kSensors> failing_{};                 // failed samples in a row, per sensor
+  std::array<double, kSensors> last_ok_{};              // time of the last Ok sample, per sensor
   NavigationStep out_{};
 };
 
