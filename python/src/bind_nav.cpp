@@ -348,8 +348,9 @@ void bind_nav(py::module_& m) {
       .def_readonly("time_filter", &NavigationStep::time_filter)
       .def_readonly("gravity_evaluations", &NavigationStep::gravity_evaluations)
       .def_readonly("fault_detected", &NavigationStep::fault_detected)
-      .def_property_readonly("fault_cause", [](const NavigationStep& r) { return std::string(to_string(r.fault_cause)); },
-                             "the first detection's name (\"none\" while fault_detected is false)")
+      .def_property_readonly(
+          "fault_cause", [](const NavigationStep& r) { return std::string(to_string(r.fault_cause)); },
+          "the first detection's name (\"none\" while fault_detected is false)")
       .def_readonly("detected_at", &NavigationStep::detected_at)
       .def_readonly("excluded", &NavigationStep::excluded)
       .def_readonly("failed", &NavigationStep::failed);
@@ -379,7 +380,8 @@ void bind_nav(py::module_& m) {
           "nis_threshold",
           [](const NavigationSystem& n, int dof) {
             if (dof < 1 || dof > kMaxNisDof)
-              throw std::invalid_argument("nis_threshold: dof must be in [1, " + std::to_string(kMaxNisDof) + "]");
+              throw std::invalid_argument("nis_threshold: dof must be in [1, " + std::to_string(kMaxNisDof) +
+                                          "]");
             return n.nis_threshold(dof);
           },
           py::arg("dof"), "the NIS test's threshold for a sample of dof degrees of freedom");

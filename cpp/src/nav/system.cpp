@@ -99,7 +99,8 @@ NavigationSystem::NavigationSystem(std::shared_ptr<const dynamics::ProximityMode
   reset_detection(0.0);
 }
 
-void NavigationSystem::set_faults(const std::vector<SensorFault>& faults, const FaultDetectionSettings& detection) {
+void NavigationSystem::set_faults(const std::vector<SensorFault>& faults,
+                                  const FaultDetectionSettings& detection) {
   if (faults.size() > static_cast<std::size_t>(kMaxSensorFaults))
     throw std::invalid_argument("faults: at most " + std::to_string(kMaxSensorFaults) +
                                 " injected sensor faults, got " + std::to_string(faults.size()));
@@ -107,7 +108,8 @@ void NavigationSystem::set_faults(const std::vector<SensorFault>& faults, const 
   detection.validate();
   std::array<double, kMaxNisDof + 1> threshold{};
   for (int dof = 1; dof <= kMaxNisDof; ++dof)
-    threshold[static_cast<std::size_t>(dof)] = chi_square_upper_quantile(detection.false_alarm_probability, dof);
+    threshold[static_cast<std::size_t>(dof)] =
+        chi_square_upper_quantile(detection.false_alarm_probability, dof);
   n_faults_ = static_cast<int>(faults.size());
   for (int i = 0; i < n_faults_; ++i) {
     faults_[static_cast<std::size_t>(i)] = faults[static_cast<std::size_t>(i)];

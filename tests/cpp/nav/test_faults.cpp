@@ -100,7 +100,8 @@ TEST(ChiSquare, QuantilesMatchTabulatedValues) {
   EXPECT_NEAR(nav::chi_square_upper_quantile(1e-6, 32), 85.23155071709897, 1e-8);
   EXPECT_NEAR(nav::chi_square_upper_quantile(0.5, 128), 127.33395414332766, 1e-8);
   // Q(2, x) = exp(-x/2) exactly for two degrees of freedom.
-  for (double x : {0.1, 1.0, 7.5, 40.0}) EXPECT_NEAR(nav::chi_square_upper_tail(x, 2), std::exp(-x / 2), 1e-14);
+  for (double x : {0.1, 1.0, 7.5, 40.0})
+    EXPECT_NEAR(nav::chi_square_upper_tail(x, 2), std::exp(-x / 2), 1e-14);
   EXPECT_THROW(nav::chi_square_upper_quantile(0.0, 3), std::invalid_argument);
   EXPECT_THROW(nav::chi_square_upper_quantile(0.1, 0), std::invalid_argument);
 }
@@ -140,7 +141,8 @@ TEST(NavigationFaults, CameraOutageIsDetectedAfterTheOutageTime) {
   nav::FaultDetectionSettings det;
   det.outage_time = 10.0;
   const double onset = 20.0;
-  const FaultRun r = fault_run(w, fault_settings(), {fault(nav::SensorFaultKind::CameraOutage, onset)}, det, 25, 3);
+  const FaultRun r =
+      fault_run(w, fault_settings(), {fault(nav::SensorFaultKind::CameraOutage, onset)}, det, 25, 3);
   const int cam = static_cast<int>(nav::Sensor::Camera);
   EXPECT_TRUE(r.last.fault_detected);
   EXPECT_EQ(r.last.fault_cause, nav::NavFault::CameraOutage);
@@ -164,8 +166,10 @@ TEST(NavigationFaults, GyroBiasStepIsDetectedWithinThreeStarTrackerSamples) {
   const FaultRun r = fault_run(w, fault_settings(), {f}, det, 20, 5);
   ASSERT_TRUE(r.last.fault_detected);
   // The star tracker sees it first; the camera's frames fail with it: the common cause, the IMU.
-  const double t = std::fmin(at(r.last, nav::NavFault::StarTrackerFault), at(r.last, nav::NavFault::ImuFault));
-  EXPECT_TRUE(r.last.fault_cause == nav::NavFault::StarTrackerFault || r.last.fault_cause == nav::NavFault::ImuFault);
+  const double t =
+      std::fmin(at(r.last, nav::NavFault::StarTrackerFault), at(r.last, nav::NavFault::ImuFault));
+  EXPECT_TRUE(r.last.fault_cause == nav::NavFault::StarTrackerFault ||
+              r.last.fault_cause == nav::NavFault::ImuFault);
   EXPECT_GE(t, 21.0);
   EXPECT_LE(t, 21.0 + (det.persistence - 1) * 1.0 + 1e-9);  // persistence star-tracker samples
   EXPECT_TRUE(std::isnan(at(r.last, nav::NavFault::AltimeterFault)));
@@ -189,7 +193,8 @@ TEST(NavigationFaults, AnOutlierLandmarkIsRejectedAloneAndNoFaultIsDeclared) {
   ns.filter.innovation_gate = nav::chi_square_upper_quantile(1e-6, 2);
   const int cam = static_cast<int>(nav::Sensor::Camera);
   const FaultRun clean = fault_run(w, ns, {}, {}, 15, 9);
-  const FaultRun bad = fault_run(w, ns, {fault(nav::SensorFaultKind::LandmarkOutlier, 0.0, 200.0)}, {}, 15, 9);
+  const FaultRun bad =
+      fault_run(w, ns, {fault(nav::SensorFaultKind::LandmarkOutlier, 0.0, 200.0)}, {}, 15, 9);
   EXPECT_FALSE(bad.last.fault_detected);
   int frames = 0;
   for (std::size_t k = 0; k < bad.steps.size(); ++k) {

@@ -6,6 +6,7 @@ camera outage is reported detected with its latency."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from typing import Any
 
@@ -15,6 +16,7 @@ import pytest
 from tubempc import _core
 from tubempc.analysis.metrics import run_metrics
 from tubempc.config import ConfigError, load_config
+from tubempc.results.summaries import RunMetrics
 from tubempc.scenario import build_scenario
 from tubempc.scenario.faults import run_fault
 from tubempc.sim.closed_loop import simulate
@@ -135,7 +137,9 @@ def test_a_disturbance_burst_scales_the_draw(tmp_path) -> None:  # type: ignore[
 def test_a_camera_outage_is_reported_detected_with_its_latency(tag_nav) -> None:  # type: ignore[no-untyped-def]
     onset, outage = 10.0, tag_nav.config.faults.outage_time
     rec = _short(tag_nav, {"faults.kind": "camera_outage", "faults.start": f"{onset} s"}, steps=14)
-    summary = run_metrics(rec, tag_nav.config.mpc.dt, tag_nav.reference.x[-1]).navigation
+    metrics = run_metrics(rec, tag_nav.config.mpc.dt, tag_nav.reference.x[-1])
+    assert RunMetrics.from_json(json.loads(json.dumps(metrics.to_json()))) == metrics  # the summary's round trip
+    summary = metrics.navigation
     assert summary is not None and summary.faults is not None
     f = summary.faults
     assert f.injected == "camera_outage" and f.detected and f.cause == "camera_outage"

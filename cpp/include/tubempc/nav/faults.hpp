@@ -50,8 +50,8 @@ const char* to_string(SensorFaultKind k);
 
 /// One injected sensor fault.
 struct SensorFault {
-  SensorFaultKind kind{SensorFaultKind::CameraOutage};  ///< what fails
-  double t_start{0.0};                                   ///< onset (s), finite
+  SensorFaultKind kind{SensorFaultKind::CameraOutage};       ///< what fails
+  double t_start{0.0};                                       ///< onset (s), finite
   double duration{std::numeric_limits<double>::infinity()};  ///< how long (s), > 0 (inf: to the end)
   /// Size, in the kind's unit: px (outlier), m (spike), rad/s (gyro bias), m/s^2 (accel bias), 1 (scale);
   /// finite; unused by outages, dropouts, losses and mismatches.
@@ -74,7 +74,7 @@ struct FaultDetectionSettings {
   /// Probability that one fault-free sample of a sensor fails its NIS test, in (0, 1): the test's
   /// threshold is the chi-square quantile of 1 - this for the sample's degrees of freedom.
   double false_alarm_probability{1e-3};
-  int persistence{3};  ///< failed samples in a row that declare a sensor faulty, >= 1
+  int persistence{3};        ///< failed samples in a row that declare a sensor faulty, >= 1
   double outage_time{10.0};  ///< longest time without an Ok sample before an outage is declared (s), > 0
   double max_position_sigma{std::numeric_limits<double>::infinity()};  ///< bound on sqrt(trace P_rr) (m), > 0
   /// @throws std::invalid_argument naming the bad field ("faults.<field>").
