@@ -373,7 +373,12 @@ def cited_spans(text: str) -> list[tuple[int, str]]:
                 if part.startswith(("tubempc ", ".venv/bin/tubempc ")):
                     out.append((no, part))
             continue
-        out.extend((no, m.group(1)) for m in re.finditer(r"(?<!`)`([^`\n]+)`(?!`)", line))
+        for m in re.finditer(r"(?<!`)`([^`\n]+)`(?!`)", line):
+            span = m.group(1)
+            if span.startswith("tubempc ") and "&&" in span:  # a chain of commands: each one checked alone
+                out.extend((no, part.strip()) for part in span.split("&&"))
+            else:
+                out.append((no, span))
     return out
 
 

@@ -62,7 +62,9 @@ TEST(SettingsFields, StatusTablesAreCompleteAndInvertible) {
   expect_complete_table<mpc::ActiveSetQp::Status>(5);
   expect_complete_table<actuators::FaultKind>(3);
   expect_complete_table<actuators::AllocationStatus>(6);
-  expect_complete_table<nav::SensorStatus>(5);
+  expect_complete_table<nav::SensorStatus>(6);
+  expect_complete_table<nav::SensorFaultKind>(10);
+  expect_complete_table<nav::NavFault>(9);
   expect_complete_table<nav::FilterStatus>(9);
   expect_complete_table<nav::Sensor>(4);
   expect_complete_table<nav::NavigationStatus>(5);
