@@ -107,9 +107,8 @@ void NavigationSystem::set_faults(const std::vector<SensorFault>& faults,
   for (const SensorFault& f : faults) f.validate();
   detection.validate();
   std::array<double, kMaxNisDof + 1> threshold{};
-  for (int dof = 1; dof <= kMaxNisDof; ++dof)
-    threshold[static_cast<std::size_t>(dof)] =
-        chi_square_upper_quantile(detection.false_alarm_probability, dof);
+  for (std::size_t dof = 1; dof < threshold.size(); ++dof)  // threshold[0] unused: no test has 0 dof
+    threshold[dof] = chi_square_upper_quantile(detection.false_alarm_probability, static_cast<int>(dof));
   n_faults_ = static_cast<int>(faults.size());
   for (int i = 0; i < n_faults_; ++i) {
     faults_[static_cast<std::size_t>(i)] = faults[static_cast<std::size_t>(i)];
