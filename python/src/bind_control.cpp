@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "bindings.hpp"
+#include "tubempc/control/abort.hpp"
 #include "tubempc/control/controller.hpp"
 
 namespace py = pybind11;
@@ -21,6 +22,21 @@ using namespace tubempc::control;
 struct StepCopy : ControlStep {
   mpc::StepResult mpc_result;
 };
+
+// One step of `step` (a Controller's or a SafeAbort's) with the GIL released, returned as a copy.
+template <typename Stepper>
+StepCopy step_copy(Stepper& self, int k, const Eigen::VectorXd& x) {
+  const ControlStep* out = nullptr;
+  {
+    py::gil_scoped_release release;
+    out = &self.step(k, x);
+  }
+  StepCopy copy;
+  static_cast<ControlStep&>(copy) = *out;
+  copy.mpc = nullptr;
+  copy.mpc_result = *out->mpc;
+  return copy;
+}
 
 }  // namespace
 
@@ -168,21 +184,8 @@ void bind_control(py::module_& m) {
            py::arg("model"), py::arg("mpc_settings"), py::arg("settings"), py::keep_alive<1, 2>())
       .def("setup", &Controller::setup, py::arg("reference"), py::arg("designs"))
       .def("reset", &Controller::reset)
-      .def(
-          "step",
-          [](Controller& self, int k, const Eigen::VectorXd& x) {
-            const ControlStep* out = nullptr;
-            {
-              py::gil_scoped_release release;
-              out = &self.step(k, x);
-            }
-            StepCopy copy;
-            static_cast<ControlStep&>(copy) = *out;
-            copy.mpc = nullptr;
-            copy.mpc_result = *out->mpc;
-            return copy;
-          },
-          py::arg("k"), py::arg("x"), "One control step; returns a ControlStep copy")
+      .def("step", &step_copy<Controller>, py::arg("k"), py::arg("x"),
+           "One control step; returns a ControlStep copy")
       .def("adopt", &Controller::adopt, py::arg("subsystem"), py::arg("design"), py::arg("k_started"))
       .def("set_estimation_error", &Controller::set_estimation_error, py::arg("P_est"),
            "Output feedback: the estimation-error set (12 x 12) the state constraints are also tightened by")
@@ -190,12 +193,58 @@ void bind_control(py::module_& m) {
           "identify", [](Controller& self, int k, const Eigen::VectorXd& x) { return self.identify(k, x); },
           py::arg("k"), py::arg("x"),
           "Folds in the input of the period ending at step k (after the last step)")
+      .def("inherit_identification", &Controller::inherit_identification, py::arg("other"),
+           "Takes over another controller's identified disturbance (both identifiers)")
       .def_property_readonly("last_measured_input", &Controller::last_measured_input)
       .def("identifier", &Controller::identifier, py::arg("subsystem"),
            py::return_value_policy::reference_internal)
       .def("policy", &Controller::policy, py::arg("subsystem"), py::return_value_policy::reference_internal)
       .def_property_readonly("mpc", &Controller::mpc, py::return_value_policy::reference_internal)
       .def_property_readonly("settings", &Controller::settings);
+
+  bind_named_enum<AbortMode>(s, "AbortMode", "Where the abort supervision stands (control/abort.hpp)");
+  bind_named_enum<AbortCause>(s, "AbortCause", "What entered the abort, in the order of precedence");
+  py::class_<AbortTriggers>(s, "AbortTriggers", "A step's detections, handed to SafeAbort.monitor")
+      .def(py::init([](bool command, bool navigation_fault, bool tube_uncertified, bool allocation_infeasible) {
+             return AbortTriggers{command, navigation_fault, tube_uncertified, allocation_infeasible};
+           }),
+           py::arg("command") = false, py::arg("navigation_fault") = false, py::arg("tube_uncertified") = false,
+           py::arg("allocation_infeasible") = false)
+      .def_readwrite("command", &AbortTriggers::command)
+      .def_readwrite("navigation_fault", &AbortTriggers::navigation_fault)
+      .def_readwrite("tube_uncertified", &AbortTriggers::tube_uncertified)
+      .def_readwrite("allocation_infeasible", &AbortTriggers::allocation_infeasible);
+  py::class_<AbortSettings> abort_settings(s, "AbortSettings", "The abort supervision's settings");
+  abort_settings.def(py::init<>());
+  bind_fields(abort_settings);
+  abort_settings.def("validate", &AbortSettings::validate);
+  py::class_<AbortDecision>(s, "AbortDecision", "The supervision's latched decision")
+      .def_readonly("mode", &AbortDecision::mode)
+      .def_readonly("cause", &AbortDecision::cause)
+      .def_readonly("entered_at", &AbortDecision::entered_at, "the step the abort was entered at (-1: not)")
+      .def_readonly("refused_cause", &AbortDecision::refused_cause)
+      .def_readonly("refused_at", &AbortDecision::refused_at, "the step of the first refused trigger (-1: none)");
+  py::class_<SafeAbort>(s, "SafeAbort",
+                        "The certified safe abort: setup(hover, designs), then monitor(k, triggers) every step "
+                        "and step(k, x_k) while aborting")
+      .def(py::init([](std::shared_ptr<math::LinearizedModel> model, const mpc::Settings& mpc_settings,
+                       const ControllerSettings& controller_settings, const AbortSettings& settings) {
+             return std::make_unique<SafeAbort>(std::move(model), mpc_settings, controller_settings, settings);
+           }),
+           py::arg("model"), py::arg("mpc_settings"), py::arg("controller_settings"), py::arg("settings"),
+           py::keep_alive<1, 2>())
+      .def("setup", &SafeAbort::setup, py::arg("hover"), py::arg("designs"))
+      .def("reset", &SafeAbort::reset)
+      .def("monitor", &SafeAbort::monitor, py::arg("k"), py::arg("triggers"), py::arg("descent") = nullptr,
+           py::return_value_policy::copy,
+           "The decision for step k (latched); entering takes over the descent controller's identification")
+      .def("step", &step_copy<SafeAbort>, py::arg("k"), py::arg("x"),
+           "One step of the abort controller; returns a ControlStep copy")
+      .def("set_estimation_error", &SafeAbort::set_estimation_error, py::arg("P_est"))
+      .def_property_readonly("aborting", &SafeAbort::aborting)
+      .def_property_readonly("decision", &SafeAbort::decision, py::return_value_policy::copy)
+      .def_property_readonly("controller", &SafeAbort::controller, py::return_value_policy::reference_internal)
+      .def_property_readonly("settings", &SafeAbort::settings);
 }
 
 }  // namespace tubempc::python

@@ -117,6 +117,8 @@ void Controller::restart() {
   margin_lost_ = false;
 }
 
+void Controller::inherit_identification(const Controller& other) { identifiers_ = other.identifiers_; }
+
 bool Controller::identify(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k) {
   out_.identified = false;
   if (last_k_ < 0 || k != last_k_ + 1 || identified_k_ == k || x_k.size() != kNx) return false;
@@ -194,7 +196,10 @@ const ControlStep& Controller::step(int k, const Eigen::Ref<const Eigen::VectorX
   const auto t1 = Clock::now();
 
   const bool adaptive = settings_.tube.adaptive;
-  const bool due = adaptive && k > 0 && (k % settings_.tube.alpha_search_period == 0 || margin_lost_);
+  // a design is due every alpha_search_period steps, after a lost margin, and at a first step past k = 0 (the safe
+  // abort's entry: its identification may have been inherited, abort.hpp)
+  const bool due =
+      adaptive && k > 0 && (k % settings_.tube.alpha_search_period == 0 || margin_lost_ || last_k_ < 0);
   bool lost = false;
   for (int s = 0; s < 2; ++s) {
     out_.A[s] = A_ref_[k][s];

@@ -32,10 +32,11 @@ from ..results.summaries import (
 )
 from ..scenario.build import Scenario, build_scenario, landing_geometry
 from ..scenario.sites import inside
+from ..sim.abort import abort_summary
 from ..sim.closed_loop import simulate
 from . import figures, metrics
 
-__all__ = ["guarantee_lost", "run_methods", "run_summary", "save_figures", "states_inside_body"]
+__all__ = ["aborted", "guarantee_lost", "run_methods", "run_summary", "save_figures", "states_inside_body"]
 
 
 def states_inside_body(scn: Scenario, rec: RunRecord) -> int:
@@ -56,7 +57,9 @@ def run_summary(scn: Scenario, rec: RunRecord) -> RunMetrics:
     """Scalar results of one run (:func:`tubempc.analysis.metrics.run_metrics`) with the number of states inside
     the body (``states_inside_body``)."""
     return dataclasses.replace(
-        metrics.run_metrics(rec, scn.config.mpc.dt, scn.xf), states_inside_body=states_inside_body(scn, rec)
+        metrics.run_metrics(rec, scn.config.mpc.dt, scn.xf),
+        states_inside_body=states_inside_body(scn, rec),
+        abort=abort_summary(scn, rec),
     )
 
 
@@ -77,7 +80,20 @@ def guarantee_lost(result: RunMetrics | CampaignMethodResult) -> list[str]:
         reasons.append(f"{result.states_inside_body} states inside the body")
     if result.actuation is not None and result.actuation.not_delivered_steps:
         reasons.append(f"{result.actuation.not_delivered_steps} steps the actuators did not deliver")
+    a = result.abort
+    if a is not None and a.outcome == "aborted" and not a.safe:
+        reasons.append(f"an abort that did not end safe (final height {a.final_height:.3g} m)")
+    if a is not None and a.uncertified_steps:
+        reasons.append(f"{a.uncertified_steps} abort steps on an uncertified tube")
     return reasons
+
+
+def aborted(result: RunMetrics | CampaignMethodResult) -> str | None:
+    """The abort of a run that aborted ("<cause> at <t> s"), None if it did not abort."""
+    a = result.abort
+    if a is None or a.outcome != "aborted":
+        return None
+    return f"{a.cause} at {a.entered_at:g} s"
 
 
 def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dict[str, str]:

@@ -12,6 +12,8 @@ Failure kinds, per method over the runs that completed (:data:`FAILURE_KINDS`):
   ``boundary.touchdown_speed`` > 0) and the runs flew to t_f;
 - ``cone_violation``: a step of the actual trajectory violating the glide slope or the line of sight;
 - ``inside_body``: a state inside the body (evaluated where the runs counted them);
+- ``abort_unsafe``: with ``[abort]``, a run that aborted and did not end safe (above ``abort.safe_altitude``, inside
+  the cone, never inside the body); a run that aborted safe is not judged by ``touchdown`` (it did not land);
 - ``any``: any of the kinds evaluated, or a failed run, over every run attempted;
 
 and, for the campaign, ``failed_run``: a run that raised instead of finishing. A kind that cannot be
@@ -56,7 +58,7 @@ __all__ = [
 Array = npt.NDArray[np.float64]
 
 #: The failure kinds per method, in the order they are reported (the module docstring).
-FAILURE_KINDS = ("tube_exit", "touchdown", "cone_violation", "inside_body", "any")
+FAILURE_KINDS = ("tube_exit", "touchdown", "cone_violation", "inside_body", "abort_unsafe", "any")
 #: Fewest runs whose rank correlations (and their p-values, from Student's t) the summary reports.
 MIN_RUNS_DRIVERS = 10
 #: Percentiles (%) the summary gives with their confidence intervals by default.
@@ -290,16 +292,25 @@ def campaign_statistics(
         )
         inside = _col(done, f"{m}.states_inside_body")
         counted = inside is not None and bool(np.all(np.isfinite(inside)))
+        outcome = done.column(f"{m}.abort.outcome").to_pylist() if f"{m}.abort.outcome" in done.column_names else None
+        aborted = None if outcome is None else np.array([o == "aborted" for o in outcome], dtype=bool)
+        safe = _col(done, f"{m}.abort.safe")
         kinds: dict[str, tuple[Array | npt.NDArray[np.bool_] | None, str | None]] = {
             "tube_exit": (None if exc is None else exc > 1.0, None),
             "touchdown": (
-                None if pos is None or vel is None else (pos > TOUCHDOWN_GOAL[0]) | (vel > TOUCHDOWN_GOAL[1]),
+                None
+                if pos is None or vel is None
+                else ((pos > TOUCHDOWN_GOAL[0]) | (vel > TOUCHDOWN_GOAL[1])) & (True if aborted is None else ~aborted),
                 touchdown,
             ),
             "cone_violation": (None if cone is None else cone > 0, None),
             "inside_body": (
                 None if inside is None else inside > 0,
                 None if counted else "the runs did not count the states inside the body",
+            ),
+            "abort_unsafe": (
+                None if aborted is None else aborted & ~(np.nan_to_num(safe if safe is not None else np.zeros(n)) > 0),
+                None if aborted is not None else "the runs flew without [abort]",
             ),
         }
         failures: dict[str, FailureBound] = {}

@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from ..config import Config
 
 __all__ = [
+    "EXIT_ABORTED",
     "EXIT_FAILED_RUNS",
     "EXIT_GUARANTEE_LOST",
     "EXIT_INPUT",
@@ -41,6 +42,7 @@ __all__ = [
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INPUT = 0, 1, 2, 3
 EXIT_GUARANTEE_LOST, EXIT_FAILED_RUNS, EXIT_REFLIGHT_DIFFERS, EXIT_INTERRUPTED = 4, 5, 6, 130
+EXIT_ABORTED = 7
 
 
 def available() -> list[str]:
@@ -94,9 +96,14 @@ def scenario_arguments(p: argparse.ArgumentParser, *, plant: bool = True) -> Non
         )
 
 
-def guarantee_status(lost: dict[str, list[str]]) -> int:
-    """EXIT_GUARANTEE_LOST (said on stderr) if any run lost a guarantee, else EXIT_OK."""
+def guarantee_status(lost: dict[str, list[str]], aborts: dict[str, str] | None = None) -> int:
+    """EXIT_GUARANTEE_LOST (said on stderr) if any run lost a guarantee, else EXIT_ABORTED (said on stderr) if a run
+    aborted safely (``aborts``: what aborted, and why and when), else EXIT_OK."""
     if not lost:
+        if aborts:
+            what = "; ".join(f"{name}: {why}" for name, why in aborts.items())
+            print(f"aborted safely, {what}: exit status {EXIT_ABORTED}", file=sys.stderr)
+            return EXIT_ABORTED
         return EXIT_OK
     what = "; ".join(f"{name}: {', '.join(reasons)}" for name, reasons in lost.items())
     print(f"robustness guarantee lost by {what}: exit status {EXIT_GUARANTEE_LOST}", file=sys.stderr)

@@ -19,7 +19,7 @@ from . import (
 )
 
 if TYPE_CHECKING:
-    from ..results.summaries import NavigationSummary
+    from ..results.summaries import AbortSummary, NavigationSummary
 
 DESCRIPTION = "closed-loop TBMPC and/or TBMPC-FFA on a scenario (default: the paper's)"
 
@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from ..analysis.metrics import below_or_above
-    from ..analysis.runner import guarantee_lost, run_methods
+    from ..analysis.runner import aborted, guarantee_lost, run_methods
 
     if args.from_campaign is not None:
         return _refly(args)
@@ -177,6 +177,8 @@ def run(args: argparse.Namespace) -> int:
             f"states inside the body {s.states_inside_body}"
             + ("" if s.navigation is None else f"; nav: {navigation_text(s.navigation)}")
         )
+        if s.abort is not None:
+            print(f"{m:6s} {abort_text(s.abort)}")
         reasons = guarantee_lost(s)
         if reasons:
             lost[m] = reasons
@@ -192,4 +194,18 @@ def run(args: argparse.Namespace) -> int:
     for name, error in (summary.figure_errors or {}).items():
         print(f"figure {name} not drawn: {error}", file=sys.stderr)
     print(f"results in {out}/ (summary.json, <method>.h5, figures)")
-    return guarantee_status(lost)
+    aborts = {m: why for m, s in summary.methods.items() if (why := aborted(s)) is not None}
+    return guarantee_status(lost, aborts)
+
+
+def abort_text(a: AbortSummary) -> str:
+    """One line on a run's abort: landed or aborted (cause, time, safe), a refused detection, the commit time."""
+    commit = "never armed" if a.commit_time is None else f"commit at {a.commit_time:g} s"
+    refused = "" if a.refused_at is None else f"; {a.refused_cause} at {a.refused_at:g} s refused (committed)"
+    if a.outcome == "aborted":
+        return (
+            f"aborted ({a.cause} at {a.entered_at:g} s, {commit}): {'safe' if a.safe else 'NOT safe'}, final height "
+            f"{a.final_height:.3g} m, lowest {a.lowest_height:.3g} m, {a.abort_steps} abort steps, {a.uncertified_steps} "
+            f"uncertified, largest LMI residual {a.max_residual:.2g}"
+        )
+    return f"landed ({commit}{refused})"

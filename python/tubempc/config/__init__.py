@@ -13,6 +13,7 @@ unit, shape, check, documentation line and, for [navigation], the C++ setting it
 
 from __future__ import annotations
 
+from .abort import AbortSection
 from .faults import FAULT_KINDS, FaultsSection
 from .load import OWN_MISSION_DEFAULTS, SCENARIOS, load_config, scenario_file
 from .navigation import NavigationSection
@@ -51,6 +52,7 @@ __all__ = [
     "RENAMED_VALUES",
     "REPLACED_FIELDS",
     "SCENARIOS",
+    "AbortSection",
     "AsteroidSection",
     "BoundarySection",
     "Config",

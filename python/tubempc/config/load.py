@@ -42,6 +42,10 @@ SCENARIOS: dict[str, tuple[str, str]] = {
         "scenarios/bennu_tag_nav.toml",
         "bennu-tag flown on navigation (camera, altimeter, IMU, star tracker, EKF), a lit site at 180 deg",
     ),
+    "bennu-tag-faults": (
+        "scenarios/bennu_tag_faults.toml",
+        "bennu-tag-nav with one random fault per run and the certified safe abort (the fault campaign)",
+    ),
     "bennu-tag-osirisrex": (
         "scenarios/bennu_tag_osirisrex.toml",
         "bennu-tag over the real TAG's 20 min, flown by the OSIRIS-REx-like thrusters and wheels (5 s period)",

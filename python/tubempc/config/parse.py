@@ -14,6 +14,7 @@ from typing import Any, TypeVar, get_type_hints
 import numpy as np
 import tomli_w
 
+from .abort import AbortSection
 from .faults import FAULT_KINDS, SENSOR_FAULT_KINDS, FaultsSection
 from .fields import encode, is_si, parse_field, spec_of
 from .navigation import NavigationSection
@@ -58,6 +59,7 @@ class Config:
     navigation: NavigationSection
     physical: PhysicalSection
     faults: FaultsSection
+    abort: AbortSection
     source: str = "<memory>"
     defaulted: tuple[str, ...] = ()  # "section.field" taken from the packaged defaults (not content)
 
@@ -337,10 +339,30 @@ def _check_faults(c: Config) -> None:
         )
 
 
+def _check_abort(c: Config) -> None:
+    """An abort hovers above its safe altitude, at a site, and a commanded abort falls inside the run."""
+    a = c.abort
+    if not a.enabled:
+        return
+    if c.boundary.terminal != "site":
+        raise ConfigError(
+            f'{c.source}: abort.enabled: the abort hovers above the landing site: it needs boundary.terminal = "site"'
+        )
+    if a.safe_altitude >= a.hover_altitude:
+        raise ConfigError(
+            f"{c.source}: abort.safe_altitude: {a.safe_altitude} m must be below abort.hover_altitude = {a.hover_altitude} m"
+        )
+    if a.command_time >= c.mpc.t_f:
+        raise ConfigError(
+            f"{c.source}: abort.command_time: {a.command_time} s is not before the end of the run (mpc.t_f = {c.mpc.t_f} s)"
+        )
+
+
 def _check_consistency(c: Config) -> None:
     _check_navigation(c)
     _check_physical(c)
     _check_faults(c)
+    _check_abort(c)
     ratio = c.mpc.t_f / c.mpc.dt
     if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
         raise ConfigError(f"{c.source}: mpc.t_f: {c.mpc.t_f} s is not a multiple of mpc.dt = {c.mpc.dt} s")

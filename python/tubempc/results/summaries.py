@@ -28,6 +28,7 @@ from .. import _core
 
 __all__ = [
     "FORMAT_VERSION",
+    "AbortSummary",
     "ActuationSummary",
     "CampaignMethodResult",
     "CampaignRunResult",
@@ -279,6 +280,32 @@ class FaultSummary(_Json):
 
 
 @dataclass(frozen=True, kw_only=True)
+class AbortSummary(_Json):
+    """How a run flown with ``[abort]`` enabled ended (docs/model.md M52; :func:`tubempc.sim.abort.abort_summary`):
+    "landed" (the descent flown to the end) or "aborted", with the cause and the time (s) the abort was entered; a
+    detection past the commit time, refused (the descent went on); the commit time (s; None: no certified entry);
+    the truth's final height above the site's surface along its normal (m); after an entry, the truth's lowest height
+    (m), its largest glide-slope g (m, <= 0 inside the cone), its states inside the body, and whether the abort ended
+    safe (above ``abort.safe_altitude``, inside the cone, never inside the body); the steps flown in the abort, those
+    whose tube was not certified and the largest LMI residual of its tubes (<= 0: certified)."""
+
+    outcome: str
+    cause: str
+    entered_at: float | None = field(default=None, metadata=_OMIT)
+    refused_cause: str
+    refused_at: float | None = field(default=None, metadata=_OMIT)
+    commit_time: float | None = field(default=None, metadata=_OMIT)
+    final_height: float
+    lowest_height: float | None = field(default=None, metadata=_OMIT)
+    max_glide_slope_g: float | None = field(default=None, metadata=_OMIT)
+    states_inside_body: int | None = field(default=None, metadata=_OMIT)
+    safe: bool | None = field(default=None, metadata=_OMIT)
+    abort_steps: int
+    uncertified_steps: int
+    max_residual: float | None = field(default=None, metadata=_OMIT)
+
+
+@dataclass(frozen=True, kw_only=True)
 class NavigationSummary(_Json):
     """How a run flown on navigation went (:func:`tubempc.analysis.metrics.navigation_summary`, from its
     :class:`tubempc.scenario.navigation.NavigationRecord`): the estimation error x - x^ at touchdown (the
@@ -319,6 +346,7 @@ class MethodResult(_Json):
     states_inside_body: int | None = field(default=None, metadata=_OMIT)  # None: not counted
     actuation: ActuationSummary | None = field(default=None, metadata=_OMIT)  # None: ideal actuators
     navigation: NavigationSummary | None = field(default=None, metadata=_OMIT)  # None: flown on the true state
+    abort: AbortSummary | None = field(default=None, metadata=_OMIT)  # None: [abort] not enabled
     run_time_s: float
 
 

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from .. import _core
 from ..design.library import new_controller
 from ..design.policy import BackgroundDesigns
 from ..design.tube import tube_excursion
@@ -40,6 +41,7 @@ from ..scenario.actuators import describe_actuation
 from ..scenario.build import METHODS, P_STATES, R_STATES, Scenario
 from ..scenario.faults import burst_window, inject, run_fault
 from ..scenario.navigation import Navigation, NavigationRecord, new_navigation, tube_gauge
+from .abort import AbortLibrary, abort_library, new_abort
 from .plant import ProjectPlant
 from .setup import loop_setup, run_truth
 
@@ -125,20 +127,31 @@ def _new_plant(scn: Scenario, seed: int, dispersed: bool, fault: dict[str, Any] 
     return plant
 
 
-def _record_actuation(rec: RunRecord, k: int, plant: ProjectPlant, dt: float) -> None:
-    """The period's delivered input and, with an actuator model, its accounting (ideal: ``|u_p| dt``)."""
+def _new_abort(scn: Scenario) -> tuple[Any, AbortLibrary | None]:
+    """The run's safe abort (``_core.control.SafeAbort``) and the scenario's abort library, with ``[abort]`` enabled
+    (None, None otherwise)."""
+    if not scn.config.abort.enabled:
+        return None, None
+    library = abort_library(scn)
+    return new_abort(scn, library), library
+
+
+def _record_actuation(rec: RunRecord, k: int, plant: ProjectPlant, dt: float) -> str:
+    """The period's delivered input and, with an actuator model, its accounting (ideal: ``|u_p| dt``); returns the
+    period's actuation status."""
     u_delivered, st = plant.delivered
     rec.u_delivered[k] = u_delivered
     if st is None:
         rec.delta_v[k] = float(np.linalg.norm(u_delivered[:3])) * dt
         rec.actuation_statuses.append("ideal")
-        return
+        return "ideal"
     rec.delta_v[k], rec.propellant[k], rec.pulses[k] = st.delta_v, st.propellant, st.pulses
     rec.wheel_momentum[k] = np.asarray(plant.actuation.wheels.axes_B) @ np.asarray(st.wheel_momentum)
     rec.time_actuation[k] = st.step_time
     on_time = np.asarray(st.on_time)
     rec.thruster_on_time[k, : on_time.size] = on_time
     rec.actuation_statuses.append(str(st.status))
+    return str(st.status)
 
 
 def simulate(
@@ -178,6 +191,11 @@ def simulate(
         scn, method, loop.mpc_settings, lambda_p=lambda_p, lambda_r=lambda_r, background_designs=background
     )
     fault = run_fault(scn.config, seed)  # [faults]: the given one, or one drawn from the seed
+    abort, library = _new_abort(scn)
+    # the step of a commanded abort (-1: none) and the last step's controller-side detections
+    command_step = round(scn.config.abort.command_time / dt) if scn.config.abort.command_time > 0.0 else -1
+    tube_uncertified = allocation_infeasible = False
+    abort_residual, abort_uncertified = -math.inf, 0
     plant = _new_plant(scn, seed, dispersed, fault)
     rec = _new_record(scn, method, seed)
     x = scn.x0.copy()
@@ -205,13 +223,26 @@ def simulate(
     )
     try:
         for k in range(n_run):
-            if designs is not None:
+            if abort is not None:  # the C++ supervision decides from the step's detections (latched)
+                abort.monitor(
+                    k,
+                    _core.control.AbortTriggers(
+                        command=k == command_step,
+                        navigation_fault=fault_detected,
+                        tube_uncertified=tube_uncertified,
+                        allocation_infeasible=allocation_infeasible,
+                    ),
+                    ctrl,
+                )
+            flying = ctrl if abort is None or not abort.aborting else abort
+            if designs is not None and flying is ctrl:
                 designs.adopt_due(k, ctrl)
             if est is not None:
-                ctrl.set_estimation_error(plant.nav_error_set)
-            step = ctrl.step(k, x_hat)
-            if designs is not None:
+                flying.set_estimation_error(plant.nav_error_set)
+            step = flying.step(k, x_hat)
+            if designs is not None and flying is ctrl:
                 designs.submit(k, step, ctrl, t.redesign_margin)
+            tube_uncertified = any(str(s) == "uncertified" for s in step.tube_status)
             u = np.asarray(step.u, dtype=float).copy()
             t0 = time.perf_counter()
             x_next, w_true = plant.step(k, u)
@@ -221,7 +252,10 @@ def simulate(
             Pe = np.asarray(step.tube.Pe)
             if nav is not None:
                 t_nav = time.perf_counter()
-                est = nav.step(scn.reference.x[k + 1, 6:9])
+                reference = (
+                    scn.reference if flying is ctrl or library is None else library.hover
+                )  # the attitude branch flown
+                est = nav.step(reference.x[k + 1, 6:9])
                 x_hat = _record_navigation(rec, k, est, x_next, plant, z1, Pe, time.perf_counter() - t_nav)
                 fault_detected, fault_cause = bool(est.fault_detected), str(est.fault_cause)
             else:
@@ -229,14 +263,26 @@ def simulate(
             # with navigation: the estimate's excursion in the certified tube (the truth's is rec.navigation.gauge)
             rec.excursion[k] = [tube_excursion(x_hat[None, sx], z1[None, sx], Pe[sx, sx])[0] for sx in (P_STATES, R_STATES)]
             rec.w_true[k] = w_true
-            _record_actuation(rec, k, plant, dt)
-            _record_step(rec, k, step, ctrl, (t0, t1), 0.0 if designs is None else designs.last_wait_s)
+            allocation_infeasible = _record_actuation(rec, k, plant, dt) == "infeasible"
+            _record_step(
+                rec,
+                k,
+                step,
+                flying.controller if flying is abort else ctrl,
+                (t0, t1),
+                0.0 if designs is None else designs.last_wait_s,
+            )
+            if flying is abort:  # the abort's certification at every step it flies
+                abort_residual = max(abort_residual, *step.residual)
+                abort_uncertified += not all(_core.control.certified(s) for s in step.tube_status)
             x = x_next
             rec.x[k + 1] = x
             rec.g[k + 1] = [scn.truth.glide_slope(x, (k + 1) * dt)[0], scn.truth.line_of_sight(x)[0]]
             if bar is not None:
                 bar.update()
-        if ctrl.identify(n_run, x_hat):  # the last period's input, which no later step folds in
+        if (abort is None or not abort.aborting) and ctrl.identify(
+            n_run, x_hat
+        ):  # the last period's input, which no later step folds in
             _record_identification(rec, n_run - 1, np.asarray(ctrl.last_measured_input), ctrl)
     finally:
         if designs is not None:
@@ -251,6 +297,18 @@ def simulate(
             rec.navigation.truncate(n_run)
     rec.applied = _applied(scn, plant, rec, max_steps)
     rec.applied["fault"] = fault  # None: fault-free
+    if abort is not None and library is not None:
+        d = abort.decision
+        rec.applied["abort"] = {  # the library is the scenario's (AbortLibrary.describe): its commit step only
+            "commit_step": library.commit_step,
+            "mode": str(d.mode),
+            "cause": str(d.cause),
+            "entered_at_step": d.entered_at if d.entered_at >= 0 else None,
+            "refused_cause": str(d.refused_cause),
+            "refused_at_step": d.refused_at if d.refused_at >= 0 else None,
+            "max_residual": abort_residual if math.isfinite(abort_residual) else None,
+            "uncertified_steps": abort_uncertified,
+        }
     # the detection's outcome: every detection's first time (s; None: not detected), the same keys in every run
     times = [math.nan] * len(_nav_fault_names()) if est is None else list(est.detected_at)
     rec.applied["fault_detection"] = {

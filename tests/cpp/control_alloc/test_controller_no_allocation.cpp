@@ -6,6 +6,7 @@
 #include <random>
 
 #include "../control/control_fixtures.hpp"
+#include "tubempc/control/abort.hpp"
 #include "tubempc/control/controller.hpp"
 #include "tubempc_testing/allocation_counter.hpp"
 
@@ -87,4 +88,63 @@ TEST(ControllerAllocation, StepDoesNotAllocateAfterSetup) {
   EXPECT_GT(library_steps, 0);  // the library path was exercised too
   EXPECT_EQ(grown, 2 * T);      // every step certified its tube for the grown set
   EXPECT_GT(fed, 0);            // and fed the identified mean forward
+}
+
+// The abort supervision and the abort controller's steps: nothing allocated after setup either.
+TEST(ControllerAllocation, AbortMonitorAndStepDoNotAllocate) {
+  if (!tubempc_testing::kAllocationCounterEnabled) GTEST_SKIP() << "allocation counter needs glibc";
+  const double dt = 2.0;
+  const int T = 30;
+  auto model = control_test::plant_12_6(dt);
+  tubempc::mpc::Settings mpc;
+  mpc.horizon = 10;
+  mpc.dt = dt;
+  mpc.u_max = (Eigen::VectorXd(6) << 0.55, 0.55, 0.55, 3.0, 3.0, 3.0).finished();
+  mpc.time_limit = 10.0;
+  ControllerSettings settings;
+  settings.identification_p.S0 = SubMatrix::Identity() * 1e-4;
+  settings.identification_r.S0 = SubMatrix::Identity() * 1e-8;
+  ControllerDesigns designs;
+  SubMatrix A;
+  SubInputMatrix B;
+  for (int s = 0; s < 2; ++s) {
+    control_test::double_integrator(dt, s == 0 ? 1.0 : 1.0 / 2750, A, B);
+    const SubMatrix P0 = 9.0 * (s == 0 ? settings.identification_p.S0 : settings.identification_r.S0);
+    (s == 0 ? designs.initial_p : designs.initial_r) = control_test::lqr_design(A, B, P0, 1.0);
+    for (double c : {1.0, 4.0})
+      (s == 0 ? designs.library_p : designs.library_r).push_back(control_test::lqr_design(A, B, c * P0, 1.0));
+  }
+  AbortSettings abort_settings;
+  abort_settings.commit_step = 5;
+  SafeAbort abort(model, mpc, settings, abort_settings);
+  tubempc::mpc::Reference hover;
+  hover.z = Eigen::MatrixXd::Zero(12, T + 1);
+  hover.u = Eigen::MatrixXd::Zero(6, T);
+  hover.z.row(0).setConstant(40.0);
+  abort.setup(hover, designs);
+  const Eigen::MatrixXd P_est = Eigen::MatrixXd::Identity(12, 12) * 1e-6;
+  abort.set_estimation_error(P_est);  // allocates its storage on the first call (set-up)
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(12), x_next(12), c(12);
+  x(0) = 10.0;
+  Eigen::MatrixXd Ad(12, 12), Bd(12, 6);
+  long allocations = 0;
+  int aborting = 0;
+  for (int k = 0; k < T; ++k) {
+    AllocationWindow window;
+    AbortTriggers triggers;
+    triggers.navigation_fault = k >= 3;
+    abort.monitor(k, triggers, &abort.controller());  // entering copies a controller's identifiers
+    if (abort.aborting()) {
+      abort.set_estimation_error(P_est);
+      const ControlStep& r = abort.step(k, x);
+      model->discretize(0.0, dt, x, r.u, Ad, Bd, c);
+      x_next.noalias() = Ad * x;
+      x_next.noalias() += Bd * r.u;
+      x = x_next + c;
+      ++aborting;
+    }
+    allocations += window.count();
+  }
+  EXPECT_EQ(allocations, 0);
+  EXPECT_EQ(aborting, T - 3);
 }

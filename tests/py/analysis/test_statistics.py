@@ -159,3 +159,17 @@ def test_worst_runs_carry_their_seeds_and_the_driver_is_the_dispersion_that_move
     assert few.methods["ffa"].metrics["J_p"].drivers == [] and "too few" in str(
         few.methods["ffa"].metrics["J_p"].drivers_note
     )
+
+
+def test_an_abort_is_judged_by_its_safety_not_by_its_touchdown() -> None:
+    n = 40
+    table = _runs(n)
+    assert not campaign_statistics(table, ["ffa"]).methods["ffa"].failures["abort_unsafe"].evaluated
+    late = 7  # the run that lands 1.5 m off (_runs) now aborted, safe; run 0 aborted, not safe
+    outcome = np.where(np.isin(np.arange(n), [0, late]), "aborted", "landed")
+    safe = np.where(np.arange(n) == late, True, False)
+    safe_col = pa.array([bool(s) if o == "aborted" else None for s, o in zip(safe, outcome, strict=True)], type=pa.bool_())
+    aborted = table.append_column("ffa.abort.outcome", pa.array(outcome)).append_column("ffa.abort.safe", safe_col)
+    f = campaign_statistics(aborted, ["ffa"]).methods["ffa"].failures
+    assert f["touchdown"].failures == 0  # the missed touchdown was an abort
+    assert f["abort_unsafe"].evaluated and f["abort_unsafe"].failures == 1

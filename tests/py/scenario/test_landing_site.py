@@ -108,6 +108,7 @@ def test_packaged_scenarios_load_and_the_default_is_the_papers() -> None:
         "bennu-equator",
         "bennu-tag",
         "bennu-tag-nav",
+        "bennu-tag-faults",
         "bennu-tag-osirisrex",
         "bennu-paper-nav",
         "bennu-tag-physical",

@@ -181,6 +181,12 @@ class Controller {
   /// @return whether it was adopted.
   bool adopt(int subsystem, const SubsystemDesign& design, int k_started);
 
+  /// Takes over another controller's identified disturbance: both subsystems' identifiers (estimates and
+  /// settings) are copied, so that the next steps' tubes are certified for what `other` identified (the safe
+  /// abort entered from the descent, abort.hpp). Allocation-free.
+  /// @param other a controller of the same plant.
+  void inherit_identification(const Controller& other);
+
   /// @param subsystem 0 (p) or 1 (r).
   /// @return that subsystem's identifier.
   const ForgettingFactorIdentifier& identifier(int subsystem) const;

@@ -1,0 +1,204 @@
+// The safe abort's supervision (latching, precedence, commit) and its controller flying the back-away to the
+// hover reference, certified at every step.
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+
+#include "control_fixtures.hpp"
+#include "tubempc/control/abort.hpp"
+
+using namespace tubempc::control;
+
+namespace {
+
+constexpr double kDt = 2.0;
+constexpr int kT = 40;
+
+ControllerSettings abort_controller_settings() {
+  ControllerSettings s;
+  s.identification_p.S0 = SubMatrix::Identity() * 1e-4;
+  s.identification_r.S0 = SubMatrix::Identity() * 1e-8;
+  return s;
+}
+
+tubempc::mpc::Settings abort_mpc_settings() {
+  tubempc::mpc::Settings mpc;
+  mpc.horizon = 10;
+  mpc.dt = kDt;
+  mpc.u_max = (Eigen::VectorXd(6) << 0.55, 0.55, 0.55, 3.0, 3.0, 3.0).finished();
+  mpc.time_limit = 10.0;
+  return mpc;
+}
+
+ControllerDesigns abort_designs(const ControllerSettings& settings) {
+  ControllerDesigns designs;
+  SubMatrix A;
+  SubInputMatrix B;
+  for (int s = 0; s < 2; ++s) {
+    control_test::double_integrator(kDt, s == 0 ? 1.0 : 1.0 / 2750, A, B);
+    const SubMatrix P0 = 9.0 * (s == 0 ? settings.identification_p.S0 : settings.identification_r.S0);
+    (s == 0 ? designs.initial_p : designs.initial_r) = control_test::lqr_design(A, B, P0, 1.0);
+    for (double c : {1.0, 4.0, 16.0})
+      (s == 0 ? designs.library_p : designs.library_r).push_back(control_test::lqr_design(A, B, c * P0, 1.0));
+  }
+  return designs;
+}
+
+// A hover at x_0 = 40 m (position 0 of the fixture's plane), at rest, over the whole mission.
+tubempc::mpc::Reference hover_reference() {
+  tubempc::mpc::Reference ref;
+  ref.z = Eigen::MatrixXd::Zero(12, kT + 1);
+  ref.u = Eigen::MatrixXd::Zero(6, kT);
+  ref.z.row(0).setConstant(40.0);
+  return ref;
+}
+
+SafeAbort new_abort(AbortSettings settings) {
+  const ControllerSettings cs = abort_controller_settings();
+  return SafeAbort(control_test::plant_12_6(kDt), abort_mpc_settings(), cs, settings);
+}
+
+}  // namespace
+
+TEST(SafeAbort, SettingsAreValidated) {
+  AbortSettings s;
+  s.commit_step = -2;
+  EXPECT_THROW(s.validate(), std::invalid_argument);
+  s.commit_step = -1;
+  EXPECT_NO_THROW(s.validate());
+  s.commit_step = -3;
+  EXPECT_THROW(new_abort(s), std::invalid_argument);
+}
+
+TEST(SafeAbort, MonitorLatchesTheFirstCauseBeforeTheCommitStep) {
+  AbortSettings s;
+  s.commit_step = 10;
+  SafeAbort abort = new_abort(s);
+  EXPECT_EQ(abort.monitor(0, {}).mode, AbortMode::Armed);
+  AbortTriggers t;
+  t.allocation_infeasible = true;
+  t.navigation_fault = true;  // both at one step: the navigation's fault takes precedence
+  const AbortDecision& d = abort.monitor(4, t);
+  EXPECT_EQ(d.mode, AbortMode::Aborting);
+  EXPECT_EQ(d.cause, AbortCause::NavigationFault);
+  EXPECT_EQ(d.entered_at, 4);
+  EXPECT_TRUE(abort.aborting());
+  AbortTriggers command;
+  command.command = true;
+  EXPECT_EQ(abort.monitor(5, command).cause, AbortCause::NavigationFault);  // latched
+  EXPECT_EQ(abort.monitor(30, {}).mode, AbortMode::Aborting);
+  EXPECT_THROW(abort.monitor(-1, {}), std::invalid_argument);
+  abort.reset();
+  EXPECT_EQ(abort.decision().mode, AbortMode::Armed);
+  EXPECT_EQ(abort.decision().entered_at, -1);
+}
+
+TEST(SafeAbort, TriggersPastTheCommitStepAreRefusedAndRecorded) {
+  AbortSettings s;
+  s.commit_step = 10;
+  SafeAbort abort = new_abort(s);
+  AbortTriggers t;
+  t.tube_uncertified = true;
+  EXPECT_EQ(abort.monitor(10, {}).mode, AbortMode::Armed);
+  const AbortDecision& d = abort.monitor(11, t);
+  EXPECT_EQ(d.mode, AbortMode::Committed);
+  EXPECT_EQ(d.cause, AbortCause::None);
+  EXPECT_EQ(d.refused_cause, AbortCause::TubeUncertified);
+  EXPECT_EQ(d.refused_at, 11);
+  AbortTriggers command;
+  command.command = true;
+  EXPECT_EQ(abort.monitor(12, command).refused_at, 11);  // the first refusal is kept
+  EXPECT_FALSE(abort.aborting());
+}
+
+TEST(SafeAbort, DisabledTriggersDoNotAbortButACommandDoes) {
+  AbortSettings s;
+  s.commit_step = 20;
+  s.on_navigation_fault = s.on_tube_uncertified = s.on_allocation_infeasible = false;
+  SafeAbort abort = new_abort(s);
+  AbortTriggers t;
+  t.navigation_fault = t.tube_uncertified = t.allocation_infeasible = true;
+  EXPECT_EQ(abort.monitor(1, t).mode, AbortMode::Armed);
+  t.command = true;
+  EXPECT_EQ(abort.monitor(2, t).cause, AbortCause::Command);
+}
+
+TEST(SafeAbort, NeverArmedWithoutACertifiedEntry) {
+  SafeAbort abort = new_abort(AbortSettings{});  // commit_step -1: the library certified no entry
+  AbortTriggers command;
+  command.command = true;
+  const AbortDecision& d = abort.monitor(0, command);
+  EXPECT_EQ(d.mode, AbortMode::Committed);
+  EXPECT_EQ(d.refused_cause, AbortCause::Command);
+}
+
+TEST(SafeAbort, FliesBackToTheHoverCertifiedAtEveryStep) {
+  AbortSettings s;
+  s.commit_step = kT - 1;
+  SafeAbort abort = new_abort(s);
+  abort.setup(hover_reference(), abort_designs(abort_controller_settings()));
+  EXPECT_EQ(abort.controller().settings().method, Method::Ffa);  // enforced: the tube certified per step
+  auto model = control_test::plant_12_6(kDt);
+  // Entered at k = 8 from 5 m, descending at 0.5 m/s: the plan climbs back to the hover at 40 m.
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(12), c(12);
+  x(0) = 5.0;
+  x(3) = -0.5;
+  Eigen::MatrixXd Ad(12, 12), Bd(12, 6);
+  AbortTriggers command;
+  command.command = true;
+  ASSERT_TRUE(abort.monitor(8, command).mode == AbortMode::Aborting);
+  double lowest = x(0);
+  for (int k = 8; k < kT; ++k) {
+    const ControlStep& r = abort.step(k, x);
+    ASSERT_TRUE(r.u.allFinite());
+    for (int sub = 0; sub < 2; ++sub) {
+      EXPECT_TRUE(certified(r.tube_status[sub])) << "k = " << k;
+      EXPECT_LE(r.residual[sub], 0.0) << "k = " << k;
+    }
+    model->discretize(0.0, kDt, x, r.u, Ad, Bd, c);
+    x = Ad * x + Bd * r.u + c;
+    lowest = std::min(lowest, x(0));
+  }
+  EXPECT_NEAR(x(0), 40.0, 0.5);
+  EXPECT_NEAR(x(3), 0.0, 0.05);
+  EXPECT_GT(lowest, 0.0);  // the descent was stopped before it reached the plane's origin
+}
+
+TEST(SafeAbort, SetupNeedsALibrary) {
+  SafeAbort abort = new_abort(AbortSettings{});
+  ControllerDesigns designs = abort_designs(abort_controller_settings());
+  designs.library_r.clear();
+  EXPECT_THROW(abort.setup(hover_reference(), designs), std::invalid_argument);
+}
+
+TEST(SafeAbort, EnteringTakesOverTheDescentsIdentification) {
+  AbortSettings s;
+  s.commit_step = kT - 1;
+  const ControllerDesigns designs = abort_designs(abort_controller_settings());
+  // The "descent": a controller flown a few noisy steps, so that its identifiers moved off the prior.
+  SafeAbort descent = new_abort(s);
+  descent.setup(hover_reference(), designs);
+  auto model = control_test::plant_12_6(kDt);
+  Eigen::VectorXd x = hover_reference().z.col(0), c(12);
+  Eigen::MatrixXd Ad(12, 12), Bd(12, 6);
+  for (int k = 0; k < 6; ++k) {
+    const ControlStep& r = descent.step(k, x);
+    model->discretize(0.0, kDt, x, r.u, Ad, Bd, c);
+    x = Ad * x + Bd * r.u + c;
+    x(0) += (k % 2 == 0 ? 0.02 : -0.02);  // a translational input beyond the prior: P_W grows
+  }
+  SafeAbort abort = new_abort(s);
+  abort.setup(hover_reference(), designs);
+  const SubMatrix prior = abort.controller().identifier(0).S_hat();
+  ASSERT_GT((descent.controller().identifier(0).S_hat() - prior).norm(), 0.0);
+  AbortTriggers command;
+  command.command = true;
+  abort.monitor(6, command, &descent.controller());
+  EXPECT_EQ(abort.controller().identifier(0).S_hat(), descent.controller().identifier(0).S_hat());
+  EXPECT_EQ(abort.controller().identifier(1).S_hat(), descent.controller().identifier(1).S_hat());
+  // Its first step is certified for the inherited set: a design is due at a first step past k = 0.
+  const ControlStep& r = abort.step(6, x);
+  EXPECT_TRUE(r.design_due);
+  EXPECT_TRUE(certified(r.tube_status[0]));
+  EXPECT_TRUE((r.P_W[0] - descent.controller().identifier(0).P_W()).norm() <= 1e-12 * r.P_W[0].norm());
+}

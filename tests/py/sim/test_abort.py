@@ -1,0 +1,129 @@
+"""The certified safe abort (docs/model.md M52; [abort], tubempc.sim.abort, control/abort.hpp): the section's
+errors name the field; the hover reference holds the hover; the library's certified entries end safe; a commanded
+abort leaves the descent untouched before its entry, backs away to the hover on tubes certified at every step, and
+says so in the summary and the exit status; a command past the commit step is refused and the descent lands."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tubempc.analysis.runner import aborted, guarantee_lost, run_summary
+from tubempc.commands import EXIT_ABORTED, EXIT_GUARANTEE_LOST, EXIT_OK, guarantee_status
+from tubempc.config import ConfigError, load_config
+from tubempc.scenario import build_scenario
+from tubempc.sim.abort import abort_library, height_above_site, hover_reference
+from tubempc.sim.closed_loop import simulate
+
+#: A sparse library (every 25 steps) keeps the set-up short.
+ABORT = {"abort.enabled": True, "abort.entry_period": 25}
+
+
+@pytest.fixture(scope="module")
+def tag(tmp_path_factory: pytest.TempPathFactory) -> Any:
+    cfg = load_config(scenario="bennu-tag").with_overrides(ABORT)
+    return build_scenario(cfg, cache_dir=tmp_path_factory.mktemp("cache"))
+
+
+def _with(scn: Any, overrides: dict[str, Any]) -> Any:
+    """The scenario with changed [abort] fields (the same reference; the library made again)."""
+    out = dataclasses.replace(scn, config=scn.config.with_overrides(overrides))
+    out.tube_designs.update({k: v for k, v in scn.tube_designs.items() if k != "abort"})
+    return out
+
+
+@pytest.mark.parametrize(
+    ("overrides", "field"),
+    [
+        ({"abort.safe_altitude": "60 m"}, "abort.safe_altitude"),
+        ({"abort.command_time": "400 s"}, "abort.command_time"),
+        ({"abort.entry_period": 0}, "abort.entry_period"),
+        ({"abort.hover_altitude": "-5 m"}, "abort.hover_altitude"),
+    ],
+)
+def test_bad_fields_are_named(overrides: dict[str, Any], field: str) -> None:
+    with pytest.raises(ConfigError, match=field.replace(".", r"\.")):
+        load_config(scenario="bennu-tag").with_overrides({**ABORT, **overrides})
+
+
+def test_an_abort_needs_a_site() -> None:
+    with pytest.raises(ConfigError, match=r"abort\.enabled.*boundary\.terminal"):
+        load_config().with_overrides({"abort.enabled": True})
+
+
+def test_the_hover_reference_holds_the_hover_turning_with_the_body(tag: Any) -> None:
+    hover = hover_reference(tag)
+    height = height_above_site(tag, hover.x, hover.t)
+    np.testing.assert_allclose(height, tag.config.abort.hover_altitude, rtol=0, atol=1e-9)
+    # at rest relative to the surface: the velocity in L is omega_AL x r_L
+    w_AL_L = np.array([0.0, 0.0, tag.model.rotation_rate_AL])
+    np.testing.assert_allclose(hover.x[:, 3:6], np.cross(w_AL_L, hover.x[:, :3]), rtol=0, atol=1e-12)
+    assert hover.max_defect < 1e-3  # its input keeps the model on it (m, m/s, rad, rad/s)
+    u_max, _ = tag.input_bounds
+    assert np.abs(hover.u[:, :3]).max() < 1e-3 * u_max  # a hover near Bennu costs almost nothing
+
+
+def test_the_library_certifies_its_entries_up_to_the_commit_step(tag: Any) -> None:
+    lib = abort_library(tag)
+    assert lib is abort_library(tag)  # once per scenario
+    steps = [e.step for e in lib.entries]
+    assert steps == list(range(0, tag.n_steps, 25))
+    assert lib.commit_step in steps
+    safe = tag.config.abort.safe_altitude
+    for e in lib.entries:
+        if e.step > lib.commit_step:
+            break
+        assert e.certified and e.reason == ""
+        assert e.max_residual <= 0.0 and e.max_glide_slope_m <= 0.0
+        assert e.final_height_m >= safe and e.lowest_height_m > 0.0
+        assert e.plan.shape == (tag.n_steps - e.step + 1, 12)
+    # an entry is not certified when its plan cannot end safe: a safe altitude it cannot reach in the time left
+    strict = abort_library(_with(tag, {"abort.safe_altitude": "49.999 m", "abort.hover_altitude": "50 m"}))
+    late = [e for e in strict.entries if not e.certified]
+    assert all("below abort.safe_altitude" in e.reason for e in late)
+    assert strict.commit_step <= lib.commit_step
+
+
+@pytest.fixture(scope="module")
+def late(tag: Any) -> tuple[Any, Any]:
+    """A run commanded to abort one step past the commit step: refused, the descent flown to the end."""
+    t_late = (abort_library(tag).commit_step + 1) * tag.config.mpc.dt
+    scn = _with(tag, {"abort.command_time": f"{t_late} s"})
+    return scn, simulate(scn, "ffa", 0, design_worker="none")
+
+
+def test_a_commanded_abort_backs_away_certified_and_the_descent_before_it_is_unchanged(
+    tag: Any, late: tuple[Any, Any]
+) -> None:
+    scn = _with(tag, {"abort.command_time": "100 s"})
+    rec = simulate(scn, "ffa", 0, design_worker="none")
+    entry = 50
+    descent = late[1]
+    np.testing.assert_array_equal(rec.x[: entry + 1], descent.x[: entry + 1])  # the descent flown to the entry
+    assert not np.array_equal(rec.x[entry + 1], descent.x[entry + 1])
+    s = run_summary(scn, rec)
+    a = s.abort
+    assert a is not None and a.outcome == "aborted" and a.cause == "command" and a.entered_at == 100.0
+    assert a.safe and a.states_inside_body == 0 and a.max_glide_slope_g is not None and a.max_glide_slope_g <= 0.0
+    assert a.abort_steps == scn.n_steps - entry
+    assert a.uncertified_steps == 0 and a.max_residual is not None and a.max_residual <= 0.0
+    assert a.final_height == pytest.approx(scn.config.abort.hover_altitude, abs=1.0)
+    assert not guarantee_lost(s) and aborted(s) == "command at 100 s"
+    assert type(s).from_json(s.to_json()) == s  # the summary round-trips
+    assert guarantee_status({}, {"ffa": aborted(s) or ""}) == EXIT_ABORTED
+    assert guarantee_status({"ffa": ["1 steps outside the tube"]}, {"ffa": "command at 100 s"}) == EXIT_GUARANTEE_LOST
+    assert guarantee_status({}, {}) == EXIT_OK
+
+
+def test_a_command_past_the_commit_step_is_refused_and_the_descent_lands(tag: Any, late: tuple[Any, Any]) -> None:
+    scn, rec = late
+    s = run_summary(scn, rec)
+    a = s.abort
+    t_late = scn.config.abort.command_time
+    assert a is not None and a.outcome == "landed" and a.cause == "none"
+    assert a.refused_cause == "command" and a.refused_at == t_late
+    assert a.commit_time == abort_library(tag).commit_step * scn.config.mpc.dt
+    assert a.final_height < 5.0 and aborted(s) is None
