@@ -105,6 +105,11 @@ void bind_actuators(py::module_& m) {
       .def_property_readonly("momentum", &ReactionWheels::momentum)
       .def_property_readonly("momentum_B", &ReactionWheels::momentum_B)
       .def("set_momentum", &ReactionWheels::set_momentum, py::arg("h"))
+      .def("set_failure", &ReactionWheels::set_failure, py::arg("j"), py::arg("t_start"),
+           "Fails wheel j from t_start (s) on: no torque, its momentum kept")
+      .def("failure_time", &ReactionWheels::failure_time, py::arg("j"))
+      .def("update_failures", &ReactionWheels::update_failures, py::arg("t"))
+      .def_property_readonly("failed", &ReactionWheels::failed)
       .def(
           "torque_bounds",
           [](const ReactionWheels& w, double dt) {
@@ -241,6 +246,7 @@ void bind_actuators(py::module_& m) {
       .def_readonly("propellant", &ActuationStep::propellant)
       .def_readonly("pulses", &ActuationStep::pulses)
       .def_readonly("failed_thrusters", &ActuationStep::failed_thrusters)
+      .def_readonly("failed_wheels", &ActuationStep::failed_wheels)
       .def_readonly("step_time", &ActuationStep::step_time);
 
   py::class_<ActuationTotals>(s, "ActuationTotals", "A mission's actuation totals")

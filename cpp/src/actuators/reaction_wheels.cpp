@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace tubempc::actuators {
@@ -35,6 +36,8 @@ ReactionWheels::ReactionWheels(std::vector<ReactionWheelSpec> wheels, const Mome
   G_.resize(3, m);
   u_max_.resize(m);
   h_max_.resize(m);
+  fail_time_ = Eigen::VectorXd::Constant(m, std::numeric_limits<double>::infinity());
+  failed_ = Eigen::Array<bool, Eigen::Dynamic, 1>::Constant(m, false);
   for (int j = 0; j < m; ++j) {
     const ReactionWheelSpec& s = specs_[static_cast<std::size_t>(j)];
     s.validate("wheels[" + std::to_string(j) + "]");
@@ -57,6 +60,17 @@ void ReactionWheels::set_momentum(const Eigen::Ref<const Eigen::VectorXd>& h) {
   update_dumping();
 }
 
+void ReactionWheels::set_failure(int j, double t_start) {
+  if (j < 0 || j >= size()) throw std::out_of_range("wheels.set_failure: no wheel " + std::to_string(j));
+  if (std::isnan(t_start)) throw std::invalid_argument("wheels[" + std::to_string(j) + "].failure time: NaN");
+  fail_time_(j) = t_start;
+}
+
+void ReactionWheels::update_failures(double t) noexcept {
+  for (int j = 0; j < size(); ++j) failed_(j) = t >= fail_time_(j);
+  update_dumping();
+}
+
 void ReactionWheels::torque_bounds(double dt, Eigen::VectorXd& lower, Eigen::VectorXd& upper) const {
   const int m = size();
   if (!(std::isfinite(dt) && dt > 0.0))
@@ -65,8 +79,8 @@ void ReactionWheels::torque_bounds(double dt, Eigen::VectorXd& lower, Eigen::Vec
   if (upper.size() != m) upper.resize(m);
   for (int j = 0; j < m; ++j) {
     // |h_j - u dt| <= h_max: u in [(h_j - h_max) / dt, (h_j + h_max) / dt], which contains 0.
-    lower(j) = std::min(0.0, std::max(-u_max_(j), (h_(j) - h_max_(j)) / dt));
-    upper(j) = std::max(0.0, std::min(u_max_(j), (h_(j) + h_max_(j)) / dt));
+    lower(j) = failed_(j) ? 0.0 : std::min(0.0, std::max(-u_max_(j), (h_(j) - h_max_(j)) / dt));
+    upper(j) = failed_(j) ? 0.0 : std::max(0.0, std::min(u_max_(j), (h_(j) + h_max_(j)) / dt));
   }
 }
 
@@ -74,7 +88,7 @@ void ReactionWheels::preferred_torque(Eigen::VectorXd& u_pref) const {
   const int m = size();
   if (u_pref.size() != m) u_pref.resize(m);
   for (int j = 0; j < m; ++j)
-    u_pref(j) = dumping_ ? std::clamp(h_(j) / dump_.time_constant, -u_max_(j), u_max_(j)) : 0.0;
+    u_pref(j) = dumping_ && !failed_(j) ? std::clamp(h_(j) / dump_.time_constant, -u_max_(j), u_max_(j)) : 0.0;
 }
 
 Eigen::Vector3d ReactionWheels::apply(const Eigen::Ref<const Eigen::VectorXd>& u, double dt) {
@@ -84,8 +98,8 @@ Eigen::Vector3d ReactionWheels::apply(const Eigen::Ref<const Eigen::VectorXd>& u
     throw std::invalid_argument("wheels.apply.dt: must be finite and > 0 (s)");
   Eigen::Vector3d T_B = Eigen::Vector3d::Zero();
   for (int j = 0; j < m; ++j) {
-    const double lo = std::min(0.0, std::max(-u_max_(j), (h_(j) - h_max_(j)) / dt));
-    const double hi = std::max(0.0, std::min(u_max_(j), (h_(j) + h_max_(j)) / dt));
+    const double lo = failed_(j) ? 0.0 : std::min(0.0, std::max(-u_max_(j), (h_(j) - h_max_(j)) / dt));
+    const double hi = failed_(j) ? 0.0 : std::max(0.0, std::min(u_max_(j), (h_(j) + h_max_(j)) / dt));
     const double uj = std::isfinite(u(j)) ? std::clamp(u(j), lo, hi) : 0.0;
     u_applied_(j) = uj;
     h_(j) = std::clamp(h_(j) - uj * dt, -h_max_(j), h_max_(j));
@@ -102,6 +116,7 @@ void ReactionWheels::update_dumping() {
   }
   bool above_start = false, above_stop = false;
   for (int j = 0; j < size(); ++j) {
+    if (failed_(j)) continue;  // a failed wheel's momentum cannot be dumped
     above_start = above_start || std::abs(h_(j)) > dump_.start_fraction * h_max_(j);
     above_stop = above_stop || std::abs(h_(j)) > dump_.stop_fraction * h_max_(j);
   }

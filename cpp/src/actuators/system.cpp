@@ -57,6 +57,7 @@ const ActuationStep& ActuationSystem::step(double t, const Vector6& u, const Eig
   out_.u_commanded = u;
   out_.commanded_B = attitude_ok ? wrench_from_input(u, C_BL, mass)
                                  : Vector6::Constant(std::numeric_limits<double>::quiet_NaN());
+  wheels_.update_failures(t);  // a wheel failed by t gives no torque from this period on
   // M35: a non-finite wrench is the allocation's InvalidCommand (no thrust, no wheel torque).
   const AllocationResult& a = allocator_.solve(cluster_, wheels_, t, out_.commanded_B);
   out_.allocation = a.info;
@@ -82,6 +83,7 @@ const ActuationStep& ActuationSystem::step(double t, const Vector6& u, const Eig
   out_.propellant = f.propellant;
   out_.pulses = f.pulses;
   out_.failed_thrusters = cluster_.faults_at(t);
+  out_.failed_wheels = wheels_.failed();
 
   totals_.impulse += out_.impulse_total;
   totals_.delta_v += out_.delta_v;

@@ -1,6 +1,7 @@
 """The [faults] section: faults injected into a run and the navigation step's fault detection (docs/model.md M49-M51,
 issue #43; tubempc.scenario.faults). Sensor faults act in the C++ navigation (``nav::SensorFault``), the
-disturbance burst in the plant; thruster faults are the actuator preset's ``[[faults]]``."""
+disturbance burst in the plant, a thruster or wheel failure in the actuators (also the actuator preset's
+``[[faults]]``)."""
 
 from __future__ import annotations
 
@@ -23,7 +24,9 @@ SENSOR_FAULT_KINDS: tuple[str, ...] = (
     "star_tracker_loss",
 )
 PLANT_FAULT_KINDS: tuple[str, ...] = ("disturbance_burst",)
-FAULT_KINDS: tuple[str, ...] = SENSOR_FAULT_KINDS + PLANT_FAULT_KINDS
+#: The actuator faults (spacecraft.actuators other than "ideal"): a thruster (``actuators::FaultKind``) or a wheel.
+ACTUATOR_FAULT_KINDS: tuple[str, ...] = ("thruster_failed_off", "thruster_stuck_on", "wheel_failure")
+FAULT_KINDS: tuple[str, ...] = SENSOR_FAULT_KINDS + PLANT_FAULT_KINDS + ACTUATOR_FAULT_KINDS
 
 _WINDOW = (lambda v: bool(v.shape == (2,) and 0.0 <= v[0] < v[1]), "0 <= start < end")
 
@@ -57,6 +60,12 @@ class FaultsSection:
         metadata=number("gyro_scale_step, accel_scale_step: the measurement is multiplied by 1 + this")
     )
     bias_axis_B: FloatArray = field(metadata=number("the direction in B of a bias step (normalised)", (3,), NONZERO))
+    actuator_index: int = field(
+        metadata=integer(
+            "thruster_failed_off, thruster_stuck_on, wheel_failure: the thruster or wheel that fails (-1: drawn per run)",
+            (lambda v: v >= -1, ">= -1"),
+        )
+    )
     burst_scale: float = field(
         metadata=number(
             "disturbance_burst: the drawn disturbance is multiplied by this (beyond the identified set)", check=POSITIVE

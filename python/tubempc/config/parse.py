@@ -15,7 +15,7 @@ import numpy as np
 import tomli_w
 
 from .abort import AbortSection
-from .faults import FAULT_KINDS, SENSOR_FAULT_KINDS, FaultsSection
+from .faults import ACTUATOR_FAULT_KINDS, FAULT_KINDS, SENSOR_FAULT_KINDS, FaultsSection
 from .fields import encode, is_si, parse_field, spec_of
 from .navigation import NavigationSection
 from .physical import PhysicalSection
@@ -328,6 +328,12 @@ def _check_faults(c: Config) -> None:
     if sensor and not c.navigation.enabled:
         name = "faults.random_kinds" if f.random else "faults.kind"
         raise ConfigError(f"{c.source}: {name}: the sensor fault {sensor[0]!r} needs navigation.enabled = true")
+    actuator = [k for k in (kinds if f.random else (f.kind,)) if k in ACTUATOR_FAULT_KINDS]
+    if actuator and c.spacecraft.actuators == "ideal":
+        name = "faults.random_kinds" if f.random else "faults.kind"
+        raise ConfigError(
+            f'{c.source}: {name}: the actuator fault {actuator[0]!r} needs spacecraft.actuators other than "ideal"'
+        )
     if f.kind != "none" and not f.random and f.start >= c.mpc.t_f:
         raise ConfigError(
             f"{c.source}: faults.start: {f.start} s is not before the end of the run (mpc.t_f = {c.mpc.t_f} s)"

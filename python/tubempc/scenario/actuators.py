@@ -343,15 +343,25 @@ class ScenarioActuation:
     u_max: float
     T_max: float
 
-    def system(self, seed: int) -> _act.ActuationSystem:
+    def system(self, seed: int, fault: tuple[str, int, float] | None = None) -> _act.ActuationSystem:
         """A run's actuation system: the preset's thrusters with truth errors drawn within their bounds
         from ``numpy.random.default_rng([seed, 1])`` and the preset's faults (random ones drawn from
-        ``default_rng(seed)`` by :func:`load_actuators`: two independent streams)."""
+        ``default_rng(seed)`` by :func:`load_actuators`: two independent streams), and the run's ``[faults]``
+        actuator fault (kind, index, onset s; :func:`tubempc.scenario.faults.actuator_fault`): a thruster failed
+        off or stuck on, or a wheel failed, from its onset to the end of the run."""
         suite = self.suite
         if suite.random_faults and suite.path is not None:
             suite = load_actuators(suite.path, suite.modulation.period, seed=seed)
         truth = sample_truth_errors(suite.cluster, np.random.default_rng([seed, 1]))
-        return _act.ActuationSystem(truth, self.suite.wheels, actuation_settings(self.suite))
+        wheels = self.suite.wheels
+        if fault is not None:
+            kind, index, onset = fault
+            if kind == "wheel_failure":
+                wheels = _act.ReactionWheels([wheels.wheel(j) for j in range(len(wheels))], wheels.dump_settings)
+                wheels.set_failure(index, onset)
+            else:
+                truth.set_fault(index, _act.FaultKind.from_string(kind.removeprefix("thruster_")), onset)
+        return _act.ActuationSystem(truth, wheels, actuation_settings(self.suite))
 
     def error_shapes(self) -> tuple[FloatArray, FloatArray]:
         """The certified sets of the commanded minus the delivered input (M38), {e : e^T E^-1 e <= 1}: u_p's

@@ -13,9 +13,17 @@ import numpy as np
 
 from .. import _core
 from ..config import Config
-from ..config.faults import PLANT_FAULT_KINDS, SENSOR_FAULT_KINDS
+from ..config.faults import ACTUATOR_FAULT_KINDS, PLANT_FAULT_KINDS, SENSOR_FAULT_KINDS
 
-__all__ = ["FAULT_SEED_STREAM", "burst_window", "detection_settings", "inject", "run_fault", "sensor_faults"]
+__all__ = [
+    "FAULT_SEED_STREAM",
+    "actuator_fault",
+    "burst_window",
+    "detection_settings",
+    "inject",
+    "run_fault",
+    "sensor_faults",
+]
 
 #: The second entry of the random fault's generator seed, ``default_rng([seed, 43])`` (issue #43).
 FAULT_SEED_STREAM = 43
@@ -38,8 +46,8 @@ def run_fault(cfg: Config, seed: int) -> dict[str, Any] | None:
     """The fault run ``seed`` flies: {"kind", "start" (s), "duration" (s; None: to the end), "magnitude" (the kind's
     unit), "axis_B", "random"}; None without one."""
     f = cfg.faults
+    rng = np.random.default_rng([int(seed), FAULT_SEED_STREAM])
     if f.random:
-        rng = np.random.default_rng([int(seed), FAULT_SEED_STREAM])
         kinds = f.random_kind_list
         kind = kinds[int(rng.integers(len(kinds)))]
         start = float(rng.uniform(f.random_window[0], f.random_window[1]))
@@ -47,6 +55,9 @@ def run_fault(cfg: Config, seed: int) -> dict[str, Any] | None:
         return None
     else:
         kind, start = f.kind, f.start
+    # an actuator fault's unit: the given index, or a uniform draw in [0, 1) that the run's actuators resolve
+    # (actuator_fault); drawn after the kind and the onset, so that those of a seed do not depend on it
+    actuator_draw = float(rng.uniform()) if kind in ACTUATOR_FAULT_KINDS and f.actuator_index < 0 else None
     return {
         "kind": kind,
         "start": start,
@@ -54,7 +65,25 @@ def run_fault(cfg: Config, seed: int) -> dict[str, Any] | None:
         "magnitude": _magnitude(cfg, kind),
         "axis_B": (np.asarray(f.bias_axis_B) / np.linalg.norm(f.bias_axis_B)).tolist(),
         "random": f.random,
+        **({"actuator_index": f.actuator_index, "actuator_draw": actuator_draw} if kind in ACTUATOR_FAULT_KINDS else {}),
     }
+
+
+def actuator_fault(fault: dict[str, Any] | None, thrusters: int, wheels: int) -> tuple[str, int, float] | None:
+    """A run's actuator fault as (kind, index, onset s) for actuators of ``thrusters`` thrusters and ``wheels``
+    wheels (a drawn index: floor(draw n)); None for another fault or none. ValueError naming faults.actuator_index
+    for an index beyond the actuators."""
+    if fault is None or fault["kind"] not in ACTUATOR_FAULT_KINDS:
+        return None
+    kind = fault["kind"]
+    n = wheels if kind == "wheel_failure" else thrusters
+    if n == 0:
+        raise ValueError(f"faults.kind: {kind!r} needs a {'wheel' if kind == 'wheel_failure' else 'thruster'}")
+    draw = fault.get("actuator_draw")
+    index = int(fault["actuator_index"]) if draw is None else min(int(float(draw) * n), n - 1)
+    if not 0 <= index < n:
+        raise ValueError(f"faults.actuator_index: {index} is not an index of the {n} actuators of its kind")
+    return kind, index, float(fault["start"])
 
 
 def _duration(fault: dict[str, Any]) -> float:

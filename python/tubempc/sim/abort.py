@@ -8,7 +8,8 @@ controller's certified designs, and the library of nominal aborts from entries o
 - The designs: TBMPC-FFA's set-up designs (:func:`tubempc.design.library.controller_designs`) about the hover's first
   node: the abort's tube is updated and certified at every step it flies (``control::SafeAbort``).
 - The library: from the descent's reference state every ``abort.entry_period`` steps, the abort controller flown on
-  its own nominal prediction (z*_1 of each step) to the end of the mission. An entry is certified when every step's
+  the controller's model without disturbance (its exact discretisation at each step's state and command) to the
+  end of the mission. An entry is certified when every step's
   tube is certified (residual <= 0), no step fell back, its plan never enters the body, keeps the glide-slope cone
   (g <= 0) and the input bounds (the actuators' one-failure box when flown with actuators), and ends above
   ``abort.safe_altitude``. The commit step is the last entry of the unbroken run of certified entries from the
@@ -99,11 +100,15 @@ def height_above_site(scn: Scenario, x: npt.ArrayLike, t: npt.ArrayLike) -> Arra
 
 
 def hover_reference(scn: Scenario) -> ReferenceTrajectory:
-    """The abort's hover over the descent's time base (see the module comment)."""
+    """The abort's hover over the descent's time base, one horizon past its end (see the module comment)."""
     cfg = scn.config
     if scn.site is None:
         raise ValueError('abort.enabled: the abort hovers above the landing site: it needs boundary.terminal = "site"')
     ref, dt = scn.reference, cfg.mpc.dt
+    # past the mission's end by one horizon: the abort controller never enters the MPC's shrinking phase (the hover
+    # is a state to hold, not a terminal set to reach)
+    n = scn.n_steps + cfg.mpc.horizon
+    times = np.arange(n + 1, dtype=np.float64) * dt
     point_A = scn.site.surface_A + cfg.abort.hover_altitude * scn.site.normal_A
     X = np.array(
         [
@@ -113,12 +118,12 @@ def hover_reference(scn: Scenario) -> ReferenceTrajectory:
                 scn.model.C_AL(float(t)),
                 scn.model.rotation_rate_AL,
                 cfg.spacecraft.boresight_B,
-                ref.x[k, 6:9],
+                ref.x[min(k, scn.n_steps), 6:9],
             )
-            for k, t in enumerate(ref.t)
+            for k, t in enumerate(times)
         ]
     )
-    U = np.zeros_like(ref.u)
+    U = np.zeros((n, 6))
     for _ in range(_HOVER_INPUT_ITERATIONS):
         Ad, Bd, cd = scn.model.discretize(0.0, X[:-1], U, dt)
         miss = X[1:] - (np.einsum("kij,kj->ki", Ad, X[:-1]) + np.einsum("kij,kj->ki", Bd, U) + cd)
@@ -132,7 +137,7 @@ def hover_reference(scn: Scenario) -> ReferenceTrajectory:
             f"({np.abs(U[:, :3]).max():.3g} m/s^2 of {u_max:.3g})"
         )
     return ReferenceTrajectory(
-        t=ref.t.copy(),
+        t=times,
         x=X,
         u=U,
         cost=float(np.sum(np.linalg.norm(U[:, :3], axis=1) + np.linalg.norm(U[:, 3:], axis=1)) * dt),
@@ -182,7 +187,9 @@ def _fly_entry(scn: Scenario, abort: Any, k0: int, u_bounds: Array) -> AbortEntr
             reasons.append(f"fallback at step {k} ({step.mpc.status})")
         if np.any(np.abs(np.asarray(step.u)) > u_bounds * (1.0 + _INPUT_TOLERANCE)):
             reasons.append(f"input beyond its bound at step {k}")
-        x = np.asarray(step.mpc.z)[:, 1].copy()
+        u = np.asarray(step.u, dtype=float)
+        Ad, Bd, cd = scn.model.discretize(k * dt, x, u, dt)  # the controller's model, undisturbed
+        x = Ad @ x + Bd @ u + cd
         plan.append(x)
     P = np.array(plan)
     t = np.arange(k0, T + 1) * dt

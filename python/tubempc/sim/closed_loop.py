@@ -33,13 +33,14 @@ import numpy as np
 import numpy.typing as npt
 
 from .. import _core
+from ..config.faults import ACTUATOR_FAULT_KINDS
 from ..design.library import new_controller
 from ..design.policy import BackgroundDesigns
 from ..design.tube import tube_excursion
 from ..results.records import RunRecord
 from ..scenario.actuators import describe_actuation
 from ..scenario.build import METHODS, P_STATES, R_STATES, Scenario
-from ..scenario.faults import burst_window, inject, run_fault
+from ..scenario.faults import actuator_fault, burst_window, inject, run_fault
 from ..scenario.navigation import Navigation, NavigationRecord, new_navigation, tube_gauge
 from .abort import AbortLibrary, abort_library, new_abort
 from .plant import ProjectPlant
@@ -98,7 +99,13 @@ def _new_plant(scn: Scenario, seed: int, dispersed: bool, fault: dict[str, Any] 
     physical environment the nominal one, or with ``dispersed`` the one drawn from the seed: :func:`run_truth`),
     and the run's disturbance burst (``fault``, the project's plant with the drawn disturbance only)."""
     loop = loop_setup(scn)
-    system = None if loop.actuation is None else loop.actuation.system(seed + 1)
+    system = None
+    if loop.actuation is not None:
+        suite = loop.actuation.suite
+        unit = actuator_fault(fault, len(suite.cluster), len(suite.wheels))
+        system = loop.actuation.system(seed + 1, unit)
+        if unit is not None and fault is not None:
+            fault["actuator"] = unit[1]  # the thruster or wheel that failed, kept with the run
     truth0 = scn.model.state_to_truth(scn.x0)
     kind = ProjectPlant
     if scn.config.simulation.plant == "basilisk":
@@ -107,6 +114,8 @@ def _new_plant(scn: Scenario, seed: int, dispersed: bool, fault: dict[str, Any] 
         kind = BasiliskPlant
     truth, physical = run_truth(scn, seed, dispersed)
     burst = burst_window(fault)
+    if fault is not None and fault["kind"] in ACTUATOR_FAULT_KINDS and system is None:
+        raise ValueError(f'faults.kind: {fault["kind"]!r} needs spacecraft.actuators other than "ideal"')
     if burst is not None and (kind is not ProjectPlant or physical is not None):
         raise ValueError(
             'faults.kind: "disturbance_burst" scales the drawn disturbance of the project\'s plant: it needs '

@@ -53,3 +53,34 @@ TEST(ReactionWheels, DumpStartsAndStopsWithHysteresis) {
   h(2) = 51.0;
   EXPECT_THROW(w.set_momentum(h), std::invalid_argument);
 }
+
+TEST(ReactionWheels, AFailedWheelGivesNoTorqueKeepsItsMomentumAndLeavesTheDump) {
+  MomentumDumpSettings d;
+  d.start_fraction = 0.8;
+  d.stop_fraction = 0.2;
+  ReactionWheels w = actuator_test::pyramid_wheels(0.2, 5.0, d);
+  EXPECT_THROW(w.set_failure(4, 1.0), std::out_of_range);
+  EXPECT_THROW(w.set_failure(0, std::nan("")), std::invalid_argument);
+  Eigen::VectorXd h = Eigen::VectorXd::Zero(4);
+  h(1) = 4.5;  // 0.9 of the limit: dumping while healthy
+  w.set_momentum(h);
+  EXPECT_TRUE(w.dumping());
+  w.set_failure(1, 10.0);
+  w.update_failures(9.9);
+  EXPECT_EQ(w.failed(), 0);
+  EXPECT_TRUE(w.dumping());
+  w.update_failures(10.0);
+  EXPECT_EQ(w.failed(), 1);
+  EXPECT_FALSE(w.dumping());  // its momentum cannot be dumped: the others are below the stop fraction
+  Eigen::VectorXd lo, hi, pref;
+  w.torque_bounds(1.0, lo, hi);
+  EXPECT_EQ(lo(1), 0.0);
+  EXPECT_EQ(hi(1), 0.0);
+  EXPECT_EQ(hi(0), 0.2);
+  const Eigen::Vector3d T = w.apply(Eigen::VectorXd::Constant(4, 0.1), 1.0);
+  EXPECT_EQ(w.applied_torque()(1), 0.0);
+  EXPECT_EQ(w.momentum()(1), 4.5);
+  EXPECT_TRUE(T.isApprox(w.axes_B() * w.applied_torque()));
+  w.preferred_torque(pref);
+  EXPECT_EQ(pref(1), 0.0);
+}

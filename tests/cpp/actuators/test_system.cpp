@@ -216,3 +216,17 @@ TEST(ActuationSystem, NoExceptionEscapesAStepOnBadNumbers) {
   }
   EXPECT_TRUE(sys.step(t, Vector6::Constant(0.1), Eigen::Matrix3d::Identity()).u_delivered.allFinite());
 }
+
+TEST(ActuationSystem, AFailedWheelIsReportedAndTheOthersCarryTheTorque) {
+  ReactionWheels wheels = actuator_test::pyramid_wheels();
+  wheels.set_failure(2, 4.0);
+  ActuationSystem sys(actuator_test::cube_cluster(), wheels, settings(2.0, 1500.0, 1e-3));
+  Vector6 u = Vector6::Zero();
+  u.tail<3>() << 0.05, -0.02, 0.1;  // N m: within the three remaining wheels' reach
+  EXPECT_EQ(sys.step(0.0, u, Eigen::Matrix3d::Identity()).failed_wheels, 0);
+  const ActuationStep& st = sys.step(4.0, u, Eigen::Matrix3d::Identity());
+  EXPECT_EQ(st.failed_wheels, 1);
+  EXPECT_EQ(st.wheel_torque(2), 0.0);
+  EXPECT_EQ(st.status, AllocationStatus::Ok);  // re-allocated around the failed wheel
+  EXPECT_LT((st.commanded_B - st.allocated_B).cwiseAbs().maxCoeff(), 1e-4);
+}

@@ -57,6 +57,8 @@ def test_an_abort_needs_a_site() -> None:
 def test_the_hover_reference_holds_the_hover_turning_with_the_body(tag: Any) -> None:
     hover = hover_reference(tag)
     height = height_above_site(tag, hover.x, hover.t)
+    assert len(hover.t) == tag.n_steps + tag.config.mpc.horizon + 1  # one horizon past the mission's end
+    np.testing.assert_array_equal(hover.t[: tag.n_steps + 1], tag.reference.t)
     np.testing.assert_allclose(height, tag.config.abort.hover_altitude, rtol=0, atol=1e-9)
     # at rest relative to the surface: the velocity in L is omega_AL x r_L
     w_AL_L = np.array([0.0, 0.0, tag.model.rotation_rate_AL])

@@ -90,6 +90,21 @@ class ReactionWheels {
   /// @param lower lower bounds (N m, m; resized only if its size differs).
   /// @param upper upper bounds (N m, m).
   void torque_bounds(double dt, Eigen::VectorXd& lower, Eigen::VectorXd& upper) const;
+  /// Fails wheel j from time t_start on: from then it gives no torque and keeps its momentum (a failed wheel's
+  /// spin is left to itself; its friction is not modelled) and no longer counts in the momentum dump.
+  /// @param j       wheel index in [0, m) (std::out_of_range otherwise).
+  /// @param t_start the failure's time (s; +inf: healthy; NaN: std::invalid_argument).
+  void set_failure(int j, double t_start);
+  /// @param j wheel index in [0, m).
+  /// @return wheel j's failure time (s; +inf: healthy).
+  double failure_time(int j) const { return fail_time_(j); }
+  /// Marks the wheels failed at time t (their torque bounds are 0 from then; ActuationSystem::step calls it at
+  /// each period's start). Allocation-free.
+  /// @param t time (s).
+  void update_failures(double t) noexcept;
+  /// @return the wheels failed at the last update_failures.
+  int failed() const { return static_cast<int>(failed_.count()); }
+
   /// @return whether a momentum dump is in progress.
   bool dumping() const { return dumping_; }
   /// The preferred wheel torques: u_dump while dumping, 0 otherwise.
@@ -111,6 +126,8 @@ class ReactionWheels {
   MomentumDumpSettings dump_;
   Eigen::Matrix<double, 3, Eigen::Dynamic> G_;
   Eigen::VectorXd u_max_, h_max_, h_, u_applied_;
+  Eigen::VectorXd fail_time_;                                // failure times (s; +inf: healthy)
+  Eigen::Array<bool, Eigen::Dynamic, 1> failed_;             // failed at the last update_failures
   bool dumping_ = false;
 };
 

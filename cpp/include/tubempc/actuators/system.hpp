@@ -63,6 +63,7 @@ struct ActuationStep {
   double propellant = 0.0;         ///< Propellant spent in the period (kg).
   int pulses = 0;                  ///< Thrusters fired in the period.
   int failed_thrusters = 0;        ///< Thrusters failed (off or stuck on) at the period's start.
+  int failed_wheels = 0;           ///< Wheels failed at the period's start (ReactionWheels::set_failure).
   double step_time = 0.0;          ///< Wall-clock time of the call (s).
 };
 
