@@ -23,6 +23,7 @@ from ..scenario.sites import SiteMap, cone_grid
 from .metrics import ConvergenceFit, prior_bound_exceedances
 
 __all__ = [
+    "EVENT_MARKERS",
     "METHOD_COLORS",
     "ROTATION",
     "TRANSLATION",
@@ -33,6 +34,8 @@ __all__ = [
     "disturbances",
     "errors",
     "exceedances",
+    "fault_events",
+    "fault_timeline",
     "lambda_sensitivity",
     "landmarks_visible",
     "montecarlo_envelopes",
@@ -62,6 +65,31 @@ def _style(name: str, **extra: Any) -> dict[str, Any]:
     return {"color": METHOD_COLORS.get(name), **_STYLE.get(name, {"lw": 1.2}), **extra}
 
 
+def fault_timeline(results: Mapping[str, RunRecord], heights: Mapping[str, np.ndarray], commit_time: float | None) -> Figure:
+    """The fault timeline of each run: its height above the site (``heights``, m, per step) against time, with the
+    fault's onset, its detection and the abort's entry or refusal (:func:`fault_events`), the abort's commit time
+    (None: not armed) and, flown on navigation, the navigation's latched fault flag."""
+    fig, (ax, ax_flag) = plt.subplots(2, 1, figsize=(10, 6), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
+    for name, r in results.items():
+        ax.plot(r.t, heights[name], **_style(name), label=f"{name} height above the site")
+        for event, k in fault_events(r).items():
+            marker, color = EVENT_MARKERS[event]
+            ax.scatter(r.t[k], heights[name][k], marker=marker, color=color, s=60, zorder=3, label=f"{name}: {event}")
+            ax.axvline(r.t[k], color=color, lw=0.8, ls=":")
+        if r.navigation is not None:
+            ax_flag.step(r.t, r.navigation.fault_detected, where="post", **_style(name), label=f"{name} fault detected")
+    if commit_time is not None:
+        ax.axvline(commit_time, color="k", lw=1.0, ls="--", label=f"commit ({commit_time:.0f} s)")
+    ax.set_ylabel("height above the site (m)")
+    ax.set_title("Fault timeline: onset, detection and abort", fontsize=10)
+    ax.legend(fontsize=7, loc="best")
+    ax_flag.set_ylabel("detected")
+    ax_flag.set_yticks([0, 1])
+    ax_flag.set_xlabel("t (s)")
+    fig.tight_layout()
+    return fig
+
+
 def save(fig: Figure, path: str | Path, dpi: int = 110) -> Path:
     """Writes the figure as PNG and closes it."""
     p = Path(path)
@@ -76,6 +104,43 @@ def _cone_surface(
 ) -> None:
     ax.plot_surface(*cone_grid(apex, axis, half_angle, height), color=color, alpha=0.07, linewidth=0)
     ax.plot([], [], color=color, alpha=0.4, label=label)
+
+
+#: The markers of a run's fault and abort events (:func:`fault_events`): label -> (matplotlib marker, colour).
+EVENT_MARKERS = {
+    "fault onset": ("X", "tab:red"),
+    "fault detected": ("D", "tab:orange"),
+    "abort entered": ("^", "tab:purple"),
+    "abort refused (committed)": ("v", "tab:brown"),
+}
+
+
+def fault_events(rec: RunRecord) -> dict[str, int]:
+    """A run's fault and abort events as steps of its record: the injected fault's onset, the navigation's first
+    detection, the abort's entry or a refused trigger (``applied``'s ``fault``, ``fault_detection``, ``abort``);
+    empty for a run without them. A time falls on the first step at or after it."""
+    applied = rec.applied or {}
+    dt = float(rec.t[1] - rec.t[0]) if len(rec.t) > 1 else 1.0
+    last = len(rec.t) - 1
+
+    def step(t: float) -> int:
+        return min(last, int(np.ceil(t / dt - 1e-9)))
+
+    out: dict[str, int] = {}
+    fault = applied.get("fault")
+    if fault is not None:
+        out["fault onset"] = step(float(fault["start"]))
+    det = applied.get("fault_detection") or {}
+    if det.get("detected"):
+        t = (det.get("detected_at") or {}).get(det.get("cause"))
+        if t is not None:
+            out["fault detected"] = step(float(t))
+    abort = applied.get("abort") or {}
+    if abort.get("entered_at_step") is not None:
+        out["abort entered"] = int(abort["entered_at_step"])
+    if abort.get("refused_at_step") is not None:
+        out["abort refused (committed)"] = int(abort["refused_at_step"])
+    return out
 
 
 def trajectory_3d(
@@ -112,6 +177,9 @@ def trajectory_3d(
         for k in range(0, r.z_plan.shape[0], every):
             zp = r.z_plan[k]
             ax.plot(zp[:, 0], zp[:, 1], zp[:, 2], color=METHOD_COLORS.get(name), lw=0.6, alpha=0.5)
+        for event, k in fault_events(r).items():
+            marker, color = EVENT_MARKERS[event]
+            ax.scatter(*x[k, :3], marker=marker, color=color, s=45, label=f"{name}: {event} ({r.t[k]:.0f} s)")
     ax.scatter(*ref[0, :3], color="g", s=30, label="start")
     ax.scatter(*ref[-1, :3], color="r", s=30, label="target at t_f")
     ax.set_xlim(centre[0] - half, centre[0] + half)

@@ -134,6 +134,8 @@ CAPTIONS = {
     "filter's 3-sigma bounds.",
     "fig20_landmarks": "Navigation: landmarks in the last camera frame of each control period (crosses: steps whose "
     "navigation status is not ok).",
+    "fig22_fault_timeline": "Fault timeline: the height above the site with the fault's onset, its detection, the "
+    "abort's entry (or a trigger refused past the commit time) and the navigation's fault flag.",
 }
 
 

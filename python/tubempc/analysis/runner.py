@@ -32,7 +32,7 @@ from ..results.summaries import (
 )
 from ..scenario.build import Scenario, build_scenario, landing_geometry
 from ..scenario.sites import inside
-from ..sim.abort import abort_summary
+from ..sim.abort import abort_summary, height_above_site
 from ..sim.closed_loop import simulate
 from . import figures, metrics
 
@@ -144,6 +144,11 @@ def save_figures(scn: Scenario, records: dict[str, RunRecord], out: Path) -> dic
             ("fig19_navigation_errors.png", lambda: figures.navigation_errors(records)),
             ("fig20_landmarks.png", lambda: figures.landmarks_visible(records)),
         ]
+    if any(figures.fault_events(r) for r in records.values()) and scn.site is not None:  # a fault or an abort
+        heights = {m: height_above_site(scn, r.x, r.t) for m, r in records.items()}
+        commit = (next(iter(records.values())).applied or {}).get("abort", {}).get("commit_step")
+        commit_time = None if commit is None or commit < 0 else commit * c.mpc.dt
+        jobs.append(("fig22_fault_timeline.png", lambda: figures.fault_timeline(records, heights, commit_time)))
     failed: dict[str, str] = {}
     for name, make in jobs:
         try:

@@ -158,7 +158,7 @@ def mission_view_html(
     import plotly.graph_objects as go
     from matplotlib.colors import to_hex
 
-    from .figures import METHOD_COLORS
+    from .figures import EVENT_MARKERS, METHOD_COLORS, fault_events
 
     cfg = scn.config
     t_f = cfg.mpc.t_f
@@ -219,6 +219,18 @@ def mission_view_html(
                 x=x[:, 0], y=x[:, 1], z=x[:, 2], mode="lines", name=f"{name} actual", line={"color": color, "width": 5}
             )
         )
+        for event, k in fault_events(rec).items():  # the fault's onset, its detection, the abort
+            _, marker_color = EVENT_MARKERS[event]
+            fig.add_trace(
+                go.Scatter3d(
+                    x=[x[k, 0]],
+                    y=[x[k, 1]],
+                    z=[x[k, 2]],
+                    mode="markers",
+                    name=f"{name}: {event} ({rec.t[k]:.0f} s)",
+                    marker={"color": to_hex(marker_color), "size": 6, "symbol": "cross"},
+                )
+            )
         first_tube = True
         for k in range(0, rec.Pe_p.shape[0], tube_every):
             ex, ey, ez, i, j, kk = _ellipsoid(rec.z[k, :3], rec.Pe_p[k, :3, :3])

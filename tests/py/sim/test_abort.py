@@ -11,7 +11,9 @@ from typing import Any
 import numpy as np
 import pytest
 
+from tubempc.analysis import figures
 from tubempc.analysis.runner import aborted, guarantee_lost, run_summary
+from tubempc.analysis.view3d import mission_view_html
 from tubempc.commands import EXIT_ABORTED, EXIT_GUARANTEE_LOST, EXIT_OK, guarantee_status
 from tubempc.config import ConfigError, load_config
 from tubempc.scenario import build_scenario
@@ -97,11 +99,17 @@ def late(tag: Any) -> tuple[Any, Any]:
     return scn, simulate(scn, "ffa", 0, design_worker="none")
 
 
-def test_a_commanded_abort_backs_away_certified_and_the_descent_before_it_is_unchanged(
-    tag: Any, late: tuple[Any, Any]
-) -> None:
+@pytest.fixture(scope="module")
+def commanded(tag: Any) -> tuple[Any, Any]:
+    """A run commanded to abort at 100 s (step 50)."""
     scn = _with(tag, {"abort.command_time": "100 s"})
-    rec = simulate(scn, "ffa", 0, design_worker="none")
+    return scn, simulate(scn, "ffa", 0, design_worker="none")
+
+
+def test_a_commanded_abort_backs_away_certified_and_the_descent_before_it_is_unchanged(
+    commanded: tuple[Any, Any], late: tuple[Any, Any]
+) -> None:
+    scn, rec = commanded
     entry = 50
     descent = late[1]
     np.testing.assert_array_equal(rec.x[: entry + 1], descent.x[: entry + 1])  # the descent flown to the entry
@@ -129,3 +137,15 @@ def test_a_command_past_the_commit_step_is_refused_and_the_descent_lands(tag: An
     assert a.refused_cause == "command" and a.refused_at == t_late
     assert a.commit_time == abort_library(tag).commit_step * scn.config.mpc.dt
     assert a.final_height < 5.0 and aborted(s) is None
+
+
+def test_the_abort_is_marked_on_the_trajectory_the_timeline_and_the_3d_view(commanded: tuple[Any, Any]) -> None:
+    scn, rec = commanded
+    assert figures.fault_events(rec) == {"abort entered": 50}
+    fig = figures.trajectory_3d({"ffa": rec}, scn.config.constraints.glide_slope_angle)
+    labels = [h.get_label() for h in fig.axes[0].collections]
+    assert "ffa: abort entered (100 s)" in labels
+    heights = {"ffa": height_above_site(scn, rec.x, rec.t)}
+    timeline = figures.fault_timeline({"ffa": rec}, heights, 145 * scn.config.mpc.dt)
+    assert any("abort entered" in t.get_text() for t in timeline.axes[0].get_legend().get_texts())
+    assert "TBMPC-FFA: abort entered (100 s)" in mission_view_html(scn, {"ffa": rec}, footprints=0)
