@@ -417,6 +417,58 @@ def _store(d: dict[str, Any]) -> list[tuple[str, str]]:
     ]
 
 
+def _faults(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
+    """A fault campaign (tools/fault_campaign.py): how the runs ended, the aborts' certification, and per fault kind
+    the runs, the detections and their latency."""
+    where = f"{d['runs']} runs of {d['method']}, {name.removeprefix('faults_')}"
+    e, a = d["ends"], d["aborts"]
+    spec = d["spec"]
+    causes = ", ".join(f"{k} {v}" for k, v in a["causes"].items()) or "none"
+    rows = [
+        (
+            f"fault campaign, one random fault per run, {where}",
+            f"landed within {spec['position_m']:g} m and {100 * spec['velocity_m_s']:g} cm/s "
+            f"{e.get('landed_within_spec', 0)}, aborted safe {e.get('aborted_safe', 0)}, landed outside the spec "
+            f"{e.get('landed_outside_spec', 0)}, aborted not safe {e.get('aborted_unsafe', 0)}, failed runs "
+            f"{d['failed_runs']}; aborts {a['runs']} (causes {causes}; "
+            f"entered at {a['entry_time_s']['median'] or 0:.0f} s median), lowest final height of an abort "
+            f"{a['lowest_final_height_m']:.3g} m, abort steps on an uncertified tube {a['steps_on_an_uncertified_tube']} "
+            f"(largest LMI residual {a['max_lmi_residual'] if a['max_lmi_residual'] is not None else float('nan'):.2g}); "
+            f"runs with steps outside the tube {d['runs_with_steps_outside_tube']}, inside the body "
+            f"{d['runs_inside_body']}; {d['run_time_s_mean']:.3g} s per run",
+        )
+    ]
+    for kind, k in d["per_fault_kind"].items():
+        lat = k["latency_s"]
+        latency = (
+            "not detected" if lat["median"] is None else f"latency median {lat['median']:.3g} s, worst {lat['worst']:.3g} s"
+        )
+        rows.append(
+            (
+                f"fault campaign, {kind}, {where}",
+                f"{k['runs']} runs: detected {k['detected']} ({latency}), aborted {k['aborted']} "
+                f"(safe {k.get('aborted_safe', 0)}), landed in spec {k.get('landed_within_spec', 0)}, outside "
+                f"{k.get('landed_outside_spec', 0)}; refused past the commit step {k['refused_past_commit']}",
+            )
+        )
+    return rows
+
+
+def _abort(d: dict[str, Any]) -> list[tuple[str, str]]:
+    """tubempc bench abort: the controller step's p99 with and without the abort, and the supervision's call."""
+    f = d["flights"]
+    return [
+        (
+            f"safe abort's cost in the step ({d['method']}, seed {d['seed']}, commit step {d['commit_step']})",
+            f"controller step p99 {f['without_abort']['p99_ms']:.3g} ms without the abort, {f['armed']['p99_ms']:.3g} ms "
+            f"armed ({d['armed_p99_growth_ms']:+.3g} ms); commanded run: descent steps p99 "
+            f"{f['commanded_descent_steps']['p99_ms']:.3g} ms, abort steps {f['commanded_abort_steps']['p99_ms']:.3g} ms "
+            f"({d['abort_over_descent_p99']:.2f}x); SafeAbort.monitor {d['monitor_us_binding_included']:.2g} us per call "
+            f"through the binding; library set-up {d['library_setup_s']:.3g} s",
+        )
+    ]
+
+
 EXTRACTORS: dict[str, Callable[[dict[str, Any], str], list[tuple[str, str]]]] = {
     "gravity": lambda d, _: _gravity(d),
     "dynamics": lambda d, _: _dynamics(d),
@@ -435,6 +487,8 @@ EXTRACTORS: dict[str, Callable[[dict[str, Any], str], list[tuple[str, str]]]] = 
     "plant": lambda d, _: _plant_bench(d),
     "store": lambda d, _: _store(d),
     "physics": _physics,
+    "faults": _faults,
+    "abort": lambda d, _: _abort(d),
 }
 
 

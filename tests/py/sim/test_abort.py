@@ -147,5 +147,6 @@ def test_the_abort_is_marked_on_the_trajectory_the_timeline_and_the_3d_view(comm
     assert "ffa: abort entered (100 s)" in labels
     heights = {"ffa": height_above_site(scn, rec.x, rec.t)}
     timeline = figures.fault_timeline({"ffa": rec}, heights, 145 * scn.config.mpc.dt)
-    assert any("abort entered" in t.get_text() for t in timeline.axes[0].get_legend().get_texts())
+    legend = timeline.axes[0].get_legend()
+    assert legend is not None and any("abort entered" in t.get_text() for t in legend.get_texts())
     assert "TBMPC-FFA: abort entered (100 s)" in mission_view_html(scn, {"ffa": rec}, footprints=0)

@@ -164,3 +164,52 @@ def test_a_sensor_fault_needs_navigation() -> None:
     with pytest.raises(ConfigError, match=r"faults\.random_kinds: the sensor fault 'camera_outage'"):
         load_config(scenario="bennu-tag").with_overrides({"faults.random": True})
     load_config(scenario="bennu-tag").with_overrides({"faults.kind": "disturbance_burst"})  # the plant's: no navigation
+
+
+def test_an_actuator_fault_needs_actuators_and_names_its_unit() -> None:
+    from tubempc.scenario.faults import actuator_fault
+
+    with pytest.raises(ConfigError, match=r"faults\.kind: the actuator fault 'wheel_failure' needs spacecraft\.actuators"):
+        load_config(scenario="bennu-tag").with_overrides({"faults.kind": "wheel_failure"})
+    cfg = load_config(scenario="bennu-tag-osirisrex").with_overrides(
+        {"faults.random": True, "faults.random_kinds": "thruster_stuck_on,wheel_failure"}
+    )
+    plain = load_config(scenario="bennu-tag-osirisrex").with_overrides(
+        {"faults.random": True, "faults.random_kinds": "thruster_stuck_on,wheel_failure,disturbance_burst"}
+    )
+    seen = set()
+    for seed in range(30):
+        fault = run_fault(cfg, seed)
+        assert fault is not None and 0.0 <= fault["actuator_draw"] < 1.0
+        kind, index, onset = actuator_fault(fault, 16, 4)  # type: ignore[misc]
+        assert kind == fault["kind"] and onset == fault["start"]
+        assert index == int(fault["actuator_draw"] * (4 if kind == "wheel_failure" else 16))
+        seen.add(kind)
+        # the draw of the unit comes after the kind's and the onset's: a seed's onset does not depend on the kinds
+        assert run_fault(plain, seed)["start"] == fault["start"]  # type: ignore[index]
+    assert seen == {"thruster_stuck_on", "wheel_failure"}
+    given = run_fault(
+        cfg.with_overrides({"faults.random": False, "faults.kind": "wheel_failure", "faults.actuator_index": 5}), 0
+    )
+    with pytest.raises(ValueError, match=r"faults\.actuator_index: 5 is not an index of the 4"):
+        actuator_fault(given, 16, 4)
+    burst = run_fault(cfg.with_overrides({"faults.random": False, "faults.kind": "disturbance_burst"}), 0)
+    assert burst is not None and "actuator_draw" not in burst and actuator_fault(burst, 16, 4) is None
+
+
+def test_a_failed_wheel_and_a_stuck_thruster_reach_the_run_s_actuators(tmp_path_factory: pytest.TempPathFactory) -> None:
+    from tubempc.scenario.actuators import scenario_actuation
+
+    act = scenario_actuation("osiris_rex_like_calibrated", tmp_path_factory.mktemp("a"), 5.0, 1.0, 10.0)
+    assert act is not None
+    u = np.zeros(6)
+    u[3:] = [0.01, -0.02, 0.015]  # N m: the wheels' work
+    wheel = act.system(7, ("wheel_failure", 1, 10.0))
+    assert wheel.step(5.0, u, np.eye(3)).failed_wheels == 0
+    st = wheel.step(10.0, u, np.eye(3))
+    assert st.failed_wheels == 1 and st.wheel_torque[1] == 0.0 and np.any(np.asarray(st.wheel_torque) != 0.0)
+    stuck = act.system(7, ("thruster_stuck_on", 3, 10.0))
+    assert stuck.step(10.0, np.zeros(6), np.eye(3)).failed_thrusters == 1
+    assert stuck.step(15.0, np.zeros(6), np.eye(3)).on_time[3] == pytest.approx(5.0)  # fires the whole period
+    healthy = act.system(7)
+    assert healthy.step(10.0, u, np.eye(3)).failed_wheels == 0
