@@ -432,7 +432,8 @@ def _faults(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
             f"{e.get('landed_outside_spec', 0)}, aborted not safe {e.get('aborted_unsafe', 0)}, failed runs "
             f"{d['failed_runs']}; aborts {a['runs']} (causes {causes}; "
             f"entered at {a['entry_time_s']['median'] or 0:.0f} s median), lowest final height of an abort "
-            f"{a['lowest_final_height_m']:.3g} m, abort steps on an uncertified tube {a['steps_on_an_uncertified_tube']} "
+            f"{a['lowest_final_height_m'] if a['lowest_final_height_m'] is not None else float('nan'):.3g} m, abort "
+            f"steps on an uncertified tube {a['steps_on_an_uncertified_tube']} "
             f"(largest LMI residual {a['max_lmi_residual'] if a['max_lmi_residual'] is not None else float('nan'):.2g}); "
             f"runs with steps outside the tube {d['runs_with_steps_outside_tube']}, inside the body "
             f"{d['runs_inside_body']}; {d['run_time_s_mean']:.3g} s per run",

@@ -56,7 +56,7 @@ def summarise(folder: Path, method: str, spec_m: float, spec_m_s: float) -> dict
     uncertified = _column(runs, p + "abort.uncertified_steps", 0)
     residual = [r for r in _column(runs, p + "abort.max_residual", None) if r is not None]
     final_height = _column(runs, p + "abort.final_height", float("nan"))
-    kind = _column(runs, p + "navigation.faults.injected", "none")
+    kind = _column(runs, "applied.fault.kind", "none")  # the injected fault (navigation or not)
     detected = _column(runs, p + "navigation.faults.detected", False)
     latency = _column(runs, p + "navigation.faults.latency", None)
     detection = _column(runs, p + "navigation.faults.cause", "none")
@@ -106,8 +106,8 @@ def summarise(folder: Path, method: str, spec_m: float, spec_m_s: float) -> dict
             "runs": len(abort_times),
             "causes": dict(sorted((c, cause.count(c)) for c in set(cause) if c != "none")),
             "entry_time_s": _quantiles(abort_times),
-            "lowest_final_height_m": float(
-                min((h for h, o in zip(final_height, outcome, strict=True) if o == "aborted"), default=float("nan"))
+            "lowest_final_height_m": min(
+                (float(h) for h, o in zip(final_height, outcome, strict=True) if o == "aborted"), default=None
             ),
             "steps_on_an_uncertified_tube": int(sum(uncertified)),
             "max_lmi_residual": float(max(residual)) if residual else None,
