@@ -424,14 +424,16 @@ def _faults(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
     e, a = d["ends"], d["aborts"]
     spec = d["spec"]
     causes = ", ".join(f"{k} {v}" for k, v in a["causes"].items()) or "none"
+    kinds = set(d["per_fault_kind"])
+    what = "fault-free campaign with the abort armed" if kinds == {"none"} else "fault campaign, one fault per run"
+    entered = "" if not a["runs"] else f"; entered at {a['entry_time_s']['median']:.0f} s median"
     rows = [
         (
-            f"fault campaign, one random fault per run, {where}",
+            f"{what}, {where}",
             f"landed within {spec['position_m']:g} m and {100 * spec['velocity_m_s']:g} cm/s "
             f"{e.get('landed_within_spec', 0)}, aborted safe {e.get('aborted_safe', 0)}, landed outside the spec "
             f"{e.get('landed_outside_spec', 0)}, aborted not safe {e.get('aborted_unsafe', 0)}, failed runs "
-            f"{d['failed_runs']}; aborts {a['runs']} (causes {causes}; "
-            f"entered at {a['entry_time_s']['median'] or 0:.0f} s median), lowest final height of an abort "
+            f"{d['failed_runs']}; aborts {a['runs']} (causes {causes}{entered}), lowest final height of an abort "
             f"{a['lowest_final_height_m'] if a['lowest_final_height_m'] is not None else float('nan'):.3g} m, abort "
             f"steps on an uncertified tube {a['steps_on_an_uncertified_tube']} "
             f"(largest LMI residual {a['max_lmi_residual'] if a['max_lmi_residual'] is not None else float('nan'):.2g}); "
