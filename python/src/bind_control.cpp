@@ -205,11 +205,12 @@ void bind_control(py::module_& m) {
   bind_named_enum<AbortMode>(s, "AbortMode", "Where the abort supervision stands (control/abort.hpp)");
   bind_named_enum<AbortCause>(s, "AbortCause", "What entered the abort, in the order of precedence");
   py::class_<AbortTriggers>(s, "AbortTriggers", "A step's detections, handed to SafeAbort.monitor")
-      .def(py::init([](bool command, bool navigation_fault, bool tube_uncertified, bool allocation_infeasible) {
-             return AbortTriggers{command, navigation_fault, tube_uncertified, allocation_infeasible};
-           }),
-           py::arg("command") = false, py::arg("navigation_fault") = false, py::arg("tube_uncertified") = false,
-           py::arg("allocation_infeasible") = false)
+      .def(py::init(
+               [](bool command, bool navigation_fault, bool tube_uncertified, bool allocation_infeasible) {
+                 return AbortTriggers{command, navigation_fault, tube_uncertified, allocation_infeasible};
+               }),
+           py::arg("command") = false, py::arg("navigation_fault") = false,
+           py::arg("tube_uncertified") = false, py::arg("allocation_infeasible") = false)
       .def_readwrite("command", &AbortTriggers::command)
       .def_readwrite("navigation_fault", &AbortTriggers::navigation_fault)
       .def_readwrite("tube_uncertified", &AbortTriggers::tube_uncertified)
@@ -223,13 +224,16 @@ void bind_control(py::module_& m) {
       .def_readonly("cause", &AbortDecision::cause)
       .def_readonly("entered_at", &AbortDecision::entered_at, "the step the abort was entered at (-1: not)")
       .def_readonly("refused_cause", &AbortDecision::refused_cause)
-      .def_readonly("refused_at", &AbortDecision::refused_at, "the step of the first refused trigger (-1: none)");
-  py::class_<SafeAbort>(s, "SafeAbort",
-                        "The certified safe abort: setup(hover, designs), then monitor(k, triggers) every step "
-                        "and step(k, x_k) while aborting")
+      .def_readonly("refused_at", &AbortDecision::refused_at,
+                    "the step of the first refused trigger (-1: none)");
+  py::class_<SafeAbort>(
+      s, "SafeAbort",
+      "The certified safe abort: setup(hover, designs), then monitor(k, triggers) every step "
+      "and step(k, x_k) while aborting")
       .def(py::init([](std::shared_ptr<math::LinearizedModel> model, const mpc::Settings& mpc_settings,
                        const ControllerSettings& controller_settings, const AbortSettings& settings) {
-             return std::make_unique<SafeAbort>(std::move(model), mpc_settings, controller_settings, settings);
+             return std::make_unique<SafeAbort>(std::move(model), mpc_settings, controller_settings,
+                                                settings);
            }),
            py::arg("model"), py::arg("mpc_settings"), py::arg("controller_settings"), py::arg("settings"),
            py::keep_alive<1, 2>())
@@ -243,7 +247,8 @@ void bind_control(py::module_& m) {
       .def("set_estimation_error", &SafeAbort::set_estimation_error, py::arg("P_est"))
       .def_property_readonly("aborting", &SafeAbort::aborting)
       .def_property_readonly("decision", &SafeAbort::decision, py::return_value_policy::copy)
-      .def_property_readonly("controller", &SafeAbort::controller, py::return_value_policy::reference_internal)
+      .def_property_readonly("controller", &SafeAbort::controller,
+                             py::return_value_policy::reference_internal)
       .def_property_readonly("settings", &SafeAbort::settings);
 }
 

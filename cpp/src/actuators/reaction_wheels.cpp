@@ -88,7 +88,8 @@ void ReactionWheels::preferred_torque(Eigen::VectorXd& u_pref) const {
   const int m = size();
   if (u_pref.size() != m) u_pref.resize(m);
   for (int j = 0; j < m; ++j)
-    u_pref(j) = dumping_ && !failed_(j) ? std::clamp(h_(j) / dump_.time_constant, -u_max_(j), u_max_(j)) : 0.0;
+    u_pref(j) =
+        dumping_ && !failed_(j) ? std::clamp(h_(j) / dump_.time_constant, -u_max_(j), u_max_(j)) : 0.0;
 }
 
 Eigen::Vector3d ReactionWheels::apply(const Eigen::Ref<const Eigen::VectorXd>& u, double dt) {

@@ -126,8 +126,8 @@ class ReactionWheels {
   MomentumDumpSettings dump_;
   Eigen::Matrix<double, 3, Eigen::Dynamic> G_;
   Eigen::VectorXd u_max_, h_max_, h_, u_applied_;
-  Eigen::VectorXd fail_time_;                                // failure times (s; +inf: healthy)
-  Eigen::Array<bool, Eigen::Dynamic, 1> failed_;             // failed at the last update_failures
+  Eigen::VectorXd fail_time_;                     // failure times (s; +inf: healthy)
+  Eigen::Array<bool, Eigen::Dynamic, 1> failed_;  // failed at the last update_failures
   bool dumping_ = false;
 };
 

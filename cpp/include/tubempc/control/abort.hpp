@@ -49,19 +49,20 @@ const char* to_string(AbortCause c);
 
 /// A step's detections, handed to SafeAbort::monitor.
 struct AbortTriggers {
-  bool command = false;                ///< an abort is commanded at this step
-  bool navigation_fault = false;       ///< the navigation's latched fault status (NavigationStep::fault_detected)
-  bool tube_uncertified = false;       ///< the last descent step's tube was not certified (either subsystem)
-  bool allocation_infeasible = false;  ///< the last period's allocation could not deliver the command's direction
+  bool command = false;           ///< an abort is commanded at this step
+  bool navigation_fault = false;  ///< the navigation's latched fault status (NavigationStep::fault_detected)
+  bool tube_uncertified = false;  ///< the last descent step's tube was not certified (either subsystem)
+  bool allocation_infeasible =
+      false;  ///< the last period's allocation could not deliver the command's direction
 };
 
 /// Settings of the abort supervision (the scenario file's `abort.` records; TOML `[abort]`).
 struct AbortSettings {
   /// The last step an abort may be entered at (the abort library's last certified entry, >= -1; -1: never).
   int commit_step = -1;
-  bool on_navigation_fault = true;        ///< a navigation fault enters the abort
-  bool on_tube_uncertified = true;        ///< an uncertified descent tube enters the abort
-  bool on_allocation_infeasible = true;   ///< an allocation that cannot deliver enters the abort
+  bool on_navigation_fault = true;       ///< a navigation fault enters the abort
+  bool on_tube_uncertified = true;       ///< an uncertified descent tube enters the abort
+  bool on_allocation_infeasible = true;  ///< an allocation that cannot deliver enters the abort
   /// @throws std::invalid_argument naming the field ("abort.<field>").
   void validate() const;
 
