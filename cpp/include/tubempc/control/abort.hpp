@@ -52,8 +52,7 @@ struct AbortTriggers {
   bool command = false;           ///< an abort is commanded at this step
   bool navigation_fault = false;  ///< the navigation's latched fault status (NavigationStep::fault_detected)
   bool tube_uncertified = false;  ///< the last descent step's tube was not certified (either subsystem)
-  bool allocation_infeasible =
-      false;  ///< the last period's allocation could not deliver the command's direction
+  bool allocation_infeasible = false;  ///< the last allocation could not deliver the command's direction
 };
 
 /// Settings of the abort supervision (the scenario file's `abort.` records; TOML `[abort]`).
