@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from .. import __version__
 from ..config import Config
@@ -36,30 +37,45 @@ from ..sim.abort import abort_summary, height_above_site
 from ..sim.closed_loop import simulate
 from . import figures, metrics
 
-__all__ = ["aborted", "guarantee_lost", "run_methods", "run_summary", "save_figures", "states_inside_body"]
+__all__ = [
+    "aborted",
+    "guarantee_lost",
+    "inside_body_mask",
+    "run_methods",
+    "run_summary",
+    "save_figures",
+    "states_inside_body",
+]
 
 
 def states_inside_body(scn: Scenario, rec: RunRecord) -> int:
-    """How many of the run's actual states x_k (k = 0..T) lie inside the body (the controller's shape, or in a
+    """How many of the run's actual states x_k (k = 0..T) lie inside the body (:func:`inside_body_mask`): a state
+    inside the body is never a flown mission."""
+    return int(np.sum(inside_body_mask(scn, rec)))
+
+
+def inside_body_mask(scn: Scenario, rec: RunRecord) -> npt.NDArray[np.bool_]:
+    """Which of the run's actual states x_k (k = 0..T) lie inside the body (the controller's shape, or in a
     physical environment the truth's, where the run's centre of mass puts it: a dispersed run's, from its record's
-    ``applied``; turned to its attitude at t_k = k dt): a state inside the body is never a flown mission."""
+    ``applied``; turned to its attitude at t_k = k dt)."""
     dt = scn.config.mpc.dt
     r_A = np.array([np.asarray(scn.model.C_AL(k * dt)) @ x[:3] for k, x in enumerate(np.asarray(rec.x))])
     if scn.physical is not None:
         body = scn.physical.parts[0]
         flown = (rec.applied or {}).get("truth", {}).get("physical")
         offset_A = body.offset_A if flown is None else np.asarray(flown["parts"][0]["offset_A"], dtype=float)
-        return int(np.sum(inside(body.shape, r_A - offset_A)))
-    return int(np.sum(inside(scn.shape, r_A)))
+        return inside(body.shape, r_A - offset_A)
+    return inside(scn.shape, r_A)
 
 
 def run_summary(scn: Scenario, rec: RunRecord) -> RunMetrics:
     """Scalar results of one run (:func:`tubempc.analysis.metrics.run_metrics`) with the number of states inside
     the body (``states_inside_body``)."""
+    mask = inside_body_mask(scn, rec)
     return dataclasses.replace(
         metrics.run_metrics(rec, scn.config.mpc.dt, scn.xf),
-        states_inside_body=states_inside_body(scn, rec),
-        abort=abort_summary(scn, rec),
+        states_inside_body=int(np.sum(mask)),
+        abort=abort_summary(scn, rec, mask),
     )
 
 

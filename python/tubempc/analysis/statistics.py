@@ -294,13 +294,14 @@ def campaign_statistics(
         counted = inside is not None and bool(np.all(np.isfinite(inside)))
         outcome = done.column(f"{m}.abort.outcome").to_pylist() if f"{m}.abort.outcome" in done.column_names else None
         aborted = None if outcome is None else np.array([o == "aborted" for o in outcome], dtype=bool)
-        safe = _col(done, f"{m}.abort.safe")
+        safe = _col(done, f"{m}.abort.safe")  # null (not aborted): NaN
+        landed_not_judged = np.zeros(n, dtype=bool) if aborted is None else aborted  # an abort has no touchdown
         kinds: dict[str, tuple[Array | npt.NDArray[np.bool_] | None, str | None]] = {
             "tube_exit": (None if exc is None else exc > 1.0, None),
             "touchdown": (
                 None
                 if pos is None or vel is None
-                else ((pos > TOUCHDOWN_GOAL[0]) | (vel > TOUCHDOWN_GOAL[1])) & (True if aborted is None else ~aborted),
+                else ((pos > TOUCHDOWN_GOAL[0]) | (vel > TOUCHDOWN_GOAL[1])) & ~landed_not_judged,
                 touchdown,
             ),
             "cone_violation": (None if cone is None else cone > 0, None),
@@ -309,7 +310,7 @@ def campaign_statistics(
                 None if counted else "the runs did not count the states inside the body",
             ),
             "abort_unsafe": (
-                None if aborted is None else aborted & ~(np.nan_to_num(safe if safe is not None else np.zeros(n)) > 0),
+                None if aborted is None or safe is None else aborted & ~(np.nan_to_num(safe) > 0),
                 None if aborted is not None else "the runs flew without [abort]",
             ),
         }

@@ -81,22 +81,18 @@ class AbortLibrary:
     commit_step: int
     setup_time_s: float
 
-    def describe(self) -> dict[str, Any]:
-        """The library in JSON terms: its commit step and, per entry, its checks (without the plan)."""
-        return {
-            "commit_step": self.commit_step,
-            "entries": [{k: v for k, v in dataclasses.asdict(e).items() if k != "plan"} for e in self.entries],
-            "setup_time_s": self.setup_time_s,
-        }
+
+def _positions_A(scn: Scenario, x: npt.ArrayLike, t: npt.ArrayLike) -> Array:
+    """Positions (m, (n, 3)) in the body frame A of states ``x`` (n, 12) at times ``t`` (n,)."""
+    X = np.atleast_2d(np.asarray(x, dtype=float))
+    times = np.atleast_1d(np.asarray(t, dtype=float))
+    return np.array([np.asarray(scn.model.C_AL(float(tk))) @ X[i, :3] for i, tk in enumerate(times)])
 
 
 def height_above_site(scn: Scenario, x: npt.ArrayLike, t: npt.ArrayLike) -> Array:
     """Height (m) of states ``x`` (n, 12) at times ``t`` (n,) above the site's surface along its normal."""
     assert scn.site is not None
-    X = np.atleast_2d(np.asarray(x, dtype=float))
-    times = np.atleast_1d(np.asarray(t, dtype=float))
-    r_A = np.array([np.asarray(scn.model.C_AL(float(tk))) @ X[i, :3] for i, tk in enumerate(times)])
-    return np.asarray((r_A - scn.site.surface_A) @ scn.site.normal_A, dtype=float)
+    return np.asarray((_positions_A(scn, x, t) - scn.site.surface_A) @ scn.site.normal_A, dtype=float)
 
 
 def hover_reference(scn: Scenario) -> ReferenceTrajectory:
@@ -194,9 +190,7 @@ def _fly_entry(scn: Scenario, abort: Any, k0: int, u_bounds: Array) -> AbortEntr
     P = np.array(plan)
     t = np.arange(k0, T + 1) * dt
     heights = height_above_site(scn, P, t)
-    assert scn.site is not None
-    r_A = np.array([np.asarray(scn.model.C_AL(float(tk))) @ P[i, :3] for i, tk in enumerate(t)])
-    if np.any(inside(scn.shape, r_A)):
+    if np.any(inside(scn.shape, _positions_A(scn, P, t))):
         reasons.append("a state inside the body")
     cone = max(scn.model.glide_slope(P[i], float(tk))[0] for i, tk in enumerate(t))
     if cone > _CONE_TOLERANCE_M:
@@ -249,9 +243,10 @@ def abort_library(scn: Scenario) -> AbortLibrary:
     return library
 
 
-def abort_summary(scn: Scenario, rec: RunRecord) -> AbortSummary | None:
-    """How a run with ``[abort]`` ended (:class:`tubempc.results.summaries.AbortSummary`) from its record
-    and ``applied["abort"]``; None without it."""
+def abort_summary(scn: Scenario, rec: RunRecord, inside_body: npt.NDArray[np.bool_]) -> AbortSummary | None:
+    """How a run with ``[abort]`` ended (:class:`tubempc.results.summaries.AbortSummary`) from its record,
+    ``applied["abort"]`` and which of its states lie inside the body (``inside_body``, (T + 1,):
+    :func:`tubempc.analysis.runner.inside_body_mask`); None without it."""
     info = (rec.applied or {}).get("abort")
     if info is None:
         return None
@@ -265,9 +260,8 @@ def abort_summary(scn: Scenario, rec: RunRecord) -> AbortSummary | None:
     after: dict[str, Any] = {}
     if entered is not None:
         k0 = int(entered)
-        r_A = np.array([np.asarray(scn.model.C_AL(float(tk))) @ x[i, :3] for i, tk in enumerate(t)])[k0:]
         g = np.asarray(rec.g, dtype=float)[k0:, 0]
-        n_inside = int(np.sum(inside(scn.shape, r_A)))
+        n_inside = int(np.sum(inside_body[k0:]))
         after = {
             "entered_at": k0 * dt,
             "lowest_height": float(heights[k0:].min()),

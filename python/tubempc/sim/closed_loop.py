@@ -251,7 +251,7 @@ def simulate(
             step = flying.step(k, x_hat)
             if designs is not None and flying is ctrl:
                 designs.submit(k, step, ctrl, t.redesign_margin)
-            tube_uncertified = any(str(s) == "uncertified" for s in step.tube_status)
+            tube_uncertified = _core.control.TubeStatus.Uncertified in step.tube_status
             u = np.asarray(step.u, dtype=float).copy()
             t0 = time.perf_counter()
             x_next, w_true = plant.step(k, u)

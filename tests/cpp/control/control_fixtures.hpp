@@ -3,8 +3,10 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <initializer_list>
 #include <memory>
 
+#include "tubempc/control/controller.hpp"
 #include "tubempc/control/tube_update.hpp"
 #include "tubempc/mpc/lti_model.hpp"
 #include "tubempc/mpc/tube_mpc.hpp"
@@ -66,6 +68,35 @@ inline std::shared_ptr<tubempc::mpc::LtiModel> plant_12_6(double dt) {
   Eigen::VectorXd h(4);
   h << 100.0, 100.0, 5.0, 3.0;
   return std::make_shared<tubempc::mpc::LtiModel>(A_c, B_c, Eigen::VectorXd::Zero(12), dt, G, h);
+}
+
+// The 12/6 plant's MPC settings: horizon N, period dt, input bounds 0.55 m/s^2 and 3 N m, a generous time limit.
+inline tubempc::mpc::Settings plant_12_6_mpc(double dt, int horizon) {
+  tubempc::mpc::Settings mpc;
+  mpc.horizon = horizon;
+  mpc.dt = dt;
+  mpc.u_max = (Eigen::VectorXd(6) << 0.55, 0.55, 0.55, 3.0, 3.0, 3.0).finished();
+  mpc.time_limit = 10.0;
+  return mpc;
+}
+
+// Designs of both subsystems of the 12/6 plant: the initial one for 9 S0 (its LQR weight r_initial_p or
+// r_initial_r) and a library for c 9 S0, c in scales (weight 1).
+inline tubempc::control::ControllerDesigns plant_12_6_designs(double dt, const SubMatrix& S0_p,
+                                                              const SubMatrix& S0_r,
+                                                              std::initializer_list<double> scales,
+                                                              double r_initial_r = 1.0) {
+  tubempc::control::ControllerDesigns designs;
+  SubMatrix A;
+  SubInputMatrix B;
+  for (int s = 0; s < 2; ++s) {
+    double_integrator(dt, s == 0 ? 1.0 : 1.0 / 2750, A, B);
+    const SubMatrix P0 = 9.0 * (s == 0 ? S0_p : S0_r);
+    (s == 0 ? designs.initial_p : designs.initial_r) = lqr_design(A, B, P0, s == 0 ? 1.0 : r_initial_r);
+    for (double c : scales)
+      (s == 0 ? designs.library_p : designs.library_r).push_back(lqr_design(A, B, c * P0, 1.0));
+  }
+  return designs;
 }
 
 }  // namespace control_test

@@ -21,27 +21,9 @@ ControllerSettings abort_controller_settings() {
   return s;
 }
 
-tubempc::mpc::Settings abort_mpc_settings() {
-  tubempc::mpc::Settings mpc;
-  mpc.horizon = 10;
-  mpc.dt = kDt;
-  mpc.u_max = (Eigen::VectorXd(6) << 0.55, 0.55, 0.55, 3.0, 3.0, 3.0).finished();
-  mpc.time_limit = 10.0;
-  return mpc;
-}
-
 ControllerDesigns abort_designs(const ControllerSettings& settings) {
-  ControllerDesigns designs;
-  SubMatrix A;
-  SubInputMatrix B;
-  for (int s = 0; s < 2; ++s) {
-    control_test::double_integrator(kDt, s == 0 ? 1.0 : 1.0 / 2750, A, B);
-    const SubMatrix P0 = 9.0 * (s == 0 ? settings.identification_p.S0 : settings.identification_r.S0);
-    (s == 0 ? designs.initial_p : designs.initial_r) = control_test::lqr_design(A, B, P0, 1.0);
-    for (double c : {1.0, 4.0, 16.0})
-      (s == 0 ? designs.library_p : designs.library_r).push_back(control_test::lqr_design(A, B, c * P0, 1.0));
-  }
-  return designs;
+  return control_test::plant_12_6_designs(kDt, settings.identification_p.S0, settings.identification_r.S0,
+                                          {1.0, 4.0, 16.0});
 }
 
 // A hover at x_0 = 40 m (position 0 of the fixture's plane), at rest, over the whole mission.
@@ -55,7 +37,7 @@ tubempc::mpc::Reference hover_reference() {
 
 SafeAbort new_abort(AbortSettings settings) {
   const ControllerSettings cs = abort_controller_settings();
-  return SafeAbort(control_test::plant_12_6(kDt), abort_mpc_settings(), cs, settings);
+  return SafeAbort(control_test::plant_12_6(kDt), control_test::plant_12_6_mpc(kDt, 10), cs, settings);
 }
 
 }  // namespace

@@ -29,11 +29,7 @@ TEST(ControllerAllocation, StepDoesNotAllocateAfterSetup) {
   const double dt = 2.0;
   const int T = 40;
   auto model = control_test::plant_12_6(dt);
-  tubempc::mpc::Settings mpc;
-  mpc.horizon = 15;
-  mpc.dt = dt;
-  mpc.u_max = (Eigen::VectorXd(6) << 0.55, 0.55, 0.55, 3.0, 3.0, 3.0).finished();
-  mpc.time_limit = 10.0;
+  const tubempc::mpc::Settings mpc = control_test::plant_12_6_mpc(dt, 15);
   ControllerSettings settings;
   settings.identification_p.S0 = SubMatrix::Identity() * 1e-4;
   settings.identification_r.S0 = SubMatrix::Identity() * 1e-8;
@@ -41,17 +37,8 @@ TEST(ControllerAllocation, StepDoesNotAllocateAfterSetup) {
   // An actuation-error set per subsystem: every step grows P_W by B E (its Minkowski bound runs in the step).
   settings.actuation_error = {Eigen::Matrix3d::Identity() * 1e-6, Eigen::Matrix3d::Identity() * 1e-4};
   settings.feedforward = true;  // the identified mean's feed-forward runs in the step too
-  ControllerDesigns designs;
-  SubMatrix A;
-  SubInputMatrix B;
-  for (int s = 0; s < 2; ++s) {
-    control_test::double_integrator(dt, s == 0 ? 1.0 : 1.0 / 2750, A, B);
-    const SubMatrix P0 = 9.0 * (s == 0 ? settings.identification_p.S0 : settings.identification_r.S0);
-    (s == 0 ? designs.initial_p : designs.initial_r) =
-        control_test::lqr_design(A, B, P0, s == 0 ? 1.0 : 1e-6);
-    for (double c : {0.25, 1.0, 4.0, 16.0})
-      (s == 0 ? designs.library_p : designs.library_r).push_back(control_test::lqr_design(A, B, c * P0, 1.0));
-  }
+  const ControllerDesigns designs = control_test::plant_12_6_designs(
+      dt, settings.identification_p.S0, settings.identification_r.S0, {0.25, 1.0, 4.0, 16.0}, 1e-6);
   Controller ctrl(model, mpc, settings);
   tubempc::mpc::Reference ref;
   ref.z = Eigen::MatrixXd::Zero(12, T + 1);
@@ -96,27 +83,14 @@ TEST(ControllerAllocation, AbortMonitorAndStepDoNotAllocate) {
   const double dt = 2.0;
   const int T = 30;
   auto model = control_test::plant_12_6(dt);
-  tubempc::mpc::Settings mpc;
-  mpc.horizon = 10;
-  mpc.dt = dt;
-  mpc.u_max = (Eigen::VectorXd(6) << 0.55, 0.55, 0.55, 3.0, 3.0, 3.0).finished();
-  mpc.time_limit = 10.0;
   ControllerSettings settings;
   settings.identification_p.S0 = SubMatrix::Identity() * 1e-4;
   settings.identification_r.S0 = SubMatrix::Identity() * 1e-8;
-  ControllerDesigns designs;
-  SubMatrix A;
-  SubInputMatrix B;
-  for (int s = 0; s < 2; ++s) {
-    control_test::double_integrator(dt, s == 0 ? 1.0 : 1.0 / 2750, A, B);
-    const SubMatrix P0 = 9.0 * (s == 0 ? settings.identification_p.S0 : settings.identification_r.S0);
-    (s == 0 ? designs.initial_p : designs.initial_r) = control_test::lqr_design(A, B, P0, 1.0);
-    for (double c : {1.0, 4.0})
-      (s == 0 ? designs.library_p : designs.library_r).push_back(control_test::lqr_design(A, B, c * P0, 1.0));
-  }
+  const ControllerDesigns designs = control_test::plant_12_6_designs(
+      dt, settings.identification_p.S0, settings.identification_r.S0, {1.0, 4.0});
   AbortSettings abort_settings;
   abort_settings.commit_step = 5;
-  SafeAbort abort(model, mpc, settings, abort_settings);
+  SafeAbort abort(model, control_test::plant_12_6_mpc(dt, 10), settings, abort_settings);
   tubempc::mpc::Reference hover;
   hover.z = Eigen::MatrixXd::Zero(12, T + 1);
   hover.u = Eigen::MatrixXd::Zero(6, T);
