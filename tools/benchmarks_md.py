@@ -542,6 +542,16 @@ def _instructions_rows(d: dict[str, Any]) -> list[str]:
                 f"| {d['scenario']} | {method} | {what} | {c['median']:.3g} | {c['p99']:.3g} | {c['max']:.3g} | "
                 f"{ms(c['median'])} / {ms(c['p99'])} / {ms(c['max'])} | {did} |"
             )
+        if "abort" in m:  # the supervised descent's controller steps and the safe abort's, apart
+            a = m["abort"]
+            for what, c in (
+                (f"controller step, supervised descent (k < {a['entered_at_step']})", a["descent_controller"]),
+                (f"controller step, safe abort ({a['cause']}, k >= {a['entered_at_step']})", a["abort_controller"]),
+            ):
+                rows.append(
+                    f"| {d['scenario']} | {method} | {what} | {c['median']:.3g} | {c['p99']:.3g} | {c['max']:.3g} | "
+                    f"{ms(c['median'])} / {ms(c['p99'])} / {ms(c['max'])} | |"
+                )
     return rows
 
 

@@ -57,9 +57,11 @@ def summarise(folder: Path, method: str, spec_m: float, spec_m_s: float) -> dict
     residual = [r for r in _column(runs, p + "abort.max_residual", None) if r is not None]
     final_height = _column(runs, p + "abort.final_height", float("nan"))
     kind = _column(runs, "applied.fault.kind", "none")  # the injected fault (navigation or not)
-    detected = _column(runs, p + "navigation.faults.detected", False)
-    latency = _column(runs, p + "navigation.faults.latency", None)
-    detection = _column(runs, p + "navigation.faults.cause", "none")
+    onset = _column(runs, "applied.fault.start", None)
+    nav_detected = _column(runs, p + "navigation.faults.detected", False)
+    nav_time = _column(runs, p + "navigation.faults.detection_time", None)
+    nav_cause = _column(runs, p + "navigation.faults.cause", "none")
+    refused_at = _column(runs, p + "abort.refused_at", None)
     pos = _column(runs, p + "terminal_error.position", float("nan"))
     vel = _column(runs, p + "terminal_error.velocity", float("nan"))
     inside_body = _column(runs, p + "states_inside_body", 0)
@@ -70,6 +72,17 @@ def summarise(folder: Path, method: str, spec_m: float, spec_m_s: float) -> dict
     latencies: dict[str, list[float]] = defaultdict(list)
     abort_times: list[float] = []
     for i in range(runs.num_rows):
+        # the first detection: the navigation's, or a trigger of the abort's supervision (entered, or refused past
+        # the commit step); a navigation fault that entered the abort is the navigation's detection
+        found = sorted(
+            (float(t), name)
+            for t, name in (
+                (nav_time[i] if nav_detected[i] else None, nav_cause[i]),
+                (entered[i], cause[i]),
+                (refused_at[i], refused[i]),
+            )
+            if t is not None and name not in ("none", "navigation_fault")
+        )
         if outcome[i] == "aborted":
             end = "aborted_safe" if safe[i] else "aborted_unsafe"
             abort_times.append(float(entered[i]))
@@ -80,13 +93,13 @@ def summarise(folder: Path, method: str, spec_m: float, spec_m_s: float) -> dict
         k = per_kind[kind[i]]
         k["runs"] += 1
         k[end] += 1
-        k["detected"] += bool(detected[i])
+        k["detected"] += bool(found)
         k["aborted"] += outcome[i] == "aborted"
         k["refused_past_commit"] += refused[i] != "none"
-        if latency[i] is not None and kind[i] != "none":
-            latencies[kind[i]].append(float(latency[i]))
-        if detected[i]:
-            k.setdefault("detections", defaultdict(int))[detection[i]] += 1
+        if found:
+            k.setdefault("detections", defaultdict(int))[found[0][1]] += 1
+            if kind[i] != "none" and onset[i] is not None:
+                latencies[kind[i]].append(found[0][0] - float(onset[i]))
     kinds = {
         name: {
             **{key: (dict(v) if isinstance(v, dict) else v) for key, v in d.items()},

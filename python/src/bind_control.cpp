@@ -53,6 +53,8 @@ void bind_control(py::module_& m) {
       "certified", [](TubeStatus st) { return certified(st); }, py::arg("status"),
       "Whether a tube status means certified for the step's linearisation and identified P_W");
   s.attr("LYAPUNOV_MARGIN") = kLyapunovMargin;
+  s.attr("EXCURSION_TOLERANCE") = kExcursionTolerance;
+  s.attr("MAX_INPUT_NIS_WINDOW") = kMaxInputNisWindow;
 
   py::class_<IdentifierSettings> identifier(s, "IdentifierSettings",
                                             "One subsystem's forgetting-factor identifier");
@@ -169,8 +171,10 @@ void bind_control(py::module_& m) {
       .def_readonly("A", &ControlStep::A)
       .def_readonly("B", &ControlStep::B)
       .def_readonly("P_W", &ControlStep::P_W)
+      .def_readonly("disturbance_ratio", &ControlStep::disturbance_ratio)
       .def_readonly("identified", &ControlStep::identified)
       .def_readonly("w_measured", &ControlStep::w_measured)
+      .def_readonly("input_nis", &ControlStep::input_nis)
       .def_readonly("u_feedforward", &ControlStep::u_feedforward)
       .def_readonly("mpc", &StepCopy::mpc_result)
       .def_readonly("timings", &ControlStep::timings);
@@ -195,6 +199,8 @@ void bind_control(py::module_& m) {
           "Folds in the input of the period ending at step k (after the last step)")
       .def("inherit_identification", &Controller::inherit_identification, py::arg("other"),
            "Takes over another controller's identified disturbance (both identifiers)")
+      .def("excursion", &Controller::excursion, py::arg("x"),
+           "Squared gauge (p, r) of a state at k + 1 in the tube of the last step k (> 1: outside)")
       .def_property_readonly("last_measured_input", &Controller::last_measured_input)
       .def("identifier", &Controller::identifier, py::arg("subsystem"),
            py::return_value_policy::reference_internal)
@@ -205,16 +211,24 @@ void bind_control(py::module_& m) {
   bind_named_enum<AbortMode>(s, "AbortMode", "Where the abort supervision stands (control/abort.hpp)");
   bind_named_enum<AbortCause>(s, "AbortCause", "What entered the abort, in the order of precedence");
   py::class_<AbortTriggers>(s, "AbortTriggers", "A step's detections, handed to SafeAbort.monitor")
-      .def(py::init(
-               [](bool command, bool navigation_fault, bool tube_uncertified, bool allocation_infeasible) {
-                 return AbortTriggers{command, navigation_fault, tube_uncertified, allocation_infeasible};
-               }),
+      .def(py::init([](bool command, bool navigation_fault, bool tube_uncertified, bool allocation_infeasible,
+                       std::array<double, 2> excursion, std::array<double, 2> disturbance_ratio,
+                       std::array<double, 2> input_nis) {
+             return AbortTriggers{command,   navigation_fault,  tube_uncertified, allocation_infeasible,
+                                  excursion, disturbance_ratio, input_nis};
+           }),
            py::arg("command") = false, py::arg("navigation_fault") = false,
-           py::arg("tube_uncertified") = false, py::arg("allocation_infeasible") = false)
+           py::arg("tube_uncertified") = false, py::arg("allocation_infeasible") = false,
+           py::arg("excursion") = std::array<double, 2>{},
+           py::arg("disturbance_ratio") = std::array<double, 2>{},
+           py::arg("input_nis") = std::array<double, 2>{})
       .def_readwrite("command", &AbortTriggers::command)
       .def_readwrite("navigation_fault", &AbortTriggers::navigation_fault)
       .def_readwrite("tube_uncertified", &AbortTriggers::tube_uncertified)
-      .def_readwrite("allocation_infeasible", &AbortTriggers::allocation_infeasible);
+      .def_readwrite("allocation_infeasible", &AbortTriggers::allocation_infeasible)
+      .def_readwrite("excursion", &AbortTriggers::excursion)
+      .def_readwrite("disturbance_ratio", &AbortTriggers::disturbance_ratio)
+      .def_readwrite("input_nis", &AbortTriggers::input_nis);
   py::class_<AbortSettings> abort_settings(s, "AbortSettings", "The abort supervision's settings");
   abort_settings.def(py::init<>());
   bind_fields(abort_settings);
@@ -247,6 +261,7 @@ void bind_control(py::module_& m) {
       .def("set_estimation_error", &SafeAbort::set_estimation_error, py::arg("P_est"))
       .def_property_readonly("aborting", &SafeAbort::aborting)
       .def_property_readonly("decision", &SafeAbort::decision, py::return_value_policy::copy)
+      .def_property_readonly("input_nis_mean", &SafeAbort::input_nis_mean)
       .def_property_readonly("controller", &SafeAbort::controller,
                              py::return_value_policy::reference_internal)
       .def_property_readonly("settings", &SafeAbort::settings);

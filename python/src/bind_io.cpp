@@ -46,6 +46,17 @@ void bind_io(py::module_& m) {
                      "the wheels' initial momenta (N m s, one per wheel)")
       .def_readwrite("settings", &io::ActuatorScenario::settings, "actuators.ActuationSettings");
 
+  py::class_<io::AbortScenario>(s, "AbortScenario",
+                                "The safe abort of a scenario (records abort.*, version 6)")
+      .def(py::init<>())
+      .def_readwrite("enabled", &io::AbortScenario::enabled,
+                     "whether the descent is supervised and may back away")
+      .def_readwrite("settings", &io::AbortScenario::settings, "control.AbortSettings")
+      .def_readwrite("hover", &io::AbortScenario::hover, "mpc.Reference of the hover (at least T + 1 nodes)")
+      .def_readwrite("designs", &io::AbortScenario::designs,
+                     "control.ControllerDesigns of the abort controller")
+      .def_readwrite("command_step", &io::AbortScenario::command_step, "a commanded abort's step (-1: none)");
+
   py::class_<io::ScenarioFile>(s, "ScenarioFile", "Contents of a scenario file (see tubempc/io/scenario.hpp)")
       .def(py::init<>())
       .def_readwrite("directory", &io::ScenarioFile::directory, "folder of the file read")
@@ -65,6 +76,7 @@ void bind_io(py::module_& m) {
       .def_readwrite("xf", &io::ScenarioFile::xf, "target state (12)")
       .def_readwrite("navigation", &io::ScenarioFile::navigation, "NavigationScenario (version 4)")
       .def_readwrite("actuators", &io::ScenarioFile::actuators, "ActuatorScenario (version 4)")
+      .def_readwrite("abort", &io::ScenarioFile::abort, "AbortScenario (version 6)")
       .def_property_readonly("mission_steps", &io::ScenarioFile::mission_steps, "T (steps)")
       .def("resolve", &io::ScenarioFile::resolve, py::arg("path"),
            "path relative to directory (unless absolute)");

@@ -4,7 +4,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ._actuators import ActuationSettings, MomentumDumpSettings, ReactionWheelSpec, ThrusterSpec
-from ._control import ControllerDesigns, ControllerSettings
+from ._control import AbortSettings, ControllerDesigns, ControllerSettings
 from ._dynamics import ModelParams, PropagatorSettings
 from ._mpc import Reference, Settings, Tube
 from ._nav import Landmark, NavigationSettings
@@ -50,6 +50,14 @@ class ActuatorScenario:
     settings: ActuationSettings
     def __init__(self) -> None: ...
 
+class AbortScenario:
+    enabled: bool
+    settings: AbortSettings
+    hover: Reference
+    designs: ControllerDesigns
+    command_step: int
+    def __init__(self) -> None: ...
+
 class ScenarioFile:
     directory: str
     model: BodyModel
@@ -65,6 +73,7 @@ class ScenarioFile:
     x0: _Arr
     xf: _Arr
     navigation: NavigationScenario
+    abort: AbortScenario
     actuators: ActuatorScenario
     def __init__(self) -> None: ...
     @property

@@ -150,7 +150,7 @@ def scenario_records() -> frozenset[str]:
 
     text = _read(ROOT / "cpp" / "include" / "tubempc" / "io" / "scenario.hpp")
     named = re.findall(
-        r"`((?:model|truth|propagator|mpc|reference|tube|mission|controller|navigation|actuators)\.[a-z_A-Z0-9.]+)`",
+        r"`((?:model|truth|propagator|mpc|reference|tube|mission|controller|navigation|actuators|abort)\.[a-z_A-Z0-9.]+)`",
         text,
     )
     body = [*_core.dynamics.ModelParams.field_names(), *_core.io.BodyModel.field_names()]

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -125,9 +126,15 @@ bool Controller::identify(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k) {
   identified_k_ = k;
   if (!predicted_) return false;
   out_.w_measured = x_k - x_pred_;
+  out_.input_nis = {0.0, 0.0};
   if (!out_.w_measured.allFinite()) return false;
-  identifiers_[0].update(out_.w_measured.head<6>());
-  identifiers_[1].update(out_.w_measured.tail<6>());
+  for (int s = 0; s < 2; ++s) {
+    // the input against the identified distribution before it is folded in (input_nis)
+    const SubVector d = out_.w_measured.segment<6>(6 * s) - identifiers_[s].w_hat();
+    const Eigen::LLT<SubMatrix> llt(identifiers_[s].S_hat());
+    out_.input_nis[s] = llt.info() == Eigen::Success ? d.dot(llt.solve(d)) / 6.0 : 0.0;
+    identifiers_[s].update(out_.w_measured.segment<6>(6 * s));
+  }
   out_.identified = true;
   return true;
 }
@@ -204,6 +211,8 @@ const ControlStep& Controller::step(int k, const Eigen::Ref<const Eigen::VectorX
   for (int s = 0; s < 2; ++s) {
     out_.A[s] = A_ref_[k][s];
     out_.B[s] = B_ref_[k][s];
+    const IdentifierSettings& prior = identifiers_[s].settings();
+    out_.disturbance_ratio[s] = cover_ratio(identifiers_[s].P_W(), prior.pw_scale * prior.S0);
     out_.P_W[s] = actuators::disturbance_with_actuation_error(identifiers_[s].P_W(), out_.B[s],
                                                               settings_.actuation_error[s]);
     const TubeStatus status = policies_[s].update(k, out_.A[s], out_.B[s], out_.P_W[s], due);
@@ -235,6 +244,20 @@ const ControlStep& Controller::step(int k, const Eigen::Ref<const Eigen::VectorX
   out_.timings.predict = seconds(t3, t4);
   out_.timings.total = seconds(t0, t4);
   return out_;
+}
+
+std::array<double, 2> Controller::excursion(const Eigen::Ref<const Eigen::VectorXd>& x) const {
+  if (x.size() != kNx)
+    throw std::invalid_argument("Controller::excursion: x must have 12 entries, got " +
+                                std::to_string(x.size()));
+  std::array<double, 2> out{0.0, 0.0};
+  if (last_k_ < 0 || out_.mpc == nullptr) return out;
+  for (int s = 0; s < 2; ++s) {
+    const SubVector e = x.segment<6>(6 * s) - out_.mpc->z.col(1).segment<6>(6 * s);
+    const Eigen::LLT<SubMatrix> llt(out_.tube.Pe.block<6, 6>(6 * s, 6 * s));
+    out[s] = llt.info() == Eigen::Success ? e.dot(llt.solve(e)) : std::numeric_limits<double>::infinity();
+  }
+  return out;
 }
 
 bool Controller::adopt(int subsystem, const SubsystemDesign& design, int k_started) {

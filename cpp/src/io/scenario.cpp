@@ -680,6 +680,52 @@ void write_library(Writer& w, const std::string& prefix, const std::vector<contr
   w.matrix(prefix + "Pe", L == 0 ? empty : Pe);
 }
 
+// ---- the safe abort's records (version 6) -----------------------------------------------------
+
+void read_abort(Reader& r, int T, double t0, AbortScenario& a) {
+  r.flag("abort.enabled", a.enabled);
+  if (!a.enabled) return;
+  using Settings = control::AbortSettings;
+  Settings::for_each_field(FieldReader<Settings>{r, a.settings, "abort."});
+  r.validated_field("abort.* (AbortSettings)", "", [&] { a.settings.validate(); });
+  if (a.settings.commit_step >= T)
+    r.fail(r.line_of("abort.commit_step"), "abort.commit_step: must be below T = " + std::to_string(T) +
+                                               ", got " + std::to_string(a.settings.commit_step));
+  r.integer("abort.command_step", a.command_step);
+  if (a.command_step < -1 || a.command_step >= T)
+    r.fail(r.line_of("abort.command_step"), "abort.command_step: must be in [-1, " + std::to_string(T) +
+                                                "), got " + std::to_string(a.command_step));
+  a.hover.z = r.matrix("abort.hover.z", -1, dynamics::kNx).transpose();
+  const Eigen::Index T_h = a.hover.z.cols() - 1;
+  if (T_h < T)
+    r.fail(r.line_of("abort.hover.z"), "abort.hover.z: needs at least T + 1 = " + std::to_string(T + 1) +
+                                           " nodes, got " + std::to_string(T_h + 1));
+  a.hover.u = r.matrix("abort.hover.u", T_h, dynamics::kNu).transpose();
+  a.hover.t0 = t0;
+  read_design(r, "abort.designs_p.", a.designs.initial_p);
+  read_design(r, "abort.designs_r.", a.designs.initial_r);
+  a.designs.library_p = read_library(r, "abort.library_p.");
+  a.designs.library_r = read_library(r, "abort.library_r.");
+  if (a.designs.library_p.empty() || a.designs.library_r.empty()) {
+    const std::string name = a.designs.library_p.empty() ? "abort.library_p.alpha" : "abort.library_r.alpha";
+    r.fail(r.line_of(name), name + ": the abort controller needs a library (SafeAbort::setup)");
+  }
+}
+
+void write_abort(Writer& w, const AbortScenario& a) {
+  w.scalar("abort.enabled", a.enabled ? 1.0 : 0.0);
+  if (!a.enabled) return;
+  using Settings = control::AbortSettings;
+  Settings::for_each_field(FieldWriter<Settings>{w, a.settings, "abort."});
+  w.scalar("abort.command_step", a.command_step);
+  w.matrix("abort.hover.z", a.hover.z.transpose());
+  w.matrix("abort.hover.u", a.hover.u.transpose());
+  write_design(w, "abort.designs_p.", a.designs.initial_p);
+  write_design(w, "abort.designs_r.", a.designs.initial_r);
+  write_library(w, "abort.library_p.", a.designs.library_p);
+  write_library(w, "abort.library_r.", a.designs.library_r);
+}
+
 void require_size(const char* name, const Eigen::MatrixXd& m, Eigen::Index rows, Eigen::Index cols) {
   if ((rows >= 0 && m.rows() != rows) || m.cols() != cols) {
     throw std::invalid_argument("write_scenario: " + std::string(name) + " has size " +
@@ -765,6 +811,7 @@ ScenarioFile read_scenario(const std::string& path) {
     read_navigation(r, s.settings.dt, s.navigation);
     read_actuators(r, s.settings.dt, s.actuators);
   }
+  if (r.version() >= 6) read_abort(r, s.mission_steps(), s.reference.t0, s.abort);
   r.check_all_used();
   return s;
 }
@@ -787,6 +834,12 @@ void write_scenario(const std::string& path, const ScenarioFile& s, const std::s
   if (s.actuators.enabled &&
       s.actuators.wheel_momentum.size() != static_cast<Eigen::Index>(s.actuators.wheels.size()))
     throw std::invalid_argument("write_scenario: actuators.wheel_momentum: one momentum per wheel is needed");
+  if (s.abort.enabled) {
+    require_size("abort.hover.z", s.abort.hover.z, dynamics::kNx, s.abort.hover.z.cols());
+    require_size("abort.hover.u", s.abort.hover.u, dynamics::kNu, s.abort.hover.z.cols() - 1);
+    if (s.abort.hover.u.cols() < s.mission_steps())
+      throw std::invalid_argument("write_scenario: abort.hover: shorter than the mission");
+  }
 
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) throw std::runtime_error(path + ": cannot open for writing (" + std::strerror(errno) + ")");
@@ -828,6 +881,7 @@ void write_scenario(const std::string& path, const ScenarioFile& s, const std::s
   w.matrix("mission.xf", s.xf);
   write_navigation(w, s.navigation);
   write_actuators(w, s.actuators);
+  write_abort(w, s.abort);
   out.close();
   if (!out) throw std::runtime_error(path + ": write failed (" + std::strerror(errno) + ")");
 }

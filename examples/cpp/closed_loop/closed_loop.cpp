@@ -16,7 +16,12 @@
 // NavigationSystem::step, and the controller's constraints are tightened by the estimation-error set
 // c P_x (Controller::set_estimation_error). When it carries actuators (records actuators.*), each
 // command goes through actuators::ActuationSystem (allocation, pulse modulation, the truth's thruster
-// errors and faults, the wheels) and the plant receives the delivered input.
+// errors and faults, the wheels) and the plant receives the delivered input. When it carries the safe abort
+// (records abort.*), control::SafeAbort supervises every step as tubempc.sim.closed_loop does: its monitor takes
+// the last step's detections (a command at abort.command_step, the navigation's fault, an uncertified tube, the
+// estimate's excursion in the last tube, the inputs' innovation, the identified set's ratio, an infeasible
+// allocation) and, once it enters, the abort controller flies every later step (its monitor and steps are part of
+// the controller's counted and allocation-checked call).
 //
 // Prints per method the summary of `tubempc run` (J_p, J_r, terminal error, steps outside the tube,
 // tube statuses, fallbacks), per-step wall times (median, p99, max) of the controller step and its
@@ -33,12 +38,14 @@
 //
 //   closed_loop SCENARIO_FILE [--method tbmpc|ffa|both] [--disturbance W.txt] [--json OUT.json] [--instructions]
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <new>
@@ -48,6 +55,7 @@
 #include <vector>
 
 #include "tubempc/actuators/system.hpp"
+#include "tubempc/control/abort.hpp"
 #include "tubempc/control/controller.hpp"
 #include "tubempc/core/build_info.hpp"
 #include "tubempc/dynamics/linearized_proximity.hpp"
@@ -236,6 +244,13 @@ struct Flight {
   // set-up, per component; the controller's construction and its setup (the MPC's setup with its QP
   // solvers' workspaces, the reference discretised for the tube update, the designs, the estimation-error set)
   SetupMemory memory_controller_construction, memory_controller, memory_navigation, memory_actuation;
+  SetupMemory memory_abort;  // the safe abort's construction and setup (with abort.*)
+  // the safe abort (with abort.*): the cause and step of its entry, its steps, those on an uncertified tube and
+  // its tubes' largest LMI residual
+  bool abort_enabled = false;
+  std::string abort_cause = "none";
+  int abort_entered_at = -1, abort_steps = 0, abort_uncertified_steps = 0;
+  double abort_max_residual = -std::numeric_limits<double>::infinity();
   std::map<std::string, int> statuses, tube_statuses;
   std::map<std::string, int> navigation_statuses, actuation_statuses;  // with navigation / actuators
   std::vector<double> time_controller, time_identify, time_tube, time_mpc;
@@ -246,13 +261,6 @@ struct Flight {
   StepCounts counts;
   int exit_code = 0;
 };
-
-// e^T Pe^-1 e of the subsystem s's block.
-double excursion(const Eigen::MatrixXd& Pe, const dynamics::StateVector& x, const Eigen::VectorXd& z, int s) {
-  const Eigen::Matrix<double, 6, 6> P = Pe.block<6, 6>(6 * s, 6 * s);
-  const Eigen::Matrix<double, 6, 1> e = x.segment<6>(6 * s) - z.segment<6>(6 * s);
-  return e.dot(P.ldlt().solve(e));
-}
 
 // The ray casters of the navigation's sensors (on the truth's shape) and filter (on the controller's).
 struct Casters {
@@ -285,14 +293,25 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
   controller.setup(scn.reference, method == control::Method::Tbmpc ? scn.tbmpc_designs : scn.ffa_designs);
   f.memory_controller.add(*memory);
   memory.reset();
+  // The safe abort: a second controller (TBMPC-FFA's, enforced by SafeAbort) about the hover, and the supervision.
+  std::unique_ptr<control::SafeAbort> abort;
+  control::AbortTriggers triggers;                  // the last step's detections
+  const control::Controller* last_flier = nullptr;  // the controller that flew the last step
+  if (scn.abort.enabled) {
+    memory.emplace();
+    abort = std::make_unique<control::SafeAbort>(std::make_shared<dynamics::LinearizedProximityModel>(model),
+                                                 scn.settings, settings, scn.abort.settings);
+    abort->setup(scn.abort.hover, scn.abort.designs);
+    f.memory_abort.add(*memory);
+    memory.reset();
+    f.abort_enabled = true;
+  }
   const int T = scn.mission_steps();
   const double dt = scn.settings.dt;
   for (auto* v : {&f.time_controller, &f.time_identify, &f.time_tube, &f.time_mpc})
     v->resize(static_cast<std::size_t>(T));
   dynamics::StateVector x = scn.x0;
   dynamics::TruthState state = dynamics::state_to_truth(x);
-  Eigen::VectorXd z1(dynamics::kNx);
-  Eigen::MatrixXd Pe(dynamics::kNx, dynamics::kNx);
 
   // Navigation: the system of the run, the period's truth samples and the estimation-error set.
   const io::NavigationScenario& ns = scn.navigation;
@@ -326,6 +345,12 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
     controller.set_estimation_error(P_est);  // the first call sizes the controller's storage
     f.memory_controller.add(*memory);
     memory.reset();
+    if (abort) {
+      memory.emplace();
+      abort->set_estimation_error(P_est);
+      f.memory_abort.add(*memory);
+      memory.reset();
+    }
   }
   // Actuators: the run's actuation system (the truth's thrusters, the wheels at their initial momenta).
   const io::ActuatorScenario& as = scn.actuators;
@@ -352,16 +377,38 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
       AllocationWindow window;
       {
         const CountedCall counted(count_instructions, name, "controller", k);
-        if (navigation) controller.set_estimation_error(P_est);
-        step = &controller.step(k, x_hat);
+        if (abort) {  // the supervision decides from the last step's detections (latched)
+          // the state handed to this step in the tube the last step certified (counted with the step)
+          if (last_flier != nullptr) triggers.excursion = last_flier->excursion(x_hat);
+          triggers.command = k == scn.abort.command_step;
+          abort->monitor(k, triggers, &controller);
+        }
+        if (abort && abort->aborting()) {
+          if (navigation) abort->set_estimation_error(P_est);
+          step = &abort->step(k, x_hat);
+        } else {
+          if (navigation) controller.set_estimation_error(P_est);
+          step = &controller.step(k, x_hat);
+        }
       }
       f.allocations_controller += window.count();
     }
     // the bookkeeping (strings, maps) is outside the counted window
     const control::ControlStep& r = *step;
+    const bool aborting = abort && abort->aborting();
+    const control::Controller& flier = aborting ? abort->controller() : controller;
+    last_flier = &flier;
+    triggers.tube_uncertified = r.tube_status[0] == control::TubeStatus::Uncertified ||
+                                r.tube_status[1] == control::TubeStatus::Uncertified;
+    triggers.disturbance_ratio = r.disturbance_ratio;
+    triggers.input_nis = r.input_nis;
+    if (aborting) {  // the abort's certification at every step it flies
+      ++f.abort_steps;
+      f.abort_uncertified_steps +=
+          !(control::certified(r.tube_status[0]) && control::certified(r.tube_status[1]));
+      f.abort_max_residual = std::max({f.abort_max_residual, r.residual[0], r.residual[1]});
+    }
     u = r.u;
-    z1 = r.mpc->z.col(1);
-    Pe = r.tube.Pe;
     const auto i = static_cast<std::size_t>(k);
     f.time_controller[i] = r.timings.total;
     f.time_identify[i] = r.timings.identify;
@@ -396,6 +443,7 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
           a = &actuation->step(t_k, u, C_BL);
         }
         u_applied = a->u_delivered;
+        triggers.allocation_infeasible = a->status == actuators::AllocationStatus::Infeasible;
         f.allocations_actuation += window.count();
       }
       f.time_actuation[i] = std::chrono::duration<double>(Clock::now() - t_act).count();
@@ -443,6 +491,7 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
         }
         x_hat = est->x_hat;
         P_est.noalias() = ns.error_set_scale * est->P_x;
+        triggers.navigation_fault = est->fault_detected;
         f.allocations_navigation += window.count();
       }
       f.time_navigation[i] = std::chrono::duration<double>(Clock::now() - t_nav).count();
@@ -455,13 +504,17 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
       x_hat = x;
     }
     // the excursion of the state the controller flies (with navigation: the estimate, in the certified tube)
+    const std::array<double, 2> excursion = flier.excursion(x_hat);
     bool outside = false;
     for (int s = 0; s < 2; ++s) {
-      const double ex = excursion(Pe, x_hat, z1, s);
-      f.max_excursion[s] = std::max(f.max_excursion[s], ex);
-      outside = outside || ex > 1.0 + 1e-9;
+      f.max_excursion[s] = std::max(f.max_excursion[s], excursion[s]);
+      outside = outside || excursion[s] > 1.0 + control::kExcursionTolerance;
     }
     f.steps_outside += outside;
+  }
+  if (abort && abort->decision().cause != control::AbortCause::None) {
+    f.abort_cause = control::to_string(abort->decision().cause);
+    f.abort_entered_at = abort->decision().entered_at;
   }
   const dynamics::StateVector& xf = scn.xf;
   f.x_final = x;
@@ -511,6 +564,12 @@ void print_flight(const Flight& f) {
     std::printf("\n       navigation (final |r - r^| %.3g m):", f.nav_error_position);
     for (const auto& [name, n] : f.navigation_statuses) std::printf(" %s %d", name.c_str(), n);
   }
+  if (f.abort_enabled) {
+    std::printf("\n       safe abort: %s", f.abort_cause.c_str());
+    if (f.abort_entered_at >= 0)
+      std::printf(" at step %d, %d abort steps, %d on an uncertified tube, largest residual %.3g",
+                  f.abort_entered_at, f.abort_steps, f.abort_uncertified_steps, f.abort_max_residual);
+  }
   if (!f.actuation_statuses.empty()) {
     std::printf("\n       actuation (delta-v %.4g m/s, propellant %.4g kg, %ld pulses):", f.delta_v,
                 f.propellant, f.pulses);
@@ -525,7 +584,7 @@ void print_flight(const Flight& f) {
     for (const auto& [name, m] :
          {std::pair{"controller construction", &f.memory_controller_construction},
           std::pair{"controller setup", &f.memory_controller}, std::pair{"navigation", &f.memory_navigation},
-          std::pair{"actuation", &f.memory_actuation}})
+          std::pair{"actuation", &f.memory_actuation}, std::pair{"safe abort", &f.memory_abort}})
       if (m->retained >= 0) std::printf(" %s %.1f (%.1f)", name, 1e-3 * m->retained, 1e-3 * m->peak);
     std::printf("\n");
   } else
@@ -566,7 +625,19 @@ void write_flight(std::FILE* out, const Flight& f, bool last) {
   write_memory(out, "controller_construction", f.memory_controller_construction, ", ");
   write_memory(out, "controller_setup", f.memory_controller, ", ");
   write_memory(out, "navigation", f.memory_navigation, ", ");
-  write_memory(out, "actuation", f.memory_actuation, "},\n");
+  write_memory(out, "actuation", f.memory_actuation, ", ");
+  write_memory(out, "abort", f.memory_abort, "},\n");
+  if (f.abort_enabled) {
+    char residual[32] = "null";  // no abort step flown
+    if (f.abort_steps > 0) std::snprintf(residual, sizeof residual, "%.17g", f.abort_max_residual);
+    std::fprintf(out,
+                 "      \"abort\": {\"cause\": %s, \"entered_at_step\": %d, \"steps\": %d, "
+                 "\"uncertified_steps\": %d, \"max_residual\": %s},\n",
+                 json_string(f.abort_cause).c_str(), f.abort_entered_at, f.abort_steps,
+                 f.abort_uncertified_steps, residual);
+  } else {
+    std::fprintf(out, "      \"abort\": null,\n");
+  }
   std::fprintf(out, "      \"allocations_controller\": %ld,\n      \"allocations_truth\": %ld,\n",
                f.allocations_controller, f.allocations_truth);
   std::fprintf(out, "      \"allocations_navigation\": %ld,\n      \"allocations_actuation\": %ld,\n",

@@ -79,7 +79,7 @@ __all__ = [
 ]
 
 #: Tube excursions above 1 + this count as outside the tube (round-off of the e^T Pe^-1 e evaluation).
-EXCURSION_TOLERANCE = 1e-9
+EXCURSION_TOLERANCE: float = _core.control.EXCURSION_TOLERANCE  # one value, the C++ step's (control::kExcursionTolerance)
 #: Step phases whose wall times a run records (``RunRecord.time_<phase>``).
 STEP_PHASES = ("step", "tube", "mpc", "linearize", "build", "solve", "propagate", "identify", "predict")
 

@@ -19,6 +19,7 @@ import numpy.typing as npt
 
 from .. import __version__
 from ..config import Config
+from ..design.abort import height_above_site
 from ..results.machine import machine_info
 from ..results.pinning import pin_config, shape_record
 from ..results.records import RunRecord, save_record
@@ -33,7 +34,7 @@ from ..results.summaries import (
 )
 from ..scenario.build import Scenario, build_scenario, landing_geometry
 from ..scenario.sites import inside
-from ..sim.abort import abort_summary, height_above_site
+from ..sim.abort import abort_summary
 from ..sim.closed_loop import simulate
 from . import figures, metrics
 

@@ -52,8 +52,8 @@ def _monitor_seconds(abort: Any) -> float:
 
 def run(args: argparse.Namespace) -> int:
     from ..config import load_config
+    from ..design.abort import abort_library, new_abort
     from ..scenario.build import build_scenario
-    from ..sim.abort import abort_library, new_abort
     from ..sim.closed_loop import simulate
 
     base = load_config(args.config, scenario=None if args.config else args.scenario)

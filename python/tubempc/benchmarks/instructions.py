@@ -269,6 +269,15 @@ def _method_figures(parts: dict[str, list[Part]], flight: dict[str, Any]) -> dic
         "worst": {"step": int(np.argmax(onboard)), "instructions": int(onboard.max())},
         "parts": [c for c in ("controller", "estimator", "actuation") if c in series],
     }
+    abort = flight.get("abort")
+    if abort and abort["entered_at_step"] >= 0:  # the supervised descent's steps and the abort's, apart
+        k0, ir = int(abort["entered_at_step"]), series["controller"]
+        out["abort"] = {
+            "cause": abort["cause"],
+            "entered_at_step": k0,
+            "descent_controller": _stats(ir[:k0]),
+            "abort_controller": _stats(ir[k0:]),
+        }
     out["per_step"] = {c: v.tolist() for c, v in series.items()}
     return out
 
@@ -410,6 +419,13 @@ def _print(result: dict[str, Any]) -> None:
             f"({100 * w['gravity_instructions'] / w['instructions']:.0f} % of its instructions), LDL^T "
             f"{100 * w['ldlt_instructions'] / w['instructions']:.0f} %"
         )
+        if "abort" in m:
+            a = m["abort"]
+            d, b = a["descent_controller"], a["abort_controller"]
+            print(
+                f"        safe abort ({a['cause']}) at k={a['entered_at_step']}: controller step median / max "
+                f"{d['median']:.4g} / {d['max']:.4g} supervised descent, {b['median']:.4g} / {b['max']:.4g} abort"
+            )
     memory = result["setup_memory_bytes"]
     if memory is not None:
         big = memory["largest"]

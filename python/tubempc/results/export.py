@@ -21,7 +21,9 @@ With ``navigation.enabled`` the file carries the navigation system of the run wi
 error set's chi-square scale); with ``spacecraft.actuators`` other than "ideal", the actuators of that
 run (``actuators.*``: the truth's thrusters with the run's scale and misalignment errors and faults, the
 wheels, the momentum dump, the modulation and allocation settings) and the certified actuation-error
-sets of the controller. The simulated additive disturbance and the ideal actuators' mismatch
+sets of the controller; with ``abort.enabled``, the safe abort (``abort.*``: the supervision's settings with the
+library's commit step, the hover reference, the abort controller's designs and a commanded abort's step). Faults
+(``[faults]``) are not part of the file. The simulated additive disturbance and the ideal actuators' mismatch
 (``[disturbance]``) are not part of the file (the C++ example flies the undisturbed mission, or the
 disturbance given with ``--disturbance``). A C++ program has no background LMI designs: it flies what
 ``tube.design_worker = "none"`` flies in Python (the library stands in at a due design).
@@ -36,6 +38,7 @@ import numpy as np
 
 from .. import _core
 from ..config import Config
+from ..design.abort import abort_library, abort_settings, command_step
 from ..design.library import controller_designs, controller_settings
 from ..models.dynamics import ProximityModel
 from ..scenario.build import Scenario, ScenarioError, build_scenario, mpc_settings, propagator_settings
@@ -91,6 +94,21 @@ def _actuators(scn: Scenario, seed: int) -> Any:
     return a
 
 
+def _abort(scn: Scenario) -> Any:
+    """The ``abort.*`` records: the safe abort a run with ``[abort]`` flies (:mod:`tubempc.design.abort`: the
+    supervision's settings with the library's commit step, the hover, the abort controller's designs, a commanded
+    abort's step)."""
+    a = _core.io.AbortScenario()
+    a.enabled = scn.config.abort.enabled
+    if a.enabled:
+        library = abort_library(scn)
+        a.settings = abort_settings(scn, library)
+        a.hover = _core.mpc.Reference(library.hover.x.T.copy(), library.hover.u.T.copy(), 0.0)
+        a.designs = library.designs
+        a.command_step = command_step(scn)
+    return a
+
+
 def export_scenario(
     cfg: Config, out_dir: str | Path, *, cache_dir: str | Path | None = None, seed: int | None = None
 ) -> Path:
@@ -131,7 +149,7 @@ def export_scenario(
     s.controller = controller_settings(scn, "ffa")
     s.tbmpc_designs, s.ffa_designs = controller_designs(scn, "tbmpc"), controller_designs(scn, "ffa")
     s.x0, s.xf = scn.x0, scn.xf
-    s.navigation, s.actuators = _navigation(scn, seed), _actuators(scn, seed)
+    s.navigation, s.actuators, s.abort = _navigation(scn, seed), _actuators(scn, seed), _abort(scn)
     path = out / "scenario.txt"
     comment = (
         f"exported by tubempc {__version__} from {cfg.source} (config sha256 {cfg.hash()}), run seed {seed}\n"

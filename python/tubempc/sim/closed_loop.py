@@ -34,6 +34,7 @@ import numpy.typing as npt
 
 from .. import _core
 from ..config.faults import ACTUATOR_FAULT_KINDS
+from ..design.abort import AbortLibrary, abort_library, command_step, new_abort
 from ..design.library import new_controller
 from ..design.policy import BackgroundDesigns
 from ..design.tube import tube_excursion
@@ -42,7 +43,6 @@ from ..scenario.actuators import describe_actuation
 from ..scenario.build import METHODS, P_STATES, R_STATES, Scenario
 from ..scenario.faults import actuator_fault, burst_window, inject, run_fault
 from ..scenario.navigation import Navigation, NavigationRecord, new_navigation, tube_gauge
-from .abort import AbortLibrary, abort_library, new_abort
 from .plant import ProjectPlant
 from .setup import loop_setup, run_truth
 
@@ -202,8 +202,10 @@ def simulate(
     fault = run_fault(scn.config, seed)  # [faults]: the given one, or one drawn from the seed
     abort, library = _new_abort(scn)
     # the step of a commanded abort (-1: none) and the last step's controller-side detections
-    command_step = round(scn.config.abort.command_time / dt) if scn.config.abort.command_time > 0.0 else -1
+    commanded_at = command_step(scn)
     tube_uncertified = allocation_infeasible = False
+    # the estimate in the descent's last tube and the descent's identified set against its prior (p, r)
+    excursion, disturbance_ratio, input_nis = [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]
     abort_residual, abort_uncertified = -math.inf, 0
     plant = _new_plant(scn, seed, dispersed, fault)
     rec = _new_record(scn, method, seed)
@@ -236,10 +238,13 @@ def simulate(
                 abort.monitor(
                     k,
                     _core.control.AbortTriggers(
-                        command=k == command_step,
+                        command=k == commanded_at,
                         navigation_fault=fault_detected,
                         tube_uncertified=tube_uncertified,
                         allocation_infeasible=allocation_infeasible,
+                        excursion=excursion,
+                        disturbance_ratio=disturbance_ratio,
+                        input_nis=input_nis,
                     ),
                     ctrl,
                 )
@@ -270,7 +275,9 @@ def simulate(
             else:
                 x_hat = x_next
             # with navigation: the estimate's excursion in the certified tube (the truth's is rec.navigation.gauge)
-            rec.excursion[k] = [tube_excursion(x_hat[None, sx], z1[None, sx], Pe[sx, sx])[0] for sx in (P_STATES, R_STATES)]
+            excursion = (flying.controller if flying is abort else ctrl).excursion(x_hat)
+            rec.excursion[k] = excursion
+            disturbance_ratio, input_nis = step.disturbance_ratio, step.input_nis
             rec.w_true[k] = w_true
             allocation_infeasible = _record_actuation(rec, k, plant, dt) == "infeasible"
             _record_step(

@@ -2,6 +2,9 @@
 // hover reference, certified at every step.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "control_fixtures.hpp"
@@ -103,6 +106,85 @@ TEST(SafeAbort, DisabledTriggersDoNotAbortButACommandDoes) {
   EXPECT_EQ(abort.monitor(1, t).mode, AbortMode::Armed);
   t.command = true;
   EXPECT_EQ(abort.monitor(2, t).cause, AbortCause::Command);
+}
+
+// The estimate outside the descent's last tube (beyond the excursion tolerance) and an identified set beyond the
+// limit enter the abort, in this precedence; at the thresholds they do not; disabled, they do not.
+TEST(SafeAbort, EstimateOutsideTubeAndDisturbanceBeyondLimit) {
+  AbortSettings s;
+  s.commit_step = 20;
+  s.disturbance_limit = 3.0;
+  {
+    SafeAbort abort = new_abort(s);
+    AbortTriggers t;
+    t.excursion = {1.0 + 0.5 * kExcursionTolerance, 0.2};  // on the boundary: rounding, not an exit
+    t.disturbance_ratio = {0.1, 3.0};                      // at the limit: qualified
+    EXPECT_EQ(abort.monitor(1, t).mode, AbortMode::Armed);
+    t.excursion = {0.3, 1.0 + 1e-6};
+    t.disturbance_ratio = {0.1, 3.0 + 1e-6};  // both: the estimate's exit takes precedence
+    const AbortDecision& d = abort.monitor(2, t);
+    EXPECT_EQ(d.cause, AbortCause::EstimateOutsideTube);
+    EXPECT_EQ(d.entered_at, 2);
+  }
+  {
+    SafeAbort abort = new_abort(s);
+    AbortTriggers t;
+    t.disturbance_ratio = {3.5, 0.0};
+    EXPECT_EQ(abort.monitor(3, t).cause, AbortCause::DisturbanceBeyondLimit);
+    EXPECT_STREQ(to_string(AbortCause::DisturbanceBeyondLimit), "disturbance_beyond_limit");
+  }
+  {
+    AbortSettings off = s;
+    off.on_estimate_outside_tube = off.on_disturbance_beyond_limit = false;
+    SafeAbort abort = new_abort(off);
+    AbortTriggers t;
+    t.excursion = {50.0, 50.0};
+    t.disturbance_ratio = {50.0, 50.0};
+    EXPECT_EQ(abort.monitor(3, t).mode, AbortMode::Armed);
+  }
+  AbortSettings bad = s;
+  for (double limit : {0.0, -1.0, std::nan("")}) {
+    bad.disturbance_limit = limit;
+    EXPECT_THROW(bad.validate(), std::invalid_argument) << limit;
+  }
+  bad.disturbance_limit = std::numeric_limits<double>::infinity();  // no limit
+  EXPECT_NO_THROW(bad.validate());
+}
+
+// The input innovation's window: the mean of the last input_nis_window values (0 before the first), its oldest value
+// dropped as a new one comes; beyond the limit it enters the abort (after the estimate's exit in precedence).
+TEST(SafeAbort, InputNisWindowMean) {
+  AbortSettings s;
+  s.commit_step = 40;
+  s.input_nis_window = 4;
+  s.input_nis_limit = 3.0;
+  SafeAbort abort = new_abort(s);
+  AbortTriggers t;
+  const double values[] = {1.0, 2.0, 6.0, 3.0, 2.0, 4.5};
+  double expected[] = {0.25, 0.75, 2.25, 3.0, 3.25, 0.0};
+  for (int k = 0; k < 5; ++k) {
+    t.input_nis = {0.5, values[k]};
+    const AbortDecision& d = abort.monitor(k, t);
+    EXPECT_NEAR(abort.input_nis_mean()[1], expected[k], 1e-15) << k;
+    EXPECT_NEAR(abort.input_nis_mean()[0], 0.5 * std::min(k + 1, 4) / 4.0, 1e-15) << k;
+    EXPECT_EQ(d.mode, k < 4 ? AbortMode::Armed : AbortMode::Aborting)
+        << k;  // 3.0 is at the limit, 3.25 beyond
+  }
+  EXPECT_EQ(abort.decision().cause, AbortCause::InputNis);
+  EXPECT_EQ(abort.decision().entered_at, 4);
+  abort.reset();
+  EXPECT_EQ(abort.input_nis_mean()[1], 0.0);
+  t.input_nis = {std::nan(""), std::numeric_limits<double>::infinity()};  // non-finite: counted as 0
+  EXPECT_EQ(abort.monitor(0, t).mode, AbortMode::Armed);
+  EXPECT_EQ(abort.input_nis_mean()[1], 0.0);
+  AbortSettings bad = s;
+  for (int window : {0, kMaxInputNisWindow + 1}) {
+    bad.input_nis_window = window;
+    EXPECT_THROW(bad.validate(), std::invalid_argument) << window;
+  }
+  bad = s;
+  bad.input_nis_limit = 0.0;
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
 }
 
 TEST(SafeAbort, NeverArmedWithoutACertifiedEntry) {

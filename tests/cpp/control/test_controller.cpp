@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -71,6 +73,7 @@ TEST(Controller, ClosedLoopOnALinearPlant) {
   Controller ctrl(m.model, m.mpc, m.settings);
   ctrl.setup(m.ref, m.designs);
   ForgettingFactorIdentifier oracle_p(m.settings.identification_p), oracle_r(m.settings.identification_r);
+  ForgettingFactorIdentifier before_p = oracle_p, before_r = oracle_r;  // the oracles one input behind
   std::mt19937 rng(11);
   Eigen::VectorXd x = m.ref.z.col(0);
   Eigen::MatrixXd A(12, 12), B(12, 6);
@@ -85,6 +88,18 @@ TEST(Controller, ClosedLoopOnALinearPlant) {
       oracle_p.update(r.w_measured.head<6>());
       oracle_r.update(r.w_measured.tail<6>());
     }
+    if (k > 0) {  // the input's innovation against the identification before it was folded in
+      for (int sub = 0; sub < 2; ++sub) {
+        const ForgettingFactorIdentifier& before = sub == 0 ? before_p : before_r;
+        const SubVector d = r.w_measured.segment<6>(6 * sub) - before.w_hat();
+        const double nis = d.dot(before.S_hat().fullPivLu().solve(d)) / 6.0;
+        EXPECT_NEAR(r.input_nis[sub], nis, 1e-9 * nis) << k;
+      }
+    } else {
+      EXPECT_EQ(r.input_nis[0], 0.0);
+    }
+    before_p = oracle_p;
+    before_r = oracle_r;
     EXPECT_EQ(ctrl.identifier(0).S_hat(), oracle_p.S_hat());
     EXPECT_EQ(ctrl.identifier(1).w_hat(), oracle_r.w_hat());
     for (int s = 0; s < 2; ++s) {
@@ -104,6 +119,52 @@ TEST(Controller, ClosedLoopOnALinearPlant) {
   EXPECT_TRUE(ctrl.identify(kT, x));
   EXPECT_LE((ctrl.last_measured_input() - w_last).cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_FALSE(ctrl.identify(kT, x));  // once per period
+}
+
+// The excursion of a state in the last step's tube: 0 at the plan's next nominal state, 1 on the tube's boundary
+// (e = Pe^1/2 u, |u| = 1, built from Pe's eigen-decomposition), and the quadratic form of the full 12 x 12 tube
+// (an independent solve) elsewhere; the disturbance ratio is the generalised eigenvalue of (P_W, P_W0) by a
+// general eigen-solver, 1 at the prior.
+TEST(Controller, ExcursionAndDisturbanceRatio) {
+  Mission m(Method::Ffa);
+  Controller ctrl(m.model, m.mpc, m.settings);
+  ctrl.setup(m.ref, m.designs);
+  EXPECT_EQ(ctrl.excursion(m.ref.z.col(0))[0], 0.0);  // no step yet
+  std::mt19937 rng(5);
+  Eigen::VectorXd x = m.ref.z.col(0);
+  Eigen::MatrixXd A(12, 12), B(12, 6);
+  Eigen::VectorXd c(12);
+  for (int k = 0; k < 12; ++k) {
+    const ControlStep& r = ctrl.step(k, x);
+    for (int s = 0; s < 2; ++s) {
+      const IdentifierSettings& id = s == 0 ? m.settings.identification_p : m.settings.identification_r;
+      const SubMatrix P0 = id.pw_scale * id.S0;
+      const Eigen::GeneralizedSelfAdjointEigenSolver<SubMatrix> ges(ctrl.identifier(s).P_W(), P0);
+      EXPECT_NEAR(r.disturbance_ratio[s], ges.eigenvalues().maxCoeff(), 1e-9 * ges.eigenvalues().maxCoeff());
+      if (k == 0) EXPECT_NEAR(r.disturbance_ratio[s], 1.0, 1e-12);
+    }
+    const Eigen::VectorXd z1 = r.mpc->z.col(1);
+    const std::array<double, 2> at_nominal = ctrl.excursion(z1);
+    EXPECT_EQ(at_nominal[0], 0.0);
+    EXPECT_EQ(at_nominal[1], 0.0);
+    for (int s = 0; s < 2; ++s) {  // a boundary point of subsystem s's tube, the other at its nominal
+      const Eigen::SelfAdjointEigenSolver<SubMatrix> es(r.tube.Pe.block<6, 6>(6 * s, 6 * s));
+      SubVector u = SubVector::Zero();
+      u(k % 6) = 1.0;
+      Eigen::VectorXd xb = z1;
+      xb.segment<6>(6 * s) += es.eigenvectors() * es.eigenvalues().cwiseSqrt().asDiagonal() * u;
+      EXPECT_NEAR(ctrl.excursion(xb)[s], 1.0, 1e-9) << k;
+      EXPECT_LE(ctrl.excursion(xb)[1 - s], 1e-30) << k;
+    }
+    m.model->discretize(0.0, kDt, x, r.u, A, B, c);
+    x = A * x + B * r.u + c + 4.0 * disturbance(k, rng);
+    const Eigen::VectorXd e = x - z1;
+    const Eigen::MatrixXd Pe = r.tube.Pe;
+    const double full = e.dot(Pe.fullPivLu().solve(e));
+    const std::array<double, 2> exc = ctrl.excursion(x);
+    EXPECT_NEAR(exc[0] + exc[1], full, 1e-9 * full) << k;
+  }
+  EXPECT_THROW(ctrl.excursion(Eigen::VectorXd::Zero(6)), std::invalid_argument);
 }
 
 // TBMPC flies its initial design's tube at every step; the identification still runs (the paper's

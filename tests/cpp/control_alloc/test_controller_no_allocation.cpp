@@ -101,24 +101,32 @@ TEST(ControllerAllocation, AbortMonitorAndStepDoNotAllocate) {
   Eigen::VectorXd x = Eigen::VectorXd::Zero(12), x_next(12), c(12);
   x(0) = 10.0;
   Eigen::MatrixXd Ad(12, 12), Bd(12, 6);
+  // the descent: a controller flying the same hover, whose step feeds the supervision's triggers
+  Controller descent(model, control_test::plant_12_6_mpc(dt, 10), settings);
+  descent.setup(hover, designs);
   long allocations = 0;
   int aborting = 0;
+  AbortTriggers triggers;
   for (int k = 0; k < T; ++k) {
     AllocationWindow window;
-    AbortTriggers triggers;
     triggers.navigation_fault = k >= 3;
-    abort.monitor(k, triggers, &abort.controller());  // entering copies a controller's identifiers
+    abort.monitor(k, triggers, &descent);  // entering copies the descent's identifiers
+    const ControlStep& r = abort.aborting() ? abort.step(k, x) : descent.step(k, x);
     if (abort.aborting()) {
       abort.set_estimation_error(P_est);
-      const ControlStep& r = abort.step(k, x);
-      model->discretize(0.0, dt, x, r.u, Ad, Bd, c);
-      x_next.noalias() = Ad * x;
-      x_next.noalias() += Bd * r.u;
-      x = x_next + c;
       ++aborting;
+    } else {
+      triggers.disturbance_ratio = r.disturbance_ratio;
+      triggers.input_nis = r.input_nis;
     }
+    model->discretize(0.0, dt, x, r.u, Ad, Bd, c);
+    x_next.noalias() = Ad * x;
+    x_next.noalias() += Bd * r.u;
+    x = x_next + c;
+    if (!abort.aborting()) triggers.excursion = descent.excursion(x);
     allocations += window.count();
   }
   EXPECT_EQ(allocations, 0);
   EXPECT_EQ(aborting, T - 3);
+  EXPECT_EQ(abort.decision().cause, AbortCause::NavigationFault);
 }

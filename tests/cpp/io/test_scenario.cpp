@@ -155,6 +155,21 @@ ScenarioFile sample(int T) {
   a.settings.modulation.on_time_resolution = 1e-4;
   a.settings.allocation.residual_weight = filled(6, 1, 60.0, 1.0).cwiseAbs();
   a.settings.allocation.max_iterations = 77;
+  tubempc::io::AbortScenario& ab = s.abort;
+  ab.enabled = true;
+  ab.settings.commit_step = T - 2;
+  ab.settings.on_tube_uncertified = false;  // not the defaults
+  ab.settings.disturbance_limit = std::numeric_limits<double>::infinity();
+  ab.settings.input_nis_window = 7;
+  ab.settings.input_nis_limit = 10.0 / 3.0;
+  ab.command_step = T - 1;
+  ab.hover.t0 = s.reference.t0;
+  ab.hover.z = filled(12, T + 3, 70.0, 1e2);  // past the mission's end
+  ab.hover.u = filled(6, T + 2, 71.0, 1e-3);
+  ab.designs.initial_p = design(13.0);
+  ab.designs.initial_r = design(14.0);
+  ab.designs.library_p = {design(15.0)};
+  ab.designs.library_r = {design(16.0), design(17.0)};
   return s;
 }
 
@@ -236,7 +251,7 @@ class ScenarioFileTest : public ::testing::Test {
     };
     cut("controller.actuation_error_p 3 3\n", "identification_p.");
     cut("navigation.enabled 1 1\n", "");
-    text.replace(text.find("tubempc-scenario 5"), 18, "tubempc-scenario 3");
+    text.replace(text.find("tubempc-scenario 6"), 18, "tubempc-scenario 3");
     return text;
   }
 
@@ -409,6 +424,23 @@ TEST_F(ScenarioFileTest, RoundTripIsBitExact) {
   expect_same_bits(aa.settings.allocation.residual_weight, ab.settings.allocation.residual_weight,
                    "residual_weight");
   EXPECT_EQ(ab.settings.allocation.max_iterations, 77);
+  // the safe abort
+  const tubempc::io::AbortScenario &ta = a.abort, &tb = b.abort;
+  ASSERT_TRUE(tb.enabled);
+  EXPECT_EQ(tb.settings.commit_step, 1);
+  EXPECT_FALSE(tb.settings.on_tube_uncertified);
+  EXPECT_TRUE(tb.settings.on_input_nis);
+  EXPECT_EQ(tb.settings.disturbance_limit, std::numeric_limits<double>::infinity());
+  EXPECT_EQ(tb.settings.input_nis_window, 7);
+  EXPECT_EQ(tb.settings.input_nis_limit, ta.settings.input_nis_limit);
+  EXPECT_EQ(tb.command_step, 2);
+  EXPECT_EQ(tb.hover.t0, 0.25);
+  expect_same_bits(ta.hover.z, tb.hover.z, "hover.z");
+  expect_same_bits(ta.hover.u, tb.hover.u, "hover.u");
+  expect_same_bits(ta.designs.initial_r.Pe, tb.designs.initial_r.Pe, "abort designs_r.Pe");
+  ASSERT_EQ(tb.designs.library_r.size(), 2u);
+  expect_same_bits(ta.designs.library_r[1].K, tb.designs.library_r[1].K, "abort library_r[1].K");
+  EXPECT_EQ(tb.designs.library_p[0].alpha, ta.designs.library_p[0].alpha);
 
   // Writing what was read reproduces the file (the comment aside).
   const std::string again = (dir_ / "again.txt").string();
@@ -449,6 +481,7 @@ TEST_F(ScenarioFileTest, VersionThreeFilesAreRead) {
   EXPECT_TRUE(old.has_controller);
   EXPECT_FALSE(old.navigation.enabled);
   EXPECT_FALSE(old.actuators.enabled);
+  EXPECT_FALSE(old.abort.enabled);
   EXPECT_TRUE(old.controller.actuation_error[0].isZero(0.0) && old.controller.actuation_error[1].isZero(0.0));
   EXPECT_FALSE(old.controller.feedforward);
   EXPECT_EQ(old.controller.identification_p.lambda, fresh.controller.identification_p.lambda);
@@ -515,8 +548,8 @@ TEST_F(ScenarioFileTest, VersionOneFilesAreRead) {
 }
 
 TEST_F(ScenarioFileTest, ErrorsNameFileLineAndRecord) {
-  expect_error("tubempc-scenario 5", "tubempc-scenario 6", 1, "format version 6 is not supported");
-  expect_error("tubempc-scenario 5", "tubempc 5", 1, "not a tubempc scenario file");
+  expect_error("tubempc-scenario 6", "tubempc-scenario 7", 1, "format version 7 is not supported");
+  expect_error("tubempc-scenario 6", "tubempc 6", 1, "not a tubempc scenario file");
   const long mu = line_of("model.mu_sun 1 1");
   expect_error("model.mu_sun 1 1\n1.32712440018e+20", "model.mu_sun 1 1\n1.3271x", mu + 1,
                "model.mu_sun: row 0, column 0: bad number '1.3271x'");
@@ -583,9 +616,9 @@ TEST_F(ScenarioFileTest, ErrorsNameFileLineAndRecord) {
                "controller.feedforward_limit: must be in (0, 1)");
   expect_error("mission.x0 12 1", "mission.x0 13 1", line_of("mission.xf 12 1"),
                "mission.x0: row 12: expected 1 values, got 3");
-  const long last = line_of("actuators.allocation.cone_test_scale 1 1");
-  expect_error("actuators.allocation.cone_test_scale 1 1", "actuators.allocation.cone_test_scale 2 1", last,
-               "actuators.allocation.cone_test_scale: the file ends after 1 of 2 rows");
+  const long last = line_of("abort.library_r.Pe 12 6");  // the file's last record
+  expect_error("abort.library_r.Pe 12 6", "abort.library_r.Pe 13 6", last,
+               "abort.library_r.Pe: the file ends after 12 of 13 rows");
 }
 
 TEST_F(ScenarioFileTest, NavigationAndActuatorErrorsNameLineAndRecord) {
@@ -652,6 +685,60 @@ TEST_F(ScenarioFileTest, NavigationAndActuatorErrorsNameLineAndRecord) {
                "actuators.modulation.period: must equal mpc.dt = 2 s, got 1");
   expect_error("actuators.allocation.max_iterations 1 1\n77", "actuators.allocation.max_iterations 1 1\n77.5",
                line_of("actuators.allocation.max_iterations 1 1") + 1, "expected an integer, got 77.5");
+}
+
+TEST_F(ScenarioFileTest, AbortErrorsNameLineAndRecord) {
+  const long commit = line_of("abort.commit_step 1 1");
+  expect_error("abort.commit_step 1 1\n1", "abort.commit_step 1 1\n3", commit,
+               "abort.commit_step: must be below T = 3, got 3");
+  expect_error("abort.commit_step 1 1\n1", "abort.commit_step 1 1\n-2", commit + 1,
+               "abort.commit_step: must be >= -1, got -2");
+  expect_error("abort.input_nis_window 1 1\n7", "abort.input_nis_window 1 1\n33",
+               line_of("abort.input_nis_window 1 1") + 1, "abort.input_nis_window: must be in [1, 32]");
+  expect_error("abort.disturbance_limit 1 1\ninf", "abort.disturbance_limit 1 1\n0",
+               line_of("abort.disturbance_limit 1 1") + 1, "abort.disturbance_limit: must be > 0");
+  expect_error("abort.command_step 1 1\n2", "abort.command_step 1 1\n3", line_of("abort.command_step 1 1"),
+               "abort.command_step: must be in [-1, 3), got 3");
+  // a hover shorter than the mission: 3 nodes for T = 3
+  const long hz = line_of("abort.hover.z 6 12");
+  std::string text = text_;
+  const std::size_t z0 = text.find("abort.hover.z 6 12\n"), u0 = text.find("abort.hover.u 5 6\n");
+  ASSERT_NE(z0, std::string::npos);
+  ASSERT_NE(u0, std::string::npos);
+  std::istringstream rows(text.substr(u0));
+  std::string u_text, line;
+  std::getline(rows, line);
+  for (int i = 0; i < 2; ++i) u_text += (std::getline(rows, line), line + "\n");
+  std::istringstream zrows(text.substr(z0));
+  std::string z_text;
+  std::getline(zrows, line);
+  for (int i = 0; i < 3; ++i) z_text += (std::getline(zrows, line), line + "\n");
+  const std::size_t u_end = text.find("abort.designs_p.K");
+  text.replace(z0, u_end - z0, "abort.hover.z 3 12\n" + z_text + "abort.hover.u 2 6\n" + u_text);
+  const std::string path = (dir_ / "short.txt").string();
+  std::ofstream(path, std::ios::binary) << text;
+  try {
+    read_scenario(path);
+    ADD_FAILURE() << "accepted a hover shorter than the mission";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(
+        std::string(e.what()).rfind(path + ":" + std::to_string(hz) + ": abort.hover.z: needs at least", 0),
+        0u)
+        << e.what();
+  }
+  // an abort controller without a library (written empty, refused when read)
+  ScenarioFile no_library = sample(3);
+  no_library.abort.designs.library_p.clear();
+  const std::string empty = (dir_ / "no_library.txt").string();
+  write_scenario(empty, no_library);
+  try {
+    read_scenario(empty);
+    ADD_FAILURE() << "accepted an abort without a library";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("abort.library_p.alpha: the abort controller needs a library"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(ScenarioFileErrors, MissingFileAndEmptyFile) {

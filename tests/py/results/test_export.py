@@ -356,3 +356,46 @@ def test_cpp_example_flies_navigation_and_actuators_as_the_python_loop(
         assert sum(cpp["actuation_statuses"].values()) == scn.n_steps
         assert cpp["pulses"] == int(rec.pulses.sum()) > 0
         assert cpp["delta_v"] == pytest.approx(float(rec.delta_v.sum()), rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    "overrides",
+    [
+        {"abort.command_time": "100 s"},
+        {"faults.kind": "disturbance_burst", "faults.start": "60 s", "faults.burst_scale": 2.0},
+    ],
+    ids=["commanded", "burst"],
+)
+def test_cpp_example_flies_the_safe_abort_as_the_python_loop(
+    reference_cache: Path, tmp_path: Path, overrides: dict[str, Any]
+) -> None:
+    """The scenario file carries [abort] (the supervision with the library's commit step, the hover, the abort's
+    designs, a commanded step): the C++ example supervises every step as the Python loop does and enters the abort
+    at the same step for the same cause (commanded; or under the Python run's 2x burst, which reaches C++ as its
+    disturbance, from the controller's own triggers), then flies the abort controller to the Python run's final
+    state (<= 1e-9), certified at every step, with no heap allocation in the supervised step."""
+    from tubempc.analysis.metrics import run_metrics
+    from tubempc.results.export import export_scenario
+    from tubempc.testing.examples import find_example
+
+    try:
+        example = find_example(None)
+    except FileNotFoundError as exc:
+        pytest.skip(f"no built C++ example: {exc}")
+    cfg = load_config(scenario="bennu-tag").with_overrides({"abort.enabled": True, "abort.entry_period": 25, **overrides})
+    path = export_scenario(cfg, tmp_path / "scenario", cache_dir=reference_cache, seed=0)
+    s = read_scenario(str(path))
+    scn = build_scenario(cfg, cache_dir=reference_cache)
+    assert s.abort.enabled and s.abort.settings.disturbance_limit == cfg.abort.disturbance_limit
+    assert s.abort.command_step == (50 if "abort.command_time" in overrides else -1)
+    rec = simulate(scn, "ffa", seed=0, design_worker="none")
+    applied = rec.applied["abort"] if rec.applied else {}
+    assert applied["entered_at_step"] is not None
+    cpp = _fly_example(example, path, "ffa", rec.w_true, tmp_path)
+    assert cpp["abort"]["cause"] == applied["cause"] and cpp["abort"]["entered_at_step"] == applied["entered_at_step"]
+    assert cpp["abort"]["steps"] == scn.n_steps - applied["entered_at_step"]
+    assert cpp["abort"]["uncertified_steps"] == 0 and cpp["abort"]["max_residual"] <= 0.0
+    m = run_metrics(rec, scn.config.mpc.dt, scn.xf)
+    np.testing.assert_allclose(cpp["final_state"], rec.x[-1], rtol=0, atol=1e-9)
+    assert cpp["J_p"] == pytest.approx(m.J_p, rel=1e-9)
+    assert cpp["allocations_controller"] == 0

@@ -1,6 +1,6 @@
 """The Basilisk plant (tubempc.sim.basilisk): the two truths agree open loop, the state conversions are
-inverse, the drawn disturbance reaches Basilisk as the increment drawn, and what it cannot fly is refused
-by name."""
+inverse, the drawn disturbance reaches Basilisk as the increment drawn, what it cannot fly is refused
+by name, and the safe abort flies its truth back to the hover."""
 
 from __future__ import annotations
 
@@ -331,3 +331,30 @@ def test_a_campaign_run_flies_the_same_dispersed_truth_in_both_plants(tmp_path: 
             p.step(k, project_scn.reference.u[k])
         ends.append(p.state[:3].copy())
     assert np.linalg.norm(ends[1] - ends[0]) > 1e-3
+
+
+def test_a_camera_outage_in_basilisk_backs_away_certified(tmp_path: Path) -> None:
+    """bennu-tag-faults with Basilisk as the truth and a camera outage from 100 s: the navigation's detection enters
+    the safe abort, which flies Basilisk's truth back to the hover on tubes certified at every step and ends safe."""
+    from tubempc.analysis.runner import aborted, guarantee_lost, run_summary
+
+    cfg = load_config(scenario="bennu-tag-faults").with_overrides(
+        {
+            "simulation.plant": "basilisk",
+            "faults.random": False,
+            "faults.kind": "camera_outage",
+            "faults.start": "100 s",
+            "abort.entry_period": 25,
+        }
+    )
+    scn = build_scenario(cfg, cache_dir=tmp_path)
+    rec = simulate(scn, "ffa", seed=3, design_worker="none")
+    assert rec.applied is not None and rec.applied["plant"]["name"] == "basilisk"
+    s = run_summary(scn, rec)
+    a = s.abort
+    assert a is not None and a.outcome == "aborted" and a.cause == "navigation_fault"
+    assert 100.0 < a.entered_at <= 100.0 + 2.0 * cfg.faults.outage_time
+    assert a.safe and a.uncertified_steps == 0 and a.max_residual is not None and a.max_residual <= 0.0
+    assert a.final_height == pytest.approx(cfg.abort.hover_altitude, abs=2.0)
+    assert a.states_inside_body == 0 and a.max_glide_slope_g is not None and a.max_glide_slope_g <= 0.0
+    assert not guarantee_lost(s) and aborted(s)  # exit status 7

@@ -82,6 +82,10 @@ struct ControllerSettings {
 /// @return the shape (input units squared).
 Eigen::Matrix3d input_error_with_feedforward(const Eigen::Matrix3d& E, const Eigen::Vector3d& rho);
 
+/// A state lies outside a tube when its squared gauge exceeds 1 + kExcursionTolerance (Controller::excursion;
+/// rounding of a state on the tube's boundary is not an exit). Python: tubempc.analysis.metrics reads it.
+inline constexpr double kExcursionTolerance = 1e-9;
+
 /// The LMI designs a controller flies with (computed at set-up; Python: tubempc.design.library).
 struct ControllerDesigns {
   SubsystemDesign initial_p;               ///< translational design of k = 0 (TBMPC: for the whole mission)
@@ -116,9 +120,19 @@ struct ControlStep {
   std::array<SubMatrix, 2> A;       ///< subsystem A about the reference's node k
   std::array<SubInputMatrix, 2> B;  ///< subsystem B about the reference's node k
   std::array<SubMatrix, 2> P_W;     ///< identified disturbance sets used by this step
-  bool identified = false;          ///< whether the last period's input was folded in
+  /// The identified disturbance set relative to the identifier's prior, per subsystem: cover_ratio of
+  /// pw_scale S^_k and pw_scale S^_0 (the largest generalised eigenvalue; 1: the prior's own set, > 1: beyond it
+  /// along some direction; the actuation error excluded). The safe abort's disturbance trigger (abort.hpp).
+  std::array<double, 2> disturbance_ratio{};
+  bool identified = false;  ///< whether the last period's input was folded in
   /// That input: x_k minus its prediction from step k - 1 (MeasuredInput).
   Eigen::Matrix<double, 12, 1> w_measured = Eigen::Matrix<double, 12, 1>::Zero();
+  /// That input's normalised innovation per subsystem, before it was folded in: (w - w^)^T S^-1 (w - w^) / 6 with the
+  /// identified mean w^ and covariance S^ of the step before (chi-square with 6 degrees of freedom over 6 for an input
+  /// drawn from the identified distribution: about 1; 0 when nothing was folded in). A disturbance beyond the
+  /// identified set raises it at once, before the identification absorbs it: the safe abort's windowed test
+  /// (abort.hpp).
+  std::array<double, 2> input_nis{};
   const mpc::StepResult* mpc = nullptr;  ///< the MPC step's result (plan, statuses, timings)
   ControlTimings timings;                ///< wall-clock split
 };
@@ -163,6 +177,14 @@ class Controller {
   /// @param x_k the measured state at k (12).
   /// @return whether an input was folded in (false: nothing to identify, or a non-finite input).
   bool identify(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k);
+  /// The squared gauge of a state in the tube of the last step k, per subsystem: e^T Pe_k^-1 e with
+  /// e = x - z*_1|k, the plan's next nominal state (docs/model.md "Tube MPC"; > 1 + kExcursionTolerance: outside
+  /// the tube the step certified). Given the estimate x^_k+1, it says whether the state the next step is handed
+  /// left its own tube (the safe abort's trigger, abort.hpp). Allocation-free.
+  /// @param x the state at k + 1 (12; the measured or estimated state).
+  /// @return (p, r); zeros before the first step, +inf for a tube that is not positive definite.
+  /// @throws std::invalid_argument for a wrong size.
+  std::array<double, 2> excursion(const Eigen::Ref<const Eigen::VectorXd>& x) const;
   /// @return the last measured input folded in (12: the p then r subsystem's state units).
   const Eigen::Matrix<double, 12, 1>& last_measured_input() const { return out_.w_measured; }
 

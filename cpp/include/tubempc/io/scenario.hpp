@@ -6,7 +6,7 @@
 /// system and the actuators of one run. Plain text, versioned, exact (every double written with 17
 /// significant digits, so reading gives back the same bits).
 ///
-/// Format, version 5 (versions 1 to 4 are read too; see below)
+/// Format, version 6 (versions 1 to 5 are read too; see below)
 /// -------------------------------------------------------------
 /// - Line 1: `tubempc-scenario 5`. Lines starting with `#` (after optional blanks) and blank lines
 ///   are comments anywhere else.
@@ -57,9 +57,15 @@
 ///   | `actuators.momentum_dump.<field>` | | actuators::MomentumDumpSettings |
 ///   | `actuators.wheel_momentum` | m 1 | the wheels' initial momenta (N m s); `0 0` for m = 0 |
 ///   | `actuators.mass`, `actuators.modulation.<field>`, `actuators.allocation.<field>` | | actuators::ActuationSettings (both periods equal to `mpc.dt`) |
+///   | `abort.enabled` | 1 1 | flag (AbortScenario::enabled, version 6); the `abort.*` records below only when 1 |
+///   | `abort.<field>` | 1 1 each | every field of control::AbortSettings (commit_step < T an integer >= -1, flags, limits; `disturbance_limit` may be `inf`) |
+///   | `abort.command_step` | 1 1 | integer in [-1, T) (AbortScenario::command_step) |
+///   | `abort.hover.z`, `abort.hover.u` | T_h+1 12, T_h 6 | the abort's hover reference, one node per row, T_h >= T |
+///   | `abort.designs_p.*`, `abort.designs_r.*`, `abort.library_p.*`, `abort.library_r.*` | | the abort controller's initial designs and libraries, as `designs.ffa_*` and `library_*` (libraries not empty) |
 ///
 ///   Optional records default to mpc::Settings' defaults (the structures to dense). Everything else
 ///   is required; unknown names are errors (a later version adds names and bumps the number).
+///   Version 6 adds the safe abort (version-5 files read with the abort disabled); version 5 the feed-forward.
 ///   Version 4 adds the actuation-error sets, the navigation and the actuators; version-3 files read
 ///   with zero actuation-error sets, navigation and actuators disabled.
 ///   Version 3 adds the whole controller (control::Controller: identification, tube policy, designs and
@@ -87,6 +93,7 @@
 #include <vector>
 
 #include "tubempc/actuators/system.hpp"
+#include "tubempc/control/abort.hpp"
 #include "tubempc/control/controller.hpp"
 #include "tubempc/dynamics/propagator.hpp"
 #include "tubempc/dynamics/proximity_model.hpp"
@@ -96,7 +103,7 @@
 namespace tubempc::io {
 
 /// Version of the scenario format this library reads and writes.
-inline constexpr int kScenarioFormatVersion = 5;
+inline constexpr int kScenarioFormatVersion = 6;
 
 /// One 6-DOF model of the scenario: the inputs of gravity::load_shape, gravity::PolyhedronGravity
 /// and dynamics::ProximityModel.
@@ -156,6 +163,19 @@ struct ActuatorScenario {
   actuators::ActuationSettings settings;             ///< mass, modulation and allocation (period = mpc dt)
 };
 
+/// The safe abort of a scenario (version 6: the records abort.(field)): what control::SafeAbort is set up with
+/// (docs/model.md M52; Python: tubempc.sim.abort).
+struct AbortScenario {
+  bool enabled{false};              ///< whether the descent is supervised and may back away
+  control::AbortSettings settings;  ///< the supervision: commit step, triggers and their limits
+  /// The abort's hover reference: 12 x (T_h + 1) and 6 x T_h with T_h >= T (it runs past the mission's end);
+  /// t0 is the mission reference's.
+  mpc::Reference hover;
+  control::ControllerDesigns
+      designs;           ///< the abort controller's designs about the hover (libraries not empty)
+  int command_step{-1};  ///< a commanded abort at this step (-1: none; [abort] command_time / dt)
+};
+
 /// Contents of a scenario file (see the file comment for the format).
 struct ScenarioFile {
   /// Folder of the file read (relative shape paths are relative to it); empty if not read from a file.
@@ -176,6 +196,7 @@ struct ScenarioFile {
   dynamics::StateVector xf{dynamics::StateVector::Zero()};  ///< target state (same units)
   NavigationScenario navigation;  ///< the navigation (version 4; disabled in older files)
   ActuatorScenario actuators;     ///< the actuators (version 4; ideal in older files)
+  AbortScenario abort;            ///< the safe abort (version 6; disabled in older files)
 
   /// @return the mission length T (steps): the number of reference inputs.
   int mission_steps() const { return static_cast<int>(reference.u.cols()); }
@@ -185,7 +206,7 @@ struct ScenarioFile {
   std::string resolve(const std::string& path) const;
 };
 
-/// Reads and validates a scenario file (format version 5, 4, 3, 2 or 1).
+/// Reads and validates a scenario file (format version 6, 5, 4, 3, 2 or 1).
 /// @param path the scenario file.
 /// @return its contents; `directory` is the file's folder. The shape files are not opened. The
 ///         navigation's and the actuators' settings are those their constructors accept (an
@@ -200,7 +221,7 @@ struct ScenarioFile {
 ///         validate() rejects is reported at its record's line.
 ScenarioFile read_scenario(const std::string& path);
 
-/// Writes a scenario file (format version 5) with every record, optional ones included.
+/// Writes a scenario file (format version 6) with every record, optional ones included.
 /// @param path     file to create or overwrite.
 /// @param scenario contents; shape paths are written as they are (relative ones stay relative).
 /// @param comment  optional text written as `#` comment lines after the version line.
