@@ -36,7 +36,7 @@ ControllerSettings abort_controller_settings(ControllerSettings s) {
   return s;
 }
 
-AbortSettings validated(AbortSettings s) {
+const AbortSettings& validated(const AbortSettings& s) {
   s.validate();
   return s;
 }
@@ -44,8 +44,8 @@ AbortSettings validated(AbortSettings s) {
 }  // namespace
 
 SafeAbort::SafeAbort(std::shared_ptr<const math::LinearizedModel> model, mpc::Settings mpc_settings,
-                     ControllerSettings controller_settings, AbortSettings settings)
-    : settings_(validated(std::move(settings))),
+                     ControllerSettings controller_settings, const AbortSettings& settings)
+    : settings_(validated(settings)),
       controller_(std::move(model), std::move(mpc_settings),
                   abort_controller_settings(std::move(controller_settings))) {}
 

@@ -121,7 +121,7 @@ class SafeAbort {
   /// @param settings            the supervision's settings (validated).
   /// @throws std::invalid_argument naming a bad field.
   SafeAbort(std::shared_ptr<const math::LinearizedModel> model, mpc::Settings mpc_settings,
-            ControllerSettings controller_settings, AbortSettings settings);
+            ControllerSettings controller_settings, const AbortSettings& settings);
 
   /// Sets the abort controller up with the hover reference and its designs (Controller::setup) and arms.
   /// @param hover   the abort's reference over the whole mission (12 x (T + 1), 6 x T), the descent's time base.
