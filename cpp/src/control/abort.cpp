@@ -1,6 +1,6 @@
 #include "tubempc/control/abort.hpp"
 
-#include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -39,6 +39,12 @@ ControllerSettings abort_controller_settings(ControllerSettings s) {
 const AbortSettings& validated(const AbortSettings& s) {
   s.validate();
   return s;
+}
+
+// Whether a subsystem's value exceeds the limit; a non-finite value (NaN: a state or set that cannot be judged)
+// counts as beyond.
+bool beyond(const std::array<double, 2>& values, double limit) {
+  return !(values[0] <= limit) || !(values[1] <= limit);
 }
 
 }  // namespace
@@ -86,14 +92,12 @@ const AbortDecision& SafeAbort::monitor(int k, const AbortTriggers& triggers, co
     cause = AbortCause::NavigationFault;
   else if (triggers.tube_uncertified && settings_.on_tube_uncertified)
     cause = AbortCause::TubeUncertified;
-  else if (settings_.on_estimate_outside_tube &&
-           std::max(triggers.excursion[0], triggers.excursion[1]) > 1.0 + kExcursionTolerance)
+  else if (settings_.on_estimate_outside_tube && beyond(triggers.excursion, 1.0 + kExcursionTolerance))
     cause = AbortCause::EstimateOutsideTube;
-  else if (settings_.on_input_nis && std::max(nis[0], nis[1]) > settings_.input_nis_limit)
+  else if (settings_.on_input_nis && beyond(nis, settings_.input_nis_limit))
     cause = AbortCause::InputNis;
   else if (settings_.on_disturbance_beyond_limit &&
-           std::max(triggers.disturbance_ratio[0], triggers.disturbance_ratio[1]) >
-               settings_.disturbance_limit)
+           beyond(triggers.disturbance_ratio, settings_.disturbance_limit))
     cause = AbortCause::DisturbanceBeyondLimit;
   else if (triggers.allocation_infeasible && settings_.on_allocation_infeasible)
     cause = AbortCause::AllocationInfeasible;

@@ -255,7 +255,9 @@ std::array<double, 2> Controller::excursion(const Eigen::Ref<const Eigen::Vector
   for (int s = 0; s < 2; ++s) {
     const SubVector e = x.segment<6>(6 * s) - out_.mpc->z.col(1).segment<6>(6 * s);
     const Eigen::LLT<SubMatrix> llt(out_.tube.Pe.block<6, 6>(6 * s, 6 * s));
-    out[s] = llt.info() == Eigen::Success ? e.dot(llt.solve(e)) : std::numeric_limits<double>::infinity();
+    const double v =
+        llt.info() == Eigen::Success ? e.dot(llt.solve(e)) : std::numeric_limits<double>::infinity();
+    out[s] = std::isnan(v) ? std::numeric_limits<double>::infinity() : v;  // a non-finite state is outside
   }
   return out;
 }

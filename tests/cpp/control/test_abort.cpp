@@ -133,6 +133,13 @@ TEST(SafeAbort, EstimateOutsideTubeAndDisturbanceBeyondLimit) {
     EXPECT_EQ(abort.monitor(3, t).cause, AbortCause::DisturbanceBeyondLimit);
     EXPECT_STREQ(to_string(AbortCause::DisturbanceBeyondLimit), "disturbance_beyond_limit");
   }
+  for (int which : {0, 1}) {  // a value that cannot be judged (NaN) is beyond its limit
+    SafeAbort abort = new_abort(s);
+    AbortTriggers t;
+    (which == 0 ? t.excursion : t.disturbance_ratio)[1] = std::nan("");
+    EXPECT_EQ(abort.monitor(3, t).cause,
+              which == 0 ? AbortCause::EstimateOutsideTube : AbortCause::DisturbanceBeyondLimit);
+  }
   {
     AbortSettings off = s;
     off.on_estimate_outside_tube = off.on_disturbance_beyond_limit = false;

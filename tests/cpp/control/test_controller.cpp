@@ -165,6 +165,10 @@ TEST(Controller, ExcursionAndDisturbanceRatio) {
     EXPECT_NEAR(exc[0] + exc[1], full, 1e-9 * full) << k;
   }
   EXPECT_THROW(ctrl.excursion(Eigen::VectorXd::Zero(6)), std::invalid_argument);
+  Eigen::VectorXd nan_state = x;
+  nan_state(7) = std::nan("");  // a non-finite state is outside the tube, not a silent NaN
+  EXPECT_EQ(ctrl.excursion(nan_state)[1], std::numeric_limits<double>::infinity());
+  EXPECT_LT(ctrl.excursion(nan_state)[0], std::numeric_limits<double>::infinity());
 }
 
 // TBMPC flies its initial design's tube at every step; the identification still runs (the paper's

@@ -53,7 +53,8 @@ enum class AbortCause {
 ///         "disturbance_beyond_limit" or "allocation_infeasible".
 const char* to_string(AbortCause c);
 
-/// A step's detections, handed to SafeAbort::monitor.
+/// A step's detections, handed to SafeAbort::monitor. A non-finite excursion or ratio counts as beyond its limit; a
+/// non-finite innovation counts as 0 in the window (the controller reports 0 for an input it did not fold in).
 struct AbortTriggers {
   bool command = false;           ///< an abort is commanded at this step
   bool navigation_fault = false;  ///< the navigation's latched fault status (NavigationStep::fault_detected)

@@ -182,7 +182,8 @@ class Controller {
   /// the tube the step certified). Given the estimate x^_k+1, it says whether the state the next step is handed
   /// left its own tube (the safe abort's trigger, abort.hpp). Allocation-free.
   /// @param x the state at k + 1 (12; the measured or estimated state).
-  /// @return (p, r); zeros before the first step, +inf for a tube that is not positive definite.
+  /// @return (p, r); zeros before the first step, +inf for a non-finite state or a tube that is not positive
+  ///         definite.
   /// @throws std::invalid_argument for a wrong size.
   std::array<double, 2> excursion(const Eigen::Ref<const Eigen::VectorXd>& x) const;
   /// @return the last measured input folded in (12: the p then r subsystem's state units).
