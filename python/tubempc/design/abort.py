@@ -191,8 +191,7 @@ def new_abort(scn: Scenario, library: AbortLibrary, commit_step: int | None = No
         library.controller_settings,
         abort_settings(scn, library, commit_step),
     )
-    h = library.hover
-    abort.setup(_core.mpc.Reference(h.x.T.copy(), h.u.T.copy(), 0.0), library.designs)
+    abort.setup(library.hover.core(), library.designs)
     return abort
 
 

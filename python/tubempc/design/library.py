@@ -274,8 +274,7 @@ def new_controller(
         mpc_settings,
         controller_settings(scn, method, lambda_p=lambda_p, lambda_r=lambda_r, background_designs=background_designs),
     )
-    ref = scn.reference
-    ctrl.setup(_core.mpc.Reference(ref.x.T.copy(), ref.u.T.copy(), 0.0), controller_designs(scn, method))
+    ctrl.setup(scn.reference.core(), controller_designs(scn, method))
     return ctrl
 
 

@@ -103,7 +103,7 @@ def _abort(scn: Scenario) -> Any:
     if a.enabled:
         library = abort_library(scn)
         a.settings = abort_settings(scn, library)
-        a.hover = _core.mpc.Reference(library.hover.x.T.copy(), library.hover.u.T.copy(), 0.0)
+        a.hover = library.hover.core()
         a.designs = library.designs
         a.command_step = command_step(scn)
     return a
@@ -144,7 +144,7 @@ def export_scenario(
     s.model, s.truth = _body(scn.model, "shape.obj"), _body(scn.truth, truth_file)
     s.propagator = propagator_settings(cfg)
     s.settings = mpc_settings(scn)
-    s.reference = _core.mpc.Reference(scn.reference.x.T.copy(), scn.reference.u.T.copy(), 0.0)
+    s.reference = scn.reference.core()
     s.has_controller = True
     s.controller = controller_settings(scn, "ffa")
     s.tbmpc_designs, s.ffa_designs = controller_designs(scn, "tbmpc"), controller_designs(scn, "ffa")

@@ -33,6 +33,8 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from .. import _core
+
 __all__ = ["ReferenceSettings", "ReferenceTrajectory", "generate_reference", "load_or_generate_reference"]
 
 Array = npt.NDArray[np.float64]
@@ -97,6 +99,11 @@ class ReferenceTrajectory:
         except BaseException:
             Path(tmp).unlink(missing_ok=True)
             raise
+
+    def core(self) -> Any:
+        """The C++ core's ``_core.mpc.Reference`` of this trajectory: the nodes as columns (12 x (T+1), 6 x T) and
+        t0 the first node's time."""
+        return _core.mpc.Reference(self.x.T.copy(), self.u.T.copy(), float(self.t[0]))
 
     @staticmethod
     def load(path: Path) -> ReferenceTrajectory:

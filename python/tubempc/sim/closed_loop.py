@@ -37,7 +37,6 @@ from ..config.faults import ACTUATOR_FAULT_KINDS
 from ..design.abort import AbortLibrary, abort_library, command_step, new_abort
 from ..design.library import new_controller
 from ..design.policy import BackgroundDesigns
-from ..design.tube import tube_excursion
 from ..results.records import RunRecord
 from ..scenario.actuators import describe_actuation
 from ..scenario.build import METHODS, P_STATES, R_STATES, Scenario
@@ -275,19 +274,15 @@ def simulate(
             else:
                 x_hat = x_next
             # with navigation: the estimate's excursion in the certified tube (the truth's is rec.navigation.gauge)
-            excursion = (flying.controller if flying is abort else ctrl).excursion(x_hat)
+            flier = flying.controller if flying is abort else ctrl
+            excursion = flier.excursion(x_hat)
             rec.excursion[k] = excursion
+            if nav is not None:
+                rec.navigation.gauge_estimate[k] = np.sqrt(excursion)
             disturbance_ratio, input_nis = step.disturbance_ratio, step.input_nis
             rec.w_true[k] = w_true
             allocation_infeasible = _record_actuation(rec, k, plant, dt) == "infeasible"
-            _record_step(
-                rec,
-                k,
-                step,
-                flying.controller if flying is abort else ctrl,
-                (t0, t1),
-                0.0 if designs is None else designs.last_wait_s,
-            )
+            _record_step(rec, k, step, flier, (t0, t1), 0.0 if designs is None else designs.last_wait_s)
             if flying is abort:  # the abort's certification at every step it flies
                 abort_residual = max(abort_residual, *step.residual)
                 abort_uncertified += not all(_core.control.certified(s) for s in step.tube_status)
@@ -362,7 +357,8 @@ def _record_navigation(
     rec: RunRecord, k: int, est: Any, x_next: Array, plant: ProjectPlant, z1: Array, Pe: Array, seconds: float
 ) -> Array:
     """Step k + 1's estimate into the record (``seconds``: the navigation call's wall time), and the truth's
-    gauge in the output-feedback tube z*_1|k (+) Omega_k (+) E_{k+1}; returns the estimate x^_{k+1}."""
+    gauge in the output-feedback tube z*_1|k (+) Omega_k (+) E_{k+1} (the estimate's is the step's excursion);
+    returns the estimate x^_{k+1}."""
     assert plant.nav is not None and rec.navigation is not None
     rec.navigation.time_step[k], rec.navigation.time_filter[k] = seconds, est.time_filter
     x_hat = np.asarray(est.x_hat)
@@ -370,7 +366,6 @@ def _record_navigation(
     plant.nav_error_set = E = plant.nav.error_set(est.P_x)
     for i, sx in enumerate((P_STATES, R_STATES)):
         rec.navigation.gauge[k, i] = tube_gauge(x_next[sx] - z1[sx], Pe[sx, sx], E[sx, sx])
-        rec.navigation.gauge_estimate[k, i] = math.sqrt(tube_excursion(x_hat[None, sx], z1[None, sx], Pe[sx, sx])[0])
     return x_hat
 
 
