@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# The test command (README): installs tubempc with its C++ test suite into .venv, then runs the lint
-# (ruff check, ruff format --check, mypy --strict, clang-format), ctest (GoogleTest, the C++ examples,
-# the Doxygen check), the install test (tools/install_test.sh: the C++ package installed from the same
-# build tree into a temporary prefix, both C++ examples built against it, closed_loop flying a scenario
+# The test command (README): installs tubempc with its C++ test suite into .venv, then runs ctest (GoogleTest,
+# the C++ examples, the Doxygen check), the install test (tools/install_test.sh: the C++ package installed from
+# the same build tree into a temporary prefix, both C++ examples built against it, closed_loop flying a scenario
 # exported by the installed package), the documentation site (tools/docs.sh: Sphinx with the executed
-# tutorials, the API and the Doxygen C++ reference) and pytest. One build tree serves them all: build/test. Its
-# duration goes to build/test/test_command.json (docs/benchmarks/ keeps the published one).
+# tutorials, the API and the Doxygen C++ reference) beside the lint (tools/lint.sh: ruff check, ruff format
+# --check, mypy --strict, clang-format, the stubs check, cppcheck), and pytest. One build tree serves them all:
+# build/test. Its duration goes to build/test/test_command.json (docs/benchmarks/ keeps the published one).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 start=$(date +%s)
@@ -43,9 +43,6 @@ export CMAKE_BUILD_PARALLEL_LEVEL=${CMAKE_BUILD_PARALLEL_LEVEL:-$(nproc)}
   --config-settings=cmake.define.TUBEMPC_INSTALL=ON
 phase_done install
 
-TUBEMPC_BUILD_DIR=build/test bash tools/lint.sh
-phase_done lint
-
 ctest --test-dir build/test --output-on-failure -j"$(nproc)"
 phase_done ctest
 
@@ -53,9 +50,21 @@ bash tools/install_test.sh --build build/test --python .venv/bin/python
 phase_done install_test
 
 # The documentation site, warnings as errors; its three tutorials run in it (the third embeds the C++
-# core installed from build/test).
-TUBEMPC_BUILD_DIR=build/test bash tools/docs.sh
-phase_done docs
+# core installed from build/test). The lint runs beside it: both are mostly single-threaded, and on two
+# cores the pair takes the longer one's time instead of the sum. The lint's output is printed when it ends.
+lint_log=build/test/lint.log
+TUBEMPC_BUILD_DIR=build/test bash tools/lint.sh > "$lint_log" 2>&1 &
+lint_pid=$!
+docs_rc=0
+TUBEMPC_BUILD_DIR=build/test bash tools/docs.sh || docs_rc=$?
+lint_rc=0
+wait "$lint_pid" || lint_rc=$?
+cat "$lint_log"
+if [ "$docs_rc" != 0 ] || [ "$lint_rc" != 0 ]; then
+  echo "the documentation site (exit $docs_rc) or the lint (exit $lint_rc) failed" >&2
+  exit 1
+fi
+phase_done docs_and_lint
 
 # pytest on every core (pytest-xdist; a test file stays on one worker, so its module fixtures are built
 # once); exit code 5 means "no tests collected": a failure here.

@@ -288,7 +288,8 @@ def check_command(line: str) -> str | None:
 
 @functools.cache
 def cmake_identifiers() -> frozenset[str]:
-    parts = [ROOT / "CMakeLists.txt", *sorted((ROOT / "cmake").glob("*")), *(ROOT / "examples").rglob("CMakeLists.txt")]
+    parts = [ROOT / "CMakeLists.txt", *sorted((ROOT / "cmake").glob("*"))]
+    parts += [p for d in ("examples", "tests/cpp", "python/src") for p in (ROOT / d).rglob("CMakeLists.txt")]
     return frozenset(w for p in parts if p.is_file() for w in re.findall(_PY_ID, _read(p)))
 
 

@@ -7,8 +7,8 @@
 #include <limits>
 #include <stdexcept>
 
-#include "control_fixtures.hpp"
 #include "tubempc/control/abort.hpp"
+#include "tubempc_testing/control_fixtures.hpp"
 
 using namespace tubempc::control;
 

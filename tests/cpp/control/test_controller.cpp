@@ -7,8 +7,8 @@
 #include <random>
 #include <stdexcept>
 
-#include "control_fixtures.hpp"
 #include "tubempc/control/controller.hpp"
+#include "tubempc_testing/control_fixtures.hpp"
 
 using namespace tubempc::control;
 using control_test::double_integrator;

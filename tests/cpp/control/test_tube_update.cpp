@@ -4,8 +4,8 @@
 #include <random>
 #include <vector>
 
-#include "control_fixtures.hpp"
 #include "tubempc/control/tube_update.hpp"
+#include "tubempc_testing/control_fixtures.hpp"
 
 using namespace tubempc::control;
 using control_test::double_integrator;
@@ -54,7 +54,7 @@ TEST(LyapunovTube, CertifiedTubesAreInvariant) {
     const SubMatrix P_W = random_spd(rng, 1e-3 * std::pow(10.0, trial % 4));
     const SubGain K = lqr_gain(A, B, std::pow(10.0, trial % 5 - 1));
     const SubMatrix Acl = A + B * K;
-    const double rho = Eigen::EigenSolver<SubMatrix>(Acl).eigenvalues().cwiseAbs().maxCoeff();
+    const double rho = control_test::spectral_radius(Acl);
     const double alpha = rho * rho + (1.0 - rho * rho) * (0.2 + 0.15 * (trial % 5));
     SubsystemTube t;
     ASSERT_EQ(lyapunov_tube(A, B, K, alpha, P_W, 1e9, t), Certification::Certified);
@@ -79,7 +79,7 @@ TEST(LyapunovTube, NamedOutcomes) {
   const SubMatrix P_W = 1e-2 * SubMatrix::Identity();
   SubsystemTube t;
   t.alpha = -1.0;
-  const double rho = Eigen::EigenSolver<SubMatrix>(A + B * K).eigenvalues().cwiseAbs().maxCoeff();
+  const double rho = control_test::spectral_radius(A + B * K);
   EXPECT_EQ(lyapunov_tube(A, B, K, 0.99 * rho * rho, P_W, 1e9, t), Certification::NotContractive);
   EXPECT_EQ(lyapunov_tube(A, B, SubGain::Zero(), 0.5, P_W, 1e9, t), Certification::NotContractive);
   EXPECT_EQ(lyapunov_tube(A, B, K, 0.9, P_W, 1e-6, t), Certification::EmptyTightening);

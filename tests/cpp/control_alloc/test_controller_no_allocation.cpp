@@ -5,10 +5,10 @@
 
 #include <random>
 
-#include "../control/control_fixtures.hpp"
 #include "tubempc/control/abort.hpp"
 #include "tubempc/control/controller.hpp"
 #include "tubempc_testing/allocation_counter.hpp"
+#include "tubempc_testing/control_fixtures.hpp"
 
 using namespace tubempc::control;
 using tubempc_testing::AllocationWindow;

@@ -29,7 +29,7 @@ long eigen_failures = 0;
 #include "../../../cpp/src/mpc/qp_backend.cpp"
 #include "../../../cpp/src/mpc/qp_layout.cpp"
 #include "../../../cpp/src/mpc/tube_mpc.cpp"
-#include "../control/control_fixtures.hpp"
+#include "tubempc_testing/control_fixtures.hpp"
 
 using namespace tubempc::mpc;
 

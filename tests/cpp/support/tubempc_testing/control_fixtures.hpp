@@ -1,5 +1,7 @@
 // Shared set-ups of the control tests: the paper-sized 12-state, 6-input plant as two decoupled double
-// integrators, and LQR-based subsystem designs (an independent source of stabilising gains).
+// integrators, and LQR-based subsystem designs (an independent source of stabilising gains). The designs are
+// compiled once in control_fixtures.cpp (library tubempc_test_support): their eigenvalue solver and Riccati
+// solution cost each test file including this header about 17 s of compile time when defined inline here.
 #pragma once
 
 #include <Eigen/Dense>
@@ -28,30 +30,14 @@ inline void double_integrator(double dt, double b, SubMatrix& A, SubInputMatrix&
 }
 
 // The LQR gain (u = K x) of (A, B) with weights I and r I.
-inline SubGain lqr_gain(const SubMatrix& A, const SubInputMatrix& B, double r) {
-  const Eigen::MatrixXd X =
-      tubempc::mpc::solve_dare(A, B, Eigen::MatrixXd::Identity(6, 6), r * Eigen::MatrixXd::Identity(3, 3));
-  const Eigen::Matrix3d S = r * Eigen::Matrix3d::Identity() + B.transpose() * X * B;
-  return -S.ldlt().solve(B.transpose() * X * A);
-}
+SubGain lqr_gain(const SubMatrix& A, const SubInputMatrix& B, double r);
+
+// The spectral radius of M (largest eigenvalue modulus).
+double spectral_radius(const SubMatrix& M);
 
 // A design of (A, B) for P_W: the LQR gain, alpha halfway between rho(A + B K)^2 and 1, and the
 // certified Lyapunov tube (u_max generous).
-inline SubsystemDesign lqr_design(const SubMatrix& A, const SubInputMatrix& B, const SubMatrix& P_W,
-                                  double r) {
-  SubsystemDesign d;
-  d.K = lqr_gain(A, B, r);
-  const SubMatrix Acl = A + B * d.K;
-  const double rho = Eigen::EigenSolver<SubMatrix>(Acl).eigenvalues().cwiseAbs().maxCoeff();
-  d.alpha = 0.5 * (rho * rho + 1.0);
-  d.P_W = P_W;
-  tubempc::control::SubsystemTube t;
-  if (tubempc::control::lyapunov_tube(A, B, d.K, d.alpha, P_W, 1e9, t) !=
-      tubempc::control::Certification::Certified)
-    throw std::runtime_error("lqr_design: not certified");
-  d.Pe = t.Pe;
-  return d;
-}
+SubsystemDesign lqr_design(const SubMatrix& A, const SubInputMatrix& B, const SubMatrix& P_W, double r);
 
 // The 12/6 plant: translation (unit input gain) and rotation (1/2750 per N m), four planar constraints.
 inline std::shared_ptr<tubempc::mpc::LtiModel> plant_12_6(double dt) {
@@ -82,21 +68,9 @@ inline tubempc::mpc::Settings plant_12_6_mpc(double dt, int horizon) {
 
 // Designs of both subsystems of the 12/6 plant: the initial one for 9 S0 (its LQR weight r_initial_p or
 // r_initial_r) and a library for c 9 S0, c in scales (weight 1).
-inline tubempc::control::ControllerDesigns plant_12_6_designs(double dt, const SubMatrix& S0_p,
-                                                              const SubMatrix& S0_r,
-                                                              std::initializer_list<double> scales,
-                                                              double r_initial_r = 1.0) {
-  tubempc::control::ControllerDesigns designs;
-  SubMatrix A;
-  SubInputMatrix B;
-  for (int s = 0; s < 2; ++s) {
-    double_integrator(dt, s == 0 ? 1.0 : 1.0 / 2750, A, B);
-    const SubMatrix P0 = 9.0 * (s == 0 ? S0_p : S0_r);
-    (s == 0 ? designs.initial_p : designs.initial_r) = lqr_design(A, B, P0, s == 0 ? 1.0 : r_initial_r);
-    for (double c : scales)
-      (s == 0 ? designs.library_p : designs.library_r).push_back(lqr_design(A, B, c * P0, 1.0));
-  }
-  return designs;
-}
+tubempc::control::ControllerDesigns plant_12_6_designs(double dt, const SubMatrix& S0_p,
+                                                       const SubMatrix& S0_r,
+                                                       std::initializer_list<double> scales,
+                                                       double r_initial_r = 1.0);
 
 }  // namespace control_test
