@@ -171,6 +171,39 @@ TEST(Controller, ExcursionAndDisturbanceRatio) {
   EXPECT_LT(ctrl.excursion(nan_state)[0], std::numeric_limits<double>::infinity());
 }
 
+// A state whose rotation vector is given in the other chart (phi - 2 pi phi/|phi|, the same attitude: the
+// navigation switches there near |phi| = pi) gives the same measured input and excursion as in the prediction's
+// chart, not a 2 pi jump folded into the identification.
+TEST(Controller, AChartSwitchOfTheAttitudeIsTheSameAttitude) {
+  Mission m(Method::Ffa);
+  m.ref.z.row(6).setConstant(3.1);  // |phi| near pi
+  Controller same(m.model, m.mpc, m.settings), switched(m.model, m.mpc, m.settings);
+  same.setup(m.ref, m.designs);
+  switched.setup(m.ref, m.designs);
+  std::mt19937 rng(3);
+  Eigen::VectorXd x = m.ref.z.col(0);
+  Eigen::MatrixXd A(12, 12), B(12, 6);
+  Eigen::VectorXd c(12);
+  for (int k = 0; k < 4; ++k) {
+    const ControlStep& r = same.step(k, x);
+    switched.step(k, x);
+    m.model->discretize(0.0, kDt, x, r.u, A, B, c);
+    x = A * x + B * r.u + c + disturbance(k, rng);
+    const Eigen::Vector3d phi = x.segment<3>(6);
+    Eigen::VectorXd x_other = x;
+    x_other.segment<3>(6) = phi * ((phi.norm() - 2.0 * 3.141592653589793) / phi.norm());
+    ASSERT_GT((x_other - x).norm(), 6.0);
+    const std::array<double, 2> e_same = same.excursion(x), e_switched = switched.excursion(x_other);
+    EXPECT_NEAR(e_switched[1], e_same[1], 1e-9 * e_same[1] + 1e-12) << k;
+    EXPECT_EQ(e_switched[0], e_same[0]);
+    ASSERT_TRUE(same.identify(k + 1, x));
+    ASSERT_TRUE(switched.identify(k + 1, x_other));
+    EXPECT_LT((switched.last_measured_input() - same.last_measured_input()).norm(), 1e-12) << k;
+    EXPECT_LT(switched.last_measured_input().segment<3>(6).norm(), 1e-2) << k;  // not a 2 pi jump
+    EXPECT_LT((switched.identifier(1).w_hat() - same.identifier(1).w_hat()).norm(), 1e-12) << k;
+  }
+}
+
 // TBMPC flies its initial design's tube at every step; the identification still runs (the paper's
 // literal reference-deviation input here).
 TEST(Controller, TbmpcKeepsItsTube) {
