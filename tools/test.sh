@@ -37,10 +37,24 @@ export CMAKE_BUILD_PARALLEL_LEVEL=${CMAKE_BUILD_PARALLEL_LEVEL:-$(nproc)}
 .venv/bin/python -c "import tomllib; print('\n'.join(tomllib.load(open('pyproject.toml', 'rb'))['build-system']['requires']))" \
   > .venv/build-requirements.txt
 .venv/bin/python -m pip install -q -r .venv/build-requirements.txt
-.venv/bin/python -m pip install --no-build-isolation ".[test,dev,docs]" \
+# The package's own dependencies (pyproject's, with the test, dev and docs extras) install beside the C++ build:
+# pip's unpacking and byte-compiling fills the build's single-threaded stretches (configure, links, the last
+# objects). Then tubempc itself, without dependencies, and pip's check that the two together are consistent.
+.venv/bin/python -c "import tomllib; p = tomllib.load(open('pyproject.toml', 'rb'))['project']
+print('\n'.join(p['dependencies'] + [d for e in ('test', 'dev', 'docs') for d in p['optional-dependencies'][e]]))" \
+  > .venv/requirements.txt
+mkdir -p build/test
+.venv/bin/python -m pip install -q -r .venv/requirements.txt > build/test/dependencies.log 2>&1 &
+deps_pid=$!
+.venv/bin/python -m pip install --no-build-isolation --no-deps . \
   --config-settings=build-dir=build/test \
   --config-settings=cmake.define.TUBEMPC_BUILD_TESTS=ON \
   --config-settings=cmake.define.TUBEMPC_INSTALL=ON
+deps_rc=0
+wait "$deps_pid" || deps_rc=$?
+cat build/test/dependencies.log
+if [ "$deps_rc" != 0 ]; then echo "installing tubempc's dependencies failed (exit $deps_rc)" >&2; exit 1; fi
+.venv/bin/python -m pip check
 phase_done install
 
 ctest --test-dir build/test --output-on-failure -j"$(nproc)"

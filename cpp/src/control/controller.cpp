@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "tubempc/actuators/achievable_set.hpp"
+#include "tubempc/math/so3.hpp"
 
 namespace tubempc::control {
 
@@ -22,29 +23,6 @@ double seconds(Clock::time_point a, Clock::time_point b) {
 
 constexpr int kNx = 12;
 constexpr int kNu = 6;
-constexpr double kTwoPi = 6.283185307179586;
-
-// The rotation vector of x's attitude (x[6:9]) expressed as its representative phi + 2 pi n phi/|phi|
-// (n in {-1, 0, 1}: the same rotation) nearest to `target`. Differences of rotation vectors (the measured input
-// x_k - x_pred, the excursion x - z*_1) are taken this way, so that a state whose chart switched across
-// |phi| = pi (the navigation takes the representative nearest to the flying reference) is compared as the same
-// attitude, not as one 2 pi away (docs/model.md M7).
-Eigen::Vector3d same_chart(const Eigen::Vector3d& phi, const Eigen::Vector3d& target) {
-  const double th = phi.norm();
-  if (!(th > 0.0) || !std::isfinite(th)) return phi;
-  Eigen::Vector3d best = phi;
-  double best_d = (phi - target).squaredNorm();
-  for (const double n : {-1.0, 1.0}) {
-    const Eigen::Vector3d alt = phi * ((th + n * kTwoPi) / th);
-    const double d = (alt - target).squaredNorm();
-    if (d < best_d) {
-      best = alt;
-      best_d = d;
-    }
-  }
-  return best;
-}
-
 }  // namespace
 
 const char* to_string(Method m) { return core::enum_name(m); }
@@ -149,7 +127,7 @@ bool Controller::identify(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k) {
   if (!predicted_) return false;
   out_.w_measured = x_k - x_pred_;
   out_.w_measured.segment<3>(6) =
-      same_chart(x_k.segment<3>(6), x_pred_.segment<3>(6)) - x_pred_.segment<3>(6);
+      math::nearest_representative(x_k.segment<3>(6), x_pred_.segment<3>(6)) - x_pred_.segment<3>(6);
   out_.input_nis = {0.0, 0.0};
   if (!out_.w_measured.allFinite()) return false;
   for (int s = 0; s < 2; ++s) {
@@ -279,8 +257,8 @@ std::array<double, 2> Controller::excursion(const Eigen::Ref<const Eigen::Vector
   for (int s = 0; s < 2; ++s) {
     SubVector e = x.segment<6>(6 * s) - out_.mpc->z.col(1).segment<6>(6 * s);
     if (s == 1)
-      e.head<3>() =
-          same_chart(x.segment<3>(6), out_.mpc->z.col(1).segment<3>(6)) - out_.mpc->z.col(1).segment<3>(6);
+      e.head<3>() = math::nearest_representative(x.segment<3>(6), out_.mpc->z.col(1).segment<3>(6)) -
+                    out_.mpc->z.col(1).segment<3>(6);
     const Eigen::LLT<SubMatrix> llt(out_.tube.Pe.block<6, 6>(6 * s, 6 * s));
     const double v =
         llt.info() == Eigen::Success ? e.dot(llt.solve(e)) : std::numeric_limits<double>::infinity();

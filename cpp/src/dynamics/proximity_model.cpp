@@ -6,6 +6,7 @@
 #include <string>
 
 #include "tubempc/math/expm.hpp"
+#include "tubempc/math/so3.hpp"
 
 namespace tubempc::dynamics {
 namespace {
@@ -392,13 +393,7 @@ StateVector truth_to_state(const TruthState& s, const Eigen::Vector3d& phi_ref) 
   if (!phi_ref.allFinite()) throw std::domain_error("truth_to_state: phi_ref is not finite");
   StateVector x;
   x.head<6>() = s.head<6>();
-  Eigen::Vector3d phi = math::log_map(s.segment<4>(6));
-  const double th = phi.norm();
-  if (th > 0.0) {
-    const Eigen::Vector3d alt = phi * ((th - 2.0 * kPi) / th);  // same rotation, |alt| = 2 pi - th
-    if ((alt - phi_ref).squaredNorm() < (phi - phi_ref).squaredNorm()) phi = alt;
-  }
-  x.segment<3>(6) = phi;
+  x.segment<3>(6) = math::nearest_representative(math::log_map(s.segment<4>(6)), phi_ref);
   x.segment<3>(9) = s.segment<3>(10);
   return x;
 }

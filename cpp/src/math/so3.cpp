@@ -142,6 +142,22 @@ Eigen::Matrix3d right_jacobian(const Eigen::Vector3d& phi) {
   return Eigen::Matrix3d::Identity() - a * S + b * S * S;
 }
 
+Eigen::Vector3d nearest_representative(const Eigen::Vector3d& phi, const Eigen::Vector3d& phi_ref) noexcept {
+  const double angle = phi.norm();
+  if (!(angle > 0.0) || !std::isfinite(angle) || !phi_ref.allFinite()) return phi;
+  Eigen::Vector3d best = phi;
+  double best_d = (phi - phi_ref).squaredNorm();
+  for (const double n : {-1.0, 1.0}) {
+    const Eigen::Vector3d candidate = phi * ((angle + n * 2.0 * kPi) / angle);
+    const double d = (candidate - phi_ref).squaredNorm();
+    if (candidate.norm() < 2.0 * kPi - 1e-3 && d < best_d) {
+      best = candidate;
+      best_d = d;
+    }
+  }
+  return best;
+}
+
 Eigen::Matrix3d right_jacobian_inverse(const Eigen::Vector3d& phi) {
   require_finite(phi, "right_jacobian_inverse");
   const double t2 = phi.squaredNorm();

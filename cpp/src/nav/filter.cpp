@@ -5,11 +5,12 @@
 #include <stdexcept>
 #include <string>
 
+#include "tubempc/math/so3.hpp"
+
 namespace tubempc::nav {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 using Mat15 = NavCovariance;
 using Mat6 = Eigen::Matrix<double, 6, 6>;
@@ -537,16 +538,7 @@ Eigen::Vector3d NavigationFilter::omega_BL_B() const {
 }
 
 Eigen::Vector3d NavigationFilter::phi_near(const Eigen::Vector3d& phi_ref) const {
-  Eigen::Vector3d phi = math::log_map(x_.q_BL);
-  const double angle = phi.norm();
-  if (!(angle > 0.0) || !phi_ref.allFinite()) return phi;
-  Eigen::Vector3d best = phi;
-  for (int k = -1; k <= 1; k += 2) {
-    const Eigen::Vector3d candidate = phi + (2.0 * kPi * k / angle) * phi;
-    if (candidate.norm() < 2.0 * kPi - 1e-3 && (candidate - phi_ref).norm() < (best - phi_ref).norm())
-      best = candidate;
-  }
-  return best;
+  return math::nearest_representative(math::log_map(x_.q_BL), phi_ref);
 }
 
 dynamics::StateVector NavigationFilter::model_state(const Eigen::Vector3d& phi_ref) const {

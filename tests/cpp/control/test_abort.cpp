@@ -14,8 +14,8 @@ using namespace tubempc::control;
 
 namespace {
 
-constexpr double kDt = 2.0;
-constexpr int kT = 40;
+constexpr double kAbortDt = 2.0;
+constexpr int kAbortT = 40;
 
 ControllerSettings abort_controller_settings() {
   ControllerSettings s;
@@ -25,22 +25,23 @@ ControllerSettings abort_controller_settings() {
 }
 
 ControllerDesigns abort_designs(const ControllerSettings& settings) {
-  return control_test::plant_12_6_designs(kDt, settings.identification_p.S0, settings.identification_r.S0,
-                                          {1.0, 4.0, 16.0});
+  return control_test::plant_12_6_designs(kAbortDt, settings.identification_p.S0,
+                                          settings.identification_r.S0, {1.0, 4.0, 16.0});
 }
 
 // A hover at x_0 = 40 m (position 0 of the fixture's plane), at rest, over the whole mission.
 tubempc::mpc::Reference hover_reference() {
   tubempc::mpc::Reference ref;
-  ref.z = Eigen::MatrixXd::Zero(12, kT + 1);
-  ref.u = Eigen::MatrixXd::Zero(6, kT);
+  ref.z = Eigen::MatrixXd::Zero(12, kAbortT + 1);
+  ref.u = Eigen::MatrixXd::Zero(6, kAbortT);
   ref.z.row(0).setConstant(40.0);
   return ref;
 }
 
 SafeAbort new_abort(AbortSettings settings) {
   const ControllerSettings cs = abort_controller_settings();
-  return SafeAbort(control_test::plant_12_6(kDt), control_test::plant_12_6_mpc(kDt, 10), cs, settings);
+  return SafeAbort(control_test::plant_12_6(kAbortDt), control_test::plant_12_6_mpc(kAbortDt, 10), cs,
+                   settings);
 }
 
 }  // namespace
@@ -205,11 +206,11 @@ TEST(SafeAbort, NeverArmedWithoutACertifiedEntry) {
 
 TEST(SafeAbort, FliesBackToTheHoverCertifiedAtEveryStep) {
   AbortSettings s;
-  s.commit_step = kT - 1;
+  s.commit_step = kAbortT - 1;
   SafeAbort abort = new_abort(s);
   abort.setup(hover_reference(), abort_designs(abort_controller_settings()));
   EXPECT_EQ(abort.controller().settings().method, Method::Ffa);  // enforced: the tube certified per step
-  auto model = control_test::plant_12_6(kDt);
+  auto model = control_test::plant_12_6(kAbortDt);
   // Entered at k = 8 from 5 m, descending at 0.5 m/s: the plan climbs back to the hover at 40 m.
   Eigen::VectorXd x = Eigen::VectorXd::Zero(12), c(12);
   x(0) = 5.0;
@@ -219,14 +220,14 @@ TEST(SafeAbort, FliesBackToTheHoverCertifiedAtEveryStep) {
   command.command = true;
   ASSERT_TRUE(abort.monitor(8, command).mode == AbortMode::Aborting);
   double lowest = x(0);
-  for (int k = 8; k < kT; ++k) {
+  for (int k = 8; k < kAbortT; ++k) {
     const ControlStep& r = abort.step(k, x);
     ASSERT_TRUE(r.u.allFinite());
     for (int sub = 0; sub < 2; ++sub) {
       EXPECT_TRUE(certified(r.tube_status[sub])) << "k = " << k;
       EXPECT_LE(r.residual[sub], 0.0) << "k = " << k;
     }
-    model->discretize(0.0, kDt, x, r.u, Ad, Bd, c);
+    model->discretize(0.0, kAbortDt, x, r.u, Ad, Bd, c);
     x = Ad * x + Bd * r.u + c;
     lowest = std::min(lowest, x(0));
   }
@@ -244,17 +245,17 @@ TEST(SafeAbort, SetupNeedsALibrary) {
 
 TEST(SafeAbort, EnteringTakesOverTheDescentsIdentification) {
   AbortSettings s;
-  s.commit_step = kT - 1;
+  s.commit_step = kAbortT - 1;
   const ControllerDesigns designs = abort_designs(abort_controller_settings());
   // The "descent": a controller flown a few noisy steps, so that its identifiers moved off the prior.
   SafeAbort descent = new_abort(s);
   descent.setup(hover_reference(), designs);
-  auto model = control_test::plant_12_6(kDt);
+  auto model = control_test::plant_12_6(kAbortDt);
   Eigen::VectorXd x = hover_reference().z.col(0), c(12);
   Eigen::MatrixXd Ad(12, 12), Bd(12, 6);
   for (int k = 0; k < 6; ++k) {
     const ControlStep& r = descent.step(k, x);
-    model->discretize(0.0, kDt, x, r.u, Ad, Bd, c);
+    model->discretize(0.0, kAbortDt, x, r.u, Ad, Bd, c);
     x = Ad * x + Bd * r.u + c;
     x(0) += (k % 2 == 0 ? 0.02 : -0.02);  // a translational input beyond the prior: P_W grows
   }

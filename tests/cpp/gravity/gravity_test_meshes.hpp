@@ -14,6 +14,8 @@
 
 namespace gravity_test {
 
+inline constexpr double kPi = 3.14159265358979323846;
+
 using tubempc::gravity::Faces;
 using tubempc::gravity::Vertices;
 

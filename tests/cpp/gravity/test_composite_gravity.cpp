@@ -8,6 +8,7 @@
 #include "tubempc/gravity/composite_gravity.hpp"
 
 using gravity_test::box;
+using gravity_test::kPi;
 using gravity_test::Mesh;
 using tubempc::gravity::CompositeGravity;
 using tubempc::gravity::GravityPart;
@@ -17,8 +18,6 @@ using tubempc::gravity::PolyhedronGravity;
 using tubempc::gravity::Shape;
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // A lumpy 250 m body (1260 kg/m^3) with a denser core (a 0.5 scaled copy, +150 kg/m^3) and a lighter
 // lobe (a 40 m box offset along x, -200 kg/m^3).

@@ -8,6 +8,7 @@
 #include "tubempc/math/so3.hpp"
 
 using gravity_test::box;
+using gravity_test::kPi;
 using gravity_test::Mesh;
 using tubempc::gravity::GravitySample;
 using tubempc::gravity::kGravitationalConstant;
@@ -16,7 +17,6 @@ using tubempc::gravity::Shape;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kRho = 1260.0;
 
 PolyhedronGravity model(const Mesh& m, double rho = kRho) { return PolyhedronGravity(Shape(m.v, m.f), rho); }

@@ -131,3 +131,26 @@ TEST(So3, MalformedInputsThrow) {
   EXPECT_THROW(right_jacobian(Eigen::Vector3d(0, std::numeric_limits<double>::infinity(), 0)),
                std::invalid_argument);
 }
+
+TEST(So3, NearestRepresentativeIsTheSameRotationNearestToTheReference) {
+  std::mt19937 gen(11);
+  for (int trial = 0; trial < 500; ++trial) {
+    const Eigen::Vector3d phi = random_rotation_vector(gen, 2.0 * kPi - 0.01);
+    const Eigen::Vector3d ref = random_rotation_vector(gen, 2.0 * kPi);
+    const Eigen::Vector3d got = nearest_representative(phi, ref);
+    EXPECT_TRUE(rotation_matrix(exp_map(got)).isApprox(rotation_matrix(exp_map(phi)), 1e-12));
+    EXPECT_LT(got.norm(), 2.0 * kPi - 1e-3);
+    // Brute force over more turns than the function tries: no admissible representative is nearer.
+    for (int n = -3; n <= 3; ++n) {
+      const Eigen::Vector3d c = phi + (2.0 * kPi * n / phi.norm()) * phi;
+      if (c.norm() < 2.0 * kPi - 1e-3) EXPECT_LE((got - ref).norm(), (c - ref).norm() + 1e-12);
+    }
+  }
+  // Across |phi| = pi: 3.1 rad about x seen from -3.1 rad about x is -3.18 rad about x.
+  const Eigen::Vector3d near_pi(3.1, 0.0, 0.0);
+  EXPECT_NEAR(nearest_representative(near_pi, -near_pi).x(), 3.1 - 2.0 * kPi, 1e-15);
+  EXPECT_EQ(nearest_representative(near_pi, near_pi), near_pi);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(nearest_representative(near_pi, Eigen::Vector3d(nan, 0.0, 0.0)), near_pi);
+  EXPECT_EQ(nearest_representative(Eigen::Vector3d::Zero(), near_pi), Eigen::Vector3d::Zero());
+}

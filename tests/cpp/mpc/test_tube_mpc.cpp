@@ -16,7 +16,7 @@ using namespace tubempc::mpc;
 
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kUnbounded = std::numeric_limits<double>::infinity();
 
 // 1-D double integrator per axis: x = [p; v], u = a; constraints p <= p_max and -v <= v_max.
 std::shared_ptr<LtiModel> double_integrator(double dt, double p_max = 10.0, double v_max = 1.0) {
@@ -49,7 +49,7 @@ Settings di_settings(int N, double dt) {
   s.horizon = N;
   s.dt = dt;
   s.u_max = Eigen::VectorXd::Constant(1, 0.5);
-  s.time_limit = kInf;
+  s.time_limit = kUnbounded;
   return s;
 }
 
@@ -91,7 +91,7 @@ Settings pendulum_settings(int horizon) {
   s.u_max = Eigen::VectorXd::Constant(1, 20.0);
   s.R = 1e-2 * Eigen::MatrixXd::Identity(1, 1);
   s.Q = 10.0 * Eigen::MatrixXd::Identity(2, 2);
-  s.time_limit = kInf;
+  s.time_limit = kUnbounded;
   s.input_cost = InputCost::Deviation;
   return s;
 }
@@ -280,8 +280,8 @@ TEST(TubeMPC, TighteningEqualsTheSupportFunctionOfTheTube) {
     const Eigen::MatrixXd L = tube.Pe.llt().matrixL();
     // Dense samples of the boundary {L u : |u| = 1}.
     const int n_samples = 200000;
-    Eigen::VectorXd best_G = Eigen::VectorXd::Constant(3, -kInf);
-    double best_K = -kInf;
+    Eigen::VectorXd best_G = Eigen::VectorXd::Constant(3, -kUnbounded);
+    double best_K = -kUnbounded;
     for (int j = 0; j < n_samples; ++j) {
       const double a = 2.0 * M_PI * j / n_samples;
       const Eigen::Vector2d e = L * Eigen::Vector2d(std::cos(a), std::sin(a));

@@ -172,7 +172,9 @@ class Controller {
 
   /// Folds in the measured exogenous input of the period from step k - 1 to k, given x_k, when
   /// step(k - 1) was the last step and this period was not folded in yet (`step(k, x_k)` does this
-  /// itself; call it alone after the last step). Allocation-free.
+  /// itself; call it alone after the last step). The attitude part of the input is taken with x_k's
+  /// rotation vector as math::nearest_representative of the prediction's, so that a state whose chart
+  /// switched across |phi| = pi is the same attitude, not one 2 pi away. Allocation-free.
   /// @param k   the step reached, 1 <= k <= T.
   /// @param x_k the measured state at k (12).
   /// @return whether an input was folded in (false: nothing to identify, or a non-finite input).
@@ -180,7 +182,8 @@ class Controller {
   /// The squared gauge of a state in the tube of the last step k, per subsystem: e^T Pe_k^-1 e with
   /// e = x - z*_1|k, the plan's next nominal state (docs/model.md "Tube MPC"; > 1 + kExcursionTolerance: outside
   /// the tube the step certified). Given the estimate x^_k+1, it says whether the state the next step is handed
-  /// left its own tube (the safe abort's trigger, abort.hpp). Allocation-free.
+  /// left its own tube (the safe abort's trigger, abort.hpp). x's rotation vector is taken as
+  /// math::nearest_representative of z*_1|k's, as in `identify`. Allocation-free.
   /// @param x the state at k + 1 (12; the measured or estimated state).
   /// @return (p, r); zeros before the first step, +inf for a non-finite state or a tube that is not positive
   ///         definite.

@@ -280,7 +280,7 @@ void right_jacobian_inverse_and_derivative(const Eigen::Vector3d& phi, const Eig
                                            Eigen::Matrix3d& Jr_inv, Eigen::Matrix3d& d_Jrinv_w_dphi);
 
 /// Truth state -> model state: phi = log_map(q) (|phi| <= pi), then unwrapped onto the
-/// representative phi + 2 pi k phi/|phi| (k in {-1, 0, 1}) nearest to phi_ref. A trajectory
+/// representative nearest to phi_ref (math::nearest_representative). A trajectory
 /// crossing |phi| = pi thus stays continuous when phi_ref is the previous model state (|phi| may
 /// then exceed pi; the model is valid for |phi| < 2 pi). Pass phi_ref = 0 for the principal value.
 /// @param s       truth state [r_L (m), v_L (m/s), q_B/L, omega_BL_B (rad/s)].

@@ -81,6 +81,17 @@ Quaternion exp_map(const Eigen::Vector3d& phi);
 /// @throws std::invalid_argument if q is non-finite or (near) zero.
 Eigen::Vector3d log_map(const Quaternion& q);
 
+/// The rotation vector of the same rotation as phi nearest to phi_ref: among phi + 2 pi n phi/|phi|,
+/// n in {-1, 0, 1}, those with a norm below 2 pi - 1e-3 (where right_jacobian_inverse, and with it the
+/// attitude model, is defined), the one nearest to phi_ref in the Euclidean norm (phi on a tie). This
+/// is the one chart in which the model state, the navigation's estimate and the controller's prediction
+/// compare attitudes (docs/model.md "Attitude"): a trajectory crossing |phi| = pi stays continuous
+/// when phi_ref is its previous value. Allocation-free.
+/// @param phi     rotation vector (rad).
+/// @param phi_ref rotation vector (rad) the result is taken nearest to.
+/// @return the representative (rad); phi itself when phi = 0 or either input is non-finite.
+Eigen::Vector3d nearest_representative(const Eigen::Vector3d& phi, const Eigen::Vector3d& phi_ref) noexcept;
+
 /// Right Jacobian of SO(3): Exp(phi + d) ~ Exp(phi) Exp(Jr(phi) d).
 /// @param phi rotation vector (rad), finite.
 /// @return Jr(phi) (dimensionless 3 x 3).

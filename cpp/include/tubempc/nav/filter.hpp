@@ -202,8 +202,8 @@ class NavigationFilter {
   /// @return the estimate of omega_BL_B from the last good gyro sample (rad/s).
   Eigen::Vector3d omega_BL_B() const;
   /// The controller's state x = [r_L, v_L, phi, omega_BL_B] from the estimate.
-  /// @param phi_ref rotation vector (rad) the branch of phi = log(q^_B/L) is chosen nearest to (as
-  ///                dynamics::truth_to_state).
+  /// @param phi_ref rotation vector (rad) the branch of phi = log(q^_B/L) is chosen nearest to
+  ///                (math::nearest_representative, as dynamics::truth_to_state).
   /// @return the model state estimate.
   dynamics::StateVector model_state(const Eigen::Vector3d& phi_ref) const;
   /// Covariance of model_state(phi_ref)'s error: dphi = Jr(phi)^-1 dtheta, domega = -db_g - gyro
