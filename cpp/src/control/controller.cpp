@@ -86,12 +86,10 @@ void Controller::setup(const mpc::Reference& reference, const ControllerDesigns&
   mpc_->setup(reference);
   reference_ = reference;
   const int T = mpc_->mission_steps();
-  const double dt = mpc_->settings().dt;
   A_ref_.assign(T, {SubMatrix::Zero(), SubMatrix::Zero()});
   B_ref_.assign(T, {SubInputMatrix::Zero(), SubInputMatrix::Zero()});
-  for (int k = 0; k < T; ++k) {
-    model_->discretize(reference.t0 + k * dt, dt, reference.z.col(k), reference.u.col(k), A_buf_, B_buf_,
-                       c_buf_);
+  for (int k = 0; k < T; ++k) {  // the MPC's own data about the reference (setup computed them)
+    mpc_->discretize(k, reference.z.col(k), reference.u.col(k), A_buf_, B_buf_, c_buf_);
     for (int s = 0; s < 2; ++s) {
       A_ref_[k][s] = A_buf_.block<6, 6>(6 * s, 6 * s);
       B_ref_[k][s] = B_buf_.block<6, 3>(6 * s, 3 * s);
@@ -148,9 +146,8 @@ void Controller::predict(int k, const Eigen::Ref<const Eigen::VectorXd>& x_k) {
     predicted_ = true;
     return;
   }
-  const double dt = mpc_->settings().dt;
   try {
-    model_->discretize(reference_.t0 + k * dt, dt, x_k, out_.u, A_buf_, B_buf_, c_buf_);
+    mpc_->discretize(k, x_k, out_.u, A_buf_, B_buf_, c_buf_);  // the gravity's blocks kept near the reference
   } catch (const std::exception&) {
     return;  // a non-finite state or model output: the next step identifies nothing
   }

@@ -61,7 +61,7 @@ void LinearizedProximityModel::discretize(double t, double dt, const Eigen::Ref<
   c = cd;
 }
 
-void LinearizedProximityModel::rediscretize(double t, double dt,
+bool LinearizedProximityModel::rediscretize(double t, double dt,
                                             const Eigen::Ref<const Eigen::VectorXd>& x_prev,
                                             const Eigen::Ref<const Eigen::VectorXd>& u_prev,
                                             const Eigen::Ref<const Eigen::VectorXd>& x_lin,
@@ -83,7 +83,7 @@ void LinearizedProximityModel::rediscretize(double t, double dt,
       B.topRightCorner<6, 3>().isZero(0.0) && B.bottomLeftCorner<6, 3>().isZero(0.0);
   if (!keep_translation) {
     discretize(t, dt, x_lin, u_lin, A, B, c);
-    return;
+    return false;
   }
   Eigen::Matrix<double, 6, 6> Ad_r;
   Eigen::Matrix<double, 6, 3> Bd_r;
@@ -97,6 +97,7 @@ void LinearizedProximityModel::rediscretize(double t, double dt,
   A.bottomRightCorner<6, 6>() = Ad_r;
   B.bottomRightCorner<6, 3>() = Bd_r;
   c.tail<6>() = cd_r;
+  return true;
 }
 
 void LinearizedProximityModel::constraints(double t, const Eigen::Ref<const Eigen::VectorXd>& x_lin,

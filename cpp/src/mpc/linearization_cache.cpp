@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace tubempc::mpc::detail {
 
@@ -12,6 +13,7 @@ void LinearizationCache::allocate(int nx, int nu, int nc, int N) {
   v_lin.setZero(nu, N);
   z_lin_at = z_lin;
   v_lin_at = v_lin;
+  z_anchor.setZero(nx, N);
   lin_k = -1;
   eval_d.setConstant(N, true);
   eval_c.setConstant(N + 1, true);
@@ -46,6 +48,7 @@ void LinearizationCache::begin_step(int k, int n, bool reuse, int& n_reuse_d, in
     }
     for (Eigen::Index i = 0; i < nd; ++i) {
       if (i + 1 < nd) v_lin_at.col(i) = v_lin_at.col(i + 1);
+      if (i + 1 < nd) z_anchor.col(i) = z_anchor.col(i + 1);
       eval_d(i) = i >= n_reuse_d || (i + 1 < nd && eval_d(i + 1));
     }
   } else {
@@ -60,6 +63,21 @@ void LinearizationCache::begin_step(int k, int n, bool reuse, int& n_reuse_d, in
 void LinearizationCache::prime(const math::LinearizedModel& model, const Eigen::MatrixXd& z_ref,
                                const Eigen::MatrixXd& u_ref, double t0, double dt) {
   const int N = static_cast<int>(Ad.size()), T = static_cast<int>(u_ref.cols());
+  z_ref_ = z_ref;
+  u_ref_ = u_ref;
+  Ad_ref_.assign(T, Eigen::MatrixXd::Zero(Ad[0].rows(), Ad[0].cols()));
+  Bd_ref_.assign(T, Eigen::MatrixXd::Zero(Bd[0].rows(), Bd[0].cols()));
+  cd_ref_.assign(T, Eigen::VectorXd::Zero(cd[0].size()));
+  ref_ok_.setConstant(T, false);
+  for (int j = 0; j < T; ++j) {
+    try {
+      model.discretize(t0 + static_cast<double>(j) * dt, dt, z_ref.col(j), u_ref.col(j), Ad_ref_[j],
+                       Bd_ref_[j], cd_ref_[j]);
+      ref_ok_(j) = Ad_ref_[j].allFinite() && Bd_ref_[j].allFinite() && cd_ref_[j].allFinite();
+    } catch (const std::domain_error&) {
+      ref_ok_(j) = false;  // a node the model cannot discretise: the step evaluates (and reports) it itself
+    }
+  }
   const int n0 = std::min(N, T);  // horizon of the step at k = 0
   // Slot j holds node j - 1 of the step at k = 0 (begin_step shifts it by one node).
   bool finite = true;
@@ -72,14 +90,32 @@ void LinearizationCache::prime(const math::LinearizedModel& model, const Eigen::
     }
     if (j == n0) break;
     v_lin_at.col(j) = u_ref.col(j - 1);
-    model.discretize(t, dt, z_lin_at.col(j), v_lin_at.col(j), Ad[j], Bd[j], cd[j]);
-    finite = finite && Ad[j].allFinite() && Bd[j].allFinite() && cd[j].allFinite();
+    z_anchor.col(j) = z_ref.col(j - 1);
+    Ad[j] = Ad_ref_[j - 1];
+    Bd[j] = Bd_ref_[j - 1];
+    cd[j] = cd_ref_[j - 1];
+    finite = finite && ref_ok_(j - 1);
   }
   lin_k = -1;
   lin_n = n0;
   eval_d.setConstant(false);  // data about the reference itself: no node is pending
   eval_c.setConstant(false);
   primed_ = finite;  // otherwise the first step evaluates (and reports) them itself
+}
+
+void LinearizationCache::discretize_at(const math::LinearizedModel& model, int j, double t, double dt,
+                                       const Eigen::Ref<const Eigen::VectorXd>& x,
+                                       const Eigen::Ref<const Eigen::VectorXd>& u,
+                                       Eigen::Ref<Eigen::MatrixXd> A, Eigen::Ref<Eigen::MatrixXd> B,
+                                       Eigen::Ref<Eigen::VectorXd> c) const {
+  if (j >= 0 && j < ref_ok_.size() && ref_ok_(j)) {
+    A = Ad_ref_[j];
+    B = Bd_ref_[j];
+    c = cd_ref_[j];
+    model.rediscretize(t, dt, z_ref_.col(j), u_ref_.col(j), x, u, A, B, c);
+  } else {
+    model.discretize(t, dt, x, u, A, B, c);
+  }
 }
 
 Status LinearizationCache::evaluate(const math::LinearizedModel& model, double t0, int k, double dt, int n,
@@ -89,12 +125,22 @@ Status LinearizationCache::evaluate(const math::LinearizedModel& model, double t
   bool finite = true;
   for (int i = 0; i < n; ++i) {
     if (!eval_d(i)) continue;
-    if (it > 0 ||
-        i < n_reused_d_)  // data about (z_lin_at, v_lin_at) for the same time: the model may keep parts
-      model.rediscretize(t_node(i), dt, z_lin_at.col(i), v_lin_at.col(i), z_lin.col(i), v_lin.col(i), Ad[i],
-                         Bd[i], cd[i]);
-    else
+    const int j = k + i;  // the node's index in the mission (its reference data)
+    bool kept = false;
+    if (it > 0 || i < n_reused_d_) {  // data for the same time about z_anchor: the model may keep parts
+      kept = model.rediscretize(t_node(i), dt, z_anchor.col(i), v_lin_at.col(i), z_lin.col(i), v_lin.col(i),
+                                Ad[i], Bd[i], cd[i]);
+    } else if (j < ref_ok_.size() && ref_ok_(j)) {  // a new node: from the reference's data at its time
+      Ad[i] = Ad_ref_[j];
+      Bd[i] = Bd_ref_[j];
+      cd[i] = cd_ref_[j];
+      kept = model.rediscretize(t_node(i), dt, z_ref_.col(j), u_ref_.col(j), z_lin.col(i), v_lin.col(i),
+                                Ad[i], Bd[i], cd[i]);
+      if (kept) z_anchor.col(i) = z_ref_.col(j);
+    } else {
       model.discretize(t_node(i), dt, z_lin.col(i), v_lin.col(i), Ad[i], Bd[i], cd[i]);
+    }
+    if (!kept) z_anchor.col(i) = z_lin.col(i);
     finite = finite && Ad[i].allFinite() && Bd[i].allFinite() && cd[i].allFinite();
     ++model_evaluations;
   }

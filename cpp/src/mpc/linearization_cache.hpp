@@ -18,16 +18,28 @@ struct LinearizationCache {
   // Trajectory of the model data in Ad..hc, and (after a converged step) the step whose data they are
   // (lin_k, -1: none) with its horizon lin_n: Ad..cd hold nodes 0..lin_n-1, Gc, hc nodes 0..lin_n.
   Eigen::MatrixXd z_lin_at, v_lin_at;
+  // The state about which each node's data were last computed whole (nx x N): the point a kept part of them
+  // (LinearizedModel::rediscretize) belongs to, handed to the next re-discretisation as its x_prev, so that a
+  // model's tolerance is measured from there, not from the last point (small moves would add up).
+  Eigen::MatrixXd z_anchor;
   int lin_k = -1, lin_n = 0;
   // Nodes whose discretisation (N) and constraints (N + 1) the next evaluate() computes.
   Eigen::Array<bool, Eigen::Dynamic, 1> eval_d, eval_c;
 
   void allocate(int nx, int nu, int nc, int N);
-  // Model data about the reference for a first step at k = 0 (node i at t0 + i dt), in the form a
-  // converged step at k = -1 would leave them, so that the step evaluates only its last node (setup's
-  // work instead of the first step's). z_ref, u_ref: the mission reference (T + 1 and T columns).
+  // Model data about the reference at every node j of the mission (t0 + j dt), kept for the steps: a node
+  // evaluated afresh re-discretises from the reference's data at its time (LinearizedModel::rediscretize keeps
+  // what does not depend on the difference, e.g. the gravity's blocks within their position tolerance). Also
+  // the data of a first step at k = 0 in the form a converged step at k = -1 would leave them, so that it
+  // evaluates only its last node. z_ref, u_ref: the mission reference (T + 1 and T columns).
   void prime(const math::LinearizedModel& model, const Eigen::MatrixXd& z_ref, const Eigen::MatrixXd& u_ref,
              double t0, double dt);
+  // The model's discretisation at the mission's node j (time t) about (x, u): re-discretised from prime()'s
+  // reference data at j where there are some, else `discretize` (TubeMPC::discretize).
+  void discretize_at(const math::LinearizedModel& model, int j, double t, double dt,
+                     const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+                     Eigen::Ref<Eigen::MatrixXd> A, Eigen::Ref<Eigen::MatrixXd> B,
+                     Eigen::Ref<Eigen::VectorXd> c) const;
   // Start of step k with horizon n: with `reuse` after a converged step at k - 1, that step's model
   // data and their points (z_lin_at, v_lin_at) shifted by one node. Sets the nodes to evaluate: the
   // new ones and, shifted with them, those that step's last QP moved by scp_eps or more (ScpMode::
@@ -67,6 +79,11 @@ struct LinearizationCache {
   int nc_ = 0;           // state constraints per node
   int n_reused_d_ = 0;   // nodes 0..n_reused_d_-1 hold discretisations about z_lin_at for this step's times
   bool primed_ = false;  // the data are prime()'s (for k = 0)
+  // prime()'s model data about the reference, node j at t0 + j dt (finite ones flagged in ref_ok_)
+  std::vector<Eigen::MatrixXd> Ad_ref_, Bd_ref_;
+  std::vector<Eigen::VectorXd> cd_ref_;
+  Eigen::MatrixXd z_ref_, u_ref_;
+  Eigen::Array<bool, Eigen::Dynamic, 1> ref_ok_;
   std::vector<Eigen::MatrixXd> Ad_prev_, Bd_prev_, Gc_prev_;
   std::vector<Eigen::VectorXd> cd_prev_, hc_prev_;
 };

@@ -178,6 +178,16 @@ void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_termina
     m.lin.prime(*model_, reference.z, reference.u, reference.t0, settings_.dt);
 }
 
+void TubeMPC::discretize(int k, const Eigen::Ref<const Eigen::VectorXd>& x,
+                         const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::MatrixXd> A,
+                         Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const {
+  const Impl& m = *impl_;
+  if (k < 0 || k >= m.T)
+    throw std::invalid_argument("TubeMPC::discretize: k = " + std::to_string(k) + " outside [0, " +
+                                std::to_string(m.T) + ") (call setup first)");
+  m.lin.discretize_at(*model_, k, m.ref.t0 + k * settings_.dt, settings_.dt, x, u, A, B, c);
+}
+
 void TubeMPC::reset() {
   impl_->have_plan = false;
   impl_->lin.reset();

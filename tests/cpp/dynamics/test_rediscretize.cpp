@@ -76,7 +76,7 @@ TEST_P(Rediscretize, ExactWhenPositionIsUnchanged) {
   u1 += Eigen::VectorXd::Constant(6, 1e-3);
   Node n = full(lin, 7.0, x0, u0);
   const Node before = n;
-  lin.rediscretize(7.0, 2.0, x0, u0, x1, u1, n.A, n.B, n.c);
+  EXPECT_TRUE(lin.rediscretize(7.0, 2.0, x0, u0, x1, u1, n.A, n.B, n.c));  // the translation kept
   const Node want = full(lin, 7.0, x1, u1);
   EXPECT_EQ(max_abs(n.A.topRows(6) - before.A.topRows(6)), 0.0);  // translation kept
   EXPECT_LT(max_abs(n.A - want.A), 1e-13);
@@ -97,7 +97,7 @@ TEST_P(Rediscretize, PositionToleranceBoundsTheKeptBlocks) {
 
   Node n = full(lin, 3.0, x0, u0);
   const Node before = n;
-  lin.rediscretize(3.0, 2.0, x0, u0, x_in, u0, n.A, n.B, n.c);
+  EXPECT_TRUE(lin.rediscretize(3.0, 2.0, x0, u0, x_in, u0, n.A, n.B, n.c));
   const Node want_in = full(lin, 3.0, x_in, u0);
   EXPECT_EQ(max_abs(n.A.topRows(6) - before.A.topRows(6)), 0.0);
   EXPECT_EQ(max_abs(n.c.head(6) - before.c.head(6)), 0.0);
@@ -111,7 +111,7 @@ TEST_P(Rediscretize, PositionToleranceBoundsTheKeptBlocks) {
   EXPECT_LT(max_abs(pred - pred_want), 1e-13 * max_abs(x_in));  // rounding of ~300 m terms
 
   n = full(lin, 3.0, x0, u0);
-  lin.rediscretize(3.0, 2.0, x0, u0, x_out, u0, n.A, n.B, n.c);
+  EXPECT_FALSE(lin.rediscretize(3.0, 2.0, x0, u0, x_out, u0, n.A, n.B, n.c));
   const Node want_out = full(lin, 3.0, x_out, u0);
   EXPECT_EQ(max_abs(n.A - want_out.A), 0.0);
   EXPECT_EQ(max_abs(n.B - want_out.B), 0.0);
@@ -142,7 +142,7 @@ TEST(Rediscretize, ExtraAccelerationAndCoupledDataUseDiscretize) {
   Eigen::VectorXd x1 = x0;
   x1.segment<3>(3) *= 3.0;
   Node n = full(lin, 1.0, x0, u0);
-  lin.rediscretize(1.0, 2.0, x0, u0, x1, u0, n.A, n.B, n.c);
+  EXPECT_FALSE(lin.rediscretize(1.0, 2.0, x0, u0, x1, u0, n.A, n.B, n.c));
   const Node want = full(lin, 1.0, x1, u0);
   EXPECT_EQ(max_abs(n.A - want.A), 0.0);
   EXPECT_EQ(max_abs(n.c - want.c), 0.0);
@@ -152,7 +152,7 @@ TEST(Rediscretize, ExtraAccelerationAndCoupledDataUseDiscretize) {
       std::make_shared<const ProximityModel>(cluster(), fast_frames(Kinematics::Exact)));
   Node m = full(plain, 1.0, x0, u0);
   m.A(0, 9) = 1.0;
-  plain.rediscretize(1.0, 2.0, x0, u0, x0, u0, m.A, m.B, m.c);
+  EXPECT_FALSE(plain.rediscretize(1.0, 2.0, x0, u0, x0, u0, m.A, m.B, m.c));
   EXPECT_EQ(max_abs(m.A - full(plain, 1.0, x0, u0).A), 0.0);
 }
 

@@ -524,11 +524,15 @@ class RecordingPendulum final : public tubempc::math::LinearizedModel {
     dynamics[t] = A;
     points[t] = x;
     inputs[t] = u;
+    whole[t].push_back(x);
     call_times.push_back(t);
     ++discretize_calls;
   }
-  // Counts the calls whose incoming data and point are not this node's latest model output.
-  void rediscretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_prev,
+  // Counts the calls whose incoming data and point are not this node's latest model output. With
+  // keep_tolerance >= 0 it keeps the incoming data when x moved at most that far from x_prev (as the
+  // proximity model keeps its gravity's blocks), and counts the calls whose x_prev is not a point the
+  // model computed this node's data about whole (whole_mismatches).
+  bool rediscretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_prev,
                     const Eigen::Ref<const Eigen::VectorXd>& u_prev,
                     const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                     Eigen::Ref<Eigen::MatrixXd> A, Eigen::Ref<Eigen::MatrixXd> B,
@@ -537,7 +541,17 @@ class RecordingPendulum final : public tubempc::math::LinearizedModel {
     const bool known = dynamics.count(t) == 1;
     if (!known || !(dynamics[t] == A) || !(points[t] == x_prev) || !(inputs[t] == u_prev))
       ++rediscretize_mismatches;
+    bool whole_point = false;
+    for (const Eigen::VectorXd& p : whole[t]) whole_point = whole_point || p == x_prev;
+    whole_mismatches += whole_point ? 0 : 1;
+    if (keep_tolerance >= 0.0 && (x - x_prev).cwiseAbs().maxCoeff() <= keep_tolerance) {
+      ++kept_calls;
+      kept_from_reference += whole[t].front() == x_prev ? 1 : 0;  // the first whole point: setup's
+      dynamics[t] = A;
+      return true;
+    }
     discretize(t, dt, x, u, A, B, c);
+    return false;
   }
   void constraints(double t, const Eigen::Ref<const Eigen::VectorXd>& x, Eigen::Ref<Eigen::MatrixXd> G,
                    Eigen::Ref<Eigen::VectorXd> h) const override {
@@ -545,10 +559,13 @@ class RecordingPendulum final : public tubempc::math::LinearizedModel {
     h << 10.0;
     rows[t] = G;
   }
-  mutable std::map<double, Eigen::MatrixXd> dynamics, rows;  // latest output per node time
-  mutable std::map<double, Eigen::VectorXd> points, inputs;  // latest linearisation point per node time
-  mutable std::vector<double> call_times;                    // node time of every discretize call
+  mutable std::map<double, Eigen::MatrixXd> dynamics, rows;      // latest output per node time
+  mutable std::map<double, Eigen::VectorXd> points, inputs;      // latest linearisation point per node time
+  mutable std::vector<double> call_times;                        // node time of every discretize call
+  mutable std::map<double, std::vector<Eigen::VectorXd>> whole;  // every point discretize took per node time
   mutable int discretize_calls = 0, rediscretize_calls = 0, rediscretize_mismatches = 0;
+  mutable int kept_calls = 0, kept_from_reference = 0, whole_mismatches = 0;
+  double keep_tolerance = -1.0;
 
  private:
   Pendulum inner_;
@@ -666,7 +683,7 @@ TEST(TubeMPC, RealTimeIterationRelinearizesTheNodesTheLastQpMoved) {
       int expected = r.horizon == s.horizon ? 1 : 0;  // the appended node
       for (int i = 0; i < r.horizon; ++i) {
         const double t = ref.t0 + (k + i) * s.dt;
-        if (last_points.count(t) == 0) continue;  // the appended node
+        if (r.horizon == s.horizon && i == r.horizon - 1) continue;  // the appended node
         const bool moved = (last_plan.col(i + 1) - last_points[t]).cwiseAbs().maxCoeff() >= s.scp_eps;
         expected += moved ? 1 : 0;
         moved_total += moved ? 1 : 0;
@@ -694,4 +711,34 @@ TEST(TubeMPC, RealTimeIterationRelinearizesTheNodesTheLastQpMoved) {
   Settings bad = s;
   bad.linearization = Linearization::EveryIteration;
   EXPECT_THROW(bad.validate(2, 1), std::invalid_argument);
+}
+
+// A model that keeps its data within a tolerance (as the proximity model keeps its gravity's blocks) is
+// always handed, as x_prev, a point it computed the node's data about whole: the reference's (setup's
+// discretisation at that time) for a new node, else the node's last whole evaluation. So its tolerance bounds
+// the distance to the data's own point: a node that moves by less than the tolerance from step to step is
+// computed whole again once it is beyond it, not kept on from its last point.
+TEST(TubeMPC, KeptDataAreAlwaysMeasuredFromThePointTheyWereComputedAbout) {
+  auto model = std::make_shared<RecordingPendulum>();
+  model->keep_tolerance = 2e-2;  // above scp_eps (1e-3), the distance that triggers a re-linearisation
+  Settings s = pendulum_settings(12);
+  s.scp_mode = ScpMode::RealTime;
+  TubeMPC mpc(model, s);
+  const Reference ref = swing_reference();
+  setup_pendulum(mpc, ref);
+  const int T = static_cast<int>(ref.u.cols());
+  EXPECT_EQ(model->discretize_calls, T);  // setup: the reference's data at every node
+  const Tube tube = small_tube(2, 1, 1e-8);
+  int whole_in_steps = 0;
+  for (int k = 0; k < T; ++k) {
+    // the state walks away from the reference in steps smaller than the tolerance
+    const Eigen::VectorXd x = ref.z.col(k) + Eigen::Vector2d(4e-4 * k, 0.0);
+    const int before = model->discretize_calls;
+    ASSERT_EQ(mpc.step(k, x, tube).status, Status::Solved) << k;
+    whole_in_steps += model->discretize_calls - before;
+  }
+  EXPECT_EQ(model->whole_mismatches, 0);
+  EXPECT_GT(model->kept_from_reference, 0);  // new nodes kept the reference's data
+  EXPECT_GT(model->kept_calls, model->kept_from_reference);
+  EXPECT_GT(whole_in_steps, 0);
 }

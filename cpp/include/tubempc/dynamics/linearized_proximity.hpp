@@ -85,7 +85,8 @@ class LinearizedProximityModel final : public math::LinearizedModel {
   /// @param A      holds Ad about x_prev, receives Ad about x_lin (12 x 12).
   /// @param B      likewise Bd (12 x 6).
   /// @param c      likewise cd (12).
-  void rediscretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_prev,
+  /// @return whether the translational blocks about x_prev were kept.
+  bool rediscretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_prev,
                     const Eigen::Ref<const Eigen::VectorXd>& u_prev,
                     const Eigen::Ref<const Eigen::VectorXd>& x_lin,
                     const Eigen::Ref<const Eigen::VectorXd>& u_lin, Eigen::Ref<Eigen::MatrixXd> A,

@@ -39,7 +39,9 @@ class LinearizedModel {
   /// Re-discretises a node about (x_lin, u_lin) when A, B, c hold its discretisation over the same
   /// [t, t + dt] about (x_prev, u_prev), as in the sequential convex iterations of the tube MPC.
   /// An implementation may keep the parts of A, B, c that do not depend on what changed (and must
-  /// document any tolerance it applies); the default calls `discretize`.
+  /// document any tolerance it applies); the default calls `discretize`. A caller that re-discretises
+  /// kept data again passes the point they were computed about as x_prev (the tube MPC does), so that a
+  /// tolerance is measured from there and not from the last call's point.
   /// @param t      start time of the step (s).
   /// @param dt     step length (s).
   /// @param x_prev linearisation state of the data in A, B, c (n_x).
@@ -49,7 +51,9 @@ class LinearizedModel {
   /// @param A      holds A about (x_prev, u_prev); receives A about (x_lin, u_lin) (n_x x n_x).
   /// @param B      likewise B (n_x x n_u).
   /// @param c      likewise c (n_x).
-  virtual void rediscretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_prev,
+  /// @return whether a part of the data about (x_prev, u_prev) was kept (false: all of A, B, c were
+  ///         computed about (x_lin, u_lin)).
+  virtual bool rediscretize(double t, double dt, const Eigen::Ref<const Eigen::VectorXd>& x_prev,
                             const Eigen::Ref<const Eigen::VectorXd>& u_prev,
                             const Eigen::Ref<const Eigen::VectorXd>& x_lin,
                             const Eigen::Ref<const Eigen::VectorXd>& u_lin, Eigen::Ref<Eigen::MatrixXd> A,
@@ -57,6 +61,7 @@ class LinearizedModel {
     (void)x_prev;
     (void)u_prev;
     discretize(t, dt, x_lin, u_lin, A, B, c);
+    return false;
   }
 
   /// Linearised state constraints at (t, x_lin): G x <= h.

@@ -116,6 +116,22 @@ class TubeMPC {
   /// Forgets the previous plan and the re-usable model data (the next step linearises about the reference).
   void reset();
 
+  /// The model's discretisation over the mission's period k (from t0 + k dt) about (x, u), as a step computes a
+  /// new node: with Linearization::Reuse, re-discretised from the reference's data at node k (computed by setup),
+  /// so that the parts the model keeps (math::LinearizedModel::rediscretize; the proximity model's gravity blocks
+  /// within its position tolerance of the reference's r_L) are not evaluated again; otherwise `discretize`.
+  /// Allocation-free.
+  /// @param k 0 <= k < T.
+  /// @param x the state (n_x).
+  /// @param u the input (n_u).
+  /// @param A receives A_k (n_x x n_x).
+  /// @param B receives B_k (n_x x n_u).
+  /// @param c receives c_k (n_x).
+  /// @throws std::invalid_argument before setup or for k out of range; what the model's discretize throws.
+  void discretize(int k, const Eigen::Ref<const Eigen::VectorXd>& x,
+                  const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::MatrixXd> A,
+                  Eigen::Ref<Eigen::MatrixXd> B, Eigen::Ref<Eigen::VectorXd> c) const;
+
   /// The last QP built, of the last step's horizon (copies; allocates; empty before the first step).
   QpData qp_data() const;
   /// The last QP's primal-dual solution, from the solver that solved it (copies; allocates).
