@@ -60,11 +60,10 @@ void LinearizationCache::begin_step(int k, int n, bool reuse, int& n_reuse_d, in
   primed_ = false;
 }
 
-void LinearizationCache::prime(const math::LinearizedModel& model, const Eigen::MatrixXd& z_ref,
-                               const Eigen::MatrixXd& u_ref, double t0, double dt) {
+void LinearizationCache::prime(const math::LinearizedModel& model, const Reference& ref, double dt) {
+  const Eigen::MatrixXd &z_ref = ref.z, &u_ref = ref.u;
+  const double t0 = ref.t0;
   const int N = static_cast<int>(Ad.size()), T = static_cast<int>(u_ref.cols());
-  z_ref_ = z_ref;
-  u_ref_ = u_ref;
   Ad_ref_.assign(T, Eigen::MatrixXd::Zero(Ad[0].rows(), Ad[0].cols()));
   Bd_ref_.assign(T, Eigen::MatrixXd::Zero(Bd[0].rows(), Bd[0].cols()));
   cd_ref_.assign(T, Eigen::VectorXd::Zero(cd[0].size()));
@@ -103,44 +102,41 @@ void LinearizationCache::prime(const math::LinearizedModel& model, const Eigen::
   primed_ = finite;  // otherwise the first step evaluates (and reports) them itself
 }
 
-void LinearizationCache::discretize_at(const math::LinearizedModel& model, int j, double t, double dt,
-                                       const Eigen::Ref<const Eigen::VectorXd>& x,
+bool LinearizationCache::discretize_at(const math::LinearizedModel& model, const Reference& ref, int j,
+                                       double dt, const Eigen::Ref<const Eigen::VectorXd>& x,
                                        const Eigen::Ref<const Eigen::VectorXd>& u,
                                        Eigen::Ref<Eigen::MatrixXd> A, Eigen::Ref<Eigen::MatrixXd> B,
                                        Eigen::Ref<Eigen::VectorXd> c) const {
-  if (j >= 0 && j < ref_ok_.size() && ref_ok_(j)) {
-    A = Ad_ref_[j];
-    B = Bd_ref_[j];
-    c = cd_ref_[j];
-    model.rediscretize(t, dt, z_ref_.col(j), u_ref_.col(j), x, u, A, B, c);
-  } else {
+  const double t = ref.t0 + static_cast<double>(j) * dt;
+  if (j < 0 || j >= ref_ok_.size() || !ref_ok_(j)) {
     model.discretize(t, dt, x, u, A, B, c);
+    return false;
   }
+  A = Ad_ref_[j];
+  B = Bd_ref_[j];
+  c = cd_ref_[j];
+  return model.rediscretize(t, dt, ref.z.col(j), ref.u.col(j), x, u, A, B, c);
 }
 
-Status LinearizationCache::evaluate(const math::LinearizedModel& model, double t0, int k, double dt, int n,
-                                    int it, const Mask& mA, const Mask& mB, const Mask& mG,
+Status LinearizationCache::evaluate(const math::LinearizedModel& model, const Reference& ref, int k,
+                                    double dt, int n, int it, const Mask& mA, const Mask& mB, const Mask& mG,
                                     int& model_evaluations) {
-  const auto t_node = [&](int i) { return t0 + static_cast<double>(k + i) * dt; };
+  const auto t_node = [&](int i) { return ref.t0 + static_cast<double>(k + i) * dt; };
   bool finite = true;
   for (int i = 0; i < n; ++i) {
     if (!eval_d(i)) continue;
-    const int j = k + i;  // the node's index in the mission (its reference data)
-    bool kept = false;
     if (it > 0 || i < n_reused_d_) {  // data for the same time about z_anchor: the model may keep parts
-      kept = model.rediscretize(t_node(i), dt, z_anchor.col(i), v_lin_at.col(i), z_lin.col(i), v_lin.col(i),
-                                Ad[i], Bd[i], cd[i]);
-    } else if (j < ref_ok_.size() && ref_ok_(j)) {  // a new node: from the reference's data at its time
-      Ad[i] = Ad_ref_[j];
-      Bd[i] = Bd_ref_[j];
-      cd[i] = cd_ref_[j];
-      kept = model.rediscretize(t_node(i), dt, z_ref_.col(j), u_ref_.col(j), z_lin.col(i), v_lin.col(i),
-                                Ad[i], Bd[i], cd[i]);
-      if (kept) z_anchor.col(i) = z_ref_.col(j);
-    } else {
-      model.discretize(t_node(i), dt, z_lin.col(i), v_lin.col(i), Ad[i], Bd[i], cd[i]);
+      if (!model.rediscretize(t_node(i), dt, z_anchor.col(i), v_lin_at.col(i), z_lin.col(i), v_lin.col(i),
+                              Ad[i], Bd[i], cd[i]))
+        z_anchor.col(i) = z_lin.col(i);
+    } else {  // a new node: from the reference's data at its time, where it has some
+      const int j = k + i;
+      const bool kept = discretize_at(model, ref, j, dt, z_lin.col(i), v_lin.col(i), Ad[i], Bd[i], cd[i]);
+      if (kept)
+        z_anchor.col(i) = ref.z.col(j);
+      else
+        z_anchor.col(i) = z_lin.col(i);
     }
-    if (!kept) z_anchor.col(i) = z_lin.col(i);
     finite = finite && Ad[i].allFinite() && Bd[i].allFinite() && cd[i].allFinite();
     ++model_evaluations;
   }

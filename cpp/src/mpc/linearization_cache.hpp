@@ -8,6 +8,7 @@
 #include "sparse_blocks.hpp"
 #include "tubempc/math/linearized_model.hpp"
 #include "tubempc/mpc/results.hpp"
+#include "tubempc/mpc/tube_mpc.hpp"
 
 namespace tubempc::mpc::detail {
 
@@ -31,12 +32,13 @@ struct LinearizationCache {
   // evaluated afresh re-discretises from the reference's data at its time (LinearizedModel::rediscretize keeps
   // what does not depend on the difference, e.g. the gravity's blocks within their position tolerance). Also
   // the data of a first step at k = 0 in the form a converged step at k = -1 would leave them, so that it
-  // evaluates only its last node. z_ref, u_ref: the mission reference (T + 1 and T columns).
-  void prime(const math::LinearizedModel& model, const Eigen::MatrixXd& z_ref, const Eigen::MatrixXd& u_ref,
-             double t0, double dt);
-  // The model's discretisation at the mission's node j (time t) about (x, u): re-discretised from prime()'s
-  // reference data at j where there are some, else `discretize` (TubeMPC::discretize).
-  void discretize_at(const math::LinearizedModel& model, int j, double t, double dt,
+  // evaluates only its last node. ref: the mission reference (T + 1 and T columns), which the later calls
+  // are handed again.
+  void prime(const math::LinearizedModel& model, const Reference& ref, double dt);
+  // The model's discretisation at the mission's node j about (x, u): re-discretised from prime()'s reference
+  // data at j where there are some, else `discretize` (TubeMPC::discretize, a new node in evaluate). Returns
+  // whether a part of the reference's data was kept.
+  bool discretize_at(const math::LinearizedModel& model, const Reference& ref, int j, double dt,
                      const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                      Eigen::Ref<Eigen::MatrixXd> A, Eigen::Ref<Eigen::MatrixXd> B,
                      Eigen::Ref<Eigen::VectorXd> c) const;
@@ -50,7 +52,7 @@ struct LinearizationCache {
   // `rediscretize` where the node holds data about (z_lin_at, v_lin_at) for the same time: after the
   // first SCP iteration, and for re-used nodes); NumericalError on non-finite data, ModelStructure on a
   // nonzero outside the masks.
-  Status evaluate(const math::LinearizedModel& model, double t0, int k, double dt, int n, int it,
+  Status evaluate(const math::LinearizedModel& model, const Reference& ref, int k, double dt, int n, int it,
                   const Mask& mA, const Mask& mB, const Mask& mG, int& model_evaluations);
   // Whether the model data equal the previous QP's (only for it > 0 with an inactive trust region);
   // otherwise keeps them for the next comparison.
@@ -82,7 +84,6 @@ struct LinearizationCache {
   // prime()'s model data about the reference, node j at t0 + j dt (finite ones flagged in ref_ok_)
   std::vector<Eigen::MatrixXd> Ad_ref_, Bd_ref_;
   std::vector<Eigen::VectorXd> cd_ref_;
-  Eigen::MatrixXd z_ref_, u_ref_;
   Eigen::Array<bool, Eigen::Dynamic, 1> ref_ok_;
   std::vector<Eigen::MatrixXd> Ad_prev_, Bd_prev_, Gc_prev_;
   std::vector<Eigen::VectorXd> cd_prev_, hc_prev_;

@@ -174,8 +174,7 @@ void TubeMPC::setup(const Reference& reference, const Eigen::MatrixXd& A_termina
     q.pat.build(q.lay, m.Q, m.R, m.P_term, settings_);
     q.solver = detail::make_qp_backend(q.pat.qp, q.lay, n < m.N ? &m.slot(n + 1).lay : nullptr, settings_);
   }
-  if (settings_.linearization == Linearization::Reuse)
-    m.lin.prime(*model_, reference.z, reference.u, reference.t0, settings_.dt);
+  if (settings_.linearization == Linearization::Reuse) m.lin.prime(*model_, m.ref, settings_.dt);
 }
 
 void TubeMPC::discretize(int k, const Eigen::Ref<const Eigen::VectorXd>& x,
@@ -185,7 +184,7 @@ void TubeMPC::discretize(int k, const Eigen::Ref<const Eigen::VectorXd>& x,
   if (k < 0 || k >= m.T)
     throw std::invalid_argument("TubeMPC::discretize: k = " + std::to_string(k) + " outside [0, " +
                                 std::to_string(m.T) + ") (call setup first)");
-  m.lin.discretize_at(*model_, k, m.ref.t0 + k * settings_.dt, settings_.dt, x, u, A, B, c);
+  m.lin.discretize_at(*model_, m.ref, k, settings_.dt, x, u, A, B, c);
 }
 
 void TubeMPC::reset() {
@@ -535,7 +534,7 @@ const StepResult& TubeMPC::step(int k, const Eigen::Ref<const Eigen::VectorXd>& 
     auto t0 = Clock::now();
     const detail::QpPattern& pat = m.slot(m.N).pat;  // the masks are every horizon's
     const Status lin =
-        m.lin.evaluate(c.model, m.ref.t0, k, s.dt, c.n, it, pat.mA, pat.mB, pat.mG, res.model_evaluations);
+        m.lin.evaluate(c.model, m.ref, k, s.dt, c.n, it, pat.mA, pat.mB, pat.mG, res.model_evaluations);
     res.timings.linearize += seconds_since(t0);
     if (lin != Status::Solved) return fallback(c, lin);
     if (m.lin.same_as_last(it, c.n, last_delta < s.trust_region)) {
