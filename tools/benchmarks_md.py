@@ -246,10 +246,43 @@ def _integrator(d: dict[str, Any]) -> list[tuple[str, str]]:
         o, f = r["one_step_max"], r["final"]
         rows.append(
             (
-                f"truth integrator {name} over {d['intervals']} intervals, against {d['reference']['method']}",
+                f"truth integrator {name} over {d['intervals']} intervals of {d.get('scenario', 'bennu-paper')}, "
+                f"against {d['reference']['method']}",
                 f"one step <= {o['position_m']:.2g} m, {o['velocity_m_s']:.2g} m/s ({r['one_step_over_sigma']:.1e} of "
                 f"the disturbance sigma); after the mission {f['position_m']:.2g} m; "
-                f"{r['evaluations_per_interval']:.0f} evaluations, {r['ms_per_interval']:.3g} ms per interval",
+                f"{r['evaluations_per_interval']:.0f} evaluations"
+                + (
+                    f" ({r['field_evaluations_per_interval']:.2g} of the gravity field, largest expansion error found "
+                    f"{r['largest_expansion_error']:.2g} m/s^2)"
+                    if "field_evaluations_per_interval" in r
+                    else ""
+                )
+                + f", {r['ms_per_interval']:.3g} ms per interval",
+            )
+        )
+    return rows
+
+
+def _runcost(d: dict[str, Any], name: str) -> list[tuple[str, str]]:
+    c = d["campaign_run"]
+    rows = [
+        (
+            f"one campaign run of {d['scenario']} ({', '.join(c['methods'])}; the campaign's run function after a "
+            "warm-up run, set-up shared)",
+            f"{c['core_s_per_run']['mean']:.3g} core-s per run (min {c['core_s_per_run']['min']:.3g}, "
+            f"{c['runs']} runs), {c['wall_s_per_run']['mean']:.3g} s wall",
+        )
+    ]
+    for method, r in d.get("cpp_run", {}).get("methods", {}).items():
+        parts = ", ".join(
+            f"{g.replace('_', ' ')} {r[g] / r['total']:.0%}"
+            for g in ("truth_propagation", "polyhedral_gravity", "controller_steps", "controller_setup", "navigation")
+        )
+        rows.append(
+            (
+                f"instructions of the whole C++ run of {d['scenario']}, {method} (examples/cpp/closed_loop under "
+                "callgrind, set-up included)",
+                f"{r['total']:.3g} ({r['per_step']:.3g} per step); inclusive shares: {parts}",
             )
         )
     return rows
@@ -492,6 +525,7 @@ EXTRACTORS: dict[str, Callable[[dict[str, Any], str], list[tuple[str, str]]]] = 
     "physics": _physics,
     "faults": _faults,
     "abort": lambda d, _: _abort(d),
+    "runcost": _runcost,
 }
 
 

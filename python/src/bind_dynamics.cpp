@@ -385,16 +385,10 @@ void bind_dynamics(py::module_& m) {
       .def(
           "propagate",
           [](const ProximityModel& s, double t0, const Eigen::Ref<const Eigen::VectorXd>& state,
-             const Eigen::Ref<const Eigen::VectorXd>& u, double dt, dynamics::Integrator method, int substeps,
-             double rtol, double atol, int max_steps, double initial_step,
-             const Eigen::Ref<const Eigen::VectorXd>& disturbance, const py::object& callback) {
-            dynamics::PropagatorSettings set;
-            set.method = method;
-            set.substeps = substeps;
-            set.rtol = rtol;
-            set.atol = atol;
-            set.max_steps = max_steps;
-            set.initial_step = initial_step;
+             const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+             const dynamics::PropagatorSettings& settings,
+             const Eigen::Ref<const Eigen::VectorXd>& disturbance, const py::object& callback,
+             gravity::ExpansionHold* gravity_hold) {
             dynamics::Disturbance dist;
             dist.constant = vec<6>(disturbance, "disturbance");
             if (!callback.is_none()) {
@@ -407,25 +401,24 @@ void bind_dynamics(py::module_& m) {
             const TruthState y0 = vec<dynamics::kNtruth>(state, "state");
             const InputVector uu = vec<kNu>(u, "u");
             py::gil_scoped_release release;
-            return dynamics::propagate(s, t0, y0, uu, dt, dist, set);
+            return dynamics::propagate(s, t0, y0, uu, dt, dist, settings, gravity_hold);
           },
-          py::arg("t0"), py::arg("state"), py::arg("u"), py::arg("dt"), py::arg("method"),
-          py::arg("substeps"), py::arg("rtol"), py::arg("atol"), py::arg("max_steps"),
-          py::arg("initial_step"), py::arg("disturbance"), py::arg("callback"))
+          py::arg("t0"), py::arg("state"), py::arg("u"), py::arg("dt"), py::arg("settings"),
+          py::arg("disturbance"), py::arg("callback"), py::arg("gravity_hold").none(true))
       .def(
           "propagate_physical",
           [](const ProximityModel& s, const std::shared_ptr<const dynamics::PhysicalEnvironment>& env,
              double t0, const Eigen::Ref<const Eigen::VectorXd>& state,
              const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
-             const dynamics::PropagatorSettings& settings) {
+             const dynamics::PropagatorSettings& settings, gravity::ExpansionHold* gravity_hold) {
             if (!env) throw std::invalid_argument("propagate_physical: environment must not be None");
             const TruthState y0 = vec<dynamics::kNtruth>(state, "state");
             const InputVector uu = vec<kNu>(u, "u");
             py::gil_scoped_release release;
-            return dynamics::propagate(s, *env, t0, y0, uu, dt, settings);
+            return dynamics::propagate(s, *env, t0, y0, uu, dt, settings, gravity_hold);
           },
           py::arg("environment"), py::arg("t0"), py::arg("state"), py::arg("u"), py::arg("dt"),
-          py::arg("settings"),
+          py::arg("settings"), py::arg("gravity_hold").none(true) = py::none(),
           "Propagates this truth model in a PhysicalEnvironment (its inertia must be the environment's, its "
           "SRP "
           "off) with the delivered input u (environment.deliver) held over dt (s); the GIL is released.");

@@ -9,6 +9,7 @@
 
 #include "bindings.hpp"
 #include "tubempc/gravity/composite_gravity.hpp"
+#include "tubempc/gravity/expansion_hold.hpp"
 #include "tubempc/gravity/gravity_model.hpp"
 #include "tubempc/gravity/polyhedron_gravity.hpp"
 #include "tubempc/gravity/shape.hpp"
@@ -175,6 +176,39 @@ void bind_gravity(py::module_& m) {
                         if (t.size() != 1) throw std::invalid_argument("PointMassGravity: bad pickle state");
                         return std::make_shared<gravity::PointMassGravity>(t[0].cast<double>());
                       }));
+
+  py::class_<gravity::ExpansionHold>(g, "ExpansionHold", R"doc(
+A gravity field's first-order expansion held over a distance (docs/model.md M42): the state of one
+trajectory (a run's truth with PropagatorSettings.gravity_expansion_tolerance, a navigation filter).
+)doc")
+      .def(py::init<double, double>(), py::arg("min_distance") = 0.0, py::arg("tolerance") = 0.0,
+           "min_distance: d_min (m), >= 0; tolerance: the expansion's error tolerance (m/s^2), >= 0.")
+      .def(
+          "hold",
+          [](gravity::ExpansionHold& self, const gravity::GravityModel& field, const Eigen::Vector3d& r_A) {
+            return self.hold(field, r_A);
+          },
+          py::arg("field"), py::arg("r_A"),
+          "Makes r_A (m, frame A) the expansion's point unless it is within the hold distance of the current "
+          "one; False when the field cannot be evaluated there (the expansion unchanged).")
+      .def(
+          "acceleration",
+          [](const gravity::ExpansionHold& self, const Eigen::Vector3d& r_A) {
+            if (!self.valid())
+              throw std::invalid_argument("ExpansionHold.acceleration: no expansion held yet");
+            return Eigen::Vector3d(self.acceleration(r_A));
+          },
+          py::arg("r_A"), "a(r0) + G(r0) (r_A - r0) (m/s^2, frame A).")
+      .def_property_readonly("valid", &gravity::ExpansionHold::valid)
+      .def_property_readonly("point_A", &gravity::ExpansionHold::point_A, "The expansion's point r0 (m, A).")
+      .def_property_readonly("gradient_A", &gravity::ExpansionHold::gradient_A, "G(r0) (1/s^2, A).")
+      .def_property_readonly("distance", &gravity::ExpansionHold::distance, "The current hold distance (m).")
+      .def_property_readonly("evaluations", &gravity::ExpansionHold::evaluations, "The field's evaluations.")
+      .def_property_readonly("largest_error", &gravity::ExpansionHold::largest_error,
+                             "The largest error found at a re-evaluation (m/s^2).")
+      .def_property_readonly("min_distance", &gravity::ExpansionHold::min_distance, "d_min (m).")
+      .def_property_readonly("tolerance", &gravity::ExpansionHold::tolerance, "tol (m/s^2).")
+      .def("reset", &gravity::ExpansionHold::reset, "Forgets the expansion and the counts.");
 
   py::enum_<ShapeRepair>(g, "ShapeRepair", "What Shape may change in the mesh it is given.")
       .value("NONE", ShapeRepair::None, "reject orientation errors")

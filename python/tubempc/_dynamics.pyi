@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from ._gravity import ExpansionHold
 from ._mpc import _OptionNames
 
 _Vec = npt.ArrayLike
@@ -57,6 +58,7 @@ class PropagatorSettings:
     atol: float
     max_steps: int
     initial_step: float
+    gravity_expansion_tolerance: float
 
 class PropagationResult:
     @property
@@ -164,14 +166,10 @@ class ProximityModel:
         state: _Vec,
         u: _Vec,
         dt: float,
-        method: Integrator,
-        substeps: int,
-        rtol: float,
-        atol: float,
-        max_steps: int,
-        initial_step: float,
+        settings: PropagatorSettings,
         disturbance: _Vec,
         callback: Callable[[float, _Arr], _Vec] | None,
+        gravity_hold: ExpansionHold | None,
     ) -> PropagationResult: ...
     def propagate_physical(
         self,
@@ -181,6 +179,7 @@ class ProximityModel:
         u: _Vec,
         dt: float,
         settings: PropagatorSettings,
+        gravity_hold: ExpansionHold | None = None,
     ) -> PropagationResult: ...
 
 def truth_to_state(state: _Vec, phi_ref: _Vec) -> _Arr: ...

@@ -176,7 +176,7 @@ Disturbance PhysicalEnvironment::disturbance() const {
 
 PropagationResult propagate(const ProximityModel& truth, const PhysicalEnvironment& environment, double t0,
                             const TruthState& state, const InputVector& u_delivered, double dt,
-                            const PropagatorSettings& settings) {
+                            const PropagatorSettings& settings, gravity::ExpansionHold* gravity_hold) {
   const Eigen::Matrix3d& J = truth.params().inertia_B;
   const double mismatch = (J - environment.inertia_B()).cwiseAbs().maxCoeff();
   if (!(mismatch <= 1e-12 * environment.inertia_B().cwiseAbs().maxCoeff())) {
@@ -191,7 +191,7 @@ PropagationResult propagate(const ProximityModel& truth, const PhysicalEnvironme
         "physical "
         "environment, whose flat plates give the SRP");
   }
-  return propagate(truth, t0, state, u_delivered, dt, environment.disturbance(), settings);
+  return propagate(truth, t0, state, u_delivered, dt, environment.disturbance(), settings, gravity_hold);
 }
 
 }  // namespace tubempc::dynamics

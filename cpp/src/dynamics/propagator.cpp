@@ -16,14 +16,18 @@ struct Rhs {
   const InputVector& u;
   const Disturbance& d;
   int* evaluations;
+  gravity::ExpansionHold* gravity_hold;  // nullptr: the field at every evaluation
   TruthState operator()(double t, const TruthState& s) const {
     ++*evaluations;
     // A stage built from a non-finite derivative propagates NaN to the step's status check instead
     // of reaching the gravity model or the quaternion normalisation (which would throw).
-    if (!s.allFinite()) return TruthState::Constant(std::numeric_limits<double>::quiet_NaN());
+    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+    if (!s.allFinite()) return TruthState::Constant(kNaN);
     const Disturbance6 w = d(t, s);
-    if (!w.allFinite()) return TruthState::Constant(std::numeric_limits<double>::quiet_NaN());
-    return model.truth_derivative(t, s, u, w);
+    if (!w.allFinite()) return TruthState::Constant(kNaN);
+    if (gravity_hold != nullptr && !gravity_hold->hold(*model.gravity(), model.C_AL(t) * s.head<3>()))
+      return TruthState::Constant(kNaN);
+    return model.truth_derivative(t, s, u, w, gravity_hold);
   }
 };
 
@@ -173,12 +177,24 @@ void PropagatorSettings::validate() const {
   if (!(std::isfinite(initial_step) && initial_step >= 0.0)) {
     throw std::invalid_argument("PropagatorSettings.initial_step: must be finite and >= 0 (s)");
   }
+  if (!(std::isfinite(gravity_expansion_tolerance) && gravity_expansion_tolerance >= 0.0)) {
+    throw std::invalid_argument(
+        "PropagatorSettings.gravity_expansion_tolerance: must be finite and >= 0 (m/s^2)");
+  }
 }
 
 PropagationResult propagate(const ProximityModel& model, double t0, const TruthState& state,
                             const InputVector& u, double dt, const Disturbance& disturbance,
-                            const PropagatorSettings& settings) {
+                            const PropagatorSettings& settings, gravity::ExpansionHold* gravity_hold) {
   settings.validate();
+  const double tol = settings.gravity_expansion_tolerance;
+  if (tol > 0.0 && gravity_hold != nullptr &&
+      (gravity_hold->tolerance() != tol || gravity_hold->min_distance() != 0.0)) {
+    throw std::invalid_argument(
+        "propagate: the gravity::ExpansionHold's tolerance must be "
+        "PropagatorSettings.gravity_expansion_tolerance "
+        "and its min_distance 0");
+  }
   if (!(std::isfinite(dt) && dt >= 0.0))
     throw std::invalid_argument("propagate: dt must be finite and >= 0 (s)");
   PropagationResult res;
@@ -196,7 +212,9 @@ PropagationResult propagate(const ProximityModel& model, double t0, const TruthS
   TruthState y = state;
   normalize_quaternion(y);
   int evaluations = 0;
-  const Rhs f{model, u, disturbance, &evaluations};
+  gravity::ExpansionHold call_hold(0.0, tol);  // without the run's hold: one for this call alone
+  gravity::ExpansionHold* hold = tol > 0.0 ? (gravity_hold != nullptr ? gravity_hold : &call_hold) : nullptr;
+  const Rhs f{model, u, disturbance, &evaluations, hold};
   if (dt == 0.0) {
     res.state = y;
     return res;

@@ -122,14 +122,15 @@ void ProximityModel::gravity_L(double t, const Eigen::Vector3d& r_L, Eigen::Vect
 
 void ProximityModel::translational(double t, const Eigen::Vector3d& r, const Eigen::Vector3d& v,
                                    const Eigen::Vector3d& u_p, Eigen::Vector3d& a_L, Eigen::Matrix3d* da_dr,
-                                   Eigen::Matrix3d* da_dv) const {
+                                   Eigen::Matrix3d* da_dv, const gravity::ExpansionHold* held) const {
   Eigen::Vector3d a_g;
   Eigen::Matrix3d G_L;
   if (da_dr) {
     gravity_L(t, r, a_g, G_L);
-  } else {  // no Jacobian wanted (the truth derivative): the field's acceleration alone
+  } else {  // no Jacobian wanted (the truth derivative): the acceleration alone, or its held expansion
     const Eigen::Matrix3d C = C_AL(t);
-    a_g.noalias() = C.transpose() * gravity_->acceleration(C * r);
+    a_g.noalias() =
+        C.transpose() * (held != nullptr ? held->acceleration(C * r) : gravity_->acceleration(C * r));
   }
   // -2 n z x v = 2 n [v_y, -v_x, 0]
   a_L = Eigen::Vector3d(2.0 * n_ * v.y(), -2.0 * n_ * v.x(), 0.0) + hill_tidal(n_, r) + a_g + u_p;
@@ -325,10 +326,11 @@ DiscretizationStatus ProximityModel::discretize_rotation(double dt, const Eigen:
 }
 
 TruthState ProximityModel::truth_derivative(double t, const TruthState& s, const InputVector& u,
-                                            const Eigen::Matrix<double, 6, 1>& disturbance) const {
+                                            const Eigen::Matrix<double, 6, 1>& disturbance,
+                                            const gravity::ExpansionHold* gravity) const {
   TruthState ds;
   Eigen::Vector3d a;
-  translational(t, s.segment<3>(0), s.segment<3>(3), u.head<3>(), a, nullptr, nullptr);
+  translational(t, s.segment<3>(0), s.segment<3>(3), u.head<3>(), a, nullptr, nullptr, gravity);
   const math::Quaternion q = s.segment<4>(6);
   const Eigen::Vector3d w = s.segment<3>(10);
   // R(q) of a non-unit q (mid-stage) is normalised inside rotation_matrix.

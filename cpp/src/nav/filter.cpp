@@ -11,7 +11,6 @@ namespace tubempc::nav {
 
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
 using Mat15 = NavCovariance;
 using Mat6 = Eigen::Matrix<double, 6, 6>;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
@@ -140,6 +139,8 @@ NavigationFilter::NavigationFilter(std::shared_ptr<const dynamics::ProximityMode
   if (!model_) throw std::invalid_argument("filter: model must not be null");
   if (!caster_) throw std::invalid_argument("filter: caster must not be null");
   settings_.validate();
+  gravity_ = gravity::ExpansionHold(settings_.gravity_relinearization_distance,
+                                    settings_.gravity_expansion_tolerance);
   boresight_B_ = settings_.altimeter.boresight_B.normalized();
   const double n = model_->mean_motion();
   D_tidal_ = (n * n * Eigen::Vector3d(3.0, 0.0, -1.0)).asDiagonal();
@@ -224,23 +225,13 @@ FilterStatus NavigationFilter::propagate(double t_to, const ImuSample& imu) {
     const Eigen::Matrix3d C_LB = math::rotation_matrix(x_.q_BL);
     const Eigen::Matrix3d C_AL = model_->C_AL(t);
     const Eigen::Vector3d r_A = C_AL * x_.r_L;
-    if (!gravity_valid_ || !((r_A - gravity_r0_A_).norm() < gravity_hold_)) {
-      gravity::GravitySample g;
-      bool ok = r_A.allFinite();
-      try {
-        if (ok) model_->gravity()->evaluate(r_A, g);
-      } catch (const std::exception&) {  // r = 0: nothing to propagate
-        ok = false;
-      }
-      if (!ok || !g.acceleration.allFinite() || !g.gradient.allFinite()) {
-        undo();
-        return FilterStatus::NumericalFailure;
-      }
-      hold_gravity(r_A, g);
+    if (!gravity_.hold(*model_->gravity(), r_A)) {  // r = 0: nothing to propagate
+      undo();
+      return FilterStatus::NumericalFailure;
     }
     // M42: the first-order expansion about r0, rotated into L at the sub-step's start.
-    const Eigen::Matrix3d G = C_AL.transpose() * gravity_G0_A_ * C_AL;
-    const Eigen::Vector3d a_grav = C_AL.transpose() * (gravity_a0_A_ + gravity_G0_A_ * (r_A - gravity_r0_A_));
+    const Eigen::Matrix3d G = C_AL.transpose() * gravity_.gradient_A() * C_AL;
+    const Eigen::Vector3d a_grav = C_AL.transpose() * gravity_.acceleration(r_A);
     // Translation: M1 with that affine gravity over the sub-step (exact for it to O(h^5)).
     Mat6 A = Mat6::Zero();
     A.block<3, 3>(0, 3).setIdentity();
@@ -273,30 +264,6 @@ FilterStatus NavigationFilter::propagate(double t_to, const ImuSample& imu) {
     return FilterStatus::NumericalFailure;
   }
   return status;
-}
-
-void NavigationFilter::hold_gravity(const Eigen::Vector3d& r_A, const gravity::GravitySample& g) {
-  // M42: the hold distance from the tolerance and the gradient's change since the last evaluation.
-  double hold = settings_.gravity_relinearization_distance;
-  if (gravity_valid_) {
-    const Eigen::Vector3d step = r_A - gravity_r0_A_;
-    const double d = step.norm();
-    const Eigen::Vector3d error = g.acceleration - gravity_a0_A_ - gravity_G0_A_ * step;
-    // An update's jump past the hold is not a distance the expansion was used over.
-    if (d < 2.0 * gravity_hold_) gravity_expansion_error_ = std::max(gravity_expansion_error_, error.norm());
-    const double c = (g.gradient - gravity_G0_A_).norm() / d;
-    const double tol = settings_.gravity_expansion_tolerance;
-    if (tol > 0.0 && d > 0.0 && std::isfinite(c))
-      // clang-tidy 14 reads the conditional's double constant kInf as a narrowing to double
-      // NOLINTNEXTLINE(bugprone-narrowing-conversions,cppcoreguidelines-narrowing-conversions)
-      hold = std::max(hold, std::min(c > 0.0 ? std::sqrt(2.0 * tol / c) : kInf, r_A.norm() / 8.0));
-  }
-  gravity_r0_A_ = r_A;
-  gravity_a0_A_ = g.acceleration;
-  gravity_G0_A_ = g.gradient;
-  gravity_hold_ = hold;
-  gravity_valid_ = true;
-  ++gravity_evaluations_;
 }
 
 void NavigationFilter::propagate_covariance() const {

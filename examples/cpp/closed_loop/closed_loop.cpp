@@ -61,6 +61,7 @@
 #include "tubempc/dynamics/linearized_proximity.hpp"
 #include "tubempc/dynamics/propagator.hpp"
 #include "tubempc/dynamics/proximity_model.hpp"
+#include "tubempc/gravity/expansion_hold.hpp"
 #include "tubempc/gravity/polyhedron_gravity.hpp"
 #include "tubempc/gravity/shape_io.hpp"
 #include "tubempc/io/scenario.hpp"
@@ -312,6 +313,8 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
     v->resize(static_cast<std::size_t>(T));
   dynamics::StateVector x = scn.x0;
   dynamics::TruthState state = dynamics::state_to_truth(x);
+  // the run's held expansion of the truth's gravity (propagator.gravity_expansion_tolerance > 0), as the Python plant's
+  gravity::ExpansionHold gravity_hold(0.0, scn.propagator.gravity_expansion_tolerance);
 
   // Navigation: the system of the run, the period's truth samples and the estimation-error set.
   const io::NavigationScenario& ns = scn.navigation;
@@ -455,8 +458,10 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
       AllocationWindow window;
       // with navigation: n_sub sub-steps of h, each one's end a sample of the sensors (tubempc.scenario.navigation.propagate_sampled)
       for (int j = 0; j < n_sub; ++j) {
-        p = navigation ? dynamics::propagate(truth, t_k + j * h, state, u_applied, h, {}, scn.propagator)
-                       : dynamics::propagate(truth, t_k, state, u_applied, dt, {}, scn.propagator);
+        p = navigation
+                ? dynamics::propagate(truth, t_k + j * h, state, u_applied, h, {}, scn.propagator,
+                                      &gravity_hold)
+                : dynamics::propagate(truth, t_k, state, u_applied, dt, {}, scn.propagator, &gravity_hold);
         if (p.status != dynamics::PropagationStatus::Success) break;
         state = p.state;
         if (navigation) {

@@ -92,6 +92,8 @@ def python_loop(scenario_path: str | Path) -> dict[str, Any]:
     T, dt, t0 = s.mission_steps, s.settings.dt, s.reference.t0
     p, zbar = s.propagator, np.asarray(s.reference.z)
     no_disturbance = np.zeros(6)
+    tol = p.gravity_expansion_tolerance  # the run's held gravity expansion, as the example's
+    gravity_hold = _core.gravity.ExpansionHold(0.0, tol) if tol > 0.0 else None
     x = np.asarray(s.x0, dtype=np.float64)
     state = _core.dynamics.state_to_truth(x)
     nav = _navigation(s, controller_model, shapes, files[0] == files[1])
@@ -122,18 +124,7 @@ def python_loop(scenario_path: str | Path) -> dict[str, Any]:
             u = np.asarray(actuation.step(t_k, u, C_BL).u_delivered)
         for j in range(n_sub):
             prop = truth.propagate(
-                t_k + j * h if nav is not None else t_k,
-                state,
-                u,
-                h,
-                p.method,
-                p.substeps,
-                p.rtol,
-                p.atol,
-                p.max_steps,
-                p.initial_step,
-                no_disturbance,
-                None,
+                t_k + j * h if nav is not None else t_k, state, u, h, p, no_disturbance, None, gravity_hold
             )
             if prop.status != _core.dynamics.PropagationStatus.Success:
                 raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")

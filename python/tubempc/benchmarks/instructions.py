@@ -175,7 +175,7 @@ def parse_callgrind(path: Path, groups: Iterable[tuple[str, ...]]) -> list[Part]
 # ---- the flights ---------------------------------------------------------------------------------
 
 
-def _disturbance(cfg: Any, seed: int, steps: int) -> np.ndarray:
+def run_disturbance(cfg: Any, seed: int, steps: int) -> np.ndarray:
     """The run's additive disturbance w_k (steps x 12), as the Python closed loop draws it (tubempc.sim)."""
     from ..models.disturbances import AdditiveDisturbance
 
@@ -184,7 +184,7 @@ def _disturbance(cfg: Any, seed: int, steps: int) -> np.ndarray:
     return np.array([np.concatenate(draw.sample(k)) for k in range(steps)])
 
 
-def _fly(command: list[str], json_path: Path) -> dict[str, Any]:
+def fly_example(command: list[str], json_path: Path) -> dict[str, Any]:
     proc = subprocess.run(command, capture_output=True, text=True, check=False)
     if proc.returncode != 0:
         raise RuntimeError(f"{' '.join(command)} exited with {proc.returncode}:\n{proc.stdout}{proc.stderr}")
@@ -314,13 +314,13 @@ def run(args: argparse.Namespace) -> int:
     scenario = export_scenario(cfg, out / "scenario", cache_dir=args.cache_dir or out / "cache", seed=seed)
     steps = int(_core.io.read_scenario(str(scenario)).mission_steps)
     w_path = out / "disturbance.txt"
-    np.savetxt(w_path, _disturbance(cfg, seed, steps), fmt="%.17g")
+    np.savetxt(w_path, run_disturbance(cfg, seed, steps), fmt="%.17g")
     name = args.scenario or (Path(args.config).stem if args.config else "bennu-paper")
     print(f"machine: {info['cpu']} ({info['cores']} cores); {version}; example: {example}")
     print(f"scenario {name}: {scenario} ({steps} steps), seed {seed}")
 
     flight = [str(example), str(scenario), "--method", args.method, "--disturbance", str(w_path)]
-    native = _fly([*flight, "--json", str(out / "native.json")], out / "native.json")
+    native = fly_example([*flight, "--json", str(out / "native.json")], out / "native.json")
     # The instrumented flights run side by side (one process each; callgrind is single-threaded).
     started = time.perf_counter()
     procs = []

@@ -4,22 +4,27 @@ Flies the mission once with TBMPC to obtain its applied input sequence, then pro
 open loop through the same 300 zero-order-hold intervals, without disturbance, with each candidate
 integrator of the core (classical RK4 with n substeps, adaptive Dormand-Prince 5(4)) and with a tight
 reference: scipy's DOP853 (rtol 1e-13, atol 1e-15) on the core's ``truth_derivative``, interval by
-interval. Reported per candidate: the largest one-interval error (each interval started from the
-reference's state: the error a closed-loop step sees), also as a fraction of the simulated
+interval. The configured integrator is also tried with the truth's gravity held as its first-order expansion
+(``--gravity-tolerance``, PropagatorSettings.gravity_expansion_tolerance; docs/model.md M42), the run's hold
+carried from interval to interval, against the same reference on the exact field. Reported per candidate:
+the largest one-interval error (each interval started from the reference's state: the error a closed-loop
+step sees), also as a fraction of the simulated
 disturbance's standard deviation per step (the largest over position, velocity, attitude and rate),
-the final-state difference after the whole mission, the derivative evaluations and the wall time per
-interval.
+the final-state difference after the whole mission, the derivative evaluations (and, held, the field's
+evaluations and the largest error the hold found) and the wall time per interval.
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from .. import _core
 from ..results.machine import machine_info
 from . import write_json
 
@@ -34,6 +39,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--scenario", help="a packaged scenario (default: bennu-paper)")
     parser.add_argument("--substeps", default="1,2,4,8", help="RK4 substeps per control interval to try")
     parser.add_argument("--dopri-rtol", default="1e-8,1e-10", help="DOPRI5 relative tolerances to try")
+    parser.add_argument(
+        "--gravity-tolerance",
+        default="1e-9,1e-10,1e-11",
+        help="tolerances (m/s^2) of the held gravity expansion to try with the configured integrator",
+    )
     parser.add_argument("--repeats", type=int, default=3, help="timing repeats (the fastest is kept)")
     parser.add_argument("--intervals", type=int, help="only the first this many control intervals (default: all)")
     parser.add_argument("--json", metavar="PATH", help="write the figures as JSON")
@@ -84,7 +94,7 @@ def _reference(truth: Any, states: Array, inputs: Array, dt: float) -> tuple[Arr
 
 def run(args: argparse.Namespace) -> int:
     from ..config import load_config
-    from ..scenario.build import build_scenario
+    from ..scenario.build import build_scenario, propagator_settings
     from ..sim.closed_loop import simulate
 
     cfg = load_config(args.config, scenario=args.scenario)
@@ -106,6 +116,12 @@ def run(args: argparse.Namespace) -> int:
     candidates: list[tuple[str, dict[str, Any]]] = [
         (f"rk4, {n} substeps", {"method": "rk4", "substeps": int(n)}) for n in args.substeps.split(",")
     ] + [(f"dopri5, rtol {r}", {"method": "dopri5", "rtol": float(r)}) for r in args.dopri_rtol.split(",")]
+    configured = propagator_settings(cfg)
+    for tol in args.gravity_tolerance.split(",") if args.gravity_tolerance else []:
+        held = propagator_settings(cfg)
+        held.gravity_expansion_tolerance = float(tol)
+        candidates.append((f"configured, gravity held to {tol} m/s^2", {"settings": held}))
+    candidates.append(("configured", {"settings": configured}))
 
     # The reference trajectory: the open-loop truth by the tightest integrator.
     states = np.empty((len(inputs) + 1, 13))
@@ -119,6 +135,7 @@ def run(args: argparse.Namespace) -> int:
 
     out: dict[str, Any] = {
         "machine": machine_info(),
+        "scenario": args.scenario or (Path(args.config).stem if args.config else "bennu-paper"),
         "config": cfg.to_dict(),
         "intervals": len(inputs),
         "dt_s": dt,
@@ -130,14 +147,17 @@ def run(args: argparse.Namespace) -> int:
     }
     print(f"truth integrators over {len(inputs)} intervals of {dt} s (reference: DOP853 rtol 1e-13):")
     for name, kw in candidates:
+        tol = kw["settings"].gravity_expansion_tolerance if "settings" in kw else 0.0
         best = float("inf")
         for _ in range(max(1, args.repeats)):
+            hold = _core.gravity.ExpansionHold(0.0, tol) if tol > 0.0 else None  # the run's, carried along
             t0 = time.perf_counter()
-            one = [truth.propagate(k * dt, states[k], inputs[k], dt, **kw) for k in range(len(inputs))]
+            one = [truth.propagate(k * dt, states[k], inputs[k], dt, gravity_hold=hold, **kw) for k in range(len(inputs))]
             best = min(best, time.perf_counter() - t0)
         s = states[0].copy()
+        open_hold = _core.gravity.ExpansionHold(0.0, tol) if tol > 0.0 else None
         for k in range(len(inputs)):
-            s = np.asarray(truth.propagate(k * dt, s, inputs[k], dt, **kw).state)
+            s = np.asarray(truth.propagate(k * dt, s, inputs[k], dt, gravity_hold=open_hold, **kw).state)
         row: dict[str, Any] = {
             "one_step_max": _worst([_errors(np.asarray(r.state), one_step_ref[k]) for k, r in enumerate(one)]),
             "final": _errors(s, final_ref),
@@ -145,6 +165,10 @@ def run(args: argparse.Namespace) -> int:
             "evaluations_per_interval": float(np.mean([r.evaluations for r in one])),
             "ms_per_interval": 1e3 * best / len(inputs),
         }
+        if hold is not None:  # the field's evaluations with their gradient, and the largest error found
+            row["gravity_tolerance"] = tol
+            row["field_evaluations_per_interval"] = hold.evaluations / len(inputs)
+            row["largest_expansion_error"] = hold.largest_error
         o, f = row["one_step_max"], row["final"]
         row["one_step_over_sigma"] = max(o[key] / sigma[key] for key in sigma)
         out["candidates"][name] = row
@@ -152,8 +176,9 @@ def run(args: argparse.Namespace) -> int:
             f"  {name:22s} one step: {o['position_m']:.2e} m, {o['velocity_m_s']:.2e} m/s, "
             f"{o['attitude_rad']:.2e} rad, {o['rate_rad_s']:.2e} rad/s (<= {row['one_step_over_sigma']:.1e} sigma); "
             f"final: {f['position_m']:.2e} m, {f['velocity_m_s']:.2e} m/s, "
-            f"{f['attitude_rad']:.2e} rad; {row['evaluations_per_interval']:.0f} evaluations, "
-            f"{row['ms_per_interval']:.3g} ms per interval"
+            f"{f['attitude_rad']:.2e} rad; {row['evaluations_per_interval']:.0f} evaluations"
+            + (f" ({row['field_evaluations_per_interval']:.2f} of the field)" if hold is not None else "")
+            + f", {row['ms_per_interval']:.3g} ms per interval"
         )
     write_json(args.json, out)
     return 0

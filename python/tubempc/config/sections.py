@@ -413,6 +413,14 @@ class SimulationSection:
     )
     substeps: int = field(metadata=integer("RK4 steps per control step", check=AT_LEAST_ONE))
     rtol: float = field(metadata=number('relative tolerance of "dopri5"', check=POSITIVE))
+    gravity_expansion_tolerance: float = field(
+        metadata=quantity(
+            "acceleration",
+            "the truth's gravity is its first-order expansion, held while its predicted error stays below this (M42); "
+            "0: the field at every evaluation",
+            check=NONNEGATIVE,
+        )
+    )
     density_scale: float = field(metadata=number("truth density / asteroid.density", check=POSITIVE))
     srp_scale: float = field(metadata=number("truth SRP / environment.beta_srp", check=NONNEGATIVE))
     truth_shape_subdivisions: int = field(

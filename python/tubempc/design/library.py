@@ -18,7 +18,9 @@ The designs depend on the configuration and the reference only, so a scenario co
 
 from __future__ import annotations
 
+import contextlib
 import math
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -37,6 +39,7 @@ __all__ = [
     "initial_tube",
     "library_scales",
     "memory_weight",
+    "mission_controller",
     "new_controller",
     "shared_designs",
     "subsystem_design",
@@ -276,6 +279,37 @@ def new_controller(
     )
     ctrl.setup(scn.reference.core(), controller_designs(scn, method))
     return ctrl
+
+
+@contextlib.contextmanager
+def mission_controller(
+    scn: Scenario,
+    method: str,
+    mpc_settings: Any,
+    *,
+    lambda_p: float | None = None,
+    lambda_r: float | None = None,
+    background_designs: bool = False,
+) -> Iterator[Any]:
+    """:func:`new_controller`'s controller for one run, set up once per scenario and process: a controller an
+    earlier run of the scenario left with these arguments (``mpc_settings`` the scenario's, the designs its
+    :func:`controller_designs`), reset to k = 0 (``Controller.reset``: the MPC without a plan, the identifiers at
+    their prior, the initial designs), else a new one; kept in the scenario for the next run when the run ends. A
+    run on a reset controller flies the bits of one on a new controller
+    (tests/py/sim/test_closed_loop.py); runs at once (threads) each get their own."""
+    key = (method, lambda_p, lambda_r, background_designs, id(mpc_settings))
+    kept = scn.controllers.get(key)
+    if kept:
+        ctrl = kept.pop()
+        ctrl.reset()
+    else:
+        ctrl = new_controller(
+            scn, method, mpc_settings, lambda_p=lambda_p, lambda_r=lambda_r, background_designs=background_designs
+        )
+    try:
+        yield ctrl
+    finally:
+        scn.controllers.setdefault(key, []).append(ctrl)
 
 
 def tube_designers(cfg: Config, bounds: tuple[float, float] | None = None) -> tuple[TubeDesigner, TubeDesigner]:

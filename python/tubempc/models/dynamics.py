@@ -255,57 +255,51 @@ class ProximityModel:
         atol: float = 1e-12,
         max_steps: int = 100000,
         initial_step: float = 0.0,
+        gravity_expansion_tolerance: float = 0.0,
         disturbance: Disturbance = None,
         settings: _dyn.PropagatorSettings | None = None,
         environment: _dyn.PhysicalEnvironment | None = None,
+        gravity_hold: _core.gravity.ExpansionHold | None = None,
     ) -> PropagationResult:
         """Propagates the 13-state over dt (s) with u held constant (zero-order hold).
 
         method ``"rk4"`` (``substeps`` equal steps) or ``"dopri"`` (adaptive Dormand-Prince 5(4) with
-        ``rtol``/``atol``, at most ``max_steps`` steps); ``settings`` (a ``_core.dynamics.PropagatorSettings``,
+        ``rtol``/``atol``, at most ``max_steps`` steps; ``gravity_expansion_tolerance`` > 0: the gravity held as its
+        first-order expansion, docs/model.md M42); ``settings`` (a ``_core.dynamics.PropagatorSettings``,
         e.g. :func:`tubempc.scenario.propagator_settings`) replaces all of them. ``disturbance``: None, a
         constant 6-vector [acceleration in L (m/s^2); angular acceleration in B (rad/s^2)] or a callable
         ``(t, state) -> 6-vector``. ``environment``: a ``_core.dynamics.PhysicalEnvironment`` whose forces and
         torques the C++ propagation adds at every evaluation (then ``u`` is the delivered input,
         ``environment.deliver``, and ``disturbance`` must be None; this model must be the environment's truth:
-        its inertia, its SRP off). Numerical failures are reported in ``result.status``.
+        its inertia, its SRP off). ``gravity_hold``: with a positive ``gravity_expansion_tolerance``, the run's
+        ``_core.gravity.ExpansionHold``, carried from call to call (None: a hold of this call alone). Numerical
+        failures are reported in ``result.status``.
         """
-        if settings is not None:
-            integrator, substeps, rtol, atol = settings.method, settings.substeps, settings.rtol, settings.atol
-            max_steps, initial_step = settings.max_steps, settings.initial_step
-        else:
+        if settings is None:
             name = "dopri5" if method.lower() == "dopri" else method.lower()  # "dopri": dopri5's older name
             if name not in _dyn.Integrator.names():
                 known = ", ".join(repr(n) for n in [*_dyn.Integrator.names(), "dopri"])
                 raise ValueError(f"method must be one of {known}, got {method!r}")
-            integrator = _dyn.Integrator.from_string(name)
+            settings = _dyn.PropagatorSettings()
+            settings.method, settings.substeps, settings.rtol, settings.atol = (
+                _dyn.Integrator.from_string(name),
+                substeps,
+                rtol,
+                atol,
+            )
+            settings.max_steps, settings.initial_step = max_steps, initial_step
+            settings.gravity_expansion_tolerance = gravity_expansion_tolerance
         if environment is not None:
             if disturbance is not None:
                 raise ValueError("propagate: give a disturbance or a physical environment, not both")
-            prop = _dyn.PropagatorSettings()
-            prop.method, prop.substeps, prop.rtol, prop.atol = integrator, substeps, rtol, atol
-            prop.max_steps, prop.initial_step = max_steps, initial_step
-            return self._impl.propagate_physical(environment, t0, _vec(state), _vec(u), dt, prop)
+            return self._impl.propagate_physical(environment, t0, _vec(state), _vec(u), dt, settings, gravity_hold)
         constant = np.zeros(6)
         callback = None
         if callable(disturbance):
             callback = disturbance
         elif disturbance is not None:
             constant = _vec(disturbance)
-        return self._impl.propagate(
-            t0,
-            _vec(state),
-            _vec(u),
-            dt,
-            integrator,
-            substeps,
-            rtol,
-            atol,
-            max_steps,
-            initial_step,
-            constant,
-            callback,
-        )
+        return self._impl.propagate(t0, _vec(state), _vec(u), dt, settings, constant, callback, gravity_hold)
 
     @staticmethod
     def truth_to_state(state: npt.ArrayLike, phi_ref: npt.ArrayLike | None = None) -> _Arr:

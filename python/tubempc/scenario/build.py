@@ -93,6 +93,8 @@ class Scenario:
     tube_designs: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
     #: What the closed loop takes from the configuration, built once (tubempc.sim.setup.loop_setup).
     loop_setup: Any = field(default=None, init=False, repr=False, compare=False)
+    #: Controllers set up for the mission, kept between runs (tubempc.design.library.mission_controller).
+    controllers: dict[Any, list[Any]] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
     def n_steps(self) -> int:
@@ -509,6 +511,7 @@ def propagator_settings(cfg: Config) -> Any:
         prop.substeps = sim.substeps
     else:
         prop.rtol = sim.rtol
+    prop.gravity_expansion_tolerance = sim.gravity_expansion_tolerance
     return prop
 
 

@@ -35,7 +35,7 @@ import numpy.typing as npt
 from .. import _core
 from ..config.faults import ACTUATOR_FAULT_KINDS
 from ..design.abort import AbortLibrary, abort_library, command_step, new_abort
-from ..design.library import new_controller
+from ..design.library import mission_controller
 from ..design.policy import BackgroundDesigns
 from ..results.records import RunRecord
 from ..scenario.actuators import describe_actuation
@@ -190,14 +190,31 @@ def simulate(
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    T, dt = scn.n_steps, scn.config.mpc.dt
     loop = loop_setup(scn)  # everything the run takes from the configuration, handed over once
-    t = loop.tube
-    worker = design_worker or t.design_worker
+    worker = design_worker or loop.tube.design_worker
     background = method == "ffa" and worker != "none"
-    ctrl = new_controller(
+    with mission_controller(
         scn, method, loop.mpc_settings, lambda_p=lambda_p, lambda_r=lambda_r, background_designs=background
-    )
+    ) as ctrl:
+        return _fly(scn, method, ctrl, seed, progress, max_steps, tube_threads, worker, background, dispersed)
+
+
+def _fly(
+    scn: Scenario,
+    method: str,
+    ctrl: Any,
+    seed: int,
+    progress: bool,
+    max_steps: int | None,
+    tube_threads: int,
+    worker: str,
+    background: bool,
+    dispersed: bool,
+) -> RunRecord:
+    """:func:`simulate`'s run on the controller ``ctrl`` (set up for the mission, at k = 0)."""
+    T, dt = scn.n_steps, scn.config.mpc.dt
+    loop = loop_setup(scn)
+    t = loop.tube
     fault = run_fault(scn.config, seed)  # [faults]: the given one, or one drawn from the seed
     abort, library = _new_abort(scn)
     # the step of a commanded abort (-1: none) and the last step's controller-side detections

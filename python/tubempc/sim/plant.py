@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from .. import _core
 from ..models.disturbances import ActuatorMismatch, AdditiveDisturbance
 from ..models.dynamics import ProximityModel
 from ..scenario.actuators import actuate
@@ -47,6 +48,9 @@ class ProjectPlant:
     # A disturbance burst (faults.kind = "disturbance_burst"): (start s, end s, scale); the draw of a period
     # starting in [start, end) is multiplied by scale (beyond the identified set; docs/model.md M51)
     burst: tuple[float, float, float] | None = None
+    # The run's held expansion of the truth's gravity (_core.gravity.ExpansionHold; simulation.gravity_expansion_tolerance
+    # > 0, docs/model.md M42), carried from period to period; None: the field at every evaluation
+    gravity_hold: Any = None
 
     #: The name ``simulation.plant`` gives this plant.
     NAME = "project"
@@ -59,6 +63,9 @@ class ProjectPlant:
             self.truth = self.scn.truth
         if self.physical is None:
             self.physical = self.scn.physical
+        tol = self.propagator.gravity_expansion_tolerance
+        if tol > 0.0 and self.gravity_hold is None:
+            self.gravity_hold = _core.gravity.ExpansionHold(0.0, tol)
 
     @property
     def truth_model(self) -> ProximityModel:
@@ -84,9 +91,13 @@ class ProjectPlant:
         scn, dt = self.scn, self.scn.config.mpc.dt
         u_applied = self.apply_actuators(k, u)
         if self.nav is not None:
-            end = propagate_sampled(self.nav, self.truth_model, k * dt, self.state, u_applied, self.propagator)
+            end = propagate_sampled(
+                self.nav, self.truth_model, k * dt, self.state, u_applied, self.propagator, gravity_hold=self.gravity_hold
+            )
         else:
-            prop = self.truth_model.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator)
+            prop = self.truth_model.propagate(
+                k * dt, self.state, u_applied, dt, settings=self.propagator, gravity_hold=self.gravity_hold
+            )
             if prop.status.name != "Success":
                 raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
             end = np.asarray(prop.state)
@@ -113,9 +124,13 @@ class ProjectPlant:
         u_applied = np.asarray(env.deliver(u_cmd, self.state[6:10]), dtype=np.float64)
         self.delivered = (u_applied, st)
         if self.nav is not None:
-            end = propagate_sampled(self.nav, self.truth_model, k * dt, self.state, u_applied, self.propagator, env)
+            end = propagate_sampled(
+                self.nav, self.truth_model, k * dt, self.state, u_applied, self.propagator, env, self.gravity_hold
+            )
         else:
-            prop = self.truth_model.propagate(k * dt, self.state, u_applied, dt, settings=self.propagator, environment=env)
+            prop = self.truth_model.propagate(
+                k * dt, self.state, u_applied, dt, settings=self.propagator, environment=env, gravity_hold=self.gravity_hold
+            )
             if prop.status.name != "Success":
                 raise RuntimeError(f"truth propagation failed at step {k}: {prop.status.name}")
             end = np.asarray(prop.state)
@@ -125,4 +140,12 @@ class ProjectPlant:
     def describe(self) -> dict[str, Any]:
         """The plant's name and what it integrates with (saved with the run)."""
         p = self.propagator
-        return {"name": self.NAME, "integrator": p.method.name.lower(), "substeps": int(p.substeps)}
+        out: dict[str, Any] = {"name": self.NAME, "integrator": p.method.name.lower(), "substeps": int(p.substeps)}
+        if self.gravity_hold is not None:  # the held expansion's tolerance, evaluations and largest error found
+            h = self.gravity_hold
+            out["gravity_hold"] = {
+                "tolerance": h.tolerance,
+                "evaluations": int(h.evaluations),
+                "largest_error": h.largest_error,
+            }
+        return out

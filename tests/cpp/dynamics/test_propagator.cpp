@@ -207,6 +207,46 @@ TEST(Propagator, StatusesAndErrors) {
   q_bad.segment<4>(6) *= 2.0;
   EXPECT_THROW(run(model, q_bad, 2.0, PropagatorSettings{}), std::invalid_argument);
   EXPECT_THROW(run(model, s0, -1.0, PropagatorSettings{}), std::invalid_argument);
+  PropagatorSettings s4;
+  s4.gravity_expansion_tolerance = -1e-9;
+  EXPECT_THROW(run(model, s0, 2.0, s4), std::invalid_argument);
+  s4.gravity_expansion_tolerance = 1e-9;
+  gravity::ExpansionHold other(0.0, 1e-8);  // a hold of another tolerance
+  EXPECT_THROW(propagate(model, 0.0, s0, InputVector::Zero(), 2.0, {}, s4, &other), std::invalid_argument);
+}
+
+TEST(Propagator, HeldGravityStaysNearTheExactFieldsTrajectoryWithFewerEvaluations) {
+  // A 300 s descent at 5 cm/s in 2 s calls, the run's hold carried from call to call: the trajectory against the exact
+  // field's, and the field's evaluations against the integrator's.
+  const auto field = testing::cluster();
+  const ProximityModel model(field, ModelParams{});
+  TruthState s0;
+  s0 << 260.0, -40.0, 90.0, -0.05, 0.01, -0.02, 0, 0, 0, 1, 1e-3, -2e-3, 5e-4;
+  InputVector u;
+  u << 2e-4, -1e-4, 3e-4, 0.01, -0.02, 0.005;
+  PropagatorSettings exact;
+  exact.substeps = 2;
+  PropagatorSettings held = exact;
+  held.gravity_expansion_tolerance = 1e-10;
+  gravity::ExpansionHold hold(0.0, held.gravity_expansion_tolerance);
+  TruthState a = s0, b = s0, c = s0;
+  int evaluations = 0;
+  for (int k = 0; k < 150; ++k) {
+    a = propagate(model, 2.0 * k, a, u, 2.0, {}, exact).state;
+    const PropagationResult r = propagate(model, 2.0 * k, b, u, 2.0, {}, held, &hold);
+    ASSERT_EQ(r.status, PropagationStatus::Success);
+    b = r.state;
+    evaluations += r.evaluations;
+    c = propagate(model, 2.0 * k, c, u, 2.0, {}, held).state;  // a hold of each call alone
+  }
+  // |a| <= tol over T = 300 s moves the position by at most tol T^2 / 2 = 4.5e-6 m
+  EXPECT_LT((a.head<3>() - b.head<3>()).norm(), 4.5e-6);
+  EXPECT_LT((a.segment<3>(3) - b.segment<3>(3)).norm(), 1e-10 * 300.0);
+  EXPECT_LT((a.head<3>() - c.head<3>()).norm(), 4.5e-6);
+  EXPECT_GT((a.head<3>() - b.head<3>()).norm(), 0.0);  // the hold was used
+  EXPECT_EQ(evaluations, 150 * 8);
+  EXPECT_LT(hold.evaluations(), evaluations / 4);
+  EXPECT_LT(hold.largest_error(), 2.0 * held.gravity_expansion_tolerance);
 }
 
 }  // namespace

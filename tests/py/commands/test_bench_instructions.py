@@ -147,3 +147,38 @@ def test_bench_instructions_needs_the_instrumented_example(tmp_path: Path, capsy
 
     proc = subprocess.run([str(example), "missing.txt", "--instructions"], capture_output=True, text=True, check=False)
     assert proc.returncode == 2 and "--instructions needs" in proc.stderr
+
+
+# callgrind_annotate --inclusive=yes lines of a whole run (valgrind 3.19), shortened: the totals, a file-prefixed
+# name, a nested call of a group's function and a name with "::" but no file prefix.
+ANNOTATED = """--------------------------------------------------------------------------------
+Ir
+--------------------------------------------------------------------------------
+1,616,856,820 (100.0%)  PROGRAM TOTALS
+
+--------------------------------------------------------------------------------
+Ir                      file:function
+--------------------------------------------------------------------------------
+1,614,967,954 (99.88%)  ???:main [/build/closed_loop]
+  667,831,950 (41.30%)  ???:tubempc::gravity::PolyhedronGravity::evaluate(Eigen::Matrix<double, 3, 1, 0, 3, 1> const&, \
+tubempc::gravity::GravitySample&) const [/build/closed_loop]
+  539,389,418 (33.36%)  ???:tubempc::dynamics::propagate(tubempc::dynamics::ProximityModel const&, double, Eigen::Matrix<\
+double, 13, 1, 0, 13, 1> const&) [/build/closed_loop]
+  493,529,772 (30.52%)  /src/controller.cpp:tubempc::control::Controller::step(int, Eigen::Ref<> const&) [/build/closed_loop]
+  1,000 (0.00%)  tubempc::nav::NavigationSystem::step(double) [/build/closed_loop]
+  77 (0.00%)  ???:tubempc::control::Controller::setup_library() [/build/closed_loop]
+"""
+
+
+def test_runcost_reads_the_inclusive_counts_of_its_groups() -> None:
+    from tubempc.benchmarks.runcost import annotated_groups
+
+    g = annotated_groups(ANNOTATED)
+    assert g["total"] == 1_616_856_820
+    assert g["polyhedral_gravity"] == 667_831_950
+    assert g["truth_propagation"] == 539_389_418
+    assert g["controller_steps"] == 493_529_772
+    assert g["navigation"] == 1_000
+    assert g["controller_setup"] == 0  # "Controller::setup_library(" is not "Controller::setup("
+    with pytest.raises(ValueError, match="PROGRAM TOTALS"):
+        annotated_groups("1,000 (100.0%)  ???:main [/build/closed_loop]\n")

@@ -11,6 +11,7 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
 import tubempc
+import tubempc.models.mpc
 from tubempc import PointMassGravity, ProximityModel
 
 GM_BENNU = 5.236
@@ -199,7 +200,8 @@ def test_propagation_api() -> None:
             {"simulation.integrator": integrator, **{f"simulation.{k}": v for k, v in keywords.items()}}
         )
         by_settings = model.propagate(0.0, s0, u, 2.0, settings=propagator_settings(cfg))
-        by_keywords = model.propagate(0.0, s0, u, 2.0, integrator, **keywords)
+        tol = cfg.simulation.gravity_expansion_tolerance
+        by_keywords = model.propagate(0.0, s0, u, 2.0, integrator, gravity_expansion_tolerance=tol, **keywords)
         assert by_settings.state.tobytes() == by_keywords.state.tobytes()
     settings = propagator_settings(load_config().with_overrides({"simulation.integrator": "rk4", "simulation.substeps": 1}))
     one_step = model.propagate(0.0, s0, u, 2.0, settings=settings)
@@ -236,7 +238,15 @@ def test_constraints_at_the_paper_boundary_states() -> None:
 
 def test_propagator_settings_field_table() -> None:
     s = tubempc._core.dynamics.PropagatorSettings
-    assert s.field_names() == ["method", "substeps", "rtol", "atol", "max_steps", "initial_step"]
+    assert s.field_names() == [
+        "method",
+        "substeps",
+        "rtol",
+        "atol",
+        "max_steps",
+        "initial_step",
+        "gravity_expansion_tolerance",
+    ]
     assert s.substeps.__doc__ == "RK4 steps per call, >= 1"
     assert s.initial_step.__doc__ == "DOPRI5 first step (s); 0: automatic"
     p = s()

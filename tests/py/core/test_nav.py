@@ -275,20 +275,9 @@ def test_nees_and_nis_inside_chi_square_bounds(body: tuple[object, object, np.nd
             if k == steps:
                 break
             assert filt.propagate(t + imu_s.period, imu.measure(truth)) == nav.FilterStatus.Ok
-            result = model.propagate(
-                t,
-                state,
-                np.zeros(6),
-                imu_s.period,
-                _core.dynamics.Integrator.RK4,
-                2,
-                1e-10,
-                1e-12,
-                1000,
-                0.0,
-                np.zeros(6),
-                None,
-            )
+            settings = _core.dynamics.PropagatorSettings()
+            settings.substeps = 2
+            result = model.propagate(t, state, np.zeros(6), imu_s.period, settings, np.zeros(6), None, None)
             state = np.asarray(result.state)
         true = nav.NavState()
         true.t = steps * imu_s.period

@@ -218,3 +218,44 @@ def test_active_set_qp_solver_flies_the_interior_points_loop(scenario) -> None: 
     assert b.active_set_solves.sum() == 0 and b.qp_iterations.min() > 0
     np.testing.assert_allclose(a.u, b.u, rtol=0, atol=1e-5 * scenario.config.spacecraft.u_max)
     np.testing.assert_allclose(a.x, b.x, rtol=0, atol=1e-6)
+
+
+def test_held_truth_gravity_flies_the_exact_fields_run_with_fewer_evaluations(tmp_path: Path) -> None:
+    """simulation.gravity_expansion_tolerance (docs/model.md M42): the run's truth holds its gravity's expansion
+    from period to period; the run stays within the expansion's error of the exact field's run, evaluates the
+    field fewer times than the integrator's 8 stages per period, and reports what it found."""
+    base = load_config()
+    tol = base.simulation.gravity_expansion_tolerance
+    assert tol > 0.0
+    exact = base.with_overrides({"simulation.gravity_expansion_tolerance": 0.0})
+    steps = 30
+    held_rec = simulate(build_scenario(base, cache_dir=tmp_path), "tbmpc", seed=4, max_steps=steps)
+    exact_rec = simulate(build_scenario(exact, cache_dir=tmp_path), "tbmpc", seed=4, max_steps=steps)
+    hold = held_rec.applied["plant"]["gravity_hold"]
+    assert hold["tolerance"] == tol
+    assert 0 < hold["evaluations"] < 8 * steps / 2
+    # found where the expansion was given up, up to a stage's step past the hold: a few times tol (a wrong
+    # expansion, e.g. its gradient's sign, would be G d ~ 1e-7 s^-2 x 0.05 m, hundreds of times more)
+    assert 0.0 < hold["largest_error"] < 10.0 * tol
+    assert "gravity_hold" not in exact_rec.applied["plant"]
+    # an acceleration error below 2 tol moves the truth by at most tol t^2 over the run (t = 60 s)
+    t = steps * base.mpc.dt
+    assert 0.0 < np.abs(held_rec.x[:, :3] - exact_rec.x[:, :3]).max() < tol * t * t
+
+
+def test_a_reset_controller_flies_the_bits_of_a_new_one(tmp_path: Path) -> None:
+    """simulate keeps its controller in the scenario between runs (set up once, Controller.reset per run): a run
+    after other runs of the scenario, with background designs adopted into the controller and a navigation
+    error set, equals the same run on a fresh scenario to the bit."""
+    cfg = load_config(scenario="bennu-tag-nav")
+    fresh = simulate(build_scenario(cfg, cache_dir=tmp_path), "ffa", seed=5, max_steps=25, design_worker="inline")
+    scn = build_scenario(cfg, cache_dir=tmp_path)
+    before = simulate(scn, "ffa", seed=4, max_steps=40, design_worker="inline")
+    assert not np.array_equal(before.K[-1], before.K[0])  # a background design was adopted into the controller
+    simulate(scn, "ffa", seed=6, max_steps=10, design_worker="inline")
+    assert len(scn.controllers) == 1 and len(next(iter(scn.controllers.values()))) == 1  # one kept, reused
+    again = simulate(scn, "ffa", seed=5, max_steps=25, design_worker="inline")
+    for name in ("x", "u", "z", "K", "Pe_p", "Pe_r", "w_hat", "alpha"):
+        np.testing.assert_array_equal(getattr(again, name), getattr(fresh, name), err_msg=name)
+    assert again.navigation is not None and fresh.navigation is not None
+    np.testing.assert_array_equal(again.navigation.x_hat, fresh.navigation.x_hat)

@@ -208,12 +208,14 @@ class PhysicalEnvironment {
 /// @param u_delivered the input the truth receives, held over the interval (environment.deliver()).
 /// @param dt          interval length (s), >= 0.
 /// @param settings    integration method and its parameters.
+/// @param gravity_hold as propagate()'s.
 /// @return as propagate().
 /// @throws std::invalid_argument when the truth's inertia is not the environment's or its SRP is on, and
 ///         as propagate().
 PropagationResult propagate(const ProximityModel& truth, const PhysicalEnvironment& environment, double t0,
                             const TruthState& state, const InputVector& u_delivered, double dt,
-                            const PropagatorSettings& settings = {});
+                            const PropagatorSettings& settings = {},
+                            gravity::ExpansionHold* gravity_hold = nullptr);
 
 }  // namespace tubempc::dynamics
 

@@ -10,6 +10,7 @@
 
 #include "tubempc/core/fields.hpp"
 #include "tubempc/dynamics/proximity_model.hpp"
+#include "tubempc/gravity/expansion_hold.hpp"
 
 namespace tubempc::dynamics {
 
@@ -50,6 +51,12 @@ struct PropagatorSettings {
   double atol{1e-12};                  ///< DOPRI5 absolute tolerance (state units), > 0
   int max_steps{100000};               ///< DOPRI5 step budget (accepted + rejected), >= 1
   double initial_step{0.0};            ///< DOPRI5 first step (s); 0: Hairer's automatic choice
+  /// The truth's gravity as its first-order expansion held over a distance (m/s^2, >= 0; docs/model.md
+  /// M42 with d_min = 0): the field is evaluated, with its gradient, only where the truth leaves the
+  /// hold distance sqrt(2 tol / c) of the last evaluation point, the hold carried from call to call by
+  /// the run's gravity::ExpansionHold given to propagate(). 0: the field at every evaluation (the default
+  /// of a scenario file without the record).
+  double gravity_expansion_tolerance{0.0};
 
   /// Checks the ranges given above.
   /// @throws std::invalid_argument naming the first bad field.
@@ -92,13 +99,17 @@ struct PropagationResult {
 /// @param dt          interval length (s), >= 0.
 /// @param disturbance additive disturbance on v' and w' (default: none).
 /// @param settings    integration method and its parameters.
+/// @param gravity_hold the run's held gravity expansion, carried from call to call (its d_min and tol
+///                    must be 0 and settings.gravity_expansion_tolerance); nullptr: a hold of this call
+///                    alone. Unused when that tolerance is 0.
 /// @return the state at t0 + dt (quaternion renormalised) and the integration's statistics; numerical
-///         failures are statuses, not exceptions.
-/// @throws std::invalid_argument for invalid settings, a negative or non-finite dt or a non-unit or
-///         zero quaternion.
+///         failures are statuses, not exceptions (a gravity the hold cannot evaluate: NonFinite).
+/// @throws std::invalid_argument for invalid settings, a negative or non-finite dt, a non-unit or
+///         zero quaternion, or a gravity_hold of another d_min or tolerance.
 PropagationResult propagate(const ProximityModel& model, double t0, const TruthState& state,
                             const InputVector& u, double dt, const Disturbance& disturbance = {},
-                            const PropagatorSettings& settings = {});
+                            const PropagatorSettings& settings = {},
+                            gravity::ExpansionHold* gravity_hold = nullptr);
 
 }  // namespace tubempc::dynamics
 
@@ -132,7 +143,7 @@ void PropagatorSettings::for_each_field(V&& visit) {
   using core::Dim;
   using core::FieldInfo;
   using S = PropagatorSettings;
-  constexpr bool req = false, finite = false;
+  constexpr bool req = false, opt = true, finite = false;
   constexpr Dim one = Dim::One;
   visit(FieldInfo{"method", "", req, finite, one, one, ""}, &S::method);
   visit(FieldInfo{"substeps", "", req, finite, one, one, "RK4 steps per call, >= 1"}, &S::substeps);
@@ -142,6 +153,11 @@ void PropagatorSettings::for_each_field(V&& visit) {
   visit(FieldInfo{"max_steps", "", req, finite, one, one, "DOPRI5 step budget"}, &S::max_steps);
   visit(FieldInfo{"initial_step", "s", req, finite, one, one, "DOPRI5 first step (s); 0: automatic"},
         &S::initial_step);
+  visit(
+      FieldInfo{
+          "gravity_expansion_tolerance", "m/s^2", opt, finite, one, one,
+          "the truth's gravity as an expansion held to this error (m/s^2); 0: the field at every evaluation"},
+      &S::gravity_expansion_tolerance);
 }
 
 }  // namespace tubempc::dynamics

@@ -30,6 +30,7 @@
 #include <memory>
 
 #include "tubempc/core/fields.hpp"
+#include "tubempc/gravity/expansion_hold.hpp"
 #include "tubempc/gravity/gravity_model.hpp"
 #include "tubempc/math/so3.hpp"
 
@@ -242,9 +243,12 @@ class ProximityModel {
   /// @param s           truth state [r_L (m), v_L (m/s), q_B/L, omega_BL_B (rad/s)].
   /// @param u           input (see f).
   /// @param disturbance [acceleration in L (m/s^2); angular acceleration in B (rad/s^2)].
+  /// @param gravity      the gravity field's held expansion to use in its place (valid, held about a
+  ///                     point of this model's field: propagate() holds it); nullptr: the field.
   /// @return the derivative of s (units of s per second).
   TruthState truth_derivative(double t, const TruthState& s, const InputVector& u,
-                              const Eigen::Matrix<double, 6, 1>& disturbance) const;
+                              const Eigen::Matrix<double, 6, 1>& disturbance,
+                              const gravity::ExpansionHold* gravity = nullptr) const;
 
   /// Rotation-vector kinematics for the configured variant.
   /// @param phi        rotation vector of q_B/L (rad).
@@ -257,8 +261,10 @@ class ProximityModel {
   void rotational_jacobians(const Eigen::Vector3d& phi, const Eigen::Vector3d& w, const Eigen::Vector3d& T,
                             Eigen::Matrix<double, 6, 1>& f_r, Eigen::Matrix<double, 6, 6>& A_r,
                             Eigen::Matrix<double, 6, 3>& B_r) const;
+  // With a held expansion (no Jacobians then), its acceleration in place of the field's.
   void translational(double t, const Eigen::Vector3d& r, const Eigen::Vector3d& v, const Eigen::Vector3d& u_p,
-                     Eigen::Vector3d& a_L, Eigen::Matrix3d* da_dr, Eigen::Matrix3d* da_dv) const;
+                     Eigen::Vector3d& a_L, Eigen::Matrix3d* da_dr, Eigen::Matrix3d* da_dv,
+                     const gravity::ExpansionHold* held = nullptr) const;
   Eigen::Vector3d rotational(const Eigen::Matrix3d& C_BL, const Eigen::Vector3d& w,
                              const Eigen::Vector3d& T) const;
 

@@ -21,6 +21,7 @@
 
 #include "tubempc/core/fields.hpp"
 #include "tubempc/dynamics/proximity_model.hpp"
+#include "tubempc/gravity/expansion_hold.hpp"
 #include "tubempc/gravity/gravity_model.hpp"
 #include "tubempc/math/so3.hpp"
 #include "tubempc/nav/ray_caster.hpp"
@@ -229,11 +230,11 @@ class NavigationFilter {
   /// @return whether initialize has succeeded.
   bool initialized() const { return initialized_; }
   /// @return evaluations of the polyhedral gravity (with its gradient) since construction.
-  long gravity_evaluations() const { return gravity_evaluations_; }
+  long gravity_evaluations() const { return gravity_.evaluations(); }
   /// @return the largest error of the gravity's expansion found at a re-evaluation since construction,
   ///         |a(r1) - a(r0) - G(r0) (r1 - r0)| at the new point r1 (m/s^2): the expansion's error at
   ///         the end of its hold (re-evaluations after an update's jump past twice the hold left out).
-  double gravity_expansion_error() const { return gravity_expansion_error_; }
+  double gravity_expansion_error() const { return gravity_.largest_error(); }
 
  private:
   template <int M>
@@ -242,8 +243,6 @@ class NavigationFilter {
   void inject(const NavErrorVector& dx);
   // Propagates P over the pending span (FilterSettings::covariance_step); nothing when there is none.
   void propagate_covariance() const;
-  // Takes the evaluation g at r_A (frame A) as the expansion's new point and sets its hold distance.
-  void hold_gravity(const Eigen::Vector3d& r_A, const gravity::GravitySample& g);
   Eigen::Vector3d phi_near(const Eigen::Vector3d& phi_ref) const;
 
   std::shared_ptr<const dynamics::ProximityModel> model_;
@@ -263,15 +262,8 @@ class NavigationFilter {
   Eigen::Vector3d f_B_{Eigen::Vector3d::Zero()};  // last good specific force (m/s^2)
   Eigen::Vector3d omega_BI_B_{Eigen::Vector3d::Zero()};  // last good gyro rate (rad/s)
   double rate_time_{0.0};                                // time of that sample (s)
-  bool rate_sampled_{false};  // omega_BI_B_ is a gyro sample (not initialize's assumption)
-  // The gravity's expansion point r0 in A (m), a(r0) (m/s^2) and G(r0) (1/s^2), in A.
-  Eigen::Vector3d gravity_r0_A_{Eigen::Vector3d::Zero()};
-  Eigen::Vector3d gravity_a0_A_{Eigen::Vector3d::Zero()};
-  Eigen::Matrix3d gravity_G0_A_{Eigen::Matrix3d::Zero()};
-  bool gravity_valid_{false};
-  double gravity_hold_{0.0};  // distance the expansion is held over (m): FilterSettings, M42
-  long gravity_evaluations_{0};
-  double gravity_expansion_error_{0.0};
+  bool rate_sampled_{false};        // omega_BI_B_ is a gyro sample (not initialize's assumption)
+  gravity::ExpansionHold gravity_;  // the gravity's expansion (FilterSettings, M42)
   bool initialized_{false};
 };
 
