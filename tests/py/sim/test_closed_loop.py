@@ -248,13 +248,13 @@ def test_a_reset_controller_flies_the_bits_of_a_new_one(tmp_path: Path) -> None:
     after other runs of the scenario, with background designs adopted into the controller and a navigation
     error set, equals the same run on a fresh scenario to the bit."""
     cfg = load_config(scenario="bennu-tag-nav")
-    fresh = simulate(build_scenario(cfg, cache_dir=tmp_path), "ffa", seed=5, max_steps=25, design_worker="inline")
+    fresh = simulate(build_scenario(cfg, cache_dir=tmp_path), "ffa", seed=5, max_steps=20, design_worker="inline")
     scn = build_scenario(cfg, cache_dir=tmp_path)
-    before = simulate(scn, "ffa", seed=4, max_steps=40, design_worker="inline")
+    before = simulate(scn, "ffa", seed=4, max_steps=20, design_worker="inline")
     assert not np.array_equal(before.K[-1], before.K[0])  # a background design was adopted into the controller
     simulate(scn, "ffa", seed=6, max_steps=10, design_worker="inline")
     assert len(scn.controllers) == 1 and len(next(iter(scn.controllers.values()))) == 1  # one kept, reused
-    again = simulate(scn, "ffa", seed=5, max_steps=25, design_worker="inline")
+    again = simulate(scn, "ffa", seed=5, max_steps=20, design_worker="inline")
     for name in ("x", "u", "z", "K", "Pe_p", "Pe_r", "w_hat", "alpha"):
         np.testing.assert_array_equal(getattr(again, name), getattr(fresh, name), err_msg=name)
     assert again.navigation is not None and fresh.navigation is not None
