@@ -576,6 +576,12 @@ def _instructions_rows(d: dict[str, Any]) -> list[str]:
                 f"| {d['scenario']} | {method} | {what} | {c['median']:.3g} | {c['p99']:.3g} | {c['max']:.3g} | "
                 f"{ms(c['median'])} / {ms(c['p99'])} / {ms(c['max'])} | {did} |"
             )
+        if "setup_instructions" in m:  # once per run, before the first step
+            ir = m["setup_instructions"]
+            rows.append(
+                f"| {d['scenario']} | {method} | set-up, once per run | | | {ir:.3g} | {ms(ir)} | the controller's setup "
+                "(the reference discretised for the whole mission), the abort's, the navigation's initialisation |"
+            )
         if "abort" in m:  # the supervised descent's controller steps and the safe abort's, apart
             a = m["abort"]
             for what, c in (

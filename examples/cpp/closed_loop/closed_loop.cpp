@@ -32,8 +32,10 @@
 // --instructions (run under valgrind --tool=callgrind --collect-atstart=no --combine-dumps=yes): each
 // controller, navigation and actuation step is bracketed by callgrind's client requests (collection on
 // for the call alone, then a dump named "<method> <controller|navigation|actuation> <k>"), so that the
-// profile holds one part per step with its instructions and calls; nothing else of the loop is counted
-// (tubempc bench instructions reads the parts). Natively, the requests are a few no-op instructions
+// profile holds one part per step with its instructions and calls (tubempc bench instructions reads the parts).
+// The set-up calls and each period's truth propagation are dumped as parts of their own ("<method> setup <i>",
+// "<method> truth <k>"): callgrind keeps the count of a call made with collection off until the call's arc next
+// costs something, so an uncounted set-up or truth would charge its calls (not its instructions) to a step. Natively, the requests are a few no-op instructions
 // outside the counted calls; the option needs <valgrind/callgrind.h> at build time and valgrind at run time.
 //
 //   closed_loop SCENARIO_FILE [--method tbmpc|ffa|both] [--disturbance W.txt] [--json OUT.json] [--instructions]
@@ -281,6 +283,7 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
            bool count_instructions) {
   Flight f;
   f.method = control::to_string(method);
+  const char* name = control::to_string(method);
   const auto t_setup = Clock::now();
   control::ControllerSettings settings = scn.controller;
   settings.method = method;
@@ -291,7 +294,10 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
                                  settings);
   f.memory_controller_construction.add(*memory);
   memory.emplace();
-  controller.setup(scn.reference, method == control::Method::Tbmpc ? scn.tbmpc_designs : scn.ffa_designs);
+  {
+    const CountedCall counted(count_instructions, name, "setup", 0);
+    controller.setup(scn.reference, method == control::Method::Tbmpc ? scn.tbmpc_designs : scn.ffa_designs);
+  }
   f.memory_controller.add(*memory);
   memory.reset();
   // The safe abort: a second controller (TBMPC-FFA's, enforced by SafeAbort) about the hover, and the supervision.
@@ -302,7 +308,10 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
     memory.emplace();
     abort = std::make_unique<control::SafeAbort>(std::make_shared<dynamics::LinearizedProximityModel>(model),
                                                  scn.settings, settings, scn.abort.settings);
-    abort->setup(scn.abort.hover, scn.abort.designs);
+    {
+      const CountedCall counted(count_instructions, name, "setup", 1);
+      abort->setup(scn.abort.hover, scn.abort.designs);
+    }
     f.memory_abort.add(*memory);
     memory.reset();
     f.abort_enabled = true;
@@ -337,8 +346,12 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
     truth_sample.resize(n_sub, dynamics::kNtruth);
     accel_sample.resize(n_sub, 3);
     f.time_navigation.resize(static_cast<std::size_t>(T));
-    const nav::NavigationStep& est =
-        navigation->initialize(scn.reference.t0, state, srp_L, scn.reference.z.col(0).segment<3>(6));
+    const nav::NavigationStep* initial = nullptr;
+    {
+      const CountedCall counted(count_instructions, name, "setup", 2);
+      initial = &navigation->initialize(scn.reference.t0, state, srp_L, scn.reference.z.col(0).segment<3>(6));
+    }
+    const nav::NavigationStep& est = *initial;
     f.memory_navigation.add(*memory);
     memory.reset();
     ++f.navigation_statuses[nav::to_string(est.status)];
@@ -371,7 +384,6 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
     f.time_actuation.resize(static_cast<std::size_t>(T));
   }
   f.setup_s = std::chrono::duration<double>(Clock::now() - t_setup).count();
-  const char* name = control::to_string(method);
   for (int k = 0; k < T; ++k) {
     const double t_k = scn.reference.t0 + k * dt;
     dynamics::InputVector u;
@@ -457,6 +469,7 @@ Flight fly(const io::ScenarioFile& scn, control::Method method,
     {
       AllocationWindow window;
       // with navigation: n_sub sub-steps of h, each one's end a sample of the sensors (tubempc.scenario.navigation.propagate_sampled)
+      const CountedCall counted(count_instructions, name, "truth", k);
       for (int j = 0; j < n_sub; ++j) {
         p = navigation
                 ? dynamics::propagate(truth, t_k + j * h, state, u_applied, h, {}, scn.propagator,
