@@ -293,12 +293,15 @@ def mission_controller(
 ) -> Iterator[Any]:
     """:func:`new_controller`'s controller for one run, set up once per scenario and process: a controller an
     earlier run of the scenario left with these arguments (``mpc_settings`` the scenario's, the designs its
-    :func:`controller_designs`), reset to k = 0 (``Controller.reset``: the MPC without a plan, the identifiers at
-    their prior, the initial designs), else a new one; kept in the scenario for the next run when the run ends. A
-    run on a reset controller flies the bits of one on a new controller
-    (tests/py/sim/test_closed_loop.py); runs at once (threads) each get their own."""
-    key = (method, lambda_p, lambda_r, background_designs, id(mpc_settings))
-    kept = scn.controllers.get(key)
+    :func:`controller_designs`; not with ``lambda_p`` or ``lambda_r``, a sweep's), reset to k = 0
+    (``Controller.reset``: the MPC without a plan, the identifiers at their prior, the initial designs), else a
+    new one; kept in the scenario for the next run when the run ends. A run on a reset controller flies the bits
+    of one on a new controller (tests/py/sim/test_closed_loop.py); runs at once (threads) each get their own."""
+    # A sweep's forgetting factors (lambda_p, lambda_r) make a controller of their own, not kept: a grid of them
+    # would keep one controller (tens of MB) per point.
+    keep = lambda_p is None and lambda_r is None
+    key = (method, background_designs, id(mpc_settings))
+    kept = scn.controllers.get(key) if keep else None
     if kept:
         ctrl = kept.pop()
         ctrl.reset()
@@ -309,7 +312,8 @@ def mission_controller(
     try:
         yield ctrl
     finally:
-        scn.controllers.setdefault(key, []).append(ctrl)
+        if keep:
+            scn.controllers.setdefault(key, []).append(ctrl)
 
 
 def tube_designers(cfg: Config, bounds: tuple[float, float] | None = None) -> tuple[TubeDesigner, TubeDesigner]:

@@ -253,6 +253,7 @@ def test_a_reset_controller_flies_the_bits_of_a_new_one(tmp_path: Path) -> None:
     before = simulate(scn, "ffa", seed=4, max_steps=20, design_worker="inline")
     assert not np.array_equal(before.K[-1], before.K[0])  # a background design was adopted into the controller
     simulate(scn, "ffa", seed=6, max_steps=10, design_worker="inline")
+    simulate(scn, "ffa", seed=6, max_steps=2, design_worker="inline", lambda_p=0.97)  # a sweep's: not kept
     assert len(scn.controllers) == 1 and len(next(iter(scn.controllers.values()))) == 1  # one kept, reused
     again = simulate(scn, "ffa", seed=5, max_steps=20, design_worker="inline")
     for name in ("x", "u", "z", "K", "Pe_p", "Pe_r", "w_hat", "alpha"):
