@@ -213,6 +213,13 @@ TEST(Propagator, StatusesAndErrors) {
   s4.gravity_expansion_tolerance = 1e-9;
   gravity::ExpansionHold other(0.0, 1e-8);  // a hold of another tolerance
   EXPECT_THROW(propagate(model, 0.0, s0, InputVector::Zero(), 2.0, {}, s4, &other), std::invalid_argument);
+  // the held gravity at a point mass's singular point: a status (the hold cannot evaluate it), not an exception
+  const ProximityModel point_mass(testing::bennu_point_mass(), ModelParams{});
+  TruthState at_centre = s0;
+  at_centre.head<3>().setZero();
+  const PropagationResult r_centre = propagate(point_mass, 0.0, at_centre, InputVector::Zero(), 2.0, {}, s4);
+  EXPECT_EQ(r_centre.status, PropagationStatus::NonFinite);
+  EXPECT_TRUE(r_centre.state.allFinite());
 }
 
 TEST(Propagator, HeldGravityStaysNearTheExactFieldsTrajectoryWithFewerEvaluations) {
