@@ -35,6 +35,7 @@ cvxpy problem is built once with Parameters and is DPP, so cvxpy compiles it onc
 from __future__ import annotations
 
 import math
+import threading
 import time
 import warnings
 from collections.abc import Callable
@@ -136,6 +137,64 @@ def _as_matrix(name: str, M: ArrayLike, shape: tuple[int, int]) -> FloatArray:
 _ALPHA_GRID = (0.1, 0.3, 0.5, 0.7, 0.85, 0.93, 0.97, 0.99, 0.997)
 
 
+@dataclass
+class _Sdp:
+    """The SDP of paper Eq. (25) for one (n_x, n_u, margin), compiled by cvxpy once: its variables, parameters,
+    the invariance constraint (whose dual gives the objective's slope in alpha) and the problem."""
+
+    Pe: cp.Variable
+    Y: cp.Variable
+    Z: cp.Variable
+    A: cp.Parameter
+    B: cp.Parameter
+    PWa: cp.Parameter  # P_W,s / (1 - alpha)
+    alpha: cp.Parameter
+    Qs: cp.Parameter
+    Rs: cp.Parameter
+    inv_con: Any
+    problem: cp.Problem
+
+
+# One compiled SDP per size, margin and thread: cvxpy's canonicalisation (tens of ms) is made once per process and
+# thread instead of once per designer (a campaign's run makes two designers), and a thread's designs never share
+# the parameters another thread is setting. The compiled program maps the parameters to the same solver data
+# whoever solved before (tests/py/design/test_tube.py).
+_COMPILED: dict[tuple[int, int, float, int], _Sdp] = {}
+_COMPILED_LOCK = threading.Lock()
+
+
+def _compiled_sdp(n_x: int, n_u: int, margin: float) -> _Sdp:
+    key = (n_x, n_u, margin, threading.get_ident())
+    with _COMPILED_LOCK:
+        sdp = _COMPILED.get(key)
+    if sdp is None:
+        sdp = _build_sdp(n_x, n_u, margin)
+        with _COMPILED_LOCK:
+            _COMPILED[key] = sdp
+    return sdp
+
+
+def _build_sdp(n_x: int, n_u: int, margin: float) -> _Sdp:
+    Pe = cp.Variable((n_x, n_x), symmetric=True)
+    Y = cp.Variable((n_u, n_x))
+    Z = cp.Variable((n_u, n_u), symmetric=True)
+    A = cp.Parameter((n_x, n_x))
+    B = cp.Parameter((n_x, n_u))
+    PWa = cp.Parameter((n_x, n_x), symmetric=True)
+    alpha = cp.Parameter(nonneg=True)
+    Qs = cp.Parameter((n_x, n_x), PSD=True)
+    Rs = cp.Parameter((n_u, n_u), PSD=True)
+    M = A @ Pe + B @ Y
+    inv = bmat([[Pe - PWa, M], [M.T, alpha * Pe]])
+    cost = bmat([[Z, Y], [Y.T, Pe]])
+    inp = bmat([[Pe, Y.T], [Y, np.eye(n_u)]])
+    inv_con = _sym_expr(inv) >> margin * np.eye(2 * n_x)
+    cons = [inv_con, _sym_expr(cost) >> 0, _sym_expr(inp) >> 0]
+    problem = cp.Problem(cp.Minimize(trace(Qs @ Pe) + trace(Rs @ Z)), cons)
+    assert problem.is_dpp()
+    return _Sdp(Pe, Y, Z, A, B, PWa, alpha, Qs, Rs, inv_con, problem)
+
+
 class TubeDesigner:
     """Tube design (K, Pe, alpha) for one subsystem (paper Eq. 25; docs/model.md "Tube design").
 
@@ -213,7 +272,7 @@ class TubeDesigner:
         self.max_solves = max_solves
         self.solver_options = dict(solver_options or {})
         self._PW_s = np.eye(n_x)  # scaled P_W of the current design
-        self._build(lmi_margin)
+        self._lmi_margin = float(lmi_margin)
 
     def _check_scale(self, scale: ArrayLike) -> FloatArray:
         d = np.asarray(scale, dtype=np.float64).reshape(-1)
@@ -221,29 +280,15 @@ class TubeDesigner:
             raise ValueError(f"state scale must be {self.n_x} finite positive values, got {d}")
         return d
 
-    def _build(self, margin: float) -> None:
-        n_x, n_u = self.n_x, self.n_u
-        self._Pe = cp.Variable((n_x, n_x), symmetric=True)
-        self._Y = cp.Variable((n_u, n_x))
-        self._Z = cp.Variable((n_u, n_u), symmetric=True)
-        self._A = cp.Parameter((n_x, n_x))
-        self._B = cp.Parameter((n_x, n_u))
-        self._PWa = cp.Parameter((n_x, n_x), symmetric=True)  # P_W,s / (1 - alpha)
-        self._alpha = cp.Parameter(nonneg=True)
-        self._Qs = cp.Parameter((n_x, n_x), PSD=True)
-        self._Rs = cp.Parameter((n_u, n_u), PSD=True)
-        Pe, Y, Z = self._Pe, self._Y, self._Z
-        M = self._A @ Pe + self._B @ Y
-        inv = bmat([[Pe - self._PWa, M], [M.T, self._alpha * Pe]])
-        cost = bmat([[Z, Y], [Y.T, Pe]])
-        inp = bmat([[Pe, Y.T], [Y, np.eye(n_u)]])
-        self._inv_con = _sym_expr(inv) >> margin * np.eye(2 * n_x)
-        cons = [self._inv_con, _sym_expr(cost) >> 0, _sym_expr(inp) >> 0]
-        objective = cp.Minimize(trace(self._Qs @ Pe) + trace(self._Rs @ Z))
-        self.problem = cp.Problem(objective, cons)
-        assert self.problem.is_dpp()
+    @property
+    def problem(self) -> cp.Problem:
+        """The SDP this designer solves in the calling thread (:func:`_compiled_sdp`)."""
+        return self._sdp().problem
 
-    def _set_data(self, A: FloatArray, B: FloatArray, P_W: FloatArray) -> tuple[FloatArray, float]:
+    def _sdp(self) -> _Sdp:
+        return _compiled_sdp(self.n_x, self.n_u, self._lmi_margin)
+
+    def _set_data(self, sdp: _Sdp, A: FloatArray, B: FloatArray, P_W: FloatArray) -> tuple[FloatArray, float]:
         """Scale the data into the SDP's parameters; return D and the objective factor."""
         if self.state_scale is not None:
             d = self.state_scale
@@ -253,40 +298,40 @@ class TubeDesigner:
                 raise ValueError("P_W has a non-positive diagonal; give state_scale")
             d = np.sqrt(diag)
         su = self.u_max
-        self._A.value = A * (1.0 / d)[:, None] * d[None, :]
-        self._B.value = B * (su / d)[:, None]
+        sdp.A.value = A * (1.0 / d)[:, None] * d[None, :]
+        sdp.B.value = B * (su / d)[:, None]
         self._PW_s = _sym(P_W / np.outer(d, d))
         Qs = _sym(self.Q * np.outer(d, d))
         Rs = self.R * su * su
         c = float(np.trace(Qs) + np.trace(Rs))
-        self._Qs.value = Qs / c
-        self._Rs.value = Rs / c
+        sdp.Qs.value = Qs / c
+        sdp.Rs.value = Rs / c
         return d, c
 
-    def _evaluate(self, s: float) -> _Eval:
+    def _evaluate(self, sdp: _Sdp, s: float) -> _Eval:
         alpha = _expit(s)
-        self._alpha.value = alpha
-        self._PWa.value = self._PW_s / (1.0 - alpha)
+        sdp.alpha.value = alpha
+        sdp.PWa.value = self._PW_s / (1.0 - alpha)
         try:
             with warnings.catch_warnings():
                 # An inaccurate solution is reported through DesignStatus.OPTIMAL_INACCURATE.
                 warnings.filterwarnings("ignore", "Solution may be inaccurate", UserWarning)
-                solve: Callable[..., object] = self.problem.solve
+                solve: Callable[..., object] = sdp.problem.solve
                 # No warm start: Clarabel would reuse the previous solve's data and a design would
                 # depend on the designs before it (1e-5 in Pe), so that a design in another process
                 # (tube_policy.py) would differ from the same design here.
                 solve(solver=self.solver, **{"warm_start": False, **self.solver_options})
         except cp.error.SolverError:
             return _Eval(s, DesignStatus.SOLVER_ERROR)
-        status = _STATUS.get(self.problem.status, DesignStatus.SOLVER_ERROR)
+        status = _STATUS.get(sdp.problem.status, DesignStatus.SOLVER_ERROR)
         if status not in (DesignStatus.OPTIMAL, DesignStatus.OPTIMAL_INACCURATE):
             return _Eval(s, status)
-        Pe_s = _sym(np.asarray(self._Pe.value))
-        lam = np.asarray(self._inv_con.dual_value)
+        Pe_s = _sym(np.asarray(sdp.Pe.value))
+        lam = np.asarray(sdp.inv_con.dual_value)
         n = self.n_x
         dfda = np.sum(lam[:n, :n] * self._PW_s) / (1.0 - alpha) ** 2 - np.sum(lam[n:, n:] * Pe_s)
         slope = float(dfda) * alpha * (1.0 - alpha)
-        return _Eval(s, status, float(self.problem.value), slope, Pe_s, np.asarray(self._Y.value))
+        return _Eval(s, status, float(sdp.problem.value), slope, Pe_s, np.asarray(sdp.Y.value))
 
     def design(
         self,
@@ -305,8 +350,9 @@ class TubeDesigner:
         """
         t0 = time.perf_counter()
         A_, B_, PW = self._check_data(A, B, P_W)
-        d, c = self._set_data(A_, B_, PW)
-        search = _Search(self._evaluate, self.s_bounds)
+        sdp = self._sdp()
+        d, c = self._set_data(sdp, A_, B_, PW)
+        search = _Search(lambda s: self._evaluate(sdp, s), self.s_bounds)
         best = None if alpha_prev is None else self._warm_search(alpha_prev, search)
         if best is None:
             best = self._cold_search(search)
@@ -318,8 +364,9 @@ class TubeDesigner:
             raise ValueError(f"alpha must lie in (0, 1), got {alpha}")
         t0 = time.perf_counter()
         A_, B_, PW = self._check_data(A, B, P_W)
-        d, c = self._set_data(A_, B_, PW)
-        return self._result(A_, B_, PW, d, c, self._evaluate(_logit(alpha)), 1, t0)
+        sdp = self._sdp()
+        d, c = self._set_data(sdp, A_, B_, PW)
+        return self._result(A_, B_, PW, d, c, self._evaluate(sdp, _logit(alpha)), 1, t0)
 
     def _check_data(self, A: ArrayLike, B: ArrayLike, P_W: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
         A_ = _as_matrix("A", A, (self.n_x, self.n_x))

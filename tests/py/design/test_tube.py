@@ -142,6 +142,26 @@ def test_problem_is_dpp_and_compiled_once() -> None:
     assert prog is not None
     d.design_fixed_alpha(A_DI + 1e-3, B_ROT, 2.0 * PW_ROT, 0.95)
     assert d.problem._cache.param_prog is prog  # no re-canonicalisation: the compiled program is re-used
+    other = _trans()  # another designer of the same size (a campaign's next run): compiles nothing either
+    assert other.problem is d.problem
+
+
+def test_a_designer_designs_alike_after_other_designs_and_in_another_thread() -> None:
+    """The compiled SDP is shared by the designers of one thread (and not across threads): a design after other
+    designs of other data, and one in another thread with its own compiled SDP, equal a first design to the bit."""
+    import threading
+
+    first = _rot().design(A_DI, B_ROT, PW_ROT)
+    _trans().design(A_DI + 1e-3, B_TRANS, 3.0 * PW_TRANS)
+    again = _rot().design(A_DI, B_ROT, PW_ROT)
+    out: list[DesignResult] = []
+    t = threading.Thread(target=lambda: out.append(_rot().design(A_DI, B_ROT, PW_ROT)))
+    t.start()
+    t.join()
+    for r in (again, out[0]):
+        assert r.alpha == first.alpha and r.n_solves == first.n_solves
+        np.testing.assert_array_equal(r.K, first.K)
+        np.testing.assert_array_equal(r.Pe, first.Pe)
 
 
 def test_input_validation() -> None:
@@ -157,11 +177,12 @@ def test_input_validation() -> None:
 def test_dual_slope_matches_finite_difference() -> None:
     # The alpha search relies on df/ds from the invariance LMI's dual (envelope theorem).
     d = _trans()
-    d._set_data(A_DI, B_TRANS, PW_TRANS)
+    sdp = d._sdp()
+    d._set_data(sdp, A_DI, B_TRANS, PW_TRANS)
     for s in (-0.5, 0.4, 1.5):
         h = 1e-4
-        mid = d._evaluate(s)
-        fd = (d._evaluate(s + h).value - d._evaluate(s - h).value) / (2.0 * h)
+        mid = d._evaluate(sdp, s)
+        fd = (d._evaluate(sdp, s + h).value - d._evaluate(sdp, s - h).value) / (2.0 * h)
         assert mid.slope == pytest.approx(fd, rel=2e-3, abs=1e-6 * abs(mid.value))
 
 
