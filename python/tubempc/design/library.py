@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
@@ -37,6 +37,7 @@ __all__ = [
     "controller_designs",
     "controller_settings",
     "initial_tube",
+    "kept_for_the_mission",
     "library_scales",
     "memory_weight",
     "mission_controller",
@@ -297,23 +298,36 @@ def mission_controller(
     (``Controller.reset``: the MPC without a plan, the identifiers at their prior, the initial designs), else a
     new one; kept in the scenario for the next run when the run ends. A run on a reset controller flies the bits
     of one on a new controller (tests/py/sim/test_closed_loop.py); runs at once (threads) each get their own."""
-    # A sweep's forgetting factors (lambda_p, lambda_r) make a controller of their own, not kept: a grid of them
-    # would keep one controller (tens of MB) per point.
-    keep = lambda_p is None and lambda_r is None
-    key = (method, background_designs, id(mpc_settings))
-    kept = scn.controllers.get(key) if keep else None
-    if kept:
-        ctrl = kept.pop()
-        ctrl.reset()
-    else:
-        ctrl = new_controller(
+
+    def make() -> Any:
+        return new_controller(
             scn, method, mpc_settings, lambda_p=lambda_p, lambda_r=lambda_r, background_designs=background_designs
         )
-    try:
+
+    # A sweep's forgetting factors (lambda_p, lambda_r) make a controller of their own, not kept: a grid of them
+    # would keep one controller (tens of MB) per point.
+    if lambda_p is not None or lambda_r is not None:
+        yield make()
+        return
+    with kept_for_the_mission(scn, (method, background_designs, id(mpc_settings)), make) as ctrl:
         yield ctrl
+
+
+@contextlib.contextmanager
+def kept_for_the_mission(scn: Scenario, key: Any, make: Callable[[], Any]) -> Iterator[Any]:
+    """An object set up for the scenario's mission (a ``_core.control.Controller`` or ``SafeAbort``: anything with a
+    ``reset`` back to k = 0) that an earlier run of the scenario left under ``key``, reset, else ``make()``; kept
+    in the scenario (``Scenario.controllers``) for the next run when this one ends."""
+    kept = scn.controllers.get(key)
+    if kept:
+        obj = kept.pop()
+        obj.reset()
+    else:
+        obj = make()
+    try:
+        yield obj
     finally:
-        if keep:
-            scn.controllers.setdefault(key, []).append(ctrl)
+        scn.controllers.setdefault(key, []).append(obj)
 
 
 def tube_designers(cfg: Config, bounds: tuple[float, float] | None = None) -> tuple[TubeDesigner, TubeDesigner]:

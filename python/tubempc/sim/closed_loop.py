@@ -25,8 +25,10 @@ to the reference (so that phi follows the reference through ``|phi| = pi``).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -35,7 +37,7 @@ import numpy.typing as npt
 from .. import _core
 from ..config.faults import ACTUATOR_FAULT_KINDS
 from ..design.abort import AbortLibrary, abort_library, command_step, new_abort
-from ..design.library import mission_controller
+from ..design.library import kept_for_the_mission, mission_controller
 from ..design.policy import BackgroundDesigns
 from ..results.records import RunRecord
 from ..scenario.actuators import describe_actuation
@@ -135,13 +137,17 @@ def _new_plant(scn: Scenario, seed: int, dispersed: bool, fault: dict[str, Any] 
     return plant
 
 
-def _new_abort(scn: Scenario) -> tuple[Any, AbortLibrary | None]:
-    """The run's safe abort (``_core.control.SafeAbort``) and the scenario's abort library, with ``[abort]`` enabled
-    (None, None otherwise)."""
+@contextlib.contextmanager
+def _mission_abort(scn: Scenario) -> Iterator[tuple[Any, AbortLibrary | None]]:
+    """The run's safe abort (``_core.control.SafeAbort``, set up once per scenario and kept between runs like the
+    controller, ``SafeAbort.reset`` per run) and the scenario's abort library, with ``[abort]`` enabled (None, None
+    otherwise)."""
     if not scn.config.abort.enabled:
-        return None, None
+        yield None, None
+        return
     library = abort_library(scn)
-    return new_abort(scn, library), library
+    with kept_for_the_mission(scn, "abort", lambda: new_abort(scn, library)) as abort:
+        yield abort, library
 
 
 def _record_actuation(rec: RunRecord, k: int, plant: ProjectPlant, dt: float) -> str:
@@ -193,16 +199,23 @@ def simulate(
     loop = loop_setup(scn)  # everything the run takes from the configuration, handed over once
     worker = design_worker or loop.tube.design_worker
     background = method == "ffa" and worker != "none"
-    with mission_controller(
-        scn, method, loop.mpc_settings, lambda_p=lambda_p, lambda_r=lambda_r, background_designs=background
-    ) as ctrl:
-        return _fly(scn, method, ctrl, seed, progress, max_steps, tube_threads, worker, background, dispersed)
+    with (
+        mission_controller(
+            scn, method, loop.mpc_settings, lambda_p=lambda_p, lambda_r=lambda_r, background_designs=background
+        ) as ctrl,
+        _mission_abort(scn) as (abort, library),
+    ):
+        return _fly(
+            scn, method, ctrl, abort, library, seed, progress, max_steps, tube_threads, worker, background, dispersed
+        )
 
 
 def _fly(
     scn: Scenario,
     method: str,
     ctrl: Any,
+    abort: Any,
+    library: AbortLibrary | None,
     seed: int,
     progress: bool,
     max_steps: int | None,
@@ -211,12 +224,12 @@ def _fly(
     background: bool,
     dispersed: bool,
 ) -> RunRecord:
-    """:func:`simulate`'s run on the controller ``ctrl`` (set up for the mission, at k = 0)."""
+    """:func:`simulate`'s run on the controller ``ctrl`` and the safe abort ``abort`` with its ``library`` (None,
+    None: no [abort]), both set up for the mission, at k = 0."""
     T, dt = scn.n_steps, scn.config.mpc.dt
     loop = loop_setup(scn)
     t = loop.tube
     fault = run_fault(scn.config, seed)  # [faults]: the given one, or one drawn from the seed
-    abort, library = _new_abort(scn)
     # the step of a commanded abort (-1: none) and the last step's controller-side detections
     commanded_at = command_step(scn)
     tube_uncertified = allocation_infeasible = False

@@ -243,3 +243,16 @@ def test_the_abort_is_marked_on_the_trajectory_the_timeline_and_the_3d_view(comm
     legend = timeline.axes[0].get_legend()
     assert legend is not None and any("abort entered" in t.get_text() for t in legend.get_texts())
     assert "TBMPC-FFA: abort entered (100 s)" in mission_view_html(scn, {"ffa": rec}, footprints=0)
+
+
+def test_a_kept_abort_flies_the_bits_of_a_new_one(commanded: tuple[Any, Any]) -> None:
+    """simulate keeps the safe abort in the scenario between runs, as the controller (SafeAbort.reset per run): the
+    commanded abort flown again after another run that aborted on the same scenario equals its first flight."""
+    scn, first = commanded
+    other = simulate(scn, "ffa", 1, design_worker="none", max_steps=60)  # enters the abort at step 50 too
+    assert other.applied["abort"]["entered_at_step"] == 50
+    assert len(scn.controllers["abort"]) == 1
+    again = simulate(scn, "ffa", 0, design_worker="none")
+    for name in ("x", "u", "z", "K", "Pe_p", "Pe_r"):
+        np.testing.assert_array_equal(getattr(again, name), getattr(first, name), err_msg=name)
+    assert again.applied["abort"] == first.applied["abort"]
