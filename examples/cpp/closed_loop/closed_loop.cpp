@@ -32,11 +32,12 @@
 // --instructions (run under valgrind --tool=callgrind --collect-atstart=no --combine-dumps=yes): each
 // controller, navigation and actuation step is bracketed by callgrind's client requests (collection on
 // for the call alone, then a dump named "<method> <controller|navigation|actuation> <k>"), so that the
-// profile holds one part per step with its instructions and calls (tubempc bench instructions reads the parts).
-// The set-up calls and each period's truth propagation are dumped as parts of their own ("<method> setup <i>",
-// "<method> truth <k>"): callgrind keeps the count of a call made with collection off until the call's arc next
-// costs something, so an uncounted set-up or truth would charge its calls (not its instructions) to a step. Natively, the requests are a few no-op instructions
-// outside the counted calls; the option needs <valgrind/callgrind.h> at build time and valgrind at run time.
+// profile holds one part per step with its instructions and calls (tubempc bench instructions reads the
+// parts). The set-up calls and each period's truth propagation are dumped as parts of their own ("<method>
+// setup <i>", "<method> truth <k>"): callgrind keeps the count of a call made with collection off until the
+// call's arc next costs something, so an uncounted set-up or truth would charge its calls (not their
+// instructions) to a step. Natively, the requests are a few no-op instructions outside the counted calls; the
+// option needs <valgrind/callgrind.h> at build time and valgrind at run time.
 //
 //   closed_loop SCENARIO_FILE [--method tbmpc|ffa|both] [--disturbance W.txt] [--json OUT.json] [--instructions]
 #include <algorithm>

@@ -155,23 +155,21 @@ class _Sdp:
     problem: cp.Problem
 
 
-# One compiled SDP per size, margin and thread: cvxpy's canonicalisation (tens of ms) is made once per process and
-# thread instead of once per designer (a campaign's run makes two designers), and a thread's designs never share
-# the parameters another thread is setting. The compiled program maps the parameters to the same solver data
-# whoever solved before (tests/py/design/test_tube.py).
-_COMPILED: dict[tuple[int, int, float, int], _Sdp] = {}
-_COMPILED_LOCK = threading.Lock()
+# One compiled SDP per size and margin in each thread (thread-local storage, freed with its thread): cvxpy's
+# canonicalisation (tens of ms) is made once per thread instead of once per designer (a campaign's run makes two
+# designers), and a thread's designs never share the parameters another thread is setting. The compiled program
+# maps the parameters to the same solver data whoever solved before (tests/py/design/test_tube.py).
+_COMPILED = threading.local()
 
 
 def _compiled_sdp(n_x: int, n_u: int, margin: float) -> _Sdp:
-    key = (n_x, n_u, margin, threading.get_ident())
-    with _COMPILED_LOCK:
-        sdp = _COMPILED.get(key)
-    if sdp is None:
-        sdp = _build_sdp(n_x, n_u, margin)
-        with _COMPILED_LOCK:
-            _COMPILED[key] = sdp
-    return sdp
+    cache: dict[tuple[int, int, float], _Sdp] | None = getattr(_COMPILED, "sdps", None)
+    if cache is None:
+        cache = _COMPILED.sdps = {}
+    key = (n_x, n_u, margin)
+    if key not in cache:
+        cache[key] = _build_sdp(n_x, n_u, margin)
+    return cache[key]
 
 
 def _build_sdp(n_x: int, n_u: int, margin: float) -> _Sdp:

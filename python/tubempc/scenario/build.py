@@ -93,7 +93,8 @@ class Scenario:
     tube_designs: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
     #: What the closed loop takes from the configuration, built once (tubempc.sim.setup.loop_setup).
     loop_setup: Any = field(default=None, init=False, repr=False, compare=False)
-    #: Controllers set up for the mission, kept between runs (tubempc.design.library.mission_controller).
+    #: Controllers and safe aborts set up for the mission, kept between runs
+    #: (tubempc.design.library.kept_for_the_mission).
     controllers: dict[Any, list[Any]] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
